@@ -1,0 +1,73 @@
+// Batched 3x3 singular value decomposition (McAdams et al. 2011 approach:
+// Jacobi eigenanalysis of A^T A with quaternion-accumulated approximate
+// Givens rotations, one-sided Jacobi refinement on A V, sort, Givens QR).
+//
+// Output convention (rotation-variant SVD):
+//   A = U diag(S) V^T, V returned (not V^T), all matrices row-major;
+//   det U = det V = +1; S[0] >= S[1] >= |S[2]|; S[2] < 0 exactly when
+//   det A < 0 (an inverted element).
+// A matrix with a NaN or infinity gives NaN in all of its U, S, V entries;
+// the other matrices of the batch are untouched by it.
+// Threads: OpenMP over blocks (OMP_NUM_THREADS); results are bitwise
+// identical for any thread count.
+#ifndef EK_SVD3_H
+#define EK_SVD3_H
+
+#include "batch.h"
+#include "core.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Error budgets, relative to the largest singular value of the input, max
+// over matrices, for the default options: reconstruction |A - U S V^T|_max,
+// orthogonality |U^T U - I|_max and |V^T V - I|_max, |det - 1|, and
+// |S - S_ref|_max. Measured by ek-verify and asserted by the tests.
+#define EK_SVD3_TOL_F32 2e-5
+#define EK_SVD3_TOL_F64 1e-12
+
+// Options; zero means default.
+//   sweeps: Jacobi sweeps on A^T A, 0 = default for the precision, 1..8 as
+//           given, anything else is EK_EINVAL (nothing written).
+//   exact_rsqrt: 0 = default (exact), 1 = exact 1/sqrt, -1 = approximate
+//           (hardware estimate refined by Newton steps).
+//   isa: EK_ISA_AUTO or a forced target; one the CPU lacks gives EK_EISA.
+typedef struct {
+  int sweeps;
+  int exact_rsqrt;
+  ek_isa isa;
+} ek_svd3_opts;
+
+// Sweeps used when opts->sweeps == 0 (chosen so the default meets the budget).
+int ek_svd3_default_sweeps_f32(void);
+int ek_svd3_default_sweeps_f64(void);
+
+// A, U, V: n row-major 3x3 matrices; S: n x 3. opts may be NULL. U or V may
+// be NULL when not wanted. 0 on success, < 0 on error.
+int ek_svd3_f32(size_t n, const float *A, float *U, float *S, float *V, const ek_svd3_opts *opts);
+int ek_svd3_f64(size_t n, const double *A, double *U, double *S, double *V,
+                const ek_svd3_opts *opts);
+
+// AoSoA-native forms (layout in batch.h): A, U, V have 9 planes, S has 3;
+// nblocks blocks of EK_LANES_F32 / EK_LANES_F64 matrices.
+int ek_svd3_aosoa_f32(size_t nblocks, const float *A, float *U, float *S, float *V,
+                      const ek_svd3_opts *opts);
+int ek_svd3_aosoa_f64(size_t nblocks, const double *A, double *U, double *S, double *V,
+                      const ek_svd3_opts *opts);
+
+// Polar decomposition A = R Ssym from the same SVD: R = U V^T (a rotation,
+// det +1, so R is the closest rotation to A even when det A < 0) and
+// Ssym = V diag(S) V^T (symmetric; indefinite for inverted A). Ssym may be
+// NULL. Same options, errors and NaN behaviour as ek_svd3_*.
+int ek_polar3_f32(size_t n, const float *A, float *R, float *Ssym, const ek_svd3_opts *opts);
+int ek_polar3_f64(size_t n, const double *A, double *R, double *Ssym, const ek_svd3_opts *opts);
+int ek_polar3_aosoa_f32(size_t nblocks, const float *A, float *R, float *Ssym,
+                        const ek_svd3_opts *opts);
+int ek_polar3_aosoa_f64(size_t nblocks, const double *A, double *R, double *Ssym,
+                        const ek_svd3_opts *opts);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,75 @@
+// AoS <-> AoSoA conversion (layout in include/ek/batch.h). Built once per
+// precision; EK_P() gives the public names.
+#include <string.h>
+
+#include "kernels.h"
+#include "real.h"
+
+size_t EK_P(aosoa_blocks)(size_t n) { return (n + EK_LANES - 1) / EK_LANES; }
+
+size_t EK_P(aosoa_size)(size_t n, int nplanes) {
+  return EK_P(aosoa_blocks)(n) * (size_t)nplanes * EK_LANES;
+}
+
+static int check(size_t n, int nplanes, const void *in, const void *out) {
+  if (nplanes < 1 || nplanes > 64 || (n && (!in || !out))) {
+    ek_set_error("ek_aosoa: nplanes %d (1..64) or NULL array with n = %zu", nplanes, n);
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+// Padding of a tail lane: identity for 3x3 matrices, zero otherwise.
+static real pad_value(int nplanes, int k) { return nplanes == 9 && k % 4 == 0 ? 1 : 0; }
+
+int EK_P(aosoa_pack)(size_t n, int nplanes, const real *aos, real *soa) {
+  int rc = check(n, nplanes, aos, soa);
+  if (rc)
+    return rc;
+  size_t nb = EK_P(aosoa_blocks)(n);
+  for (size_t b = 0; b < nb; b++) {
+    real *blk = soa + b * (size_t)nplanes * EK_LANES;
+    size_t base = b * EK_LANES;
+    size_t full = n - base < EK_LANES ? n - base : EK_LANES;
+    for (size_t l = 0; l < full; l++)
+      for (int k = 0; k < nplanes; k++)
+        blk[k * EK_LANES + l] = aos[(base + l) * nplanes + k];
+    for (size_t l = full; l < EK_LANES; l++)
+      for (int k = 0; k < nplanes; k++)
+        blk[k * EK_LANES + l] = pad_value(nplanes, k);
+  }
+  return EK_OK;
+}
+
+int EK_P(aosoa_unpack)(size_t n, int nplanes, const real *soa, real *aos) {
+  int rc = check(n, nplanes, soa, aos);
+  if (rc)
+    return rc;
+  size_t nb = EK_P(aosoa_blocks)(n);
+  for (size_t b = 0; b < nb; b++) {
+    const real *blk = soa + b * (size_t)nplanes * EK_LANES;
+    size_t base = b * EK_LANES;
+    size_t full = n - base < EK_LANES ? n - base : EK_LANES;
+    for (size_t l = 0; l < full; l++)
+      for (int k = 0; k < nplanes; k++)
+        aos[(base + l) * nplanes + k] = blk[k * EK_LANES + l];
+  }
+  return EK_OK;
+}
+
+real *EK_P(aosoa_alloc)(size_t n, int nplanes) {
+  if (nplanes < 1 || nplanes > 64)
+    return NULL;
+  size_t count = EK_P(aosoa_size)(n, nplanes);
+  real *p = ek_alloc(count * sizeof(real));
+  if (!p)
+    return NULL;
+  // Every lane initialised: tails padded, real lanes zeroed until packed.
+  size_t nb = EK_P(aosoa_blocks)(n);
+  for (size_t b = 0; b < nb; b++)
+    for (int k = 0; k < nplanes; k++)
+      for (int l = 0; l < EK_LANES; l++)
+        p[(b * nplanes + k) * EK_LANES + l] =
+            b * EK_LANES + l < n ? 0 : pad_value(nplanes, k);
+  return p;
+}

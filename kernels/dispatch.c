@@ -1,0 +1,157 @@
+// CPU feature detection, EK_ISA, and the kernel tables (BLIS bli_arch.c /
+// bli_cpuid.c play this part there).
+#include <cpuid.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "kernels.h"
+
+// Every kernel of one target; a target's row names its symbols.
+#define EK_DECLARE_TARGET(t)                                                                       \
+  ek_svd3_block_f32_fn ek_svd3_block_##t##_f32;                                                    \
+  ek_svd3_block_f64_fn ek_svd3_block_##t##_f64;                                                    \
+  ek_fma_probe_fn ek_fma_probe_##t##_f32;                                                          \
+  ek_fma_probe_fn ek_fma_probe_##t##_f64;
+#define EK_ROW(t, isa_, w32, w64)                                                                  \
+  {.isa = isa_,                                                                                    \
+   .lanes_f32 = w32,                                                                               \
+   .lanes_f64 = w64,                                                                               \
+   .svd3_block_f32 = ek_svd3_block_##t##_f32,                                                      \
+   .svd3_block_f64 = ek_svd3_block_##t##_f64,                                                      \
+   .fma_probe_f32 = ek_fma_probe_##t##_f32,                                                        \
+   .fma_probe_f64 = ek_fma_probe_##t##_f64}
+
+EK_DECLARE_TARGET(scalar)
+#ifdef EK_BUILT_AVX2
+EK_DECLARE_TARGET(avx2)
+#endif
+#ifdef EK_BUILT_AVX512
+EK_DECLARE_TARGET(avx512)
+#endif
+
+static const ek_kernel_table rows[EK_ISA_COUNT] = {
+    [EK_ISA_SCALAR] = EK_ROW(scalar, EK_ISA_SCALAR, 1, 1),
+#ifdef EK_BUILT_AVX2
+    [EK_ISA_AVX2] = EK_ROW(avx2, EK_ISA_AVX2, 8, 4),
+#endif
+#ifdef EK_BUILT_AVX512
+    [EK_ISA_AVX512] = EK_ROW(avx512, EK_ISA_AVX512, 16, 8),
+#endif
+};
+
+static const char *const isa_names[EK_ISA_COUNT] = {"auto", "scalar", "avx2", "avx512"};
+
+const char *ek_isa_name(ek_isa isa) {
+  return (unsigned)isa < EK_ISA_COUNT ? isa_names[isa] : "invalid";
+}
+
+// XCR0: which register states the OS saves on a context switch. A CPU flag
+// alone is not enough: the OS must enable YMM (bits 1-2) and, for AVX-512,
+// opmask and ZMM (bits 5-7).
+static unsigned long long xcr0(void) {
+  unsigned a, b, c, d;
+  if (!__get_cpuid(1, &a, &b, &c, &d) || !(c & bit_OSXSAVE))
+    return 0;
+  unsigned lo, hi;
+  __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+  return ((unsigned long long)hi << 32) | lo;
+}
+
+static int cpu_runs(ek_isa isa) {
+  __builtin_cpu_init();
+  unsigned long long x = xcr0();
+  switch (isa) {
+  case EK_ISA_SCALAR:
+    return 1;
+  case EK_ISA_AVX2:
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && (x & 0x6) == 0x6;
+  case EK_ISA_AVX512:
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vl") && (x & 0xe6) == 0xe6;
+  default:
+    return 0;
+  }
+}
+
+static int built(ek_isa isa) {
+  return isa > EK_ISA_AUTO && isa < EK_ISA_COUNT && rows[isa].svd3_block_f32 != NULL;
+}
+
+int ek_isa_available(ek_isa isa) { return built(isa) && cpu_runs(isa); }
+
+static int check_available(ek_isa isa, const char *origin) {
+  if (!built(isa)) {
+    ek_set_error("%s: ISA '%s' is not built into this library", origin, ek_isa_name(isa));
+    return EK_EISA;
+  }
+  if (!cpu_runs(isa)) {
+    ek_set_error("%s: ISA '%s' is not supported by this CPU", origin, ek_isa_name(isa));
+    return EK_EISA;
+  }
+  return EK_OK;
+}
+
+// AUTO, resolved once: EK_ISA if set, else the best available target.
+// -1 = not yet resolved; the race on first use is benign (same answer).
+static atomic_int auto_isa = -1;
+
+static int resolve_auto(ek_isa *out) {
+  int cached = atomic_load(&auto_isa);
+  if (cached >= 0) {
+    *out = (ek_isa)cached;
+    return EK_OK;
+  }
+  ek_isa pick = EK_ISA_SCALAR;
+  const char *env = getenv("EK_ISA");
+  if (env && *env) {
+    pick = EK_ISA_COUNT;
+    for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++)
+      if (strcmp(env, isa_names[i]) == 0)
+        pick = (ek_isa)i;
+    if (pick == EK_ISA_COUNT) {
+      ek_set_error("EK_ISA='%s' is not one of scalar, avx2, avx512", env);
+      return EK_EISA;
+    }
+    int rc = check_available(pick, "EK_ISA");
+    if (rc)
+      return rc;
+  } else {
+    for (int i = EK_ISA_COUNT - 1; i > EK_ISA_SCALAR; i--)
+      if (ek_isa_available((ek_isa)i)) {
+        pick = (ek_isa)i;
+        break;
+      }
+  }
+  const char *verbose = getenv("EK_VERBOSE");
+  if (verbose && *verbose && strcmp(verbose, "0") != 0)
+    fprintf(stderr, "ek: using ISA %s%s\n", ek_isa_name(pick), env && *env ? " (EK_ISA)" : "");
+  atomic_store(&auto_isa, (int)pick);
+  *out = pick;
+  return EK_OK;
+}
+
+int ek_isa_resolve(ek_isa requested, ek_isa *resolved) {
+  if ((unsigned)requested >= EK_ISA_COUNT) {
+    ek_set_error("isa option %d is not a valid ek_isa", (int)requested);
+    return EK_EISA;
+  }
+  if (requested == EK_ISA_AUTO)
+    return resolve_auto(resolved);
+  int rc = check_available(requested, "isa option");
+  if (rc == EK_OK)
+    *resolved = requested;
+  return rc;
+}
+
+const ek_kernel_table *ek_kernels_for(ek_isa isa) {
+  return ek_isa_available(isa) ? &rows[isa] : NULL;
+}
+
+const ek_kernel_table *ek_kernels_resolve(ek_isa requested) {
+  ek_isa isa;
+  if (ek_isa_resolve(requested, &isa) != EK_OK)
+    return NULL;
+  return &rows[isa];
+}

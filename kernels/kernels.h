@@ -1,0 +1,50 @@
+// Internal: kernel signatures and the dispatch table. One row per ISA
+// target; every built row is complete (each kernel source is compiled for
+// every target), the scalar row is always there.
+#ifndef EK_KERNELS_H
+#define EK_KERNELS_H
+
+#include <ek/core.h>
+#include <stddef.h>
+
+// Knobs of the SVD kernel, resolved from ek_svd3_opts by the driver.
+typedef struct {
+  int sweeps;      // Jacobi sweeps on A^T A (1..8)
+  int refine;      // one-sided Jacobi sweeps on B = A V (0..2)
+  int exact_rsqrt; // 1: 1/sqrt, 0: estimate + Newton
+  int polar;       // 0: write U, S, V; 1: write R = U V^T into U and
+                   // Ssym = V S V^T into V (S untouched)
+} ek_svd3_knobs;
+
+// Defaults of the SVD knobs per precision (what opts zeroed means).
+ek_svd3_knobs ek_svd3_default_knobs_f32(void);
+ek_svd3_knobs ek_svd3_default_knobs_f64(void);
+
+// svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes.
+typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, float *S, float *V,
+                                  const ek_svd3_knobs *k);
+typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, double *S,
+                                  double *V, const ek_svd3_knobs *k);
+// fma_probe: `iters` rounds of independent FMA chains; returns a value that
+// depends on every chain (so nothing is optimised away) and sets *flops.
+typedef double ek_fma_probe_fn(long iters, double *flops);
+
+typedef struct {
+  ek_isa isa;
+  int lanes_f32, lanes_f64; // EK_W of the target
+  ek_svd3_block_f32_fn *svd3_block_f32;
+  ek_svd3_block_f64_fn *svd3_block_f64;
+  ek_fma_probe_fn *fma_probe_f32;
+  ek_fma_probe_fn *fma_probe_f64;
+} ek_kernel_table;
+
+// Table of a resolved target (see ek_isa_resolve), NULL if not available.
+const ek_kernel_table *ek_kernels_for(ek_isa isa);
+// Resolve opts-style request and return its table; NULL (with
+// ek_last_error set) on error.
+const ek_kernel_table *ek_kernels_resolve(ek_isa requested);
+
+// Record an error message for ek_last_error and print it to stderr.
+void ek_set_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+#endif

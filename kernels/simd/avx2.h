@@ -1,0 +1,93 @@
+// AVX2 + FMA target. Included through simd.h only; needs -mavx2 -mfma.
+#ifndef EK_SIMD_AVX2_H
+#define EK_SIMD_AVX2_H
+
+#if !defined(__AVX2__) || !defined(__FMA__)
+#error "the avx2 target needs -mavx2 -mfma"
+#endif
+#include <immintrin.h>
+
+#if defined(EK_REAL_F32)
+#define EK_W 8
+typedef __m256 vreal;
+typedef __m256 vmask; // all-ones / all-zeros lanes
+
+static inline vreal vset(real x) { return _mm256_set1_ps(x); }
+static inline vreal vzero(void) { return _mm256_setzero_ps(); }
+static inline vreal vload(const real *p) { return _mm256_loadu_ps(p); }
+static inline void vstore(real *p, vreal v) { _mm256_storeu_ps(p, v); }
+static inline vreal vadd(vreal a, vreal b) { return _mm256_add_ps(a, b); }
+static inline vreal vsub(vreal a, vreal b) { return _mm256_sub_ps(a, b); }
+static inline vreal vmul(vreal a, vreal b) { return _mm256_mul_ps(a, b); }
+static inline vreal vdiv(vreal a, vreal b) { return _mm256_div_ps(a, b); }
+static inline vreal vneg(vreal a) { return _mm256_xor_ps(a, _mm256_set1_ps(-0.0f)); }
+static inline vreal vabs(vreal a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
+static inline vreal vmin(vreal a, vreal b) { return _mm256_min_ps(a, b); }
+static inline vreal vmax(vreal a, vreal b) { return _mm256_max_ps(a, b); }
+static inline vreal vsqrt(vreal a) { return _mm256_sqrt_ps(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_ps(a, b, c); }
+static inline vreal vrsqrt(vreal a) { return _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(a)); }
+static inline vreal vrsqrt_est(vreal a) {
+  // One Newton step y' = y (1.5 - 0.5 a y^2) on the 12-bit estimate.
+  vreal y = _mm256_rsqrt_ps(a);
+  vreal h = _mm256_mul_ps(_mm256_set1_ps(0.5f), a);
+  vreal t = _mm256_fnmadd_ps(_mm256_mul_ps(h, y), y, _mm256_set1_ps(1.5f));
+  return _mm256_mul_ps(y, t);
+}
+static inline vmask vlt(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+static inline vmask vle(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
+static inline vmask vgt(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
+static inline vmask vge(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
+static inline vmask veq(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_EQ_OQ); }
+static inline vmask vmand(vmask a, vmask b) { return _mm256_and_ps(a, b); }
+static inline vmask vmor(vmask a, vmask b) { return _mm256_or_ps(a, b); }
+static inline vmask vmnot(vmask a) { return _mm256_xor_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(-1))); }
+static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_ps(b, a, m); }
+static inline int vany(vmask m) { return _mm256_movemask_ps(m) != 0; }
+static inline int vall(vmask m) { return _mm256_movemask_ps(m) == 0xff; }
+
+#else // EK_REAL_F64
+#define EK_W 4
+typedef __m256d vreal;
+typedef __m256d vmask;
+
+static inline vreal vset(real x) { return _mm256_set1_pd(x); }
+static inline vreal vzero(void) { return _mm256_setzero_pd(); }
+static inline vreal vload(const real *p) { return _mm256_loadu_pd(p); }
+static inline void vstore(real *p, vreal v) { _mm256_storeu_pd(p, v); }
+static inline vreal vadd(vreal a, vreal b) { return _mm256_add_pd(a, b); }
+static inline vreal vsub(vreal a, vreal b) { return _mm256_sub_pd(a, b); }
+static inline vreal vmul(vreal a, vreal b) { return _mm256_mul_pd(a, b); }
+static inline vreal vdiv(vreal a, vreal b) { return _mm256_div_pd(a, b); }
+static inline vreal vneg(vreal a) { return _mm256_xor_pd(a, _mm256_set1_pd(-0.0)); }
+static inline vreal vabs(vreal a) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), a); }
+static inline vreal vmin(vreal a, vreal b) { return _mm256_min_pd(a, b); }
+static inline vreal vmax(vreal a, vreal b) { return _mm256_max_pd(a, b); }
+static inline vreal vsqrt(vreal a) { return _mm256_sqrt_pd(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_pd(a, b, c); }
+static inline vreal vrsqrt(vreal a) { return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a)); }
+static inline vreal vrsqrt_est(vreal a) {
+  // AVX2 has no double estimate: 12-bit float estimate, two Newton steps.
+  vreal y = _mm256_cvtps_pd(_mm_rsqrt_ps(_mm256_cvtpd_ps(a)));
+  vreal h = _mm256_mul_pd(_mm256_set1_pd(0.5), a);
+  for (int k = 0; k < 2; k++)
+    y = _mm256_mul_pd(y, _mm256_fnmadd_pd(_mm256_mul_pd(h, y), y, _mm256_set1_pd(1.5)));
+  return y;
+}
+static inline vmask vlt(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+static inline vmask vle(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_LE_OQ); }
+static inline vmask vgt(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+static inline vmask vge(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
+static inline vmask veq(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_EQ_OQ); }
+static inline vmask vmand(vmask a, vmask b) { return _mm256_and_pd(a, b); }
+static inline vmask vmor(vmask a, vmask b) { return _mm256_or_pd(a, b); }
+static inline vmask vmnot(vmask a) { return _mm256_xor_pd(a, _mm256_castsi256_pd(_mm256_set1_epi64x(-1))); }
+static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_pd(b, a, m); }
+static inline int vany(vmask m) { return _mm256_movemask_pd(m) != 0; }
+static inline int vall(vmask m) { return _mm256_movemask_pd(m) == 0xf; }
+#endif
+
+static inline vreal vmla(vreal a, vreal b, vreal c) { return vfma(a, b, c); }
+static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
+
+#endif

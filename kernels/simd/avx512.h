@@ -1,0 +1,88 @@
+// AVX-512 (F, DQ, VL) target. Included through simd.h only.
+#ifndef EK_SIMD_AVX512_H
+#define EK_SIMD_AVX512_H
+
+#if !defined(__AVX512F__) || !defined(__AVX512DQ__) || !defined(__AVX512VL__)
+#error "the avx512 target needs -mavx512f -mavx512dq -mavx512vl"
+#endif
+#include <immintrin.h>
+
+#if defined(EK_REAL_F32)
+#define EK_W 16
+typedef __m512 vreal;
+typedef __mmask16 vmask;
+
+static inline vreal vset(real x) { return _mm512_set1_ps(x); }
+static inline vreal vzero(void) { return _mm512_setzero_ps(); }
+static inline vreal vload(const real *p) { return _mm512_loadu_ps(p); }
+static inline void vstore(real *p, vreal v) { _mm512_storeu_ps(p, v); }
+static inline vreal vadd(vreal a, vreal b) { return _mm512_add_ps(a, b); }
+static inline vreal vsub(vreal a, vreal b) { return _mm512_sub_ps(a, b); }
+static inline vreal vmul(vreal a, vreal b) { return _mm512_mul_ps(a, b); }
+static inline vreal vdiv(vreal a, vreal b) { return _mm512_div_ps(a, b); }
+static inline vreal vneg(vreal a) { return _mm512_xor_ps(a, _mm512_set1_ps(-0.0f)); }
+static inline vreal vabs(vreal a) { return _mm512_abs_ps(a); }
+static inline vreal vmin(vreal a, vreal b) { return _mm512_min_ps(a, b); }
+static inline vreal vmax(vreal a, vreal b) { return _mm512_max_ps(a, b); }
+static inline vreal vsqrt(vreal a) { return _mm512_sqrt_ps(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_ps(a, b, c); }
+static inline vreal vrsqrt(vreal a) { return _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(a)); }
+static inline vreal vrsqrt_est(vreal a) {
+  // One Newton step on the 14-bit estimate.
+  vreal y = _mm512_rsqrt14_ps(a);
+  vreal h = _mm512_mul_ps(_mm512_set1_ps(0.5f), a);
+  return _mm512_mul_ps(y, _mm512_fnmadd_ps(_mm512_mul_ps(h, y), y, _mm512_set1_ps(1.5f)));
+}
+static inline vmask vlt(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
+static inline vmask vle(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+static inline vmask vgt(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
+static inline vmask vge(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
+static inline vmask veq(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ); }
+static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm512_mask_blend_ps(m, b, a); }
+static inline int vall(vmask m) { return m == 0xffff; }
+
+#else // EK_REAL_F64
+#define EK_W 8
+typedef __m512d vreal;
+typedef __mmask8 vmask;
+
+static inline vreal vset(real x) { return _mm512_set1_pd(x); }
+static inline vreal vzero(void) { return _mm512_setzero_pd(); }
+static inline vreal vload(const real *p) { return _mm512_loadu_pd(p); }
+static inline void vstore(real *p, vreal v) { _mm512_storeu_pd(p, v); }
+static inline vreal vadd(vreal a, vreal b) { return _mm512_add_pd(a, b); }
+static inline vreal vsub(vreal a, vreal b) { return _mm512_sub_pd(a, b); }
+static inline vreal vmul(vreal a, vreal b) { return _mm512_mul_pd(a, b); }
+static inline vreal vdiv(vreal a, vreal b) { return _mm512_div_pd(a, b); }
+static inline vreal vneg(vreal a) { return _mm512_xor_pd(a, _mm512_set1_pd(-0.0)); }
+static inline vreal vabs(vreal a) { return _mm512_abs_pd(a); }
+static inline vreal vmin(vreal a, vreal b) { return _mm512_min_pd(a, b); }
+static inline vreal vmax(vreal a, vreal b) { return _mm512_max_pd(a, b); }
+static inline vreal vsqrt(vreal a) { return _mm512_sqrt_pd(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_pd(a, b, c); }
+static inline vreal vrsqrt(vreal a) { return _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_sqrt_pd(a)); }
+static inline vreal vrsqrt_est(vreal a) {
+  // Two Newton steps on the 14-bit estimate (14 -> 28 -> 56 bits).
+  vreal y = _mm512_rsqrt14_pd(a);
+  vreal h = _mm512_mul_pd(_mm512_set1_pd(0.5), a);
+  for (int k = 0; k < 2; k++)
+    y = _mm512_mul_pd(y, _mm512_fnmadd_pd(_mm512_mul_pd(h, y), y, _mm512_set1_pd(1.5)));
+  return y;
+}
+static inline vmask vlt(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_LT_OQ); }
+static inline vmask vle(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_LE_OQ); }
+static inline vmask vgt(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
+static inline vmask vge(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_GE_OQ); }
+static inline vmask veq(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_EQ_OQ); }
+static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm512_mask_blend_pd(m, b, a); }
+static inline int vall(vmask m) { return m == 0xff; }
+#endif
+
+static inline vreal vmla(vreal a, vreal b, vreal c) { return vfma(a, b, c); }
+static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
+static inline vmask vmand(vmask a, vmask b) { return a & b; }
+static inline vmask vmor(vmask a, vmask b) { return a | b; }
+static inline vmask vmnot(vmask a) { return (vmask)~a; }
+static inline int vany(vmask m) { return m != 0; }
+
+#endif

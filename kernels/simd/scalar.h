@@ -1,0 +1,51 @@
+// Portable scalar target: one lane, plain C. Included through simd.h only.
+#ifndef EK_SIMD_SCALAR_H
+#define EK_SIMD_SCALAR_H
+
+#include <math.h>
+
+#define EK_W 1
+typedef real vreal;
+typedef int vmask;
+
+static inline vreal vset(real x) { return x; }
+static inline vreal vzero(void) { return 0; }
+static inline vreal vload(const real *p) { return *p; }
+static inline void vstore(real *p, vreal v) { *p = v; }
+
+static inline vreal vadd(vreal a, vreal b) { return a + b; }
+static inline vreal vsub(vreal a, vreal b) { return a - b; }
+static inline vreal vmul(vreal a, vreal b) { return a * b; }
+static inline vreal vdiv(vreal a, vreal b) { return a / b; }
+static inline vreal vneg(vreal a) { return -a; }
+#if defined(EK_REAL_F32)
+static inline vreal vabs(vreal a) { return fabsf(a); }
+static inline vreal vsqrt(vreal a) { return sqrtf(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return fmaf(a, b, c); }
+#else
+static inline vreal vabs(vreal a) { return fabs(a); }
+static inline vreal vsqrt(vreal a) { return sqrt(a); }
+static inline vreal vfma(vreal a, vreal b, vreal c) { return fma(a, b, c); }
+#endif
+// Same operand order and NaN behaviour as the x86 min/max instructions
+// (second operand returned when either is NaN), so all targets agree.
+static inline vreal vmin(vreal a, vreal b) { return a < b ? a : b; }
+static inline vreal vmax(vreal a, vreal b) { return a > b ? a : b; }
+static inline vreal vmla(vreal a, vreal b, vreal c) { return a * b + c; }
+static inline vreal vrsqrt(vreal a) { return 1 / vsqrt(a); }
+static inline vreal vrsqrt_est(vreal a) { return 1 / vsqrt(a); }
+
+static inline vmask vlt(vreal a, vreal b) { return a < b; }
+static inline vmask vle(vreal a, vreal b) { return a <= b; }
+static inline vmask vgt(vreal a, vreal b) { return a > b; }
+static inline vmask vge(vreal a, vreal b) { return a >= b; }
+static inline vmask veq(vreal a, vreal b) { return a == b; }
+static inline vmask visfinite(vreal a) { return a - a == 0; }
+static inline vmask vmand(vmask a, vmask b) { return a && b; }
+static inline vmask vmor(vmask a, vmask b) { return a || b; }
+static inline vmask vmnot(vmask a) { return !a; }
+static inline vreal vsel(vmask m, vreal a, vreal b) { return m ? a : b; }
+static inline int vany(vmask m) { return m; }
+static inline int vall(vmask m) { return m; }
+
+#endif

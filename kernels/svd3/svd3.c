@@ -1,0 +1,169 @@
+// Driver of the SVD and polar kernels: option checks, dispatch once per
+// batch, OpenMP over blocks. Built once per precision (EK_P names).
+#include <ek/svd3.h>
+#include <omp.h>
+#include <stdint.h>
+
+#include "kernels.h"
+#include "real.h"
+
+#if defined(EK_REAL_F32)
+typedef ek_svd3_block_f32_fn svd3_block_fn;
+#define BLOCK_FN(t) ((t)->svd3_block_f32)
+// Measured by ek-verify (README, "Accuracy"): 4 Jacobi sweeps as in McAdams
+// et al. plus one refinement sweep meet the float budget on every family.
+#define DEFAULT_SWEEPS 4
+#define DEFAULT_REFINE 1
+#else
+typedef ek_svd3_block_f64_fn svd3_block_fn;
+#define BLOCK_FN(t) ((t)->svd3_block_f64)
+#define DEFAULT_SWEEPS 6
+#define DEFAULT_REFINE 2
+#endif
+
+// Blocks per OpenMP work item, and per AoS staging chunk: 32 blocks of
+// 16 float matrices keep A, U, S, V of one chunk (~60 KB) in L2.
+#define CHUNK_BLOCKS 32
+
+ek_svd3_knobs EK_P(svd3_default_knobs)(void) {
+  return (ek_svd3_knobs){.sweeps = DEFAULT_SWEEPS, .refine = DEFAULT_REFINE, .exact_rsqrt = 1};
+}
+
+int EK_P(svd3_default_sweeps)(void) { return DEFAULT_SWEEPS; }
+
+static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_knobs *k,
+                   svd3_block_fn **block) {
+  static const ek_svd3_opts zero_opts;
+  if (!o)
+    o = &zero_opts;
+  *k = EK_P(svd3_default_knobs)();
+  k->polar = polar;
+  if (o->sweeps < 0 || o->sweeps > 8) {
+    ek_set_error("%s: sweeps = %d, must be 0 (default) or 1..8", fn, o->sweeps);
+    return EK_EINVAL;
+  }
+  if (o->sweeps)
+    k->sweeps = o->sweeps;
+  if (o->exact_rsqrt < -1 || o->exact_rsqrt > 1) {
+    ek_set_error("%s: exact_rsqrt = %d, must be 0 (default), 1 (exact) or -1 (approximate)", fn,
+                 o->exact_rsqrt);
+    return EK_EINVAL;
+  }
+  if (o->exact_rsqrt)
+    k->exact_rsqrt = o->exact_rsqrt > 0;
+  const ek_kernel_table *t = ek_kernels_resolve(o->isa);
+  if (!t)
+    return EK_EISA;
+  *block = BLOCK_FN(t);
+  return EK_OK;
+}
+
+static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real *U, real *S,
+                       real *V, const ek_svd3_knobs *k) {
+  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+#pragma omp parallel for schedule(static) if (nchunks > 1)
+  for (size_t c = 0; c < nchunks; c++) {
+    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
+    block(nb, A + b0 * 9 * EK_LANES, U + b0 * 9 * EK_LANES, S ? S + b0 * 3 * EK_LANES : NULL,
+          V ? V + b0 * 9 * EK_LANES : NULL, k);
+  }
+}
+
+// AoS path: each thread packs a chunk into its own AoSoA staging buffers,
+// runs the kernel there and unpacks, so no batch-sized copy is ever made.
+static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real *S, real *V,
+                   const ek_svd3_knobs *k) {
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t nchunks = (n + chunk - 1) / chunk;
+  int failed = 0;
+#pragma omp parallel if (nchunks > 1)
+  {
+    real *a = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+    real *u = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+    real *s = ek_alloc(CHUNK_BLOCKS * 3 * EK_LANES * sizeof(real));
+    real *v = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+    int ok = a && u && s && v;
+    if (!ok) {
+#pragma omp atomic write
+      failed = 1;
+    }
+#pragma omp barrier
+    if (!failed) {
+#pragma omp for schedule(static)
+      for (size_t c = 0; c < nchunks; c++) {
+        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
+        size_t nb = (m + EK_LANES - 1) / EK_LANES;
+        EK_P(aosoa_pack)(m, 9, A + 9 * i0, a);
+        block(nb, a, u, s, v, k);
+        if (U)
+          EK_P(aosoa_unpack)(m, 9, u, U + 9 * i0);
+        if (S && !k->polar)
+          EK_P(aosoa_unpack)(m, 3, s, S + 3 * i0);
+        if (V)
+          EK_P(aosoa_unpack)(m, 9, v, V + 9 * i0);
+      }
+    }
+    ek_free(a), ek_free(u), ek_free(s), ek_free(v);
+  }
+  if (failed) {
+    ek_set_error("ek_svd3: out of memory for staging buffers");
+    return EK_ENOMEM;
+  }
+  return EK_OK;
+}
+
+int EK_P(svd3)(size_t n, const real *A, real *U, real *S, real *V, const ek_svd3_opts *opts) {
+  ek_svd3_knobs k;
+  svd3_block_fn *block;
+  int rc = resolve("ek_svd3", opts, 0, &k, &block);
+  if (rc)
+    return rc;
+  if (n && (!A || !S)) {
+    ek_set_error("ek_svd3: A and S must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  return n ? run_aos(block, n, A, U, S, V, &k) : EK_OK;
+}
+
+int EK_P(svd3_aosoa)(size_t nblocks, const real *A, real *U, real *S, real *V,
+                     const ek_svd3_opts *opts) {
+  ek_svd3_knobs k;
+  svd3_block_fn *block;
+  int rc = resolve("ek_svd3_aosoa", opts, 0, &k, &block);
+  if (rc)
+    return rc;
+  if (nblocks && (!A || !U || !S || !V)) {
+    ek_set_error("ek_svd3_aosoa: A, U, S, V must not be NULL (nblocks = %zu)", nblocks);
+    return EK_EINVAL;
+  }
+  run_blocks(block, nblocks, A, U, S, V, &k);
+  return EK_OK;
+}
+
+int EK_P(polar3)(size_t n, const real *A, real *R, real *Ssym, const ek_svd3_opts *opts) {
+  ek_svd3_knobs k;
+  svd3_block_fn *block;
+  int rc = resolve("ek_polar3", opts, 1, &k, &block);
+  if (rc)
+    return rc;
+  if (n && (!A || !R)) {
+    ek_set_error("ek_polar3: A and R must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  return n ? run_aos(block, n, A, R, NULL, Ssym, &k) : EK_OK;
+}
+
+int EK_P(polar3_aosoa)(size_t nblocks, const real *A, real *R, real *Ssym,
+                       const ek_svd3_opts *opts) {
+  ek_svd3_knobs k;
+  svd3_block_fn *block;
+  int rc = resolve("ek_polar3_aosoa", opts, 1, &k, &block);
+  if (rc)
+    return rc;
+  if (nblocks && (!A || !R)) {
+    ek_set_error("ek_polar3_aosoa: A and R must not be NULL (nblocks = %zu)", nblocks);
+    return EK_EINVAL;
+  }
+  run_blocks(block, nblocks, A, R, NULL, Ssym, &k);
+  return EK_OK;
+}

@@ -1,0 +1,283 @@
+// The 3x3 SVD on registers: one vreal per matrix entry, EK_W matrices at once.
+// Included by kernel sources after simd/simd.h (the SVD kernel and every
+// kernel that needs a polar decomposition inline, e.g. materials).
+//
+// Algorithm (McAdams, Selle, Tamstorf, Teran, Sifakis 2011, "Computing the
+// Singular Value Decomposition of 3x3 matrices with minimal branching and
+// elementary floating point operations"), with ek's changes marked:
+//   0. non-finite lanes are computed as the identity and set to NaN at the end
+//   1. [ek] scale A by 1/max|a_ij| so A^T A neither overflows nor underflows
+//   2. S = A^T A
+//   3. Jacobi eigenanalysis of S with approximate Givens rotations (paper
+//      Alg. 2, the pi/8 fallback), accumulated in a quaternion (sec. 2.2)
+//   4. V from the quaternion, B = A V
+//   5. [ek] one-sided Jacobi sweeps (Hestenes) on the columns of B with exact
+//      angles: step 3 works on A^T A and squares the condition number, so once
+//      s1/s2 >~ 1e3 no number of sweeps meets the float budget; this step
+//      works on A itself (DESIGN.md, "Accuracy")
+//   6. sort columns of B and V by norm, descending, keeping det V = +1 (sec. 3)
+//   7. QR of B by Givens rotations (sec. 4): B = U R, S = diag(R)
+// Conventions: A = U diag(S) V^T, det U = det V = +1, S0 >= S1 >= |S2|.
+// A rotation in plane (p,q) maps e_p -> c e_p + s e_q, e_q -> -s e_p + c e_q,
+// i.e. a rotation by +theta about e_k with (p,q,k) cyclic.
+#ifndef EK_SVD3_CORE_H
+#define EK_SVD3_CORE_H
+
+#include <math.h>
+
+#include "kernels.h"
+
+#define EK_INLINE static inline __attribute__((always_inline))
+
+// Below TINY (after scaling, relative to the largest entry) a rotation
+// angle is taken as zero; TINY^2 = 1e-36 is still a normal float.
+#define SVD3_TINY2 ((real)1e-36)
+
+EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt_est(x); }
+
+// Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
+// block of the symmetric S, conjugate S by it and append it to quaternion
+// qt = (w, x, y, z). McAdams et al. 2011, Alg. 2 and eq. (2)-(3).
+EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k, int exact) {
+  const real gamma = (real)5.82842712474619009760; // 3 + 2 sqrt(2) = cot^2(pi/8)
+  const real cstar = (real)0.92387953251128675613; // cos(pi/8)
+  const real sstar = (real)0.38268343236508977173; // sin(pi/8)
+  vreal a = s[p][p], d = s[q][q], b = s[p][q], e = s[p][k], f = s[q][k];
+  vreal ch = vmul(vset(2), vsub(a, d)), sh = b;
+  // Use the exact-angle direction unless the angle is beyond pi/8 (then the
+  // fixed pi/8 rotation still reduces the off-diagonal).
+  vmask exact_angle = vlt(vmul(vset(gamma), vmul(sh, sh)), vmul(ch, ch));
+  vreal om = svd3_rsq(vmax(vmla(ch, ch, vmul(sh, sh)), vset(SVD3_TINY2)), exact);
+  ch = vsel(exact_angle, vmul(om, ch), vset(cstar));
+  sh = vsel(exact_angle, vmul(om, sh), vset(sstar));
+  // cos and sin of the full angle.
+  vreal c = vsub(vmul(ch, ch), vmul(sh, sh)), sn = vmul(vset(2), vmul(ch, sh));
+  vreal cc = vmul(c, c), ss = vmul(sn, sn), cs = vmul(c, sn);
+  vreal cs2b = vmul(vmul(vset(2), cs), b);
+  s[p][p] = vadd(vmla(cc, a, cs2b), vmul(ss, d));
+  s[q][q] = vsub(vmla(ss, a, vmul(cc, d)), cs2b);
+  s[p][q] = s[q][p] = vmla(vsub(d, a), cs, vmul(b, vsub(cc, ss)));
+  s[p][k] = s[k][p] = vmla(c, e, vmul(sn, f));
+  s[q][k] = s[k][q] = vsub(vmul(c, f), vmul(sn, e));
+  // qt <- qt (x) (ch, sh e_k), Hamilton product: the rotation is appended
+  // on the right (V <- V Q).
+  int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+  vreal w = qt[0], vk = qt[1 + k], vk1 = qt[1 + k1], vk2 = qt[1 + k2];
+  qt[0] = vsub(vmul(ch, w), vmul(sh, vk));
+  qt[1 + k] = vmla(w, sh, vmul(ch, vk));
+  qt[1 + k1] = vmla(sh, vk2, vmul(ch, vk1));
+  qt[1 + k2] = vsub(vmul(ch, vk2), vmul(sh, vk1));
+}
+
+// Step 4: rotation matrix of the (normalised) quaternion.
+EK_INLINE void svd3_quat_to_matrix(const vreal qt[4], vreal V[9], int exact) {
+  vreal n2 = vmla(qt[0], qt[0], vmla(qt[1], qt[1], vmla(qt[2], qt[2], vmul(qt[3], qt[3]))));
+  vreal inv = svd3_rsq(n2, exact);
+  vreal w = vmul(qt[0], inv), x = vmul(qt[1], inv), y = vmul(qt[2], inv), z = vmul(qt[3], inv);
+  vreal one = vset(1), two = vset(2);
+  vreal xx = vmul(x, x), yy = vmul(y, y), zz = vmul(z, z);
+  vreal xy = vmul(x, y), xz = vmul(x, z), yz = vmul(y, z);
+  vreal wx = vmul(w, x), wy = vmul(w, y), wz = vmul(w, z);
+  V[0] = vsub(one, vmul(two, vadd(yy, zz)));
+  V[1] = vmul(two, vsub(xy, wz));
+  V[2] = vmul(two, vadd(xz, wy));
+  V[3] = vmul(two, vadd(xy, wz));
+  V[4] = vsub(one, vmul(two, vadd(xx, zz)));
+  V[5] = vmul(two, vsub(yz, wx));
+  V[6] = vmul(two, vsub(xz, wy));
+  V[7] = vmul(two, vadd(yz, wx));
+  V[8] = vsub(one, vmul(two, vadd(xx, yy)));
+}
+
+// Rotate columns p, q of a row-major 3x3 M by (c, s): M <- M Q.
+EK_INLINE void svd3_rotate_cols(vreal M[9], int p, int q, vreal c, vreal s) {
+  for (int r = 0; r < 3; r++) {
+    vreal mp = M[3 * r + p], mq = M[3 * r + q];
+    M[3 * r + p] = vmla(c, mp, vmul(s, mq));
+    M[3 * r + q] = vsub(vmul(c, mq), vmul(s, mp));
+  }
+}
+
+// Rotate rows i, j of a row-major 3x3 M by (c, s): M <- G M.
+EK_INLINE void svd3_rotate_rows(vreal M[9], int i, int j, vreal c, vreal s) {
+  for (int col = 0; col < 3; col++) {
+    vreal mi = M[3 * i + col], mj = M[3 * j + col];
+    M[3 * i + col] = vmla(c, mi, vmul(s, mj));
+    M[3 * j + col] = vsub(vmul(c, mj), vmul(s, mi));
+  }
+}
+
+EK_INLINE vreal svd3_col_dot(const vreal M[9], int p, int q) {
+  return vmla(M[p], M[q], vmla(M[3 + p], M[3 + q], vmul(M[6 + p], M[6 + q])));
+}
+
+// Step 5, one pair: the exact Jacobi angle that makes columns p and q of B
+// orthogonal (Hestenes' one-sided Jacobi), the small rotation |theta| <=
+// pi/4: tan(theta) = sgn(x) y / (|x| + sqrt(x^2 + y^2)) with x = |b_p|^2 -
+// |b_q|^2, y = 2 b_p.b_q, which solves tan(2 theta) = y / x without division.
+EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact) {
+  vreal alpha = svd3_col_dot(B, p, p), beta = svd3_col_dot(B, q, q);
+  vreal gam = svd3_col_dot(B, p, q);
+  vreal x = vsub(alpha, beta), y = vmul(vset(2), gam);
+  vreal z = vmla(x, x, vmul(y, y));
+  vreal r = vmul(z, svd3_rsq(vmax(z, vset(SVD3_TINY2)), exact)); // sqrt(z)
+  vreal t = vadd(vabs(x), r);
+  vreal u = vsel(vge(x, vzero()), y, vneg(y));
+  vreal n2 = vmla(t, t, vmul(u, u));
+  vmask ok = vgt(n2, vset(SVD3_TINY2));
+  vreal om = svd3_rsq(vmax(n2, vset(SVD3_TINY2)), exact);
+  vreal c = vsel(ok, vmul(t, om), vset(1)), s = vsel(ok, vmul(u, om), vzero());
+  svd3_rotate_cols(B, p, q, c, s);
+  svd3_rotate_cols(V, p, q, c, s);
+}
+
+// Step 6, one conditional swap: if |b_i| < |b_j| swap columns i and j of B
+// and V and negate the new column j, so det V stays +1.
+EK_INLINE void svd3_sort_pair(vreal B[9], vreal V[9], vreal rho[3], int i, int j) {
+  vmask m = vlt(rho[i], rho[j]);
+  for (int r = 0; r < 3; r++) {
+    vreal bi = B[3 * r + i], bj = B[3 * r + j], vi = V[3 * r + i], vj = V[3 * r + j];
+    B[3 * r + i] = vsel(m, bj, bi);
+    B[3 * r + j] = vsel(m, vneg(bi), bj);
+    V[3 * r + i] = vsel(m, vj, vi);
+    V[3 * r + j] = vsel(m, vneg(vi), vj);
+  }
+  vreal ri = rho[i];
+  rho[i] = vsel(m, rho[j], ri);
+  rho[j] = vsel(m, ri, rho[j]);
+}
+
+// Step 7, Givens rotation that zeroes a2 against a1 (McAdams et al. 2011,
+// sec. 4): c = a1/n, s = a2/n, so the diagonal entry becomes n >= 0; the
+// identity when both are negligible (rank-deficient B).
+EK_INLINE void svd3_givens(vreal a1, vreal a2, vreal *c, vreal *s, int exact) {
+  vreal n2 = vmla(a1, a1, vmul(a2, a2));
+  vmask ok = vgt(n2, vset(SVD3_TINY2));
+  vreal om = svd3_rsq(vmax(n2, vset(SVD3_TINY2)), exact);
+  *c = vsel(ok, vmul(a1, om), vset(1));
+  *s = vsel(ok, vmul(a2, om), vzero());
+}
+
+// Working state of one vector of matrices through the steps below.
+typedef struct {
+  vreal A[9], s[3][3], qt[4], B[9], V[9], sc;
+  vmask finite;
+} svd3_state;
+
+// Steps 0-2: non-finite lanes, scaling, S = A^T A.
+EK_INLINE void svd3_start(svd3_state *st, const vreal Ain[9]) {
+  const real big = sizeof(real) == 4 ? (real)0x1p100 : (real)0x1p1000;
+  vreal one = vset(1), zero = vzero();
+  vmask finite = visfinite(Ain[0]);
+  for (int i = 1; i < 9; i++)
+    finite = vmand(finite, visfinite(Ain[i]));
+  // The zero or a subnormal matrix gets the finite factor big.
+  vreal amax = zero;
+  for (int i = 0; i < 9; i++) {
+    st->A[i] = vsel(finite, Ain[i], i % 4 == 0 ? one : zero);
+    amax = vmax(amax, vabs(st->A[i]));
+  }
+  st->sc = vmin(vdiv(one, amax), vset(big));
+  for (int i = 0; i < 9; i++)
+    st->A[i] = vmul(st->A[i], st->sc);
+  for (int i = 0; i < 3; i++)
+    for (int j = i; j < 3; j++)
+      st->s[i][j] = st->s[j][i] = svd3_col_dot(st->A, i, j);
+  st->qt[0] = one, st->qt[1] = st->qt[2] = st->qt[3] = zero;
+  st->finite = finite;
+}
+
+// Step 4: V from the quaternion, B = A V.
+EK_INLINE void svd3_form_B(svd3_state *st, int exact) {
+  svd3_quat_to_matrix(st->qt, st->V, exact);
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      st->B[3 * i + j] = vmla(st->A[3 * i], st->V[j],
+                              vmla(st->A[3 * i + 1], st->V[3 + j], vmul(st->A[3 * i + 2], st->V[6 + j])));
+}
+
+// Steps 6-8: sort, QR, undo the scaling, NaN for non-finite input.
+EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], int exact) {
+  vreal *B = st->B;
+  vreal rho[3] = {svd3_col_dot(B, 0, 0), svd3_col_dot(B, 1, 1), svd3_col_dot(B, 2, 2)};
+  svd3_sort_pair(B, st->V, rho, 0, 1);
+  svd3_sort_pair(B, st->V, rho, 0, 2);
+  svd3_sort_pair(B, st->V, rho, 1, 2);
+  // QR: B = U R with U = G1^T G2^T G3^T.
+  vreal c1, s1, c2, s2, c3, s3;
+  svd3_givens(B[0], B[3], &c1, &s1, exact);
+  svd3_rotate_rows(B, 0, 1, c1, s1);
+  svd3_givens(B[0], B[6], &c2, &s2, exact);
+  svd3_rotate_rows(B, 0, 2, c2, s2);
+  svd3_givens(B[4], B[7], &c3, &s3, exact);
+  svd3_rotate_rows(B, 1, 2, c3, s3);
+  U[0] = vmul(c1, c2), U[1] = vneg(s1), U[2] = vneg(vmul(c1, s2));
+  U[3] = vmul(s1, c2), U[4] = c1, U[5] = vneg(vmul(s1, s2));
+  U[6] = s2, U[7] = vzero(), U[8] = c2;
+  svd3_rotate_cols(U, 1, 2, c3, s3);
+  vreal nan = vset((real)NAN);
+  for (int i = 0; i < 3; i++)
+    S[i] = vsel(st->finite, vdiv(B[4 * i], st->sc), nan);
+  for (int i = 0; i < 9; i++) {
+    U[i] = vsel(st->finite, U[i], nan);
+    V[i] = vsel(st->finite, st->V[i], nan);
+  }
+}
+
+// The SVD of n independent vectors of matrices (n a compile-time constant
+// at every call). Each step runs for all n before the next: the Jacobi chain
+// of one vector is a long series of dependent operations (latency bound), so
+// two independent chains side by side let the core overlap them.
+#define SVD3_MAX_N 4
+EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)[3],
+                           vreal (*V)[9], int sweeps, int refine, int exact) {
+  svd3_state st[SVD3_MAX_N];
+  for (int j = 0; j < n; j++)
+    svd3_start(&st[j], A[j]);
+  for (int sweep = 0; sweep < sweeps; sweep++) {
+    for (int j = 0; j < n; j++)
+      svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, exact);
+    for (int j = 0; j < n; j++)
+      svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, exact);
+    for (int j = 0; j < n; j++)
+      svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, exact);
+  }
+  for (int j = 0; j < n; j++)
+    svd3_form_B(&st[j], exact);
+  for (int sweep = 0; sweep < refine; sweep++) {
+    for (int j = 0; j < n; j++)
+      svd3_refine_pair(st[j].B, st[j].V, 0, 1, exact);
+    for (int j = 0; j < n; j++)
+      svd3_refine_pair(st[j].B, st[j].V, 1, 2, exact);
+    for (int j = 0; j < n; j++)
+      svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
+  }
+  for (int j = 0; j < n; j++)
+    svd3_finish(&st[j], U[j], S[j], V[j], exact);
+}
+
+// The SVD of one vector of matrices with the given knobs.
+EK_INLINE void svd3_core(const vreal A[9], vreal U[9], vreal S[3], vreal V[9],
+                         const ek_svd3_knobs *k) {
+  if (k->exact_rsqrt)
+    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, k->sweeps,
+                k->refine, 1);
+  else
+    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, k->sweeps,
+                k->refine, 0);
+}
+
+// Polar decomposition from the SVD: R = U V^T, Ssym = V diag(S) V^T.
+EK_INLINE void svd3_polar(const vreal U[9], const vreal S[3], const vreal V[9], vreal R[9],
+                          vreal Ssym[9]) {
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++) {
+      R[3 * i + j] = vmla(U[3 * i], V[3 * j],
+                          vmla(U[3 * i + 1], V[3 * j + 1], vmul(U[3 * i + 2], V[3 * j + 2])));
+      Ssym[3 * i + j] =
+          vmla(vmul(V[3 * i], S[0]), V[3 * j],
+               vmla(vmul(V[3 * i + 1], S[1]), V[3 * j + 1], vmul(vmul(V[3 * i + 2], S[2]), V[3 * j + 2])));
+    }
+}
+
+#endif
