@@ -30,7 +30,8 @@ extern "C" {
 // Options; zero means default.
 //   sweeps: Jacobi sweeps on A^T A, 0 = default for the precision, 1..8 as
 //           given, anything else is EK_EINVAL (nothing written).
-//   exact_rsqrt: 0 = default (exact), 1 = exact 1/sqrt, -1 = approximate
+//   exact_rsqrt: 0 = default (approximate for f32, exact for f64), 1 = exact
+//           1/sqrt, -1 = approximate
 //           (hardware estimate refined by Newton steps).
 //   isa: EK_ISA_AUTO or a forced target; one the CPU lacks gives EK_EISA.
 typedef struct {

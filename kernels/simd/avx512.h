@@ -79,6 +79,13 @@ static inline int vall(vmask m) { return m == 0xff; }
 #endif
 
 static inline vreal vmla(vreal a, vreal b, vreal c) { return vfma(a, b, c); }
+#if defined(EK_REAL_F32)
+static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_ps(a, b, c); }
+static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_ps(a, b, c); }
+#else
+static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_pd(a, b, c); }
+static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_pd(a, b, c); }
+#endif
 static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
 static inline vmask vmand(vmask a, vmask b) { return a & b; }
 static inline vmask vmor(vmask a, vmask b) { return a | b; }

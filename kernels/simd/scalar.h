@@ -32,6 +32,8 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return fma(a, b, c); }
 static inline vreal vmin(vreal a, vreal b) { return a < b ? a : b; }
 static inline vreal vmax(vreal a, vreal b) { return a > b ? a : b; }
 static inline vreal vmla(vreal a, vreal b, vreal c) { return a * b + c; }
+static inline vreal vmls(vreal a, vreal b, vreal c) { return a * b - c; }
+static inline vreal vnmla(vreal a, vreal b, vreal c) { return c - a * b; }
 static inline vreal vrsqrt(vreal a) { return 1 / vsqrt(a); }
 static inline vreal vrsqrt_est(vreal a) { return 1 / vsqrt(a); }
 

@@ -6,9 +6,10 @@
 //   vset(x) vzero() vload(p) vstore(p, v)        loads/stores are unaligned
 //   vadd vsub vmul vdiv vneg vabs vmin vmax vsqrt
 //   vfma(a,b,c) = a*b+c, always fused
-//   vmla(a,b,c) = a*b+c, fused where the target has FMA (unfused on scalar:
-//                 baseline x86-64 has no FMA instruction and libm's fma is
-//                 a slow software routine there)
+//   vmla(a,b,c) = a*b+c, vmls(a,b,c) = a*b-c, vnmla(a,b,c) = c-a*b: fused
+//                 where the target has FMA (unfused on scalar: baseline
+//                 x86-64 has no FMA instruction and libm's fma is a slow
+//                 software routine there)
 //   vrsqrt(x)     = 1/sqrt(x), correctly rounded sqrt then divide
 //   vrsqrt_est(x) = hardware estimate + Newton steps (1 for float, 2 for
 //                   double); relative error ~1e-7 (f32) / ~1e-14 (f64);

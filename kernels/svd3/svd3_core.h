@@ -51,22 +51,24 @@ EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k,
   ch = vsel(exact_angle, vmul(om, ch), vset(cstar));
   sh = vsel(exact_angle, vmul(om, sh), vset(sstar));
   // cos and sin of the full angle.
-  vreal c = vsub(vmul(ch, ch), vmul(sh, sh)), sn = vmul(vset(2), vmul(ch, sh));
-  vreal cc = vmul(c, c), ss = vmul(sn, sn), cs = vmul(c, sn);
-  vreal cs2b = vmul(vmul(vset(2), cs), b);
-  s[p][p] = vadd(vmla(cc, a, cs2b), vmul(ss, d));
-  s[q][q] = vsub(vmla(ss, a, vmul(cc, d)), cs2b);
-  s[p][q] = s[q][p] = vmla(vsub(d, a), cs, vmul(b, vsub(cc, ss)));
+  vreal c = vmls(ch, ch, vmul(sh, sh)), sn = vmul(vadd(ch, ch), sh);
+  // S <- Q^T S Q on the (p,q) block, with w = (d - a) s + 2 c b:
+  //   s_pp = c^2 a + 2cs b + s^2 d = a + s w,   s_qq = d - s w (trace kept),
+  //   s_pq = (d - a) cs + (c^2 - s^2) b = c w - b.
+  vreal w = vmla(vsub(d, a), sn, vmul(vadd(c, c), b));
+  s[p][p] = vmla(sn, w, a);
+  s[q][q] = vnmla(sn, w, d);
+  s[p][q] = s[q][p] = vmls(c, w, b);
   s[p][k] = s[k][p] = vmla(c, e, vmul(sn, f));
-  s[q][k] = s[k][q] = vsub(vmul(c, f), vmul(sn, e));
+  s[q][k] = s[k][q] = vmls(c, f, vmul(sn, e));
   // qt <- qt (x) (ch, sh e_k), Hamilton product: the rotation is appended
   // on the right (V <- V Q).
   int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-  vreal w = qt[0], vk = qt[1 + k], vk1 = qt[1 + k1], vk2 = qt[1 + k2];
-  qt[0] = vsub(vmul(ch, w), vmul(sh, vk));
-  qt[1 + k] = vmla(w, sh, vmul(ch, vk));
+  vreal qw = qt[0], vk = qt[1 + k], vk1 = qt[1 + k1], vk2 = qt[1 + k2];
+  qt[0] = vmls(ch, qw, vmul(sh, vk));
+  qt[1 + k] = vmla(qw, sh, vmul(ch, vk));
   qt[1 + k1] = vmla(sh, vk2, vmul(ch, vk1));
-  qt[1 + k2] = vsub(vmul(ch, vk2), vmul(sh, vk1));
+  qt[1 + k2] = vmls(ch, vk2, vmul(sh, vk1));
 }
 
 // Step 4: rotation matrix of the (normalised) quaternion.
@@ -94,7 +96,7 @@ EK_INLINE void svd3_rotate_cols(vreal M[9], int p, int q, vreal c, vreal s) {
   for (int r = 0; r < 3; r++) {
     vreal mp = M[3 * r + p], mq = M[3 * r + q];
     M[3 * r + p] = vmla(c, mp, vmul(s, mq));
-    M[3 * r + q] = vsub(vmul(c, mq), vmul(s, mp));
+    M[3 * r + q] = vmls(c, mq, vmul(s, mp));
   }
 }
 
@@ -103,7 +105,7 @@ EK_INLINE void svd3_rotate_rows(vreal M[9], int i, int j, vreal c, vreal s) {
   for (int col = 0; col < 3; col++) {
     vreal mi = M[3 * i + col], mj = M[3 * j + col];
     M[3 * i + col] = vmla(c, mi, vmul(s, mj));
-    M[3 * j + col] = vsub(vmul(c, mj), vmul(s, mi));
+    M[3 * j + col] = vmls(c, mj, vmul(s, mi));
   }
 }
 
