@@ -67,8 +67,18 @@ static inline vreal vsqrt(vreal a) { return _mm256_sqrt_pd(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_pd(a, b, c); }
 static inline vreal vrsqrt(vreal a) { return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a)); }
 static inline vreal vrsqrt_est(vreal a) {
-  // AVX2 has no double estimate: 12-bit float estimate, two Newton steps.
-  vreal y = _mm256_cvtps_pd(_mm_rsqrt_ps(_mm256_cvtpd_ps(a)));
+  // AVX2 has no double estimate: take the 12-bit float one on a = m 2^(2k),
+  // m in [1, 4) (so any positive normal double works, not only float's
+  // range), scale it by 2^-k, then two Newton steps in double.
+  // With e the biased exponent and p = 1 - (e & 1): 2k = e - 1023 - p,
+  // 2^-2k has exponent field 2046 - e + p and 2^-k has (3069 - e + p) / 2.
+  __m256i e = _mm256_srli_epi64(_mm256_castpd_si256(a), 52);
+  __m256i p = _mm256_andnot_si256(e, _mm256_set1_epi64x(1));
+  __m256i in = _mm256_add_epi64(_mm256_sub_epi64(_mm256_set1_epi64x(2046), e), p);
+  __m256i out = _mm256_srli_epi64(_mm256_add_epi64(_mm256_sub_epi64(_mm256_set1_epi64x(3069), e), p), 1);
+  vreal m = _mm256_mul_pd(a, _mm256_castsi256_pd(_mm256_slli_epi64(in, 52)));
+  vreal y = _mm256_mul_pd(_mm256_cvtps_pd(_mm_rsqrt_ps(_mm256_cvtpd_ps(m))),
+                          _mm256_castsi256_pd(_mm256_slli_epi64(out, 52)));
   vreal h = _mm256_mul_pd(_mm256_set1_pd(0.5), a);
   for (int k = 0; k < 2; k++)
     y = _mm256_mul_pd(y, _mm256_fnmadd_pd(_mm256_mul_pd(h, y), y, _mm256_set1_pd(1.5)));
@@ -97,4 +107,32 @@ static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm256_fnmadd_pd(a
 #endif
 static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
 
+// vmant_exp(x, &e): x = m 2^e with m in [1, 2) and e an integer (as a
+// vreal), for positive normal x only (subnormal, zero, negative, inf, NaN
+// give unspecified m and e: callers select those lanes away). Exponent
+// extraction for vlog (kernels/simd/vmath.h).
+#if defined(EK_REAL_F32)
+static inline vreal vmant_exp(vreal x, vreal *e) {
+  __m256i bits = _mm256_castps_si256(x);
+  __m256i field = _mm256_srli_epi32(bits, 23);
+  *e = _mm256_cvtepi32_ps(_mm256_sub_epi32(field, _mm256_set1_epi32(127)));
+  __m256i mant = _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi32(0x007fffff)),
+                                 _mm256_set1_epi32(0x3f800000));
+  return _mm256_castsi256_ps(mant);
+}
+#else
+static inline vreal vmant_exp(vreal x, vreal *e) {
+  __m256i bits = _mm256_castpd_si256(x);
+  // Exponent field (0..2047) to double without a 64-bit convert (AVX2 has
+  // none): OR it into the mantissa of 2^52 and subtract 2^52.
+  __m256i field = _mm256_srli_epi64(bits, 52);
+  __m256d two52 = _mm256_set1_pd(0x1p52);
+  __m256d f = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(field, _mm256_castpd_si256(two52))),
+                            two52);
+  *e = _mm256_sub_pd(f, _mm256_set1_pd(1023.0));
+  __m256i mant = _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi64x(0x000fffffffffffffLL)),
+                                 _mm256_set1_epi64x(0x3ff0000000000000LL));
+  return _mm256_castsi256_pd(mant);
+}
+#endif
 #endif

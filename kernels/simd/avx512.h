@@ -92,4 +92,27 @@ static inline vmask vmor(vmask a, vmask b) { return a | b; }
 static inline vmask vmnot(vmask a) { return (vmask)~a; }
 static inline int vany(vmask m) { return m != 0; }
 
+// vmant_exp(x, &e): x = m 2^e with m in [1, 2) and e an integer (as a
+// vreal), for positive normal x only (subnormal, zero, negative, inf, NaN
+// give unspecified m and e: callers select those lanes away). Exponent
+// extraction for vlog (kernels/simd/vmath.h).
+#if defined(EK_REAL_F32)
+static inline vreal vmant_exp(vreal x, vreal *e) {
+  __m512i bits = _mm512_castps_si512(x);
+  __m512i field = _mm512_srli_epi32(bits, 23);
+  *e = _mm512_cvtepi32_ps(_mm512_sub_epi32(field, _mm512_set1_epi32(127)));
+  __m512i mant = _mm512_or_si512(_mm512_and_si512(bits, _mm512_set1_epi32(0x007fffff)),
+                                 _mm512_set1_epi32(0x3f800000));
+  return _mm512_castsi512_ps(mant);
+}
+#else
+static inline vreal vmant_exp(vreal x, vreal *e) {
+  __m512i bits = _mm512_castpd_si512(x);
+  __m512i field = _mm512_srli_epi64(bits, 52);
+  *e = _mm512_cvtepi64_pd(_mm512_sub_epi64(field, _mm512_set1_epi64(1023))); // AVX512DQ
+  __m512i mant = _mm512_or_si512(_mm512_and_si512(bits, _mm512_set1_epi64(0x000fffffffffffffLL)),
+                                 _mm512_set1_epi64(0x3ff0000000000000LL));
+  return _mm512_castsi512_pd(mant);
+}
+#endif
 #endif

@@ -50,4 +50,18 @@ static inline vreal vsel(vmask m, vreal a, vreal b) { return m ? a : b; }
 static inline int vany(vmask m) { return m; }
 static inline int vall(vmask m) { return m; }
 
+// vmant_exp(x, &e): x = m 2^e with m in [1, 2) and e an integer (as a
+// vreal), for positive normal x only (subnormal, zero, negative, inf, NaN
+// give unspecified m and e: callers select those lanes away). Exponent
+// extraction for vlog (kernels/simd/vmath.h).
+static inline vreal vmant_exp(vreal x, vreal *e) {
+  int k;
+#if defined(EK_REAL_F32)
+  real m = frexpf(x, &k); // m in [0.5, 1)
+#else
+  real m = frexp(x, &k);
+#endif
+  *e = (real)(k - 1);
+  return m + m;
+}
 #endif

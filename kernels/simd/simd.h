@@ -13,10 +13,10 @@
 //   vrsqrt(x)     = 1/sqrt(x), correctly rounded sqrt then divide
 //   vrsqrt_est(x) = hardware estimate + Newton steps (1 for float, 2 for
 //                   double); relative error ~1e-7 (f32) / ~1e-14 (f64);
-//                   valid for x in [1e-36, 1e36] (AVX2 double goes through a
-//                   float estimate); exact on the scalar target
+//                   valid for positive normal x; exact on the scalar target
 //   vlt vle vgt vge veq (-> vmask), visfinite(x), vmand vmor vmnot
 //   vsel(m, a, b) = m ? a : b,  vany(m), vall(m)
+//   vmant_exp(x, &e) = m with x = m 2^e, m in [1, 2) (positive normal x)
 //
 // EK_SYM(name) names a kernel for this build: ek_<name>_<isa>_<prec>.
 #ifndef EK_SIMD_H

@@ -16,16 +16,16 @@ static inline size_t vec_offset(size_t j, int planes) {
 // every combination gets its own straight-line code.
 EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V,
                             int sweeps, int refine, int exact, int polar) {
-  vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
+  vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9], scale[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 9; i++)
       a[j][i] = vload(A + vec_offset(j0 + j, 9) + (size_t)i * EK_LANES);
-  svd3_core_n(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact);
+  svd3_core_n(n, (const vreal(*)[9])a, u, s, w, scale, sweeps, refine, exact);
   for (int j = 0; j < n; j++) {
     size_t m9 = vec_offset(j0 + j, 9), m3 = vec_offset(j0 + j, 3);
     if (polar) {
       vreal r[9], p[9];
-      svd3_polar(u[j], s[j], w[j], r, p);
+      svd3_polar(u[j], s[j], w[j], scale[j], r, p);
       for (int i = 0; i < 9; i++) {
         vstore(U + m9 + (size_t)i * EK_LANES, r[i]);
         if (V)
@@ -37,7 +37,7 @@ EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, r
         vstore(V + m9 + (size_t)i * EK_LANES, w[j][i]);
       }
       for (int i = 0; i < 3; i++)
-        vstore(S + m3 + (size_t)i * EK_LANES, s[j][i]);
+        vstore(S + m3 + (size_t)i * EK_LANES, vmul(s[j][i], scale[j]));
     }
   }
 }

@@ -6,7 +6,8 @@
 // Singular Value Decomposition of 3x3 matrices with minimal branching and
 // elementary floating point operations"), with ek's changes marked:
 //   0. non-finite lanes are computed as the identity and set to NaN at the end
-//   1. [ek] scale A by 1/max|a_ij| so A^T A neither overflows nor underflows
+//   1. [ek] scale A by 1/max|a_ij| (after a power-of-two prescale of tiny
+//      matrices) so A^T A neither overflows nor underflows
 //   2. S = A^T A
 //   3. Jacobi eigenanalysis of S with approximate Givens rotations (paper
 //      Alg. 2, the pi/8 fallback), accumulated in a quaternion (sec. 2.2)
@@ -30,8 +31,15 @@
 #define EK_INLINE static inline __attribute__((always_inline))
 
 // Below TINY (after scaling, relative to the largest entry) a rotation
-// angle is taken as zero; TINY^2 = 1e-36 is still a normal float.
+// angle is taken as zero. TINY^2 is a normal number of the precision and far
+// below its budget: 1e-36 for float; 1e-300 for double, so a 2x2 block
+// living at 1e-10 of the largest singular value (a graded matrix) still gets
+// its rotations and its singular values to 1e-12 of s1.
+#if defined(EK_REAL_F32)
 #define SVD3_TINY2 ((real)1e-36)
+#else
+#define SVD3_TINY2 ((real)1e-300)
+#endif
 
 EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt_est(x); }
 
@@ -45,11 +53,17 @@ EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k,
   vreal a = s[p][p], d = s[q][q], b = s[p][q], e = s[p][k], f = s[q][k];
   vreal ch = vmul(vset(2), vsub(a, d)), sh = b;
   // Use the exact-angle direction unless the angle is beyond pi/8 (then the
-  // fixed pi/8 rotation still reduces the off-diagonal).
-  vmask exact_angle = vlt(vmul(vset(gamma), vmul(sh, sh)), vmul(ch, ch));
-  vreal om = svd3_rsq(vmax(vmla(ch, ch, vmul(sh, sh)), vset(SVD3_TINY2)), exact);
+  // fixed pi/8 rotation still reduces the off-diagonal); no rotation when
+  // the block is already negligible (a unit (ch, sh) keeps the quaternion
+  // unit, whatever the scale).
+  vreal ch2 = vmul(ch, ch), sh2 = vmul(sh, sh), n2 = vadd(ch2, sh2);
+  vmask exact_angle = vlt(vmul(vset(gamma), sh2), ch2);
+  vmask negligible = vle(n2, vset(SVD3_TINY2));
+  vreal om = svd3_rsq(vmax(n2, vset(SVD3_TINY2)), exact);
   ch = vsel(exact_angle, vmul(om, ch), vset(cstar));
   sh = vsel(exact_angle, vmul(om, sh), vset(sstar));
+  ch = vsel(negligible, vset(1), ch);
+  sh = vsel(negligible, vzero(), sh);
   // cos and sin of the full angle.
   vreal c = vmls(ch, ch, vmul(sh, sh)), sn = vmul(vadd(ch, ch), sh);
   // S <- Q^T S Q on the (p,q) block, with w = (d - a) s + 2 c b:
@@ -162,26 +176,37 @@ EK_INLINE void svd3_givens(vreal a1, vreal a2, vreal *c, vreal *s, int exact) {
 
 // Working state of one vector of matrices through the steps below.
 typedef struct {
-  vreal A[9], s[3][3], qt[4], B[9], V[9], sc;
+  vreal A[9], s[3][3], qt[4], B[9], V[9], amax;
   vmask finite;
 } svd3_state;
 
 // Steps 0-2: non-finite lanes, scaling, S = A^T A.
+// The scale is 1/max|a_ij|, after an exact power-of-two prescale of tiny
+// matrices so that subnormal entries become normal and 1/max stays finite.
+#if defined(EK_REAL_F32)
+#define SVD3_TINY_MATRIX 0x1p-64f
+#define SVD3_PRESCALE 0x1p64f
+#else
+#define SVD3_TINY_MATRIX 0x1p-512
+#define SVD3_PRESCALE 0x1p512
+#endif
 EK_INLINE void svd3_start(svd3_state *st, const vreal Ain[9]) {
-  const real big = sizeof(real) == 4 ? (real)0x1p100 : (real)0x1p1000;
   vreal one = vset(1), zero = vzero();
   vmask finite = visfinite(Ain[0]);
   for (int i = 1; i < 9; i++)
     finite = vmand(finite, visfinite(Ain[i]));
-  // The zero or a subnormal matrix gets the finite factor big.
   vreal amax = zero;
   for (int i = 0; i < 9; i++) {
     st->A[i] = vsel(finite, Ain[i], i % 4 == 0 ? one : zero);
     amax = vmax(amax, vabs(st->A[i]));
   }
-  st->sc = vmin(vdiv(one, amax), vset(big));
+  vreal pre = vsel(vlt(amax, vset(SVD3_TINY_MATRIX)), vset(SVD3_PRESCALE), one);
+  // The zero matrix gets sc = 1 (any finite value would do).
+  vreal m = vmul(amax, pre);
+  vreal sc = vsel(vgt(m, zero), vdiv(one, m), one);
   for (int i = 0; i < 9; i++)
-    st->A[i] = vmul(st->A[i], st->sc);
+    st->A[i] = vmul(vmul(st->A[i], pre), sc);
+  st->amax = amax;
   for (int i = 0; i < 3; i++)
     for (int j = i; j < 3; j++)
       st->s[i][j] = st->s[j][i] = svd3_col_dot(st->A, i, j);
@@ -198,8 +223,12 @@ EK_INLINE void svd3_form_B(svd3_state *st, int exact) {
                               vmla(st->A[3 * i + 1], st->V[3 + j], vmul(st->A[3 * i + 2], st->V[6 + j])));
 }
 
-// Steps 6-8: sort, QR, undo the scaling, NaN for non-finite input.
-EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], int exact) {
+// Steps 6-8: sort, QR, NaN for non-finite input. S is left scaled (the
+// singular values of the scaled matrix, O(1)); the caller multiplies by
+// *scale (so a polar stretch of a tiny matrix is also formed at O(1) and
+// rounded into the subnormal range once).
+EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], vreal *scale,
+                           int exact) {
   vreal *B = st->B;
   vreal rho[3] = {svd3_col_dot(B, 0, 0), svd3_col_dot(B, 1, 1), svd3_col_dot(B, 2, 2)};
   svd3_sort_pair(B, st->V, rho, 0, 1);
@@ -219,7 +248,8 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], i
   svd3_rotate_cols(U, 1, 2, c3, s3);
   vreal nan = vset((real)NAN);
   for (int i = 0; i < 3; i++)
-    S[i] = vsel(st->finite, vdiv(B[4 * i], st->sc), nan);
+    S[i] = vsel(st->finite, B[4 * i], nan);
+  *scale = st->amax;
   for (int i = 0; i < 9; i++) {
     U[i] = vsel(st->finite, U[i], nan);
     V[i] = vsel(st->finite, st->V[i], nan);
@@ -227,12 +257,12 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], i
 }
 
 // The SVD of n independent vectors of matrices (n a compile-time constant
-// at every call). Each step runs for all n before the next: the Jacobi chain
+// at every call), S scaled: A = U diag(S * scale) V^T. Each step runs for all n before the next: the Jacobi chain
 // of one vector is a long series of dependent operations (latency bound), so
 // two independent chains side by side let the core overlap them.
 #define SVD3_MAX_N 4
 EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)[3],
-                           vreal (*V)[9], int sweeps, int refine, int exact) {
+                           vreal (*V)[9], vreal *scale, int sweeps, int refine, int exact) {
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
@@ -255,23 +285,26 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
       svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
   }
   for (int j = 0; j < n; j++)
-    svd3_finish(&st[j], U[j], S[j], V[j], exact);
+    svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
 }
 
 // The SVD of one vector of matrices with the given knobs.
 EK_INLINE void svd3_core(const vreal A[9], vreal U[9], vreal S[3], vreal V[9],
                          const ek_svd3_knobs *k) {
+  vreal scale;
   if (k->exact_rsqrt)
-    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, k->sweeps,
-                k->refine, 1);
+    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, &scale,
+                k->sweeps, k->refine, 1);
   else
-    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, k->sweeps,
-                k->refine, 0);
+    svd3_core_n(1, (const vreal(*)[9])A, (vreal(*)[9])U, (vreal(*)[3])S, (vreal(*)[9])V, &scale,
+                k->sweeps, k->refine, 0);
+  for (int i = 0; i < 3; i++)
+    S[i] = vmul(S[i], scale);
 }
 
-// Polar decomposition from the SVD: R = U V^T, Ssym = V diag(S) V^T.
-EK_INLINE void svd3_polar(const vreal U[9], const vreal S[3], const vreal V[9], vreal R[9],
-                          vreal Ssym[9]) {
+// Polar decomposition from the SVD: R = U V^T, Ssym = V diag(S) V^T scale.
+EK_INLINE void svd3_polar(const vreal U[9], const vreal S[3], const vreal V[9], vreal scale,
+                          vreal R[9], vreal Ssym[9]) {
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++) {
       R[3 * i + j] = vmla(U[3 * i], V[3 * j],
@@ -279,6 +312,7 @@ EK_INLINE void svd3_polar(const vreal U[9], const vreal S[3], const vreal V[9], 
       Ssym[3 * i + j] =
           vmla(vmul(V[3 * i], S[0]), V[3 * j],
                vmla(vmul(V[3 * i + 1], S[1]), V[3 * j + 1], vmul(vmul(V[3 * i + 2], S[2]), V[3 * j + 2])));
+      Ssym[3 * i + j] = vmul(Ssym[3 * i + j], scale);
     }
 }
 
