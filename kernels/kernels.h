@@ -28,6 +28,29 @@ typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, do
 // fma_probe: `iters` rounds of independent FMA chains; returns a value that
 // depends on every chain (so nothing is optimised away) and sets *flops.
 typedef double ek_fma_probe_fn(long iters, double *flops);
+// material_block: nblocks AoSoA blocks; F, R, dF 9 planes (R read for
+// corotated linear only, dF for PK1_DIFF only); out 1 / 9 / 9 / 81 planes
+// for op = energy / P / dP / Hessian (ek_material_op). Knobs resolved by
+// the driver (kernels/material/material.c) from ek_material.
+typedef struct {
+  int model, op, project;
+  double mu, lambda, clamp;
+  ek_svd3_knobs svd; // SVD knobs (the precision's defaults)
+} ek_material_knobs;
+typedef void ek_material_block_f32_fn(size_t nblocks, const float *F, const float *R,
+                                      const float *dF, float *out, const ek_material_knobs *k);
+typedef void ek_material_block_f64_fn(size_t nblocks, const double *F, const double *R,
+                                      const double *dF, double *out, const ek_material_knobs *k);
+
+// fvm_block: FVM forces of AoSoA tet blocks [b0, b1) (contract in
+// kernels/fvm/fvm_kernel.h); fvm_F_block: their deformation gradients only
+// (9 planes per block), for the phase-split timing.
+typedef struct ek_fvm_args_f32 ek_fvm_args_f32;
+typedef struct ek_fvm_args_f64 ek_fvm_args_f64;
+typedef void ek_fvm_block_f32_fn(const ek_fvm_args_f32 *a, size_t b0, size_t b1);
+typedef void ek_fvm_block_f64_fn(const ek_fvm_args_f64 *a, size_t b0, size_t b1);
+typedef void ek_fvm_F_block_f32_fn(const ek_fvm_args_f32 *a, size_t b0, size_t b1, float *F);
+typedef void ek_fvm_F_block_f64_fn(const ek_fvm_args_f64 *a, size_t b0, size_t b1, double *F);
 
 typedef struct {
   ek_isa isa;
@@ -36,6 +59,12 @@ typedef struct {
   ek_svd3_block_f64_fn *svd3_block_f64;
   ek_fma_probe_fn *fma_probe_f32;
   ek_fma_probe_fn *fma_probe_f64;
+  ek_material_block_f32_fn *material_block_f32;
+  ek_material_block_f64_fn *material_block_f64;
+  ek_fvm_block_f32_fn *fvm_block_f32;
+  ek_fvm_block_f64_fn *fvm_block_f64;
+  ek_fvm_F_block_f32_fn *fvm_F_block_f32;
+  ek_fvm_F_block_f64_fn *fvm_F_block_f64;
 } ek_kernel_table;
 
 // Table of a resolved target (see ek_isa_resolve), NULL if not available.

@@ -10,7 +10,7 @@
 // Reduction x = 2^e m with m in [sqrt(1/2), sqrt(2)) (vmant_exp; subnormals
 // scaled into the normal range first), then log m = 2 atanh(f),
 // f = (m-1)/(m+1), |f| <= 0.1716, from its series 2 f sum_k f^(2k)/(2k+1)
-// (Abramowitz & Stegun 4.1.27; the reduction of Cody & Waite 1980, ch. 5),
+// (Abramowitz & Stegun 4.1.27; the reduction of Cody & Waite 1980, ALOG),
 // and log x = e ln2_hi + (e ln2_lo + log m) with ln 2 split so e ln2_hi is
 // exact.
 static inline vreal vlog(vreal x) {

@@ -1,0 +1,124 @@
+// The ek-bench family API: how a benchmark family (bench/bench_<family>.c)
+// declares its rows to the ek-bench program (bench/ek_bench.c).
+//
+// A family is one function `int bench_<family>(ek_bench *b)`. Adding one:
+//   1. write bench/bench_<family>.c (CMake picks up bench/bench_*.c),
+//   2. add its prototype and one line `{"<family>", bench_<family>}` to the
+//      family table in bench/ek_bench.c.
+//
+// ek-bench calls every family twice: first in a listing pass (to count the
+// rows for the progress line, or to print them under --list), then in the
+// timing pass. A family must declare the same rows in both passes; in the
+// listing pass ek_bench_run only records the name, so a family should skip
+// expensive setup (big allocations, input generation) when
+// ek_bench_listing(b) is true. ek_bench_wants(b, name) tells whether the
+// --filter and --threads options select a row, so a family can also skip
+// the setup of rows nobody asked for.
+//
+// Row names are '/'-separated, most general first, with knobs as key:value
+// and the thread count last, e.g. "svd3/aosoa/avx2/f32/sweeps:4/threads:2".
+// The harness derives the 2-thread / 1-thread ratio by looking up the same
+// name with "threads:1", so keep "/threads:N" as the last component.
+//
+// Usage in a family (sketch):
+//   for each isa in ek_bench_isas(b, isas) and each threads in
+//   ek_bench_thread_counts(b, counts):
+//     snprintf(name, sizeof name, "svd3/aosoa/%s/f32/threads:%d", ...);
+//     if (!ek_bench_wants(b, name)) continue;
+//     if (!ek_bench_listing(b)) { ...set up ctx, check the kernel's rc... }
+//     ek_bench_row row = {.name = name, .family = "svd3", .isa = isa, ...};
+//     ek_bench_run(b, &row);
+#ifndef EK_BENCH_BENCH_H
+#define EK_BENCH_BENCH_H
+
+#include <ek/core.h>
+#include <stddef.h>
+
+#include "timer.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// The run: options, filter, machine limits, collected results (opaque).
+typedef struct ek_bench ek_bench;
+
+// Upper bound of the thread counts one run times (default run: 1 and 2).
+#define EK_BENCH_MAX_THREAD_COUNTS 8
+// Longest row name, including the terminating NUL.
+#define EK_BENCH_NAME_MAX 192
+
+typedef struct {
+  // Unique row name (see the naming rule above), at most EK_BENCH_NAME_MAX-1.
+  const char *name;
+  // Family name, e.g. "svd3".
+  const char *family;
+  // Target the row runs. EK_ISA_AUTO marks code that is not an ek kernel
+  // (e.g. LAPACK); its %peak is then taken against the best ISA available.
+  ek_isa isa;
+  // Label stored as the row's ISA field instead of ek_isa_name(isa), e.g.
+  // "lapack" or "none" for ISA-independent code; NULL = ek_isa_name(isa).
+  const char *isa_label;
+  // "f32" or "f64" (selects the peak the row is compared with).
+  const char *precision;
+  // Threads for this row: the harness calls omp_set_num_threads(threads)
+  // before timing, so fn should run through OpenMP (as the ek API does).
+  int threads;
+  // Variant knobs as "key=value" pairs separated by ';' (e.g.
+  // "sweeps=4;rsqrt=exact;api=aosoa"); NULL or "" for none.
+  const char *knobs;
+  // Items processed by one call of fn (matrices, elements, ...).
+  size_t items;
+  // Declared work per item, for GFLOP/s and GB/s; 0 = not meaningful.
+  double flops_per_item;
+  double bytes_per_item;
+  // Name of the row this one is compared with in the speed-up column (e.g.
+  // the LAPACK row of the same precision and threads), or NULL. It may be
+  // declared before or after this row.
+  const char *baseline;
+  // The timed work: one call processes the whole batch of `items` items.
+  ek_bench_fn *fn;
+  void *ctx;
+} ek_bench_row;
+
+// 1 under a listing pass (counting rows, or --list): do no expensive setup.
+int ek_bench_listing(const ek_bench *b);
+// 1 if the --filter regex matches `name` (and the run is not stopping).
+int ek_bench_wants(const ek_bench *b, const char *name);
+// Time one row (or, in a listing pass, just count/print it) and record the
+// result. 0 on success (also when filtered out), < 0 on error.
+int ek_bench_run(ek_bench *b, const ek_bench_row *row);
+
+// Thread counts to time, in increasing order (default {1, 2}; --threads N
+// gives {N}). Writes at most EK_BENCH_MAX_THREAD_COUNTS and returns how many.
+int ek_bench_thread_counts(const ek_bench *b, int *counts);
+// ISAs built into ek and runnable on this CPU, scalar first. Targets the CPU
+// lacks are skipped, with a note printed once per run
+// ("skipped avx512: not supported by this CPU"). Writes at most EK_ISA_COUNT.
+int ek_bench_isas(ek_bench *b, ek_isa *isas);
+// Seed for the family's random inputs (--seed, printed and recorded).
+unsigned long long ek_bench_seed(const ek_bench *b);
+// Print a note (stderr) and record it with the run's metadata.
+void ek_bench_note(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// Report a failure (kernel returned an error, setup failed): printed, and
+// ek-bench exits non-zero at the end. Rows already timed are still written.
+// Notes and failures are not thread-safe: call them outside OpenMP regions.
+void ek_bench_fail(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+// A family entry point; returns 0, or < 0 after ek_bench_fail.
+typedef int ek_bench_family_fn(ek_bench *b);
+
+// Seeded Gaussian numbers for inputs (xoshiro256** + Box-Muller): the
+// same seed gives the same inputs on every run and thread count.
+typedef struct {
+  unsigned long long s[4];
+  int has_spare;
+  double spare;
+} ek_bench_rng;
+void ek_bench_rng_init(ek_bench_rng *rng, unsigned long long seed);
+double ek_bench_rng_gauss(ek_bench_rng *rng);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

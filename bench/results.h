@@ -1,0 +1,127 @@
+// Benchmark results: rows (one per timed variant), the run's metadata, and
+// the two writers (HDF5, and JSON in Google Benchmark's schema).
+//
+// HDF5 layout (written to "<path>.tmp.<pid>", then linked into place, so a
+// file under the final name is always whole):
+//   /                       attributes: run metadata (strings and numbers)
+//   /benchmarks             attribute "count"; one group per row, nested by
+//                           the '/'-separated row name, e.g.
+//   /benchmarks/svd3/aosoa/avx2/f32/sweeps:4/threads:2
+//       datasets  samples_ns, samples_cpu_ns (float64[nsamples]): per-item
+//                 wall time and calling-thread CPU time of each sample
+//       attributes name, family, isa, precision, knobs, baseline (strings),
+//                 knob.<key> (one string per knob), threads, items, iters,
+//                 nsamples (integers), overhead_ns, the statistics
+//                 (median_ns ...), declared and achieved rates, fractions
+//                 and ratios (float64; NaN where not applicable)
+//   /caches                 one attribute per cache level ("L1d" ...)
+// JSON: Google Benchmark's schema ("context", "benchmarks"), one
+// "iteration" row per sample (iterations = calls x items, so real_time is
+// ns per item) and "aggregate" rows for mean, median and stddev, so its
+// tools/compare.py can read it; ek's own fields (family, isa, knobs,
+// rates, fractions, ratios) are extra keys on the aggregate rows. Numbers
+// are written with 17 significant digits (bit-exact on reading back); NaN
+// ("not applicable") is written as null.
+#ifndef EK_BENCH_RESULTS_H
+#define EK_BENCH_RESULTS_H
+
+#include <stddef.h>
+
+#include "timer.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define EK_RESULTS_NAME_MAX 192
+#define EK_RESULTS_TEXT_MAX 512
+
+typedef enum { EK_META_TEXT, EK_META_NUMBER, EK_META_BOOL } ek_meta_kind;
+
+typedef struct {
+  char key[64];
+  ek_meta_kind kind;
+  char text[EK_RESULTS_TEXT_MAX]; // EK_META_TEXT
+  double number;                  // EK_META_NUMBER; EK_META_BOOL: 0 or 1
+} ek_meta;
+
+typedef struct {
+  char type[16]; // "Data", "Instruction", "Unified"
+  int level;
+  long long size; // bytes
+  int num_sharing;
+} ek_cache_info;
+
+typedef struct {
+  char name[EK_RESULTS_NAME_MAX];
+  char family[32];
+  char isa[16];
+  char precision[8];
+  int threads;
+  char knobs[256]; // "key=value;key=value"
+  size_t items;    // per call
+  long iters;      // calls per sample
+  double overhead_ns;
+  int nsamples;
+  double *sample_ns;     // per item, owned by the results set
+  double *sample_cpu_ns; // per item, owned; may be NULL (then = sample_ns)
+  ek_stats stats;
+  double flops_per_item, bytes_per_item; // declared, 0 = n/a
+  // Derived (ek_results_derive) or set by the harness; NaN = n/a.
+  double items_per_second, gflops, gbytes_per_second;
+  double peak_gflops, triad_gbs;     // machine limits used for the fractions
+  double peak_fraction, bw_fraction; // achieved / limit
+  char baseline[EK_RESULTS_NAME_MAX];
+  double speedup_vs_baseline; // baseline median / this median
+  double speedup_threads;     // same row at threads:1 median / this median
+} ek_result_row;
+
+typedef struct {
+  ek_result_row *rows;
+  size_t nrows, rows_cap;
+  ek_meta *meta;
+  size_t nmeta, meta_cap;
+  ek_cache_info caches[16];
+  int ncaches;
+} ek_results;
+
+void ek_results_init(ek_results *r);
+void ek_results_free(ek_results *r);
+
+// Set (or replace) a metadata entry. 0 on success, < 0 on bad key/memory.
+int ek_results_meta_text(ek_results *r, const char *key, const char *value);
+int ek_results_meta_number(ek_results *r, const char *key, double value);
+int ek_results_meta_bool(ek_results *r, const char *key, int value);
+const ek_meta *ek_results_meta_find(const ek_results *r, const char *key);
+
+// Everything recorded with every run: date, host_name, executable, num_cpus,
+// mhz_per_cpu, cpu_scaling_enabled, library_build_type, caches, cpu_model,
+// compiler, c_flags, kernel_flags, build_type, isas_built, isas_available,
+// git_revision, omp_proc_bind, omp_places, hdf5_version.
+void ek_results_collect_metadata(ek_results *r, const char *executable);
+
+// 1 if name can be a row name: 1..EK_RESULTS_NAME_MAX-1 printable ASCII
+// characters without spaces, '/'-separated components, none empty, "." or
+// "..", no leading or trailing '/'.
+int ek_results_valid_name(const char *name);
+// Append a row: fields zeroed, rates and ratios NaN. The samples are copied.
+// Returns the row (valid until the next add), NULL on bad input or memory.
+ek_result_row *ek_results_add(ek_results *r, const char *name, const ek_timing *timing);
+const ek_result_row *ek_results_find(const ek_results *r, const char *name);
+
+// Rates from the median, speed-up vs each row's baseline, and the
+// threads:N / threads:1 ratio. Fractions need peak_gflops / triad_gbs set.
+void ek_results_derive(ek_results *r);
+
+// 1 if a file exists at path.
+int ek_results_file_exists(const char *path);
+// Write the set. Without force an existing file is an error and is left
+// untouched; with force it is replaced atomically. 0 on success, < 0 on
+// error (message on stderr naming the path); no partial file is left.
+int ek_results_write_h5(const ek_results *r, const char *path, int force);
+int ek_results_write_json(const ek_results *r, const char *path, int force);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,11 @@
+// ek umbrella header: everything public.
+#ifndef EK_EK_H
+#define EK_EK_H
+#include "batch.h"
+#include "core.h"
+#include "fvm.h"
+#include "material.h"
+#include "mesh.h"
+#include "sim.h"
+#include "svd3.h"
+#endif

@@ -1,0 +1,133 @@
+// Finite-volume elastic forces on tetrahedral meshes (Teran et al. 2003,
+// "Finite volume methods for the simulation of skeletal muscle", sec. 4;
+// seed 004). Per tet e with rest edge matrix Dm = [X1-X0, X2-X0, X3-X0]:
+//   Ds = [x1-x0, x2-x0, x3-x0],  F = Ds Dm^-1,
+//   H = [h1 h2 h3] = -V0 P(F) Dm^-T,
+//   f1 += h1, f2 += h2, f3 += h3, f0 += -(h1 + h2 + h3),
+// which is f = -dE/dx for E = sum_e V0_e Psi(F_e).
+//
+// x and f are nverts x 3 in the caller's vertex order; f is overwritten,
+// never accumulated. Forces are bitwise identical for any thread count
+// with every scatter strategy except EK_SCATTER_ATOMIC.
+#ifndef EK_FVM_H
+#define EK_FVM_H
+
+#include <stddef.h>
+
+#include "core.h"
+#include "material.h"
+#include "mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Error budgets of the force kernels against the double reference:
+//   max_i |f_i - f_ref_i| / max_i s_i,
+// where s_i = sum over the contributions to component i of their absolute
+// values (the cancellation-free size of the sum; forces at rest are 0 and a
+// plain relative error would be meaningless there). Inherits the stress
+// budget (EK_PK1_TOL_*) and valid where that one is.
+#define EK_FVM_TOL_F32 1e-4
+#define EK_FVM_TOL_F64 1e-10
+// The double reference against central differences of its own energy
+// (forces = -dE/dx), same norm; bounded by the differencing, not by the
+// kernel.
+#define EK_FVM_FD_TOL 1e-8
+
+// How per-tet forces are summed into vertices.
+//   COLORED: tets are greedily coloured so that tets of one colour share no
+//     vertex; blocks of one colour run in parallel and add straight into f.
+//   THREAD_BUFFERS: the blocks are cut into EK_FVM_PARTS fixed parts, each
+//     with its own force buffer; threads take parts, then the buffers are
+//     summed in part order (fixed parts, so any thread count gives the
+//     same bits).
+//   GATHER: tet corner forces are written to a scratch array, then each
+//     vertex sums its (tet, corner) list in a fixed order.
+//   ATOMIC: the baseline: one parallel loop adding with atomics; the
+//     summation order depends on the schedule, so the bits may change from
+//     run to run (non-deterministic).
+//   AUTO: THREAD_BUFFERS, the fastest in ek-bench on the 2-core Zen 3
+//     machine at 1e4..1e6 tets (it runs over the Morton tet order; the
+//     colour-major order of COLORED sweeps the whole vertex array once per
+//     colour, which costs most on meshes beyond the L2 cache).
+typedef enum {
+  EK_SCATTER_AUTO = 0,
+  EK_SCATTER_COLORED,
+  EK_SCATTER_THREAD_BUFFERS,
+  EK_SCATTER_GATHER,
+  EK_SCATTER_ATOMIC,
+  EK_SCATTER_COUNT
+} ek_scatter;
+
+#define EK_FVM_PARTS 4
+
+// Name of a strategy ("auto", "colored", "thread_buffers", "gather",
+// "atomic"); "invalid" for others.
+const char *ek_scatter_name(ek_scatter s);
+
+// Seconds spent per phase when ek_fvm_opts.phase_times is set. The phases
+// then run as separate passes over the mesh with their results stored in
+// between (F; SVD/polar; P; H and scatter), which is slower than the fused
+// kernel used otherwise: the split says where time goes, the fused total is
+// the kernel's real cost. svd is 0 for models that need none. P is the
+// material's own stress evaluation and includes the SVD it needs.
+typedef struct {
+  double deformation_gradient;
+  double svd;
+  double pk1;
+  double scatter;
+} ek_fvm_phase_times;
+
+// Options; zero means default.
+//   scatter: strategy (AUTO = THREAD_BUFFERS).
+//   isa: EK_ISA_AUTO or a forced target (one the CPU lacks gives EK_EISA).
+//   svd_sweeps, svd_exact_rsqrt: as in ek_svd3_opts (used by models that
+//     take an SVD: fixed corotated, ARAP, clamped models).
+//   R: ntets x 9 row-major rotations in caller tet order; read only for
+//     EK_MODEL_COROTATED_LINEAR (required there, seed 000).
+//   J, sigma_min, psi: optional per-tet outputs (ntets each, caller tet
+//     order): det F, the smallest signed singular value of F, and the
+//     energy density Psi(F) (per unit rest volume). Computed in double from
+//     x by a separate pass (they feed output frames, not the force).
+//   phase_times: when non-NULL, run the phases separately and report them.
+typedef struct {
+  ek_scatter scatter;
+  ek_isa isa;
+  int svd_sweeps;
+  int svd_exact_rsqrt;
+  const double *R;
+  double *J;
+  double *sigma_min;
+  double *psi;
+  ek_fvm_phase_times *phase_times;
+} ek_fvm_opts;
+
+// f = -dE/dx for E = sum_e V0_e Psi(F_e); x, f: nverts x 3.
+// 0 on success, < 0 on error (invalid material, NULL pointer, R missing for
+// corotated linear, unavailable ISA); f untouched on error. Elements outside
+// the model's domain (neo-Hookean with J <= 0 and no clamp) give NaN forces
+// at their vertices, as ek_pk1_* gives NaN stress.
+int ek_fvm_forces_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f);
+int ek_fvm_forces_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f);
+int ek_fvm_forces_ex_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f,
+                         const ek_fvm_opts *opts);
+int ek_fvm_forces_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f,
+                         const ek_fvm_opts *opts);
+
+// E = sum_e V0_e Psi(F_e), summed in a fixed order. R as in ek_fvm_opts
+// (ntets x 9, caller order; only corotated linear reads it, NULL
+// otherwise). NaN on an invalid argument (message in ek_last_error); +inf
+// when an element is outside the model's domain.
+double ek_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x);
+double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
+                            const double *R);
+
+// Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
+// tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
+int ek_fvm_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

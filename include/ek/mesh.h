@@ -1,0 +1,95 @@
+// Tetrahedral meshes: creation, validation, loading, and the precomputed
+// rest-shape data the FVM force kernel reads (Teran et al. 2003, seed 004).
+//
+// Vertex and tet order: every array the API takes or returns is in the
+// caller's order (the order of the file, of ek_mesh_create's arrays, or of
+// ek_mesh_box). The mesh reorders tets internally (Morton order of the
+// centroids, then a greedy colouring) for locality and vectorisation; that
+// order never leaks out.
+//
+// Validation (the same for files, ek_mesh_create and the box generator):
+//   - coordinates must be finite;
+//   - vertex indices in range, at least 4 distinct vertices used;
+//   - a tet with a repeated vertex, or with 6V <= EK_MESH_DEGENERATE_REL *
+//     (longest edge)^3, is degenerate and refused;
+//   - a tet with negative volume (det Dm < 0) is inverted and refused unless
+//     fix_orientation is set, in which case its vertices 1 and 2 are swapped
+//     (the swap is visible through ek_mesh_tets and counted by
+//     ek_mesh_nfixed).
+// Errors name the file, the line (or the element index for in-memory
+// meshes) and the offending value; a mesh never half-loads: on error the
+// functions return NULL and write the message into err (when err != NULL,
+// truncated to errlen).
+#ifndef EK_MESH_H
+#define EK_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ek_mesh ek_mesh;
+
+// Degeneracy threshold: a tet is degenerate when
+// 6 |V| <= EK_MESH_DEGENERATE_REL * (longest edge)^3.
+#define EK_MESH_DEGENERATE_REL 1e-12
+
+// Accuracy of the precomputed rest data (asserted by tests/test_mesh.c):
+//   |Dm Dm^-1 - I|_max <= EK_MESH_TOL * |Dm|_max |Dm^-1|_max (a bound
+//   scaled by the condition of Dm, as any inverse's is), and
+//   |V0 - det(Dm)/6| <= EK_MESH_TOL * |V0|.
+#define EK_MESH_TOL 1e-13
+
+// Options of the loaders and of ek_mesh_create_ex; zero means default.
+//   fix_orientation: 0 (default) refuses inverted rest tets; 1 swaps their
+//   vertices 1 and 2 so that every rest volume is positive.
+typedef struct {
+  int fix_orientation;
+} ek_mesh_opts;
+
+// X: nverts x 3 rest positions; tets: ntets x 4 vertex indices (0-based).
+ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                        char *err, size_t errlen);
+ek_mesh *ek_mesh_create_ex(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                           const ek_mesh_opts *opts, char *err, size_t errlen);
+
+// path: a TetGen base name ("bar" -> bar.node + bar.ele), either of the
+// .node/.ele files, or a Gmsh .msh file (ASCII v2 or v4; only tetrahedra,
+// element type 4, become elements, other element types are skipped).
+// TetGen indices are 0- or 1-based as the .node file's first index says.
+ek_mesh *ek_mesh_load(const char *path, char *err, size_t errlen);
+ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen);
+
+// A box [0,lx] x [0,ly] x [0,lz] of nx*ny*nz cubes, each split into 6 tets
+// around its main diagonal (Kuhn / Freudenthal split, so faces of
+// neighbouring cubes match). (nx+1)(ny+1)(nz+1) vertices, x fastest;
+// 6 nx ny nz tets, all positive. nx, ny, nz >= 1, lengths > 0 and finite.
+ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
+                     size_t errlen);
+
+void ek_mesh_destroy(ek_mesh *m);
+
+// Accessors (caller order). Pointers stay valid until ek_mesh_destroy.
+size_t ek_mesh_nverts(const ek_mesh *m);
+size_t ek_mesh_ntets(const ek_mesh *m);
+const double *ek_mesh_rest_positions(const ek_mesh *m); // nverts x 3
+const int32_t *ek_mesh_tets(const ek_mesh *m);          // ntets x 4 (after fixes)
+const double *ek_mesh_rest_volumes(const ek_mesh *m);   // ntets, V0 = det(Dm) / 6 > 0
+const double *ek_mesh_dm_inv(const ek_mesh *m);         // ntets x 9, row-major Dm^-1
+// Per vertex: sum of V0/4 over its tets (lumped mass = density * this).
+const double *ek_mesh_lumped_volume(const ek_mesh *m);
+// Colours of the internal greedy colouring (tets of one colour share no
+// vertex) and tets whose orientation was fixed.
+int ek_mesh_ncolors(const ek_mesh *m);
+size_t ek_mesh_nfixed(const ek_mesh *m);
+// Shortest edge of the rest mesh (for a CFL time-step estimate).
+double ek_mesh_min_edge(const ek_mesh *m);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,254 @@
+// ek simulation: scene files, the explicit loop and HDF5 frames.
+//
+// A scene (JSON, parsed by ek_scene_load) names a mesh (file or box
+// generator), a material, the precision of the force kernel, the SVD knobs,
+// boundary conditions, gravity, a ground plane, damping, the time step and
+// the output. Axes: z is up; the ground is the plane z = height.
+//
+// The explicit loop (ek_sim_*) is symplectic Euler with the FVM force of
+// fvm.h (Teran et al. 2003, seed 004):
+//   v += dt M^-1 (f(x) + M g - c M v);  x += dt v
+// with lumped masses M, mass-proportional damping c, pinned and prescribed
+// vertices and a friction-free ground (position projected onto the plane,
+// normal velocity into the ground zeroed). Positions and velocities are kept
+// in double; the force kernel runs in the scene's precision (f32 converts x
+// to float once per step). Corotated linear refreshes R^n per tet from the
+// positions at the start of every step (seed 000: R^n = polar(F^n)).
+//
+// Scene file keys (required ones marked *; every other key is an error):
+//   description   free text
+//   mesh*         {"file": PATH} (TetGen/Gmsh, relative to the scene file;
+//                 "fix_orientation": bool) or {"box": [nx,ny,nz],
+//                 "size": [lx,ly,lz]} (ek_mesh_box, origin at 0)
+//   initial       {"scale": [3], "translate": [3], "velocity": [3]}
+//   material*     {"model": NAME, "E", "nu" | "mu", "lambda", "density"*,
+//                 "clamp"}; NAME one of linear, stvk, corotated_linear,
+//                 fixed_corotated, arap, psi_r, neo_hookean,
+//                 stable_neo_hookean (or ek_model_name's short names)
+//   precision     "f32" | "f64" (default f64)
+//   isa           "auto" | "scalar" | "avx2" | "avx512" (all kernels)
+//   scatter       "auto" | "colored" | "thread_buffers" | "gather" | "atomic"
+//   svd           {"sweeps": 0..8, "rsqrt": "default"|"exact"|"approximate"}
+//   boundary      [{"type": "pin"|"twist"|"stretch", "region": {"min": [3],
+//                 "max": [3]}, twist: "axis", "center", "rate"; stretch:
+//                 "velocity"; both: "until", "release"}]
+//   gravity       [3], m/s^2 (default 0)
+//   ground        {"height": z}
+//   damping       c >= 0, 1/s (default 0)
+//   dt*, steps*   seconds, count
+//   output        {"file": PATH.h5 (relative to the working directory),
+//                 "every": N (default 1)}
+//
+// Frames (ek_frames_*): one HDF5 file with the rest mesh once and, per
+// output frame, positions and per-tet fields (J, smallest singular value,
+// energy density) and the time, flushed every frame, plus an XDMF file beside
+// it (same name, extension .xmf, the XDMF extension ParaView
+// also reads) so ParaView opens the time series.
+#ifndef EK_SIM_H
+#define EK_SIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core.h"
+#include "fvm.h"
+#include "material.h"
+#include "mesh.h"
+#include "svd3.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define EK_SCENE_PATH_MAX 1024
+#define EK_SCENE_MAX_BC 16
+
+// Invariants checked by tests/test_sim_explicit.c (named here, never
+// literals in test bodies).
+//
+// Undamped, unpinned, gravity-free body, 1000 steps at dt = 0.02 h_min / c:
+// max_t |E(t) - E(0)| / E(0), E = kinetic + elastic (from the rest shape,
+// see ek_sim_energy).
+// Symplectic Euler conserves a modified energy; for a harmonic mode of
+// frequency omega the difference is (dt/2) omega^2 |x v| <= (dt omega / 2) E
+// (Hairer, Lubich, Wanner, Geometric Numerical Integration, sec. IX.3), so
+// the error is bounded, not drifting. With the CFL estimate of the fastest
+// mode, omega_max = 2 c / h_min (dt_crit = 2 / omega_max = h_min / c), the
+// bound is dt c / h_min = 0.02.
+#define EK_SIM_ENERGY_TOL 2e-2
+#define EK_SIM_ENERGY_DT_CFL 0.02
+// Same run: |sum m v(t) - sum m v(0)| / sum m |v|(0 or t, the larger):
+// internal forces sum to zero per tet, so momentum is kept to rounding.
+#define EK_SIM_MOMENTUM_TOL_F64 1e-10
+// Cantilever under gravity, damped to rest: |delta - delta_EB| / delta_EB,
+// delta_EB = q L^4 / (8 E I) (Euler-Bernoulli, uniform load q).
+#define EK_SIM_CANTILEVER_TOL 0.05
+// Crushed and released cube (invertible model): |V - V0| / V0 at rest.
+#define EK_SIM_VOLUME_TOL 0.01
+
+// Return code of ek_sim_step when an element left the model's domain (J <= 0
+// for neo-Hookean without clamp): the step is not applied, the message names
+// the step, the number of inverted tets and the first one.
+#define EK_SIM_EINVERTED (-10)
+
+// ---------------------------------------------------------------- scenes
+
+typedef enum {
+  EK_BC_PIN,     // held at the initial position
+  EK_BC_TWIST,   // rotated about an axis at `rate` rad/s
+  EK_BC_STRETCH, // moved at a constant `velocity`
+} ek_bc_kind;
+
+// A boundary condition on the vertices whose rest position lies in the
+// axis-aligned box [box_min, box_max] (inclusive, with a tolerance of 1e-9
+// of the mesh's bounding-box diagonal). Motions start from the initial
+// positions and run while t < until; afterwards the vertices are held where
+// the motion left them, or released (free) when `release` is set.
+typedef struct {
+  ek_bc_kind kind;
+  double box_min[3], box_max[3];
+  double axis[3];     // twist: unit axis direction
+  double center[3];   // twist: a point on the axis
+  double rate;        // twist: angular velocity, rad/s
+  double velocity[3]; // stretch: m/s
+  double until;       // seconds; INFINITY = for the whole run
+  int release;
+} ek_scene_bc;
+
+typedef struct {
+  char path[EK_SCENE_PATH_MAX]; // the scene file as given
+  // Mesh: a file (resolved relative to the scene's directory), or the box
+  // generator when mesh_file is empty.
+  char mesh_file[EK_SCENE_PATH_MAX];
+  int box_cells[3];
+  double box_size[3];
+  int fix_orientation;
+  // Initial state from the rest shape: scaled about the bounding-box centre,
+  // then translated; uniform initial velocity.
+  double init_scale[3], init_translate[3], init_velocity[3];
+  // Material.
+  char model_name[32];
+  ek_material material;  // mu, lambda (from E, nu when given so), clamp
+  double density;        // kg/m^3
+  double young, poisson; // as given, NAN when mu, lambda were given
+  // Kernels.
+  int precision;    // 32 or 64
+  ek_svd3_opts svd; // svd.isa is the scene's "isa": every kernel's target
+  ek_scatter scatter;
+  // Loads and constraints.
+  int nbc;
+  ek_scene_bc bc[EK_SCENE_MAX_BC];
+  double gravity[3];
+  int has_ground;
+  double ground_height;
+  double damping; // c of the mass-proportional damping force -c m v, 1/s
+  double dt;
+  long steps;
+  // Output ("" = none): frames every output_every steps (and the first).
+  char output_file[EK_SCENE_PATH_MAX];
+  long output_every;
+} ek_scene;
+
+// Parse a scene file. 0 on success; < 0 with err naming the file, the key
+// path and the value ("scenes/beam.json: material.nu = 0.5: Poisson ratio
+// must be < 0.5"). Unknown keys are errors. *scene is fully written on
+// success and left unspecified on error.
+int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen);
+// Same from text in memory; `name` is used in messages, `base_dir` resolves a
+// relative mesh file ("." when NULL).
+int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene,
+                   char *err, size_t errlen);
+// Build (generate or load) the scene's mesh. NULL with err on failure.
+ek_mesh *ek_scene_mesh(const ek_scene *scene, char *err, size_t errlen);
+// "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
+const char *ek_scene_model_name(ek_model model);
+int ek_scene_model_from_name(const char *name, ek_model *model);
+
+// ---------------------------------------------------------------- loop
+
+typedef struct ek_sim ek_sim;
+
+// Wall-clock seconds spent per phase, summed over steps. The force phases
+// (deformation gradient, SVD/polar, P, scatter) come from the FVM kernel's
+// phase-timed form (separate passes), used only when timing is requested;
+// `forces` is the fused kernel's time otherwise. `integration` covers the
+// velocity/position update, boundary conditions and ground; `polar_refresh`
+// corotated linear's R^n.
+typedef struct {
+  double deformation_gradient, svd_polar, pk1, scatter; // phase-timed steps only
+  double forces;                                        // fused force kernel (all steps)
+  double polar_refresh;                                 // corotated linear R^n
+  double integration;
+  long steps, phase_timed_steps;
+} ek_sim_times;
+
+typedef struct {
+  double kinetic, elastic, potential; // potential: gravity, -sum m g.x
+} ek_sim_energies;
+
+// Build the simulation of a scene on a mesh (the caller keeps the mesh alive
+// and destroys it after the sim). NULL with err on failure.
+ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
+void ek_sim_destroy(ek_sim *sim);
+// Advance one step. 0, EK_SIM_EINVERTED or < 0 (message in
+// ek_sim_last_error); on error the state is left as it was before the step.
+int ek_sim_step(ek_sim *sim);
+const char *ek_sim_last_error(const ek_sim *sim);
+// Tets with J <= 0 in the current state.
+size_t ek_sim_inverted_count(const ek_sim *sim);
+// Ask for the per-phase split on the next steps (costs extra passes).
+void ek_sim_time_phases(ek_sim *sim, int on);
+const ek_sim_times *ek_sim_timings(const ek_sim *sim);
+double ek_sim_time(const ek_sim *sim);
+long ek_sim_steps_done(const ek_sim *sim);
+const double *ek_sim_positions(const ek_sim *sim); // nverts x 3, caller order
+const double *ek_sim_velocities(const ek_sim *sim);
+const double *ek_sim_masses(const ek_sim *sim); // nverts
+// Kinetic, elastic and gravity potential energy of the current state. The
+// elastic energy is measured from the rest shape, E(x) - E(X)
+// (ek_fvm_energy_ex_f64; corotated linear with the current R^n), as some
+// models (stable neo-Hookean) are not 0 at rest.
+int ek_sim_energy(const ek_sim *sim, ek_sim_energies *e);
+void ek_sim_momentum(const ek_sim *sim, double p[3]);
+// Sum of signed tet volumes of the current positions.
+double ek_sim_volume(const ek_sim *sim);
+// Largest stable-looking step by the CFL rule h_min / c, c the dilatational
+// wave speed sqrt((lambda + 2 mu) / rho), h_min the smallest tet height.
+double ek_sim_cfl_dt(const ek_sim *sim);
+// Per-tet fields of the current state, caller tet order (any may be NULL):
+// J = det F, smallest signed singular value of F, energy density Psi(F).
+int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
+// Number of vertices held by a boundary condition right now.
+size_t ek_sim_constrained_count(const ek_sim *sim);
+
+// ---------------------------------------------------------------- frames
+
+typedef struct ek_frames ek_frames;
+
+// Create `path` (HDF5) and its XDMF companion and write the rest mesh.
+// Refuses (NULL, err) if either exists unless `force`. Layout:
+//   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
+//   /frames/time     nframes double        /frames/step nframes int64
+//   /frames/positions nframes x nverts x 3 double
+//   /frames/J, /frames/smin, /frames/energy_density  nframes x ntets double
+// The file is written in HDF5's single-writer/multiple-reader mode and
+// flushed after each frame, so a killed writer leaves a consistent file; the
+// number of complete frames is the length of /frames/time (written last).
+// A file whose writer was killed opens with H5F_ACC_SWMR_READ (or after
+// `h5clear -s FILE`).
+ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
+                            size_t ntets, const int32_t *tets, char *err, size_t errlen);
+// Append one frame; J, smin, psi may be NULL (written as NaN).
+int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
+                    const double *smin, const double *psi, char *err, size_t errlen);
+long ek_frames_count(const ek_frames *fr);
+// Close the file (and the final XDMF). 0 on success.
+int ek_frames_close(ek_frames *fr, char *err, size_t errlen);
+// Path of the XDMF companion of an HDF5 path (".h5" replaced by ".xmf", or
+// ".xmf" appended).
+void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,468 @@
+// FVM force driver (public ek_fvm_* API): argument checks, dispatch, and
+// the scatter strategies, which own the OpenMP loops (the block kernel in
+// fvm_block.c does one range of blocks). Built once per precision.
+//
+// Determinism: COLORED, THREAD_BUFFERS and GATHER sum every vertex's
+// contributions in an order fixed by the mesh alone (colour order; part
+// order with EK_FVM_PARTS fixed parts; slot order), so the result has the
+// same bits for any thread count. ATOMIC does not.
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ek/fvm.h>
+#include <ek/svd3.h>
+
+#include "../../sim/mesh_internal.h"
+#include "../kernels.h"
+#include "../real.h"
+#include "fvm_kernel.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_fvm_args_f32 fvm_args;
+#define KERNEL(t) ((t)->fvm_block_f32)
+#define F_KERNEL(t) ((t)->fvm_F_block_f32)
+#define BL_IDX(bl) ((bl)->idx_f32)
+#define BL_DMI(bl) ((bl)->dm_inv_f32)
+#define BL_V0(bl) ((bl)->v0_f32)
+#else
+typedef struct ek_fvm_args_f64 fvm_args;
+#define KERNEL(t) ((t)->fvm_block_f64)
+#define F_KERNEL(t) ((t)->fvm_F_block_f64)
+#define BL_IDX(bl) ((bl)->idx_f64)
+#define BL_DMI(bl) ((bl)->dm_inv_f64)
+#define BL_V0(bl) ((bl)->v0_f64)
+#endif
+#define L EK_LANES
+
+// Scratch reused across calls from one calling thread (forces are called
+// every step; allocating and faulting in tens of MB each time would cost
+// more than the kernel). Grows, never shrinks; freed at thread exit never.
+static _Thread_local struct {
+  void *p;
+  size_t bytes;
+} scratch[3];
+
+static real *scratch_get(int which, size_t bytes) {
+  if (scratch[which].bytes < bytes) {
+    ek_free(scratch[which].p);
+    scratch[which].p = ek_alloc(bytes);
+    scratch[which].bytes = scratch[which].p ? bytes : 0;
+  }
+  return scratch[which].p;
+}
+
+// Contiguous share [*lo, *hi) of [b0, b1) for thread t of nt.
+static void share(size_t b0, size_t b1, int t, int nt, size_t *lo, size_t *hi) {
+  size_t n = b1 - b0;
+  *lo = b0 + n * (size_t)t / (size_t)nt;
+  *hi = b0 + n * (size_t)(t + 1) / (size_t)nt;
+}
+
+static void zero_forces(real *f, size_t n) {
+#pragma omp for schedule(static)
+  for (size_t i = 0; i < n; i++)
+    f[i] = 0;
+}
+
+// COLORED: blocks of one colour share no vertex, so threads split each
+// colour's blocks and add straight into f; a barrier between colours.
+static void scatter_colored(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
+  a.f = f;
+  a.corner = NULL;
+#pragma omp parallel
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    zero_forces(f, m->nverts * 3);
+    for (int c = 0; c < m->ncolors; c++) {
+      size_t lo, hi;
+      share(m->color_slot_start[c] / L, m->color_slot_start[c + 1] / L, t, nt, &lo, &hi);
+      if (lo < hi)
+        KERNEL(kt)(&a, lo, hi);
+#pragma omp barrier
+    }
+  }
+}
+
+// THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one force
+// buffer each; threads take parts round-robin, then f = sum of the buffers
+// in part order (parallel over vertices).
+static int scatter_buffers(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
+  size_t n = m->nverts * 3, nb = m->morton.nslots / L;
+  real *buf = scratch_get(0, EK_FVM_PARTS * n * sizeof(real));
+  if (!buf)
+    return EK_ENOMEM;
+  a.corner = NULL;
+#pragma omp parallel
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    for (int p = t; p < EK_FVM_PARTS; p += nt) {
+      fvm_args ap = a;
+      ap.f = buf + (size_t)p * n;
+      memset(ap.f, 0, n * sizeof(real));
+      size_t lo, hi;
+      share(0, nb, p, EK_FVM_PARTS, &lo, &hi);
+      if (lo < hi)
+        KERNEL(kt)(&ap, lo, hi);
+    }
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+      real s = buf[i];
+      for (int p = 1; p < EK_FVM_PARTS; p++)
+        s += buf[(size_t)p * n + i];
+      f[i] = s;
+    }
+  }
+  return EK_OK;
+}
+
+// GATHER: corner forces of every tet into a scratch array, then each
+// vertex sums its (slot, corner) list in ascending order.
+static int scatter_gather(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
+  size_t nb = m->morton.nslots / L;
+  real *corner = scratch_get(1, nb * 12 * L * sizeof(real));
+  if (!corner)
+    return EK_ENOMEM;
+  a.f = NULL;
+  a.corner = corner;
+#pragma omp parallel
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    size_t lo, hi;
+    share(0, nb, t, nt, &lo, &hi);
+    if (lo < hi)
+      KERNEL(kt)(&a, lo, hi);
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (size_t v = 0; v < m->nverts; v++) {
+      real s0 = 0, s1 = 0, s2 = 0;
+      for (int32_t e = m->vert_start[v]; e < m->vert_start[v + 1]; e++) {
+        size_t slot = (size_t)m->vert_entries[e] >> 2, c = (size_t)m->vert_entries[e] & 3;
+        const real *h = corner + ((slot / L) * 12 + c * 3) * L + slot % L;
+        s0 += h[0];
+        s1 += h[L];
+        s2 += h[2 * L];
+      }
+      f[v * 3 + 0] = s0;
+      f[v * 3 + 1] = s1;
+      f[v * 3 + 2] = s2;
+    }
+  }
+  return EK_OK;
+}
+
+// ATOMIC (baseline): one parallel loop over all blocks; each thread
+// computes corner forces for a chunk into its own small buffer and adds
+// them with atomics. The order of the additions depends on the schedule:
+// not deterministic.
+#define ATOMIC_CHUNK 64
+static int scatter_atomic(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
+  size_t nb = m->morton.nslots / L;
+  int err = 0;
+#pragma omp parallel
+  {
+    real *corner = ek_alloc(ATOMIC_CHUNK * 12 * L * sizeof(real));
+    if (!corner) {
+#pragma omp atomic write
+      err = 1;
+    }
+    zero_forces(f, m->nverts * 3);
+    fvm_args at = a;
+    at.f = NULL;
+    at.corner = corner;
+#pragma omp for schedule(static)
+    for (size_t b0 = 0; b0 < nb; b0 += ATOMIC_CHUNK) {
+      if (!corner)
+        continue;
+      size_t b1 = b0 + ATOMIC_CHUNK < nb ? b0 + ATOMIC_CHUNK : nb;
+      // The kernel writes block b at corner + b*12*L: shift the base so
+      // block b0 lands at the start of the chunk buffer.
+      at.corner = corner - b0 * 12 * L;
+      KERNEL(kt)(&at, b0, b1);
+      for (size_t b = b0; b < b1; b++) {
+        const int32_t *idx = BL_IDX(&m->morton) + b * 4 * L;
+        const real *h = corner + (b - b0) * 12 * L;
+        for (int l = 0; l < L; l++) {
+          if (idx[l] < 0)
+            continue;
+          for (int c = 0; c < 4; c++)
+            for (int i = 0; i < 3; i++) {
+              real *dst = f + (size_t)idx[c * L + l] * 3 + i;
+              real val = h[(c * 3 + i) * L + l];
+#pragma omp atomic update
+              *dst += val;
+            }
+        }
+      }
+    }
+    ek_free(corner);
+  }
+  return err ? EK_ENOMEM : EK_OK;
+}
+
+// F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
+// from positions in the working precision.
+static void tet_F_f64(const ek_mesh *m, const real *x, double *F) {
+#pragma omp parallel for schedule(static)
+  for (size_t e = 0; e < m->ntets; e++) {
+    const int32_t *t = m->tets + e * 4;
+    const double *Dmi = m->Dm_inv + e * 9;
+    double Ds[9];
+    for (int c = 0; c < 3; c++)
+      for (int i = 0; i < 3; i++)
+        Ds[i * 3 + c] = (double)x[(size_t)t[c + 1] * 3 + i] - (double)x[(size_t)t[0] * 3 + i];
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < 3; j++)
+        F[e * 9 + i * 3 + j] = Ds[i * 3 + 0] * Dmi[0 * 3 + j] + Ds[i * 3 + 1] * Dmi[1 * 3 + j] +
+                               Ds[i * 3 + 2] * Dmi[2 * 3 + j];
+  }
+}
+
+// Per-tet output fields (ek_fvm_opts J, sigma_min, psi), in double.
+static int tet_fields(const ek_mesh *m, const ek_material *mat, const real *x, const double *R,
+                      double *J, double *sigma_min, double *psi) {
+  size_t n = m->ntets;
+  double *F = malloc(n * 9 * sizeof(double));
+  double *S = sigma_min ? malloc(n * 3 * sizeof(double)) : NULL;
+  if (!F || (sigma_min && !S)) {
+    free(F);
+    free(S);
+    ek_set_error("ek_fvm_forces: out of memory for per-tet fields");
+    return EK_ENOMEM;
+  }
+  tet_F_f64(m, x, F);
+  int rc = EK_OK;
+  if (J)
+    for (size_t e = 0; e < n; e++) {
+      const double *A = F + e * 9;
+      J[e] = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
+             A[2] * (A[3] * A[7] - A[4] * A[6]);
+    }
+  if (sigma_min) {
+    rc = ek_svd3_f64(n, F, NULL, S, NULL, NULL);
+    if (rc >= 0)
+      for (size_t e = 0; e < n; e++)
+        sigma_min[e] = S[e * 3 + 2];
+  }
+  if (psi && rc >= 0) {
+    int r2 = ek_energy_f64(mat, n, F, R, psi);
+    rc = r2 < 0 ? r2 : EK_OK;
+  }
+  free(F);
+  free(S);
+  return rc < 0 ? rc : EK_OK;
+}
+
+static double now(void) { return omp_get_wtime(); }
+
+// Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
+// for models that need one), P pass through the material API, then H and
+// scatter from the stored P with the chosen strategy.
+static int run_strategy(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f,
+                        ek_scatter s);
+
+// The slot order a strategy runs over (sim/mesh_internal.h): the colour-
+// major one for COLORED, the Morton one for the others.
+static const ek_mesh_blocks *blocks_for(const ek_mesh *m, ek_scatter s) {
+  return s == EK_SCATTER_COLORED ? &m->colored : &m->morton;
+}
+
+static fvm_args args_for(fvm_args a, const ek_mesh_blocks *bl) {
+  a.idx = BL_IDX(bl);
+  a.dm_inv = BL_DMI(bl);
+  a.v0 = BL_V0(bl);
+  a.slot_tet = bl->slot_tet;
+  return a;
+}
+
+static int phased(const ek_kernel_table *kt, const ek_mesh *m, const ek_material *mat, fvm_args a,
+                  real *f, ek_scatter s, const ek_svd3_opts *so, ek_isa isa,
+                  ek_fvm_phase_times *pt) {
+  const ek_mesh_blocks *bl = blocks_for(m, s);
+  a = args_for(a, bl);
+  size_t nb = bl->nslots / L;
+  real *F = scratch_get(2, nb * 9 * L * 3 * sizeof(real));
+  if (!F)
+    return EK_ENOMEM;
+  real *P = F + nb * 9 * L, *R = P + nb * 9 * L;
+  memset(pt, 0, sizeof *pt);
+
+  double t0 = now();
+#pragma omp parallel
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    size_t lo, hi;
+    share(0, nb, t, nt, &lo, &hi);
+    if (lo < hi)
+      F_KERNEL(kt)(&a, lo, hi, F);
+  }
+  double t1 = now();
+  pt->deformation_gradient = t1 - t0;
+
+  ek_model_needs need = ek_model_need(mat->model, mat->clamp);
+  if (need == EK_NEEDS_POLAR) {
+    int rc = EK_P(polar3_aosoa)(nb, F, R, NULL, so);
+    if (rc < 0)
+      return rc;
+  }
+  double t2 = now();
+  pt->svd = need == EK_NEEDS_POLAR ? t2 - t1 : 0;
+
+  if (mat->model == EK_MODEL_COROTATED_LINEAR) {
+    // The given rotations, caller order -> slot blocks (identity padding).
+    for (size_t sl = 0; sl < bl->nslots; sl++) {
+      int32_t t = bl->slot_tet[sl];
+      for (int k = 0; k < 9; k++)
+        R[((sl / L) * 9 + k) * L + sl % L] =
+            t >= 0 ? (real)a.R[(size_t)t * 9 + k] : (real)(k % 4 == 0);
+    }
+  }
+  double t3 = now();
+  int rc = EK_P(material_eval_aosoa)(mat, EK_MAT_PK1, isa, nb, F, R, NULL, P, 0);
+  if (rc < 0)
+    return rc;
+  double t4 = now();
+  pt->pk1 = t4 - t3;
+
+  a.P_in = P;
+  rc = run_strategy(kt, m, a, f, s);
+  pt->scatter = now() - t4;
+  return rc;
+}
+
+static int run_strategy(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f,
+                        ek_scatter s) {
+  a = args_for(a, blocks_for(m, s));
+  switch (s) {
+  case EK_SCATTER_COLORED:
+    scatter_colored(kt, m, a, f);
+    return EK_OK;
+  case EK_SCATTER_THREAD_BUFFERS:
+    return scatter_buffers(kt, m, a, f);
+  case EK_SCATTER_GATHER:
+    return scatter_gather(kt, m, a, f);
+  case EK_SCATTER_ATOMIC:
+    return scatter_atomic(kt, m, a, f);
+  default:
+    return EK_EINVAL;
+  }
+}
+
+int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x, real *f,
+                        const ek_fvm_opts *opts) {
+  static const char *fn = "ek_fvm_forces";
+  ek_fvm_opts o = {0};
+  if (opts)
+    o = *opts;
+  if (!m || !mat || !x || !f) {
+    ek_set_error("%s: NULL argument (mesh %p, material %p, x %p, f %p)", fn, (const void *)m,
+                 (const void *)mat, (const void *)x, (void *)f);
+    return EK_EINVAL;
+  }
+  int rc = ek_material_check(mat);
+  if (rc < 0)
+    return rc;
+  if (mat->model == EK_MODEL_COROTATED_LINEAR && !o.R) {
+    ek_set_error("%s: corotated linear needs per-tet rotations (opts->R is NULL)", fn);
+    return EK_EINVAL;
+  }
+  if ((unsigned)o.scatter >= EK_SCATTER_COUNT) {
+    ek_set_error("%s: scatter strategy %d is not a valid ek_scatter", fn, (int)o.scatter);
+    return EK_EINVAL;
+  }
+  if (o.svd_sweeps < 0 || o.svd_sweeps > 8 || o.svd_exact_rsqrt < -1 || o.svd_exact_rsqrt > 1) {
+    ek_set_error("%s: svd_sweeps %d (0..8) or svd_exact_rsqrt %d (-1..1) out of range", fn,
+                 o.svd_sweeps, o.svd_exact_rsqrt);
+    return EK_EINVAL;
+  }
+  ek_isa isa;
+  rc = ek_isa_resolve(o.isa, &isa);
+  if (rc < 0)
+    return rc;
+  const ek_kernel_table *kt = ek_kernels_for(isa);
+  if (!kt)
+    return EK_EISA;
+
+  ek_svd3_knobs knobs = EK_P(svd3_default_knobs)();
+  if (o.svd_sweeps)
+    knobs.sweeps = o.svd_sweeps;
+  if (o.svd_exact_rsqrt)
+    knobs.exact_rsqrt = o.svd_exact_rsqrt > 0;
+  // AUTO: see fvm.h for why thread buffers.
+  ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_THREAD_BUFFERS : o.scatter;
+
+  fvm_args a = {.R = o.R, .mat = mat, .svd = &knobs, .x = x};
+  if (o.phase_times) {
+    ek_svd3_opts so = {.sweeps = o.svd_sweeps, .exact_rsqrt = o.svd_exact_rsqrt, .isa = isa};
+    rc = phased(kt, m, mat, a, f, s, &so, isa, o.phase_times);
+  } else {
+    rc = run_strategy(kt, m, a, f, s);
+  }
+  if (rc == EK_ENOMEM)
+    ek_set_error("%s: out of memory for scratch buffers", fn);
+  if (rc < 0)
+    return rc;
+
+  if (o.J || o.sigma_min || o.psi)
+    return tet_fields(m, mat, x, o.R, o.J, o.sigma_min, o.psi);
+  return EK_OK;
+}
+
+int EK_P(fvm_forces)(const ek_mesh *m, const ek_material *mat, const real *x, real *f) {
+  return EK_P(fvm_forces_ex)(m, mat, x, f, NULL);
+}
+
+#if defined(EK_REAL_F64)
+// Precision-free entry points, built once (in the f64 instance).
+
+const char *ek_scatter_name(ek_scatter s) {
+  static const char *const names[EK_SCATTER_COUNT] = {"auto", "colored", "thread_buffers", "gather",
+                                                      "atomic"};
+  return (unsigned)s < EK_SCATTER_COUNT ? names[s] : "invalid";
+}
+
+int ek_fvm_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F) {
+  if (!m || !x || !F) {
+    ek_set_error("ek_fvm_deformation_gradients_f64: NULL argument");
+    return EK_EINVAL;
+  }
+  tet_F_f64(m, x, F);
+  return EK_OK;
+}
+
+double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
+                            const double *R) {
+  if (!m || !mat || !x) {
+    ek_set_error("ek_fvm_energy_f64: NULL argument");
+    return NAN;
+  }
+  if (mat->model == EK_MODEL_COROTATED_LINEAR && !R) {
+    ek_set_error("ek_fvm_energy_f64: corotated linear needs per-tet rotations (R is NULL)");
+    return NAN;
+  }
+  size_t n = m->ntets;
+  double *F = malloc(n * 10 * sizeof(double));
+  if (!F) {
+    ek_set_error("ek_fvm_energy_f64: out of memory");
+    return NAN;
+  }
+  double *psi = F + n * 9;
+  tet_F_f64(m, x, F);
+  int rc = ek_energy_f64(mat, n, F, R, psi);
+  double E = NAN;
+  if (rc >= 0) {
+    // E = sum_e V0_e psi(F_e) in caller tet order (fixed, thread-free).
+    E = 0;
+    for (size_t e = 0; e < n; e++)
+      E += m->V0[e] * psi[e];
+  }
+  free(F);
+  return E;
+}
+
+double ek_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x) {
+  return ek_fvm_energy_ex_f64(m, mat, x, NULL);
+}
+#endif

@@ -1,0 +1,58 @@
+// Internal: arguments of the FVM block kernels (kernels/fvm/fvm_block.c),
+// shared by the kernel and its driver (kernels/fvm/fvm.c). One struct per
+// precision because the packed mesh planes and positions are in the working
+// precision.
+//
+// Blocks: AoSoA blocks of the mesh's slot order (sim/mesh_internal.h),
+// EK_LANES_F32 = 16 or EK_LANES_F64 = 8 tets per block; block b of the
+// packed planes: idx[(b*4 + c)*L + l], dm_inv[(b*9 + k)*L + l], v0[b*L + l].
+// Padding lanes have idx = -1; they are computed with F = I and never
+// written through.
+//
+// What one call does for blocks [b0, b1):
+//   P_in == NULL: gather x, F = Ds Dm^-1, P = material_pk1(F);
+//   P_in != NULL: read P from P_in (9 planes per block; phase-split mode);
+//   then H = -V0 P Dm^-T (Teran et al. 2003 sec. 4) and
+//   f != NULL:      add h1..h3 and -(h1+h2+h3) into f (caller vertex order,
+//                   nverts x 3), lane by lane in lane order; the caller
+//                   guarantees no other thread touches those vertices;
+//   corner != NULL: write the corner forces into corner[(b*12 + c*3 + i)*L
+//                   + l] (corner c = 0..3, component i) instead.
+#ifndef EK_FVM_KERNEL_H
+#define EK_FVM_KERNEL_H
+
+#include <ek/material.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../kernels.h"
+
+struct ek_fvm_args_f32 {
+  const int32_t *idx;
+  const float *dm_inv;
+  const float *v0;
+  const int32_t *slot_tet; // slot -> caller tet (for R), -1 = padding
+  const double *R;         // ntets x 9, caller order; corotated linear only
+  const ek_material *mat;
+  const ek_svd3_knobs *svd;
+  const float *x;
+  const float *P_in;
+  float *f;
+  float *corner;
+};
+
+struct ek_fvm_args_f64 {
+  const int32_t *idx;
+  const double *dm_inv;
+  const double *v0;
+  const int32_t *slot_tet;
+  const double *R;
+  const ek_material *mat;
+  const ek_svd3_knobs *svd;
+  const double *x;
+  const double *P_in;
+  double *f;
+  double *corner;
+};
+
+#endif

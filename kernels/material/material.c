@@ -1,0 +1,301 @@
+// Material driver (built once per precision, baseline ISA): checks the
+// arguments, resolves the kernel table, and runs the block kernel over
+// OpenMP chunks of blocks. The AoS forms pack each chunk into a per-thread
+// AoSoA buffer, call the kernel and unpack, so the kernels only ever see
+// whole blocks (tails padded with the identity for F and R, zero for dF).
+// Results do not depend on the thread count: each element is computed
+// alone, and the only reduction is an integer count.
+#include <ek/material.h>
+#include <limits.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../kernels.h"
+#include "../real.h"
+
+// Blocks per OpenMP work item / staging chunk (16 blocks of 16 floats: F,
+// dF and P of a chunk take 27 KB, a Hessian chunk 83 KB).
+#define CHUNK_BLOCKS 16
+
+static int out_planes(ek_material_op op) {
+  return op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+}
+
+static int check_params(const char *fn, const ek_material *m) {
+  if (!m) {
+    ek_set_error("%s: material is NULL", fn);
+    return EK_EINVAL;
+  }
+  if ((unsigned)m->model >= EK_MODEL_COUNT) {
+    ek_set_error("%s: model = %d is not an ek_model", fn, (int)m->model);
+    return EK_EINVAL;
+  }
+  if (!isfinite(m->mu) || !isfinite(m->lambda) || !isfinite(m->clamp)) {
+    ek_set_error("%s: non-finite parameter (mu = %g, lambda = %g, clamp = %g)", fn, m->mu,
+                 m->lambda, m->clamp);
+    return EK_EINVAL;
+  }
+  if (!(m->mu > 0)) {
+    ek_set_error("%s: mu = %g, must be > 0", fn, m->mu);
+    return EK_EINVAL;
+  }
+  if (!(m->lambda > -2 * m->mu / 3)) {
+    ek_set_error("%s: lambda = %g, must be > -2 mu / 3 = %g", fn, m->lambda, -2 * m->mu / 3);
+    return EK_EINVAL;
+  }
+  if (m->clamp < 0) {
+    ek_set_error("%s: clamp = %g, must be >= 0", fn, m->clamp);
+    return EK_EINVAL;
+  }
+  if (m->model == EK_MODEL_STABLE_NEO_HOOKEAN && m->lambda == 0) {
+    ek_set_error("%s: stable neo-Hookean needs lambda != 0 (a = 1 + 3 mu / (4 lambda))", fn);
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+static int check_call(const char *fn, const ek_material *m, ek_material_op op, size_t count,
+                      const real *F, const real *R, const real *dF, const real *out) {
+  int rc = check_params(fn, m);
+  if (rc)
+    return rc;
+  if ((unsigned)op > EK_MAT_HESSIAN) {
+    ek_set_error("%s: op = %d is not an ek_material_op", fn, (int)op);
+    return EK_EINVAL;
+  }
+  if (count == 0)
+    return EK_OK;
+  if (!F || !out) {
+    ek_set_error("%s: %s is NULL", fn, !F ? "F" : "the output array");
+    return EK_EINVAL;
+  }
+  if (m->model == EK_MODEL_COROTATED_LINEAR && !R) {
+    ek_set_error("%s: corotated linear needs R (got NULL)", fn);
+    return EK_EINVAL;
+  }
+  if (op == EK_MAT_PK1_DIFF && !dF) {
+    ek_set_error("%s: dF is NULL", fn);
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+static ek_material_knobs knobs_of(const ek_material *m, ek_material_op op, int project) {
+  return (ek_material_knobs){.model = (int)m->model,
+                             .op = (int)op,
+                             .project = project != 0,
+                             .mu = m->mu,
+                             .lambda = m->lambda,
+                             .clamp = m->clamp,
+                             .svd = EK_P(svd3_default_knobs)()};
+}
+
+// Elements outside the domain, read off the output (the kernel's own
+// decision, so the count agrees with what it wrote): psi = +inf or a NaN
+// first entry, for a finite F. Only neo-Hookean without clamp has any.
+static int outside(real value, ek_material_op op) {
+  return op == EK_MAT_ENERGY ? value == (real)INFINITY : isnan(value);
+}
+
+static int counts_domain(const ek_material *m) {
+  return m->model == EK_MODEL_NEO_HOOKEAN && !(m->clamp > 0);
+}
+
+static int entries_finite(const real *a, size_t stride, int n) {
+  for (int k = 0; k < n; k++)
+    if (!isfinite(a[k * stride]))
+      return 0;
+  return 1;
+}
+
+#if defined(EK_REAL_F32)
+#define KERNEL(t) ((t)->material_block_f32)
+#else
+#define KERNEL(t) ((t)->material_block_f64)
+#endif
+
+int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa isa, size_t nblocks,
+                              const real *F, const real *R, const real *dF, real *out,
+                              int project) {
+  static const char fn[] = "ek_material_eval_aosoa";
+  int rc = check_call(fn, m, op, nblocks, F, R, dF, out);
+  if (rc)
+    return rc;
+  const ek_kernel_table *t = ek_kernels_resolve(isa);
+  if (!t)
+    return EK_EISA;
+  if (nblocks == 0)
+    return 0;
+  ek_material_knobs k = knobs_of(m, op, project);
+  const int nout = out_planes(op), dom = counts_domain(m);
+  const size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+  long count = 0;
+#pragma omp parallel for schedule(static) reduction(+ : count)
+  for (size_t c = 0; c < nchunks; c++) {
+    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
+    const size_t in = b0 * 9 * EK_LANES;
+    real *o = out + b0 * (size_t)nout * EK_LANES;
+    KERNEL(t)(nb, F + in, R ? R + in : NULL, dF ? dF + in : NULL, o, &k);
+    if (dom)
+      for (size_t b = 0; b < nb; b++)
+        for (int l = 0; l < EK_LANES; l++)
+          count += outside(o[b * nout * EK_LANES + l], op) &&
+                   entries_finite(F + in + b * 9 * EK_LANES + l, EK_LANES, 9);
+  }
+  return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
+}
+
+int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
+                        const real *F, const real *R, const real *dF, real *out, int project) {
+  static const char fn[] = "ek_material_eval";
+  int rc = check_call(fn, m, op, n, F, R, dF, out);
+  if (rc)
+    return rc;
+  const ek_kernel_table *t = ek_kernels_resolve(isa);
+  if (!t)
+    return EK_EISA;
+  if (n == 0)
+    return 0;
+  ek_material_knobs k = knobs_of(m, op, project);
+  const int nout = out_planes(op), dom = counts_domain(m);
+  const int use_R = m->model == EK_MODEL_COROTATED_LINEAR, use_dF = op == EK_MAT_PK1_DIFF;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES; // elements per chunk
+  const size_t nchunks = (n + chunk - 1) / chunk;
+  // Staging buffers for every thread, allocated up front so a failure leaves
+  // the output untouched.
+  const int nthreads = omp_get_max_threads();
+  const size_t per_thread = chunk * (9 + (use_R ? 9 : 0) + (use_dF ? 9 : 0) + (size_t)nout);
+  real *buffers = ek_alloc((size_t)nthreads * per_thread * sizeof(real));
+  if (!buffers) {
+    ek_set_error("%s: out of memory (%zu bytes of staging)", fn,
+                 (size_t)nthreads * per_thread * sizeof(real));
+    return EK_ENOMEM;
+  }
+  long count = 0;
+#pragma omp parallel num_threads(nthreads) reduction(+ : count)
+  {
+    real *Fs = buffers + (size_t)omp_get_thread_num() * per_thread;
+    real *Rs = Fs + chunk * 9;
+    real *dFs = Rs + (use_R ? chunk * 9 : 0);
+    real *Os = dFs + (use_dF ? chunk * 9 : 0);
+#pragma omp for schedule(static)
+    for (size_t c = 0; c < nchunks; c++) {
+      const size_t e0 = c * chunk, ne = n - e0 < chunk ? n - e0 : chunk;
+      const size_t nb = (ne + EK_LANES - 1) / EK_LANES;
+      // Pack (AoSoA layout of batch.h), tails: identity F and R, zero dF.
+      for (size_t b = 0; b < nb; b++)
+        for (int l = 0; l < EK_LANES; l++) {
+          const size_t e = b * EK_LANES + (size_t)l;
+          for (int q = 0; q < 9; q++) {
+            const size_t s = (b * 9 + (size_t)q) * EK_LANES + (size_t)l;
+            const real id = q % 4 == 0 ? 1 : 0;
+            Fs[s] = e < ne ? F[(e0 + e) * 9 + (size_t)q] : id;
+            if (use_R)
+              Rs[s] = e < ne ? R[(e0 + e) * 9 + (size_t)q] : id;
+            if (use_dF)
+              dFs[s] = e < ne ? dF[(e0 + e) * 9 + (size_t)q] : 0;
+          }
+        }
+      KERNEL(t)(nb, Fs, use_R ? Rs : NULL, use_dF ? dFs : NULL, Os, &k);
+      for (size_t e = 0; e < ne; e++) {
+        const size_t b = e / EK_LANES, l = e % EK_LANES;
+        real *dst = out + (e0 + e) * (size_t)nout;
+        for (int q = 0; q < nout; q++)
+          dst[q] = Os[(b * (size_t)nout + (size_t)q) * EK_LANES + l];
+        if (dom)
+          count += outside(dst[0], op) && entries_finite(F + (e0 + e) * 9, 1, 9);
+      }
+    }
+  }
+  ek_free(buffers);
+  return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
+}
+
+int EK_P(pk1)(const ek_material *m, size_t n, const real *F, const real *R, real *P) {
+  return EK_P(material_eval)(m, EK_MAT_PK1, EK_ISA_AUTO, n, F, R, NULL, P, 0);
+}
+int EK_P(pk1_diff)(const ek_material *m, size_t n, const real *F, const real *R, const real *dF,
+                   real *dP, int project) {
+  return EK_P(material_eval)(m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, n, F, R, dF, dP, project);
+}
+int EK_P(pk1_hessian)(const ek_material *m, size_t n, const real *F, const real *R, real *H,
+                      int project) {
+  return EK_P(material_eval)(m, EK_MAT_HESSIAN, EK_ISA_AUTO, n, F, R, NULL, H, project);
+}
+int EK_P(pk1_aosoa)(const ek_material *m, size_t nblocks, const real *F, const real *R, real *P) {
+  return EK_P(material_eval_aosoa)(m, EK_MAT_PK1, EK_ISA_AUTO, nblocks, F, R, NULL, P, 0);
+}
+int EK_P(pk1_diff_aosoa)(const ek_material *m, size_t nblocks, const real *F, const real *R,
+                         const real *dF, real *dP, int project) {
+  return EK_P(material_eval_aosoa)(m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, nblocks, F, R, dF, dP, project);
+}
+
+#if defined(EK_REAL_F64)
+// Precision-free functions: built with the double driver only.
+int ek_energy_f64(const ek_material *m, size_t n, const double *F, const double *R, double *psi) {
+  return ek_material_eval_f64(m, EK_MAT_ENERGY, EK_ISA_AUTO, n, F, R, NULL, psi, 0);
+}
+
+int ek_material_check(const ek_material *m) { return check_params("ek_material_check", m); }
+
+const char *ek_model_name(ek_model model) {
+  static const char *const names[EK_MODEL_COUNT] = {
+      "linear", "stvk", "corot_linear", "fixed_corot", "arap", "psi_r", "nh", "snh"};
+  return (unsigned)model < EK_MODEL_COUNT ? names[model] : "invalid";
+}
+
+ek_model_needs ek_model_need(ek_model model, double clamp) {
+  switch (model) {
+  case EK_MODEL_COROTATED_LINEAR:
+    return EK_NEEDS_R_INPUT;
+  case EK_MODEL_FIXED_COROTATED:
+  case EK_MODEL_ARAP:
+    return EK_NEEDS_POLAR;
+  case EK_MODEL_NEO_HOOKEAN:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
+    return clamp > 0 ? EK_NEEDS_POLAR : EK_NEEDS_J;
+  default:
+    return EK_NEEDS_NOTHING;
+  }
+}
+
+// Lame parameters from Young's modulus and Poisson ratio (e.g. Sifakis &
+// Barbic 2012 course notes, ch. 3): the one place ek converts them.
+int ek_lame_from_young_poisson(double E, double nu, double *mu, double *lambda) {
+  if (!mu || !lambda) {
+    ek_set_error("ek_lame_from_young_poisson: NULL output");
+    return EK_EINVAL;
+  }
+  if (!isfinite(E) || !(E > 0)) {
+    ek_set_error("ek_lame_from_young_poisson: E = %g, must be finite and > 0", E);
+    return EK_EINVAL;
+  }
+  if (!isfinite(nu) || !(nu > -1) || !(nu < 0.5)) {
+    ek_set_error("ek_lame_from_young_poisson: nu = %g, must be in (-1, 0.5) (0.5 is "
+                 "incompressible: lambda would be infinite)",
+                 nu);
+    return EK_EINVAL;
+  }
+  *mu = E / (2 * (1 + nu));
+  *lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+  return EK_OK;
+}
+
+int ek_young_poisson_from_lame(double mu, double lambda, double *E, double *nu) {
+  if (!E || !nu) {
+    ek_set_error("ek_young_poisson_from_lame: NULL output");
+    return EK_EINVAL;
+  }
+  if (!isfinite(mu) || !isfinite(lambda) || !(mu > 0) || !(lambda > -2 * mu / 3)) {
+    ek_set_error("ek_young_poisson_from_lame: mu = %g, lambda = %g; need mu > 0 and "
+                 "lambda > -2 mu / 3",
+                 mu, lambda);
+    return EK_EINVAL;
+  }
+  *E = mu * (3 * lambda + 2 * mu) / (lambda + mu);
+  *nu = lambda / (2 * (lambda + mu));
+  return EK_OK;
+}
+#endif

@@ -1,0 +1,341 @@
+// ek-sim: run a scene with the explicit loop.
+//
+//   ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5] [--force] [--explain]
+//
+// Prints a progress line, and at the end the time per step split by phase,
+// tets per second and the energies at start and end. --explain prints the
+// pipeline the scene runs (kernels, variants, why) and runs nothing.
+// Exit status: 0 done, 1 bad usage or scene, 2 the run failed (e.g. an
+// element inverted with a model undefined there).
+#include <ek/sim.h>
+
+#include <errno.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void usage(FILE *out) {
+  fprintf(out, "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5] [--force] "
+               "[--explain]\n"
+               "  --steps N     override the scene's step count\n"
+               "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+               "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
+               "  --force       overwrite existing output files\n"
+               "  --explain     print the pipeline the scene runs, run nothing\n");
+}
+
+static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
+  char *end = NULL;
+  errno = 0;
+  long v = s ? strtol(s, &end, 10) : 0;
+  if (!s || errno || end == s || *end || v < lo || v > hi) {
+    fprintf(stderr, "ek-sim: %s %s: expected a whole number in [%ld, %ld]\n", opt,
+            s ? s : "(missing)", lo, hi);
+    return -1;
+  }
+  *out = v;
+  return 0;
+}
+
+static const char *need_text(ek_model_needs need, const ek_material *m) {
+  switch (need) {
+  case EK_NEEDS_NOTHING:
+    return "no SVD: P is polynomial in F";
+  case EK_NEEDS_J:
+    return "no SVD: J = det F and F^-T only";
+  case EK_NEEDS_POLAR:
+    return m->clamp > 0 ? "full SVD: singular values clamped at material.clamp (Irving 2004 "
+                          "sec. 5), P = U P_hat(sigma_hat) V^T"
+                        : "SVD for the polar rotation R(F) = U V^T";
+  case EK_NEEDS_R_INPUT:
+    return "no SVD in the force kernel: R^n given per tet, refreshed at step start";
+  }
+  return "?";
+}
+
+static void explain(const ek_scene *s, long steps, const char *out, int threads) {
+  const ek_material *m = &s->material;
+  printf("scene      %s\n", s->path);
+  if (s->mesh_file[0])
+    printf("mesh       file %s%s\n", s->mesh_file,
+           s->fix_orientation ? " (inverted rest tets re-oriented)" : "");
+  else
+    printf("mesh       box %d x %d x %d cubes, %g x %g x %g m -> %ld tets (6 per cube), "
+           "%ld vertices\n",
+           s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0], s->box_size[1],
+           s->box_size[2], 6L * s->box_cells[0] * s->box_cells[1] * s->box_cells[2],
+           (long)(s->box_cells[0] + 1) * (s->box_cells[1] + 1) * (s->box_cells[2] + 1));
+  printf("material   %s: mu = %g, lambda = %g", s->model_name, m->mu, m->lambda);
+  if (!isnan(s->young))
+    printf(" (from E = %g, nu = %g)", s->young, s->poisson);
+  printf(", density %g, clamp %g\n", s->density, m->clamp);
+  ek_isa isa;
+  int isa_ok = ek_isa_resolve(s->svd.isa, &isa) == EK_OK;
+  printf("kernels    precision f%d, ISA %s%s, threads %d\n", s->precision,
+         isa_ok ? ek_isa_name(isa) : "UNAVAILABLE",
+         s->svd.isa == EK_ISA_AUTO ? " (auto: best this CPU runs)" : " (forced by the scene)",
+         threads);
+  for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; ++i)
+    if (!ek_isa_available((ek_isa)i))
+      printf("           %s: skipped (not built or not supported by this CPU)\n",
+             ek_isa_name((ek_isa)i));
+  ek_model_needs need = ek_model_need(m->model, m->clamp);
+  printf("pipeline   per step:\n");
+  int k = 1;
+  if (need == EK_NEEDS_R_INPUT)
+    printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
+           "(ek_fvm_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
+           k++, s->svd.sweeps ? s->svd.sweeps : ek_svd3_default_sweeps_f64(),
+           s->svd.exact_rsqrt < 0 ? ", approximate rsqrt" : "");
+  printf("  %d. FVM force (Teran 2003, seed 004), fused per block of %d tets "
+         "(ek_fvm_forces_ex_f%d):\n",
+         k++, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, s->precision);
+  printf("       gather x of 4 corners -> F = Ds Dm^-1 -> ");
+  if (need == EK_NEEDS_POLAR)
+    printf("SVD3 (%d sweeps, %s rsqrt) -> ",
+           s->svd.sweeps
+               ? s->svd.sweeps
+               : (s->precision == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
+           s->svd.exact_rsqrt < 0 ? "approximate" : "exact");
+  printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
+  printf("       %s: %s\n", s->model_name, need_text(need, m));
+  ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_COLORED : s->scatter;
+  static const char *why[] = {
+      "", "tets of one colour share no vertex: blocks add straight into f, deterministic",
+      "per-part force buffers summed in part order: deterministic, extra memory",
+      "corner forces to scratch, each vertex sums its list in fixed order: deterministic",
+      "atomics: the baseline, summation order varies (not deterministic)"};
+  printf("       scatter %s%s: %s\n", ek_scatter_name(sc),
+         s->scatter == EK_SCATTER_AUTO ? " (auto)" : "", why[sc]);
+  printf("  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n", k++);
+  printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
+         s->gravity[0], s->gravity[1], s->gravity[2], s->damping, s->dt, steps,
+         s->dt * (double)steps);
+  for (int b = 0; b < s->nbc; ++b) {
+    const ek_scene_bc *c = &s->bc[b];
+    printf("       boundary[%d] %s on [%g %g %g]..[%g %g %g]", b,
+           c->kind == EK_BC_PIN     ? "pin"
+           : c->kind == EK_BC_TWIST ? "twist"
+                                    : "stretch",
+           c->box_min[0], c->box_min[1], c->box_min[2], c->box_max[0], c->box_max[1],
+           c->box_max[2]);
+    if (c->kind == EK_BC_TWIST)
+      printf(", %g rad/s about (%g, %g, %g) through (%g, %g, %g)", c->rate, c->axis[0], c->axis[1],
+             c->axis[2], c->center[0], c->center[1], c->center[2]);
+    if (c->kind == EK_BC_STRETCH)
+      printf(", velocity (%g, %g, %g)", c->velocity[0], c->velocity[1], c->velocity[2]);
+    if (isfinite(c->until))
+      printf(", until t = %g then %s", c->until, c->release ? "released" : "held");
+    printf("\n");
+  }
+  if (s->has_ground)
+    printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
+           s->ground_height);
+  printf("       CFL check at start: dt vs h_min / sqrt((lambda + 2 mu) / rho)\n");
+  if (out && out[0])
+    printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
+           "energy density (one extra double pass per frame)\n",
+           out, s->output_every);
+  else
+    printf("output     none\n");
+}
+
+int main(int argc, char **argv) {
+  const char *scene_path = NULL, *out = NULL;
+  long steps = -1, threads = 0;
+  int force = 0, do_explain = 0;
+  for (int i = 1; i < argc; ++i) {
+    const char *a = argv[i];
+    if (strcmp(a, "--steps") == 0) {
+      if (parse_long(a, i + 1 < argc ? argv[++i] : NULL, 0, 1000000000L, &steps))
+        return 1;
+    } else if (strcmp(a, "--threads") == 0) {
+      if (parse_long(a, i + 1 < argc ? argv[++i] : NULL, 1, 4096, &threads))
+        return 1;
+    } else if (strcmp(a, "--out") == 0) {
+      if (i + 1 >= argc) {
+        fprintf(stderr, "ek-sim: --out needs a file name\n");
+        return 1;
+      }
+      out = argv[++i];
+    } else if (strcmp(a, "--force") == 0) {
+      force = 1;
+    } else if (strcmp(a, "--explain") == 0) {
+      do_explain = 1;
+    } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+      usage(stdout);
+      return 0;
+    } else if (a[0] == '-' || scene_path) {
+      fprintf(stderr, "ek-sim: unexpected argument \"%s\"\n", a);
+      usage(stderr);
+      return 1;
+    } else {
+      scene_path = a;
+    }
+  }
+  if (!scene_path) {
+    usage(stderr);
+    return 1;
+  }
+  char err[1024];
+  static ek_scene scene;
+  if (ek_scene_load(scene_path, &scene, err, sizeof err) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return 1;
+  }
+  if (steps < 0)
+    steps = scene.steps;
+  if (!out && scene.output_file[0])
+    out = scene.output_file;
+  if (threads > 0)
+    omp_set_num_threads((int)threads);
+  int nthreads = omp_get_max_threads();
+  if (do_explain) {
+    explain(&scene, steps, out, nthreads);
+    return 0;
+  }
+
+  // Everything that can refuse is checked before the first step.
+  double t_setup = now();
+  ek_mesh *mesh = ek_scene_mesh(&scene, err, sizeof err);
+  if (!mesh) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return 1;
+  }
+  ek_sim *sim = ek_sim_create(&scene, mesh, err, sizeof err);
+  if (!sim) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    ek_mesh_destroy(mesh);
+    return 1;
+  }
+  size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
+  double *J = NULL, *smin = NULL, *psi = NULL;
+  ek_frames *frames = NULL;
+  if (out) {
+    frames = ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt, ek_mesh_tets(mesh),
+                              err, sizeof err);
+    J = malloc(nt * sizeof(double));
+    smin = malloc(nt * sizeof(double));
+    psi = malloc(nt * sizeof(double));
+    if (!frames || !J || !smin || !psi) {
+      fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
+      ek_frames_close(frames, NULL, 0);
+      ek_sim_destroy(sim);
+      ek_mesh_destroy(mesh);
+      return 1;
+    }
+  }
+  t_setup = now() - t_setup;
+  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, f%d, %d threads, dt %g "
+         "(CFL h_min/c = %g), %ld steps\n",
+         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, scene.precision, nthreads,
+         scene.dt, ek_sim_cfl_dt(sim), steps);
+  ek_sim_energies e0, e1;
+  ek_sim_energy(sim, &e0);
+
+  double t_output = 0;
+  int rc = 0, tty = isatty(fileno(stderr));
+  double t_start = now(), t_last_progress = t_start;
+  for (long n = 0; n <= steps; ++n) {
+    if (frames && (n % scene.output_every == 0 || n == steps)) {
+      double t0 = now();
+      if (ek_sim_tet_fields(sim, J, smin, psi) != 0 ||
+          ek_frames_write(frames, ek_sim_time(sim), n, ek_sim_positions(sim), J, smin, psi, err,
+                          sizeof err) != 0) {
+        fprintf(stderr, "\nek-sim: %s\n", err[0] ? err : ek_last_error());
+        rc = 2;
+        break;
+      }
+      t_output += now() - t0;
+    }
+    if (n == steps)
+      break;
+    // One step in ten runs the force phases as separate passes, for the
+    // split; the other nine are the fused kernel the timing reports.
+    ek_sim_time_phases(sim, n % 10 == 5);
+    int src = ek_sim_step(sim);
+    if (src != 0) {
+      fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
+      rc = 2;
+      break;
+    }
+    double t = now();
+    if (t - t_last_progress > 0.5 || n + 1 == steps) {
+      t_last_progress = t;
+      double frac = (double)(n + 1) / (double)steps;
+      double eta = (t - t_start) * (1.0 - frac) / frac;
+      if (tty)
+        fprintf(stderr, "\r  step %ld / %ld  (%5.1f%%)  t = %.4g s  eta %.1f s   ", n + 1, steps,
+                100.0 * frac, ek_sim_time(sim), eta);
+      else if ((n + 1) % (steps / 10 > 0 ? steps / 10 : 1) == 0)
+        fprintf(stderr, "  step %ld / %ld  (%5.1f%%)  t = %.4g s\n", n + 1, steps, 100.0 * frac,
+                ek_sim_time(sim));
+    }
+  }
+  double wall = now() - t_start;
+  if (tty)
+    fprintf(stderr, "\n");
+  if (frames) {
+    long nf = ek_frames_count(frames);
+    if (ek_frames_close(frames, err, sizeof err) != 0) {
+      fprintf(stderr, "ek-sim: %s\n", err);
+      rc = 2;
+    }
+    char xdmf[EK_SCENE_PATH_MAX];
+    ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
+    printf("frames     %ld written to %s (ParaView: %s)\n", nf, out, xdmf);
+  }
+
+  const ek_sim_times *tm = ek_sim_timings(sim);
+  long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;
+  ek_sim_energy(sim, &e1);
+  printf("steps      %ld in %.3f s (setup %.3f s, output %.3f s)\n", done, wall, t_setup, t_output);
+  if (done > 0) {
+    double force_ms = fused > 0 ? 1e3 * tm->forces / (double)fused : NAN;
+    double integ_ms = 1e3 * tm->integration / (double)done;
+    double polar_ms = 1e3 * tm->polar_refresh / (double)done;
+    double step_ms = (fused > 0 ? force_ms : 0) + integ_ms + polar_ms;
+    printf("per step   %.4f ms: force %.4f ms (fused kernel, %ld steps), integration %.4f ms",
+           step_ms, force_ms, fused, integ_ms);
+    if (polar_ms > 0)
+      printf(", R^n refresh %.4f ms", polar_ms);
+    printf("\n");
+    double phase_sum = tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
+    if (tm->phase_timed_steps > 0 && phase_sum > 0) {
+      double p = (double)tm->phase_timed_steps;
+      printf("force split (separate passes on %ld steps, %.4f ms per step; shares applied to "
+             "the fused time):\n",
+             tm->phase_timed_steps, 1e3 * phase_sum / p);
+      const char *names[] = {"deformation gradient", "SVD/polar", "P(F)", "scatter"};
+      double vals[] = {tm->deformation_gradient, tm->svd_polar, tm->pk1, tm->scatter};
+      for (int i = 0; i < 4; ++i)
+        printf("  %-22s %5.1f%%  %.4f ms separate, ~%.4f ms fused\n", names[i],
+               100.0 * vals[i] / phase_sum, 1e3 * vals[i] / p,
+               fused > 0 ? force_ms * vals[i] / phase_sum : NAN);
+    }
+    printf("throughput %.3g tets/s (whole step), %.3g tets/s (force kernel)\n",
+           (double)nt / (step_ms * 1e-3), fused > 0 ? (double)nt / (force_ms * 1e-3) : NAN);
+  }
+  printf("energy     start: kinetic %.6g, elastic %.6g, potential %.6g, total %.6g J\n", e0.kinetic,
+         e0.elastic, e0.potential, e0.kinetic + e0.elastic + e0.potential);
+  printf("           end:   kinetic %.6g, elastic %.6g, potential %.6g, total %.6g J "
+         "(t = %g s)\n",
+         e1.kinetic, e1.elastic, e1.potential, e1.kinetic + e1.elastic + e1.potential,
+         ek_sim_time(sim));
+  free(J);
+  free(smin);
+  free(psi);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(mesh);
+  return rc;
+}

@@ -1,0 +1,26 @@
+// Internal: the one place meshes are validated and built (mesh.c), used by
+// the in-memory constructors, the box generator and the file readers.
+#ifndef EK_SIM_MESH_BUILD_H
+#define EK_SIM_MESH_BUILD_H
+
+#include <ek/mesh.h>
+#include <stddef.h>
+#include <stdint.h>
+
+// Where the arrays came from, so errors can name file and line. vert_line
+// and tet_line (nverts / ntets entries) may be NULL; index_base is the
+// file's first index (0 or 1) so indices are reported as the file has them.
+typedef struct {
+  const char *file;
+  const long *vert_line;
+  const long *tet_line;
+  long index_base;
+} mesh_origin;
+
+ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                    const ek_mesh_opts *opts, const mesh_origin *origin, char *err, size_t errlen);
+int mesh_layout(ek_mesh *m);
+void mesh_error(char *err, size_t errlen, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+#endif

@@ -1,0 +1,614 @@
+// Mesh file readers: TetGen .node/.ele and Gmsh .msh (ASCII v2 and v4).
+// Every error names the file, the line and the offending value; a reader
+// collects everything first and hands it to mesh_build(), so a mesh never
+// half-loads.
+//
+// Formats: TetGen manual 1.5, sec. 5.2.1 (.node) and 5.2.4 (.ele); Gmsh
+// reference manual sec. 10.1 ("MSH file format", v4.1) and its legacy v2
+// description; v4.0 differs from v4.1 in the block headers only.
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mesh_build.h"
+#include "mesh_internal.h"
+
+// A line reader with a token cursor and line numbers for messages.
+typedef struct {
+  FILE *fp;
+  const char *path;
+  char *line;
+  size_t cap;
+  long lineno;
+  char *cur;    // next token in line
+  int comments; // '#' starts a comment (TetGen)
+  char *err;
+  size_t errlen;
+  int failed;
+} reader;
+
+static int rd_open(reader *r, const char *path, int comments, char *err, size_t errlen) {
+  memset(r, 0, sizeof *r);
+  r->path = path;
+  r->comments = comments;
+  r->err = err;
+  r->errlen = errlen;
+  r->fp = fopen(path, "r");
+  if (!r->fp) {
+    mesh_error(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+    return -1;
+  }
+  return 0;
+}
+
+static void rd_close(reader *r) {
+  if (r->fp)
+    fclose(r->fp);
+  free(r->line);
+  r->fp = NULL;
+  r->line = NULL;
+  r->cap = 0;
+}
+
+// Next non-empty line (comments stripped). 0 on success, -1 at EOF with
+// an error naming `what` was expected.
+static int rd_line(reader *r, const char *what) {
+  for (;;) {
+    ssize_t n = getline(&r->line, &r->cap, r->fp);
+    if (n < 0) {
+      // Reported at the line that is missing (one past the last read).
+      mesh_error(r->err, r->errlen, "%s:%ld: truncated file: end of file while reading %s", r->path,
+                 r->lineno + 1, what);
+      r->failed = 1;
+      return -1;
+    }
+    r->lineno++;
+    if (r->comments) {
+      char *h = strchr(r->line, '#');
+      if (h)
+        *h = 0;
+    }
+    char *p = r->line;
+    while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')
+      p++;
+    if (*p) {
+      r->cur = p;
+      return 0;
+    }
+  }
+}
+
+// Next whitespace-separated token of the current line, NULL if none.
+static char *rd_token(reader *r) {
+  char *p = r->cur;
+  while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')
+    p++;
+  if (!*p)
+    return NULL;
+  char *start = p;
+  while (*p && *p != ' ' && *p != '\t' && *p != '\r' && *p != '\n')
+    p++;
+  if (*p)
+    *p++ = 0;
+  r->cur = p;
+  return start;
+}
+
+static int rd_long(reader *r, const char *what, long *out) {
+  char *tok = rd_token(r);
+  if (!tok) {
+    mesh_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
+    r->failed = 1;
+    return -1;
+  }
+  char *end;
+  errno = 0;
+  long v = strtol(tok, &end, 10);
+  if (*end || errno) {
+    mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
+    r->failed = 1;
+    return -1;
+  }
+  *out = v;
+  return 0;
+}
+
+static int rd_double(reader *r, const char *what, double *out) {
+  char *tok = rd_token(r);
+  if (!tok) {
+    mesh_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
+    r->failed = 1;
+    return -1;
+  }
+  char *end;
+  errno = 0;
+  double v = strtod(tok, &end);
+  if (*end || (errno && errno != ERANGE)) {
+    mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
+    r->failed = 1;
+    return -1;
+  }
+  // NaN / inf are parsed by strtod; they are reported by mesh_build with
+  // this line number.
+  *out = v;
+  return 0;
+}
+
+static int check_count(reader *r, long n, long max, const char *what) {
+  if (n < 0 || n > max) {
+    mesh_error(r->err, r->errlen, "%s:%ld: bad %s count %ld", r->path, r->lineno, what, n);
+    r->failed = 1;
+    return -1;
+  }
+  return 0;
+}
+
+// Growable arrays for the readers.
+typedef struct {
+  double *X;
+  long *vline;
+  size_t nv;
+  int32_t *T;
+  long *tline;
+  size_t nt, tcap;
+} mesh_arrays;
+
+static void arrays_free(mesh_arrays *a) {
+  free(a->X);
+  free(a->vline);
+  free(a->T);
+  free(a->tline);
+}
+
+static int arrays_verts(mesh_arrays *a, size_t nv) {
+  a->X = malloc((nv ? nv : 1) * 3 * sizeof(double));
+  a->vline = malloc((nv ? nv : 1) * sizeof(long));
+  a->nv = nv;
+  return a->X && a->vline ? 0 : -1;
+}
+
+static int arrays_push_tet(mesh_arrays *a, const int32_t v[4], long line) {
+  if (a->nt == a->tcap) {
+    size_t cap = a->tcap ? a->tcap * 2 : 1024;
+    int32_t *T = realloc(a->T, cap * 4 * sizeof(int32_t));
+    if (!T)
+      return -1;
+    a->T = T;
+    long *L = realloc(a->tline, cap * sizeof(long));
+    if (!L)
+      return -1;
+    a->tline = L;
+    a->tcap = cap;
+  }
+  memcpy(a->T + a->nt * 4, v, 4 * sizeof(int32_t));
+  a->tline[a->nt++] = line;
+  return 0;
+}
+
+static int ends_with(const char *s, const char *suffix) {
+  size_t n = strlen(s), k = strlen(suffix);
+  return n >= k && strcmp(s + n - k, suffix) == 0;
+}
+
+// ---- TetGen ---------------------------------------------------------------
+
+#define MAX_ITEMS 2000000000L
+
+static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *err, size_t errlen) {
+  size_t blen = strlen(base);
+  char *node_path = malloc(blen + 6), *ele_path = malloc(blen + 6);
+  mesh_arrays a = {0};
+  reader r = {0};
+  ek_mesh *m = NULL;
+  long base_index = 0;
+  if (!node_path || !ele_path) {
+    mesh_error(err, errlen, "%s: out of memory", base);
+    goto done;
+  }
+  snprintf(node_path, blen + 6, "%s.node", base);
+  snprintf(ele_path, blen + 6, "%s.ele", base);
+
+  // .node: "<#points> <dim> <#attributes> <#markers>", then
+  // "<index> x y z [attributes] [marker]" per point.
+  if (rd_open(&r, node_path, 1, err, errlen))
+    goto done;
+  long np, dim;
+  if (rd_line(&r, "the .node header") || rd_long(&r, "number of points", &np) ||
+      check_count(&r, np, MAX_ITEMS, "point") || rd_long(&r, "dimension", &dim))
+    goto done;
+  if (dim != 3) {
+    mesh_error(err, errlen, "%s:%ld: dimension %ld, expected 3", node_path, r.lineno, dim);
+    goto done;
+  }
+  // Attribute and marker counts (optional) are not needed: the rest of
+  // each point line is ignored.
+  if (arrays_verts(&a, (size_t)np)) {
+    mesh_error(err, errlen, "%s: out of memory", node_path);
+    goto done;
+  }
+  for (long i = 0; i < np; i++) {
+    long idx;
+    char what[96];
+    snprintf(what, sizeof what, "points (%ld of %ld read)", i, np);
+    if (rd_line(&r, what) || rd_long(&r, "point index", &idx))
+      goto done;
+    if (i == 0) {
+      if (idx != 0 && idx != 1) {
+        mesh_error(err, errlen, "%s:%ld: first point index %ld, expected 0 or 1", node_path,
+                   r.lineno, idx);
+        goto done;
+      }
+      base_index = idx;
+    } else if (idx != base_index + i) {
+      mesh_error(err, errlen, "%s:%ld: point index %ld, expected %ld (consecutive)", node_path,
+                 r.lineno, idx, base_index + i);
+      goto done;
+    }
+    for (int k = 0; k < 3; k++)
+      if (rd_double(&r, "coordinate", &a.X[i * 3 + k]))
+        goto done;
+    a.vline[i] = r.lineno;
+  }
+  rd_close(&r);
+
+  // .ele: "<#tets> <nodes per tet (4 or 10)> <#attributes>", then
+  // "<index> n1 .. n4 [n5..n10] [attributes]" per tet; the first four
+  // nodes are the corners.
+  if (rd_open(&r, ele_path, 1, err, errlen))
+    goto done;
+  long ne, npt;
+  if (rd_line(&r, "the .ele header") || rd_long(&r, "number of tetrahedra", &ne) ||
+      check_count(&r, ne, MAX_ITEMS / 4, "tetrahedron") ||
+      rd_long(&r, "nodes per tetrahedron", &npt))
+    goto done;
+  if (npt != 4 && npt != 10) {
+    mesh_error(err, errlen, "%s:%ld: %ld nodes per tetrahedron, expected 4 or 10", ele_path,
+               r.lineno, npt);
+    goto done;
+  }
+  for (long e = 0; e < ne; e++) {
+    long idx, v[4];
+    char what[96];
+    snprintf(what, sizeof what, "tetrahedra (%ld of %ld read)", e, ne);
+    if (rd_line(&r, what) || rd_long(&r, "tetrahedron index", &idx))
+      goto done;
+    for (int c = 0; c < 4; c++)
+      if (rd_long(&r, "vertex index", &v[c]))
+        goto done;
+    int32_t t[4];
+    for (int c = 0; c < 4; c++) {
+      long z = v[c] - base_index;
+      if (z < 0 || z >= np) {
+        mesh_error(err, errlen, "%s:%ld: tet %ld: vertex index %ld out of range [%ld, %ld]",
+                   ele_path, r.lineno, idx, v[c], base_index, base_index + np - 1);
+        goto done;
+      }
+      t[c] = (int32_t)z;
+    }
+    if (arrays_push_tet(&a, t, r.lineno)) {
+      mesh_error(err, errlen, "%s: out of memory", ele_path);
+      goto done;
+    }
+  }
+  rd_close(&r);
+  memset(&r, 0, sizeof r);
+  {
+    // Vertex errors name the .node file, tet errors the .ele file: build
+    // with the .ele origin and re-check coordinates here first.
+    for (size_t i = 0; i < a.nv; i++)
+      for (int k = 0; k < 3; k++)
+        if (!isfinite(a.X[i * 3 + k])) {
+          mesh_error(err, errlen, "%s:%ld: vertex %ld: coordinate %c = %g is not finite", node_path,
+                     a.vline[i], (long)i + base_index, "xyz"[k], a.X[i * 3 + k]);
+          goto done;
+        }
+    mesh_origin o = {
+        .file = ele_path, .vert_line = a.vline, .tet_line = a.tline, .index_base = base_index};
+    m = mesh_build(a.nv, a.X, a.nt, a.T, opts, &o, err, errlen);
+  }
+done:
+  rd_close(&r);
+  arrays_free(&a);
+  free(node_path);
+  free(ele_path);
+  return m;
+}
+
+// ---- Gmsh -----------------------------------------------------------------
+
+typedef struct {
+  long tag;
+  int32_t index;
+} tag_index;
+
+static int cmp_tag(const void *x, const void *y) {
+  long a = ((const tag_index *)x)->tag, b = ((const tag_index *)y)->tag;
+  return (a > b) - (a < b);
+}
+
+static int32_t find_tag(const tag_index *map, size_t n, long tag) {
+  size_t lo = 0, hi = n;
+  while (lo < hi) {
+    size_t mid = (lo + hi) / 2;
+    if (map[mid].tag < tag)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo < n && map[lo].tag == tag ? map[lo].index : -1;
+}
+
+// Skip to the line "$name" (sections we do not read are skipped).
+static int find_section(reader *r, const char *name) {
+  char what[64];
+  snprintf(what, sizeof what, "section %s", name);
+  for (;;) {
+    if (rd_line(r, what))
+      return -1;
+    char *tok = rd_token(r);
+    if (tok && strcmp(tok, name) == 0)
+      return 0;
+  }
+}
+
+static int expect_end(reader *r, const char *name) {
+  if (rd_line(r, name))
+    return -1;
+  char *tok = rd_token(r);
+  if (!tok || strcmp(tok, name) != 0) {
+    mesh_error(r->err, r->errlen, "%s:%ld: expected %s, found '%s'", r->path, r->lineno, name,
+               tok ? tok : "");
+    r->failed = 1;
+    return -1;
+  }
+  return 0;
+}
+
+static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen) {
+  reader r;
+  mesh_arrays a = {0};
+  tag_index *map = NULL;
+  ek_mesh *m = NULL;
+  if (rd_open(&r, path, 0, err, errlen))
+    return NULL;
+
+  // $MeshFormat: "version file-type data-size"; file-type 0 = ASCII.
+  double version;
+  long ftype, dsize;
+  if (find_section(&r, "$MeshFormat") || rd_line(&r, "the mesh format line") ||
+      rd_double(&r, "format version", &version) || rd_long(&r, "file type", &ftype) ||
+      rd_long(&r, "data size", &dsize))
+    goto done;
+  int v4 = version >= 4.0 && version < 5.0, v41 = version >= 4.05;
+  if (!(version >= 2.0 && version < 3.0) && !v4) {
+    mesh_error(err, errlen, "%s:%ld: MSH version %g not supported (only 2.x and 4.x ASCII)", path,
+               r.lineno, version);
+    goto done;
+  }
+  if (ftype != 0) {
+    mesh_error(err, errlen, "%s:%ld: binary MSH (file type %ld) not supported, only ASCII", path,
+               r.lineno, ftype);
+    goto done;
+  }
+  if (expect_end(&r, "$EndMeshFormat") || find_section(&r, "$Nodes"))
+    goto done;
+
+  long nnodes = 0;
+  if (!v4) {
+    // v2: "n", then "tag x y z" per node.
+    if (rd_line(&r, "node count") || rd_long(&r, "node count", &nnodes) ||
+        check_count(&r, nnodes, MAX_ITEMS, "node"))
+      goto done;
+    if (arrays_verts(&a, (size_t)nnodes) || !(map = malloc((nnodes + 1) * sizeof *map))) {
+      mesh_error(err, errlen, "%s: out of memory", path);
+      goto done;
+    }
+    for (long i = 0; i < nnodes; i++) {
+      if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &map[i].tag))
+        goto done;
+      map[i].index = (int32_t)i;
+      for (int k = 0; k < 3; k++)
+        if (rd_double(&r, "coordinate", &a.X[i * 3 + k]))
+          goto done;
+      a.vline[i] = r.lineno;
+    }
+  } else {
+    // v4.1: "numBlocks numNodes minTag maxTag"; per block
+    // "entityDim entityTag parametric n", n tag lines, n coordinate lines.
+    // v4.0: "numBlocks numNodes"; per block "entityTag entityDim
+    // parametric n", then n lines "tag x y z".
+    long nblocks;
+    if (rd_line(&r, "node header") || rd_long(&r, "node block count", &nblocks) ||
+        rd_long(&r, "node count", &nnodes) || check_count(&r, nnodes, MAX_ITEMS, "node") ||
+        check_count(&r, nblocks, MAX_ITEMS, "node block"))
+      goto done;
+    if (arrays_verts(&a, (size_t)nnodes) || !(map = malloc((nnodes + 1) * sizeof *map))) {
+      mesh_error(err, errlen, "%s: out of memory", path);
+      goto done;
+    }
+    long filled = 0;
+    for (long b = 0; b < nblocks; b++) {
+      long e1, e2, param, n;
+      if (rd_line(&r, "node block header") || rd_long(&r, "entity", &e1) ||
+          rd_long(&r, "entity", &e2) || rd_long(&r, "parametric flag", &param) ||
+          rd_long(&r, "block node count", &n))
+        goto done;
+      if (n < 0 || n > nnodes - filled) {
+        mesh_error(err, errlen, "%s:%ld: node block of %ld nodes exceeds the %ld declared", path,
+                   r.lineno, n, nnodes);
+        goto done;
+      }
+      if (param) {
+        mesh_error(err, errlen, "%s:%ld: parametric nodes not supported", path, r.lineno);
+        goto done;
+      }
+      if (v41) {
+        for (long i = 0; i < n; i++) {
+          if (rd_line(&r, "node tags") || rd_long(&r, "node tag", &map[filled + i].tag))
+            goto done;
+          map[filled + i].index = (int32_t)(filled + i);
+        }
+        for (long i = 0; i < n; i++) {
+          if (rd_line(&r, "node coordinates"))
+            goto done;
+          for (int k = 0; k < 3; k++)
+            if (rd_double(&r, "coordinate", &a.X[(filled + i) * 3 + k]))
+              goto done;
+          a.vline[filled + i] = r.lineno;
+        }
+      } else {
+        for (long i = 0; i < n; i++) {
+          if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &map[filled + i].tag))
+            goto done;
+          map[filled + i].index = (int32_t)(filled + i);
+          for (int k = 0; k < 3; k++)
+            if (rd_double(&r, "coordinate", &a.X[(filled + i) * 3 + k]))
+              goto done;
+          a.vline[filled + i] = r.lineno;
+        }
+      }
+      filled += n;
+    }
+    if (filled != nnodes) {
+      mesh_error(err, errlen, "%s:%ld: %ld nodes in blocks, %ld declared", path, r.lineno, filled,
+                 nnodes);
+      goto done;
+    }
+  }
+  if (expect_end(&r, "$EndNodes"))
+    goto done;
+  qsort(map, (size_t)nnodes, sizeof *map, cmp_tag);
+  for (long i = 1; i < nnodes; i++)
+    if (map[i].tag == map[i - 1].tag) {
+      mesh_error(err, errlen, "%s:%ld: node tag %ld appears twice", path, a.vline[map[i].index],
+                 map[i].tag);
+      goto done;
+    }
+  if (find_section(&r, "$Elements"))
+    goto done;
+
+  // Element node lists: type 4 is the 4-node tetrahedron; node counts of
+  // the other types are needed only to check a line's length, so they are
+  // skipped by ignoring the rest of the line.
+  if (!v4) {
+    // v2: "n", then "tag type ntags tags... nodes..." per element.
+    long ne;
+    if (rd_line(&r, "element count") || rd_long(&r, "element count", &ne) ||
+        check_count(&r, ne, MAX_ITEMS, "element"))
+      goto done;
+    for (long e = 0; e < ne; e++) {
+      long tag, type, ntags, dummy;
+      if (rd_line(&r, "elements") || rd_long(&r, "element tag", &tag) ||
+          rd_long(&r, "element type", &type) || rd_long(&r, "tag count", &ntags))
+        goto done;
+      if (type != 4)
+        continue;
+      if (ntags < 0 || ntags > 64) {
+        mesh_error(err, errlen, "%s:%ld: bad tag count %ld", path, r.lineno, ntags);
+        goto done;
+      }
+      for (long k = 0; k < ntags; k++)
+        if (rd_long(&r, "element tag value", &dummy))
+          goto done;
+      int32_t t[4];
+      for (int c = 0; c < 4; c++) {
+        long node;
+        if (rd_long(&r, "node tag", &node))
+          goto done;
+        t[c] = find_tag(map, (size_t)nnodes, node);
+        if (t[c] < 0) {
+          mesh_error(err, errlen, "%s:%ld: element %ld: node tag %ld out of range (no such node)",
+                     path, r.lineno, tag, node);
+          goto done;
+        }
+      }
+      if (arrays_push_tet(&a, t, r.lineno)) {
+        mesh_error(err, errlen, "%s: out of memory", path);
+        goto done;
+      }
+    }
+  } else {
+    // v4.1: "numBlocks numElements minTag maxTag"; per block "entityDim
+    // entityTag type n" (v4.0: "entityTag entityDim type n"), then n lines
+    // "tag node...".
+    long nblocks, ne;
+    if (rd_line(&r, "element header") || rd_long(&r, "element block count", &nblocks) ||
+        rd_long(&r, "element count", &ne) || check_count(&r, ne, MAX_ITEMS, "element") ||
+        check_count(&r, nblocks, MAX_ITEMS, "element block"))
+      goto done;
+    for (long b = 0; b < nblocks; b++) {
+      long e1, e2, type, n;
+      if (rd_line(&r, "element block header") || rd_long(&r, "entity", &e1) ||
+          rd_long(&r, "entity", &e2) || rd_long(&r, "element type", &type) ||
+          rd_long(&r, "block element count", &n) || check_count(&r, n, ne, "block element"))
+        goto done;
+      for (long i = 0; i < n; i++) {
+        long tag;
+        if (rd_line(&r, "elements") || rd_long(&r, "element tag", &tag))
+          goto done;
+        if (type != 4)
+          continue;
+        int32_t t[4];
+        for (int c = 0; c < 4; c++) {
+          long node;
+          if (rd_long(&r, "node tag", &node))
+            goto done;
+          t[c] = find_tag(map, (size_t)nnodes, node);
+          if (t[c] < 0) {
+            mesh_error(err, errlen, "%s:%ld: element %ld: node tag %ld out of range (no such node)",
+                       path, r.lineno, tag, node);
+            goto done;
+          }
+        }
+        if (arrays_push_tet(&a, t, r.lineno)) {
+          mesh_error(err, errlen, "%s: out of memory", path);
+          goto done;
+        }
+      }
+    }
+  }
+  if (expect_end(&r, "$EndElements"))
+    goto done;
+  if (a.nt == 0) {
+    mesh_error(err, errlen, "%s: no tetrahedra (element type 4) in the file", path);
+    goto done;
+  }
+  {
+    mesh_origin o = {.file = path, .vert_line = a.vline, .tet_line = a.tline, .index_base = 0};
+    m = mesh_build(a.nv, a.X, a.nt, a.T, opts, &o, err, errlen);
+  }
+done:
+  rd_close(&r);
+  free(map);
+  arrays_free(&a);
+  return m;
+}
+
+ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen) {
+  if (!path) {
+    mesh_error(err, errlen, "ek_mesh_load: NULL path");
+    return NULL;
+  }
+  if (ends_with(path, ".msh"))
+    return load_gmsh(path, opts, err, errlen);
+  size_t n = strlen(path);
+  char *base = malloc(n + 1);
+  if (!base) {
+    mesh_error(err, errlen, "%s: out of memory", path);
+    return NULL;
+  }
+  memcpy(base, path, n + 1);
+  if (ends_with(base, ".node"))
+    base[n - 5] = 0;
+  else if (ends_with(base, ".ele"))
+    base[n - 4] = 0;
+  ek_mesh *m = load_tetgen(base, opts, err, errlen);
+  free(base);
+  return m;
+}
+
+ek_mesh *ek_mesh_load(const char *path, char *err, size_t errlen) {
+  return ek_mesh_load_ex(path, NULL, err, errlen);
+}

@@ -1,0 +1,719 @@
+// Scene files: JSON (cJSON) -> ek_scene, with errors that name the file,
+// the key path and the offending value, and unknown keys refused (a typo in
+// a scene must not silently fall back to a default).
+#include <ek/sim.h>
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+// ---------------------------------------------------------------- errors
+
+typedef struct {
+  const char *name; // file name for messages
+  char *err;
+  size_t errlen;
+} parse_ctx;
+
+// Short text of a JSON value for an error message.
+static void value_text(const cJSON *v, char *out, size_t outlen) {
+  if (!v) {
+    snprintf(out, outlen, "(missing)");
+  } else if (cJSON_IsNumber(v)) {
+    snprintf(out, outlen, "%.10g", v->valuedouble);
+  } else if (cJSON_IsString(v)) {
+    snprintf(out, outlen, "\"%.60s\"", v->valuestring);
+  } else {
+    char *s = cJSON_PrintUnformatted(v);
+    snprintf(out, outlen, "%.60s%s", s ? s : "?", s && strlen(s) > 60 ? "..." : "");
+    cJSON_free(s);
+  }
+}
+
+// "<file>: <path> = <value>: <reason>"; always returns EK_EINVAL.
+__attribute__((format(printf, 4, 5))) static int bad(parse_ctx *c, const char *path, const cJSON *v,
+                                                     const char *fmt, ...) {
+  char val[96], reason[256];
+  value_text(v, val, sizeof val);
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(reason, sizeof reason, fmt, ap);
+  va_end(ap);
+  if (c->err && c->errlen)
+    snprintf(c->err, c->errlen, "%s: %s = %s: %s", c->name, path, val, reason);
+  return EK_EINVAL;
+}
+
+static int missing(parse_ctx *c, const char *path) {
+  if (c->err && c->errlen)
+    snprintf(c->err, c->errlen, "%s: %s: missing (required)", c->name, path);
+  return EK_EINVAL;
+}
+
+static void join(char *out, size_t outlen, const char *parent, const char *key) {
+  if (parent[0])
+    snprintf(out, outlen, "%s.%s", parent, key);
+  else
+    snprintf(out, outlen, "%s", key);
+}
+
+// Every key of `obj` must be one of `allowed` (NULL-terminated).
+static int check_keys(parse_ctx *c, const cJSON *obj, const char *path,
+                      const char *const *allowed) {
+  for (const cJSON *it = obj->child; it; it = it->next) {
+    int known = 0;
+    for (const char *const *a = allowed; *a; ++a)
+      known |= strcmp(it->string, *a) == 0;
+    if (!known) {
+      char p[256], list[256] = "";
+      join(p, sizeof p, path, it->string);
+      for (const char *const *a = allowed; *a; ++a) {
+        strncat(list, *a, sizeof list - strlen(list) - 1);
+        if (a[1])
+          strncat(list, ", ", sizeof list - strlen(list) - 1);
+      }
+      return bad(c, p, it, "unknown key (allowed: %s)", list);
+    }
+  }
+  return 0;
+}
+
+static int want_object(parse_ctx *c, const cJSON *v, const char *path) {
+  if (!cJSON_IsObject(v))
+    return bad(c, path, v, "must be an object");
+  return 0;
+}
+
+// ---------------------------------------------------------------- readers
+// Each reader: absent + !required -> 0, *out untouched; absent + required ->
+// error; present with the wrong type -> error naming path and value.
+
+static int get_number(parse_ctx *c, const cJSON *obj, const char *parent, const char *key,
+                      int required, double *out, const cJSON **node) {
+  char p[256];
+  join(p, sizeof p, parent, key);
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (node)
+    *node = v;
+  if (!v)
+    return required ? missing(c, p) : 0;
+  if (!cJSON_IsNumber(v))
+    return bad(c, p, v, "must be a number");
+  if (!isfinite(v->valuedouble))
+    return bad(c, p, v, "must be finite");
+  *out = v->valuedouble;
+  return 0;
+}
+
+static int get_vec(parse_ctx *c, const cJSON *obj, const char *parent, const char *key,
+                   int required, int n, double *out) {
+  char p[256];
+  join(p, sizeof p, parent, key);
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (!v)
+    return required ? missing(c, p) : 0;
+  if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != n)
+    return bad(c, p, v, "must be an array of %d numbers", n);
+  int i = 0;
+  for (const cJSON *it = v->child; it; it = it->next, ++i) {
+    if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble)) {
+      char pi[300];
+      snprintf(pi, sizeof pi, "%s[%d]", p, i);
+      return bad(c, pi, it, "must be a finite number");
+    }
+    out[i] = it->valuedouble;
+  }
+  return 0;
+}
+
+static int get_string(parse_ctx *c, const cJSON *obj, const char *parent, const char *key,
+                      int required, const char **out, const cJSON **node) {
+  char p[256];
+  join(p, sizeof p, parent, key);
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (node)
+    *node = v;
+  if (!v)
+    return required ? missing(c, p) : 0;
+  if (!cJSON_IsString(v) || !v->valuestring[0])
+    return bad(c, p, v, "must be a non-empty string");
+  *out = v->valuestring;
+  return 0;
+}
+
+static int get_bool(parse_ctx *c, const cJSON *obj, const char *parent, const char *key, int *out) {
+  char p[256];
+  join(p, sizeof p, parent, key);
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+  if (!v)
+    return 0;
+  if (!cJSON_IsBool(v))
+    return bad(c, p, v, "must be true or false");
+  *out = cJSON_IsTrue(v);
+  return 0;
+}
+
+// A whole number in [lo, hi].
+static int get_count(parse_ctx *c, const cJSON *obj, const char *parent, const char *key,
+                     int required, long lo, long hi, long *out) {
+  double d = 0;
+  const cJSON *node = NULL;
+  int rc = get_number(c, obj, parent, key, required, &d, &node);
+  if (rc || !node)
+    return rc;
+  char p[256];
+  join(p, sizeof p, parent, key);
+  if (d != floor(d) || d < (double)lo || d > (double)hi)
+    return bad(c, p, node, "must be a whole number in [%ld, %ld]", lo, hi);
+  *out = (long)d;
+  return 0;
+}
+
+// ---------------------------------------------------------------- models
+
+static const struct {
+  ek_model model;
+  const char *name;
+} model_names[] = {
+    {EK_MODEL_LINEAR, "linear"},
+    {EK_MODEL_STVK, "stvk"},
+    {EK_MODEL_COROTATED_LINEAR, "corotated_linear"},
+    {EK_MODEL_FIXED_COROTATED, "fixed_corotated"},
+    {EK_MODEL_ARAP, "arap"},
+    {EK_MODEL_PSI_R, "psi_r"},
+    {EK_MODEL_NEO_HOOKEAN, "neo_hookean"},
+    {EK_MODEL_STABLE_NEO_HOOKEAN, "stable_neo_hookean"},
+};
+#define N_MODELS (sizeof model_names / sizeof model_names[0])
+
+const char *ek_scene_model_name(ek_model model) {
+  for (size_t i = 0; i < N_MODELS; ++i)
+    if (model_names[i].model == model)
+      return model_names[i].name;
+  return NULL;
+}
+
+int ek_scene_model_from_name(const char *name, ek_model *model) {
+  for (size_t i = 0; i < N_MODELS; ++i)
+    if (strcmp(model_names[i].name, name) == 0 ||
+        strcmp(ek_model_name(model_names[i].model), name) == 0) {
+      *model = model_names[i].model;
+      return 0;
+    }
+  return -1;
+}
+
+// ---------------------------------------------------------------- sections
+
+static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_scene *s) {
+  const cJSON *mesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
+  if (!mesh)
+    return missing(c, "mesh");
+  int rc = want_object(c, mesh, "mesh");
+  if (!rc)
+    rc = check_keys(c, mesh, "mesh",
+                    (const char *const[]){"file", "box", "size", "fix_orientation", NULL});
+  if (rc)
+    return rc;
+  const char *file = NULL;
+  const cJSON *file_node = NULL;
+  if ((rc = get_string(c, mesh, "mesh", "file", 0, &file, &file_node)))
+    return rc;
+  const cJSON *box = cJSON_GetObjectItemCaseSensitive(mesh, "box");
+  if ((rc = get_bool(c, mesh, "mesh", "fix_orientation", &s->fix_orientation)))
+    return rc;
+  if (file && box)
+    return bad(c, "mesh.box", box, "give either mesh.file or mesh.box, not both");
+  if (file) {
+    if (cJSON_GetObjectItemCaseSensitive(mesh, "size"))
+      return bad(c, "mesh.size", cJSON_GetObjectItemCaseSensitive(mesh, "size"),
+                 "only meaningful with mesh.box");
+    int n;
+    if (file[0] == '/' || !base_dir || !base_dir[0])
+      n = snprintf(s->mesh_file, sizeof s->mesh_file, "%s", file);
+    else
+      n = snprintf(s->mesh_file, sizeof s->mesh_file, "%s/%s", base_dir, file);
+    if (n < 0 || (size_t)n >= sizeof s->mesh_file)
+      return bad(c, "mesh.file", file_node, "path too long");
+    return 0;
+  }
+  if (!box)
+    return missing(c, "mesh.file or mesh.box");
+  double cells[3];
+  if ((rc = get_vec(c, mesh, "mesh", "box", 1, 3, cells)))
+    return rc;
+  for (int i = 0; i < 3; ++i) {
+    if (cells[i] != floor(cells[i]) || cells[i] < 1 || cells[i] > 4096) {
+      char p[32];
+      snprintf(p, sizeof p, "mesh.box[%d]", i);
+      return bad(c, p, cJSON_GetArrayItem(box, i), "must be a whole number in [1, 4096]");
+    }
+    s->box_cells[i] = (int)cells[i];
+  }
+  if ((rc = get_vec(c, mesh, "mesh", "size", 1, 3, s->box_size)))
+    return rc;
+  for (int i = 0; i < 3; ++i)
+    if (!(s->box_size[i] > 0)) {
+      char p[32];
+      snprintf(p, sizeof p, "mesh.size[%d]", i);
+      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(mesh, "size"), i),
+                 "must be > 0");
+    }
+  return 0;
+}
+
+static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *init = cJSON_GetObjectItemCaseSensitive(root, "initial");
+  if (!init)
+    return 0;
+  int rc = want_object(c, init, "initial");
+  if (!rc)
+    rc = check_keys(c, init, "initial",
+                    (const char *const[]){"scale", "translate", "velocity", NULL});
+  if (!rc)
+    rc = get_vec(c, init, "initial", "scale", 0, 3, s->init_scale);
+  if (!rc)
+    rc = get_vec(c, init, "initial", "translate", 0, 3, s->init_translate);
+  if (!rc)
+    rc = get_vec(c, init, "initial", "velocity", 0, 3, s->init_velocity);
+  if (rc)
+    return rc;
+  for (int i = 0; i < 3; ++i)
+    if (!(s->init_scale[i] > 0)) {
+      char p[32];
+      snprintf(p, sizeof p, "initial.scale[%d]", i);
+      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(init, "scale"), i),
+                 "must be > 0");
+    }
+  return 0;
+}
+
+static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *mat = cJSON_GetObjectItemCaseSensitive(root, "material");
+  if (!mat)
+    return missing(c, "material");
+  int rc = want_object(c, mat, "material");
+  if (!rc)
+    rc = check_keys(
+        c, mat, "material",
+        (const char *const[]){"model", "E", "nu", "mu", "lambda", "density", "clamp", NULL});
+  if (rc)
+    return rc;
+  const char *model = NULL;
+  const cJSON *model_node = NULL;
+  if ((rc = get_string(c, mat, "material", "model", 1, &model, &model_node)))
+    return rc;
+  if (ek_scene_model_from_name(model, &s->material.model) != 0) {
+    char list[256] = "";
+    for (size_t i = 0; i < N_MODELS; ++i) {
+      strncat(list, model_names[i].name, sizeof list - strlen(list) - 1);
+      if (i + 1 < N_MODELS)
+        strncat(list, ", ", sizeof list - strlen(list) - 1);
+    }
+    return bad(c, "material.model", model_node, "unknown model (known: %s)", list);
+  }
+  snprintf(s->model_name, sizeof s->model_name, "%s", model);
+
+  const cJSON *nE = cJSON_GetObjectItemCaseSensitive(mat, "E");
+  const cJSON *nnu = cJSON_GetObjectItemCaseSensitive(mat, "nu");
+  const cJSON *nmu = cJSON_GetObjectItemCaseSensitive(mat, "mu");
+  const cJSON *nlambda = cJSON_GetObjectItemCaseSensitive(mat, "lambda");
+  if ((nE || nnu) && (nmu || nlambda))
+    return bad(c, nE ? "material.E" : "material.nu", nE ? nE : nnu,
+               "give either E and nu, or mu and lambda, not a mix");
+  if (nE || nnu) {
+    double E = 0, nu = 0;
+    if ((rc = get_number(c, mat, "material", "E", 1, &E, NULL)) ||
+        (rc = get_number(c, mat, "material", "nu", 1, &nu, NULL)))
+      return rc;
+    if (!(E > 0))
+      return bad(c, "material.E", nE, "Young's modulus must be > 0");
+    if (!(nu < 0.5))
+      return bad(c, "material.nu", nnu, "Poisson ratio must be < 0.5");
+    if (!(nu > -1))
+      return bad(c, "material.nu", nnu, "Poisson ratio must be > -1");
+    if ((rc = ek_lame_from_young_poisson(E, nu, &s->material.mu, &s->material.lambda)) != 0)
+      return bad(c, "material.E", nE, "cannot convert E, nu to Lame parameters: %s",
+                 ek_last_error());
+    s->young = E;
+    s->poisson = nu;
+  } else if (nmu || nlambda) {
+    if ((rc = get_number(c, mat, "material", "mu", 1, &s->material.mu, NULL)) ||
+        (rc = get_number(c, mat, "material", "lambda", 1, &s->material.lambda, NULL)))
+      return rc;
+    if (!(s->material.mu > 0))
+      return bad(c, "material.mu", nmu, "shear modulus must be > 0");
+    if (!(s->material.lambda > -2.0 * s->material.mu / 3.0))
+      return bad(c, "material.lambda", nlambda, "must be > -2 mu / 3 (positive bulk modulus)");
+  } else {
+    return missing(c, "material.E and material.nu (or material.mu and material.lambda)");
+  }
+
+  const cJSON *node = NULL;
+  if ((rc = get_number(c, mat, "material", "density", 1, &s->density, &node)))
+    return rc;
+  if (!(s->density > 0))
+    return bad(c, "material.density", node, "must be > 0");
+  s->material.clamp = 0;
+  if ((rc = get_number(c, mat, "material", "clamp", 0, &s->material.clamp, &node)))
+    return rc;
+  if (!(s->material.clamp >= 0 && s->material.clamp < 1))
+    return bad(c, "material.clamp", node, "must be in [0, 1) (0 = off)");
+  return 0;
+}
+
+static int parse_kernels(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const char *str = NULL;
+  const cJSON *node = NULL;
+  int rc = get_string(c, root, "", "precision", 0, &str, &node);
+  if (rc)
+    return rc;
+  if (str) {
+    if (strcmp(str, "f32") == 0)
+      s->precision = 32;
+    else if (strcmp(str, "f64") == 0)
+      s->precision = 64;
+    else
+      return bad(c, "precision", node, "must be \"f32\" or \"f64\"");
+  }
+  str = NULL;
+  if ((rc = get_string(c, root, "", "isa", 0, &str, &node)))
+    return rc;
+  if (str) {
+    static const char *names[] = {"auto", "scalar", "avx2", "avx512"};
+    static const ek_isa isas[] = {EK_ISA_AUTO, EK_ISA_SCALAR, EK_ISA_AVX2, EK_ISA_AVX512};
+    int found = 0;
+    for (int i = 0; i < 4; ++i)
+      if (strcmp(str, names[i]) == 0) {
+        s->svd.isa = isas[i];
+        found = 1;
+      }
+    if (!found)
+      return bad(c, "isa", node, "must be one of auto, scalar, avx2, avx512");
+  }
+  str = NULL;
+  if ((rc = get_string(c, root, "", "scatter", 0, &str, &node)))
+    return rc;
+  if (str) {
+    static const char *names[] = {"auto", "colored", "thread_buffers", "gather", "atomic"};
+    static const ek_scatter kinds[] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED,
+                                       EK_SCATTER_THREAD_BUFFERS, EK_SCATTER_GATHER,
+                                       EK_SCATTER_ATOMIC};
+    int found = 0;
+    for (int i = 0; i < 5; ++i)
+      if (strcmp(str, names[i]) == 0) {
+        s->scatter = kinds[i];
+        found = 1;
+      }
+    if (!found)
+      return bad(c, "scatter", node,
+                 "must be one of auto, colored, thread_buffers, gather, atomic");
+  }
+  const cJSON *svd = cJSON_GetObjectItemCaseSensitive(root, "svd");
+  if (!svd)
+    return 0;
+  if ((rc = want_object(c, svd, "svd")) ||
+      (rc = check_keys(c, svd, "svd", (const char *const[]){"sweeps", "rsqrt", NULL})))
+    return rc;
+  long sweeps = 0;
+  if ((rc = get_count(c, svd, "svd", "sweeps", 0, 0, 8, &sweeps)))
+    return rc;
+  s->svd.sweeps = (int)sweeps;
+  str = NULL;
+  if ((rc = get_string(c, svd, "svd", "rsqrt", 0, &str, &node)))
+    return rc;
+  if (str) {
+    if (strcmp(str, "default") == 0)
+      s->svd.exact_rsqrt = 0;
+    else if (strcmp(str, "exact") == 0)
+      s->svd.exact_rsqrt = 1;
+    else if (strcmp(str, "approximate") == 0)
+      s->svd.exact_rsqrt = -1;
+    else
+      return bad(c, "svd.rsqrt", node, "must be \"default\", \"exact\" or \"approximate\"");
+  }
+  return 0;
+}
+
+static int parse_region(parse_ctx *c, const cJSON *bc, const char *path, ek_scene_bc *b) {
+  char p[256];
+  join(p, sizeof p, path, "region");
+  const cJSON *region = cJSON_GetObjectItemCaseSensitive(bc, "region");
+  if (!region)
+    return missing(c, p);
+  int rc = want_object(c, region, p);
+  if (!rc)
+    rc = check_keys(c, region, p, (const char *const[]){"min", "max", NULL});
+  if (!rc)
+    rc = get_vec(c, region, p, "min", 1, 3, b->box_min);
+  if (!rc)
+    rc = get_vec(c, region, p, "max", 1, 3, b->box_max);
+  if (rc)
+    return rc;
+  for (int i = 0; i < 3; ++i)
+    if (b->box_min[i] > b->box_max[i]) {
+      char pi[300];
+      snprintf(pi, sizeof pi, "%s.max[%d]", p, i);
+      return bad(c, pi, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(region, "max"), i),
+                 "must be >= %s.min[%d] = %g", p, i, b->box_min[i]);
+    }
+  return 0;
+}
+
+static int parse_boundary(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *list = cJSON_GetObjectItemCaseSensitive(root, "boundary");
+  if (!list)
+    return 0;
+  if (!cJSON_IsArray(list))
+    return bad(c, "boundary", list, "must be an array of boundary conditions");
+  int n = cJSON_GetArraySize(list);
+  if (n > EK_SCENE_MAX_BC)
+    return bad(c, "boundary", list, "at most %d boundary conditions", EK_SCENE_MAX_BC);
+  int i = 0;
+  for (const cJSON *bc = list->child; bc; bc = bc->next, ++i) {
+    char path[64];
+    snprintf(path, sizeof path, "boundary[%d]", i);
+    ek_scene_bc *b = &s->bc[i];
+    memset(b, 0, sizeof *b);
+    b->until = INFINITY;
+    int rc = want_object(c, bc, path);
+    if (rc)
+      return rc;
+    const char *type = NULL;
+    const cJSON *type_node = NULL;
+    if ((rc = get_string(c, bc, path, "type", 1, &type, &type_node)))
+      return rc;
+    char p[128];
+    snprintf(p, sizeof p, "%s.type", path);
+    if (strcmp(type, "pin") == 0) {
+      b->kind = EK_BC_PIN;
+      rc = check_keys(c, bc, path, (const char *const[]){"type", "region", NULL});
+    } else if (strcmp(type, "twist") == 0) {
+      b->kind = EK_BC_TWIST;
+      rc = check_keys(c, bc, path,
+                      (const char *const[]){"type", "region", "axis", "center", "rate", "until",
+                                            "release", NULL});
+      if (!rc)
+        rc = get_vec(c, bc, path, "axis", 1, 3, b->axis);
+      if (!rc)
+        rc = get_vec(c, bc, path, "center", 1, 3, b->center);
+      if (!rc)
+        rc = get_number(c, bc, path, "rate", 1, &b->rate, NULL);
+      if (!rc) {
+        double len =
+            sqrt(b->axis[0] * b->axis[0] + b->axis[1] * b->axis[1] + b->axis[2] * b->axis[2]);
+        snprintf(p, sizeof p, "%s.axis", path);
+        if (!(len > 0))
+          return bad(c, p, cJSON_GetObjectItemCaseSensitive(bc, "axis"), "must be non-zero");
+        for (int k = 0; k < 3; ++k)
+          b->axis[k] /= len;
+      }
+    } else if (strcmp(type, "stretch") == 0) {
+      b->kind = EK_BC_STRETCH;
+      rc =
+          check_keys(c, bc, path,
+                     (const char *const[]){"type", "region", "velocity", "until", "release", NULL});
+      if (!rc)
+        rc = get_vec(c, bc, path, "velocity", 1, 3, b->velocity);
+    } else {
+      return bad(c, p, type_node, "must be \"pin\", \"twist\" or \"stretch\"");
+    }
+    if (rc)
+      return rc;
+    if (b->kind != EK_BC_PIN) {
+      const cJSON *node = NULL;
+      if ((rc = get_number(c, bc, path, "until", 0, &b->until, &node)))
+        return rc;
+      snprintf(p, sizeof p, "%s.until", path);
+      if (node && !(b->until > 0))
+        return bad(c, p, node, "must be > 0 (seconds)");
+      if ((rc = get_bool(c, bc, path, "release", &b->release)))
+        return rc;
+      snprintf(p, sizeof p, "%s.release", path);
+      if (b->release && !node)
+        return bad(c, p, cJSON_GetObjectItemCaseSensitive(bc, "release"),
+                   "needs %s.until (when to release)", path);
+    }
+    if ((rc = parse_region(c, bc, path, b)))
+      return rc;
+  }
+  s->nbc = n;
+  return 0;
+}
+
+static int parse_loads(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  int rc = get_vec(c, root, "", "gravity", 0, 3, s->gravity);
+  if (rc)
+    return rc;
+  const cJSON *ground = cJSON_GetObjectItemCaseSensitive(root, "ground");
+  if (ground) {
+    if ((rc = want_object(c, ground, "ground")) ||
+        (rc = check_keys(c, ground, "ground", (const char *const[]){"height", NULL})) ||
+        (rc = get_number(c, ground, "ground", "height", 1, &s->ground_height, NULL)))
+      return rc;
+    s->has_ground = 1;
+  }
+  const cJSON *node = NULL;
+  if ((rc = get_number(c, root, "", "damping", 0, &s->damping, &node)))
+    return rc;
+  if (!(s->damping >= 0))
+    return bad(c, "damping", node, "must be >= 0 (1/s)");
+  if ((rc = get_number(c, root, "", "dt", 1, &s->dt, &node)))
+    return rc;
+  if (!(s->dt > 0))
+    return bad(c, "dt", node, "must be > 0 (seconds)");
+  if ((rc = get_count(c, root, "", "steps", 1, 0, 1000000000L, &s->steps)))
+    return rc;
+  const cJSON *out = cJSON_GetObjectItemCaseSensitive(root, "output");
+  if (out) {
+    const char *file = NULL;
+    const cJSON *file_node = NULL;
+    if ((rc = want_object(c, out, "output")) ||
+        (rc = check_keys(c, out, "output", (const char *const[]){"file", "every", NULL})) ||
+        (rc = get_string(c, out, "output", "file", 1, &file, &file_node)) ||
+        (rc = get_count(c, out, "output", "every", 0, 1, 1000000000L, &s->output_every)))
+      return rc;
+    if (strlen(file) >= sizeof s->output_file)
+      return bad(c, "output.file", file_node, "path too long");
+    snprintf(s->output_file, sizeof s->output_file, "%s", file);
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- entry
+
+static void scene_defaults(ek_scene *s) {
+  memset(s, 0, sizeof *s);
+  for (int i = 0; i < 3; ++i)
+    s->init_scale[i] = 1;
+  s->precision = 64;
+  s->scatter = EK_SCATTER_AUTO;
+  s->svd.isa = EK_ISA_AUTO;
+  s->young = NAN;
+  s->poisson = NAN;
+  s->output_every = 1;
+}
+
+int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene,
+                   char *err, size_t errlen) {
+  parse_ctx c = {name ? name : "(scene)", err, errlen};
+  if (err && errlen)
+    err[0] = '\0';
+  if (!text || !scene) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: no scene text", c.name);
+    return EK_EINVAL;
+  }
+  const char *end = NULL;
+  cJSON *root = cJSON_ParseWithOpts(text, &end, 1);
+  if (!root) {
+    // cJSON reports where it stopped; turn that into line:column.
+    const char *at = cJSON_GetErrorPtr();
+    if (!at)
+      at = end ? end : text;
+    int line = 1, col = 1;
+    for (const char *p = text; *p && p < at; ++p) {
+      if (*p == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    if (err && errlen)
+      snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%.20s\"", c.name, line, col, at);
+    return EK_EINVAL;
+  }
+  ek_scene s;
+  scene_defaults(&s);
+  snprintf(s.path, sizeof s.path, "%s", c.name);
+  int rc = 0;
+  if (!cJSON_IsObject(root))
+    rc = bad(&c, "(top level)", root, "a scene must be a JSON object");
+  if (!rc)
+    rc = check_keys(&c, root, "",
+                    (const char *const[]){"description", "mesh", "initial", "material", "precision",
+                                          "isa", "scatter", "svd", "boundary", "gravity", "ground",
+                                          "damping", "dt", "steps", "output", NULL});
+  if (!rc) {
+    const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
+    if (d && !cJSON_IsString(d))
+      rc = bad(&c, "description", d, "must be a string");
+  }
+  if (!rc)
+    rc = parse_mesh(&c, root, base_dir, &s);
+  if (!rc)
+    rc = parse_initial(&c, root, &s);
+  if (!rc)
+    rc = parse_material(&c, root, &s);
+  if (!rc)
+    rc = parse_kernels(&c, root, &s);
+  if (!rc)
+    rc = parse_boundary(&c, root, &s);
+  if (!rc)
+    rc = parse_loads(&c, root, &s);
+  cJSON_Delete(root);
+  if (rc)
+    return rc;
+  *scene = s;
+  return 0;
+}
+
+int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
+  if (err && errlen)
+    err[0] = '\0';
+  if (!path) {
+    if (err && errlen)
+      snprintf(err, errlen, "(null): no scene path");
+    return EK_EINVAL;
+  }
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+    return EK_EIO;
+  }
+  // Scenes are small; 1 MiB is far beyond any hand-written one.
+  enum { MAX_SCENE = 1 << 20 };
+  char *text = malloc(MAX_SCENE + 1);
+  if (!text) {
+    fclose(f);
+    return EK_ENOMEM;
+  }
+  size_t n = fread(text, 1, MAX_SCENE + 1, f);
+  int read_error = ferror(f);
+  fclose(f);
+  if (read_error || n > MAX_SCENE) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: %s", path,
+               read_error ? "read error" : "larger than 1 MiB, not a scene file");
+    free(text);
+    return EK_EIO;
+  }
+  text[n] = '\0';
+  // Mesh files are resolved relative to the scene's directory.
+  char dir[EK_SCENE_PATH_MAX];
+  snprintf(dir, sizeof dir, "%s", path);
+  char *slash = strrchr(dir, '/');
+  if (slash)
+    *slash = '\0';
+  else
+    snprintf(dir, sizeof dir, ".");
+  int rc = ek_scene_parse(text, path, dir, scene, err, errlen);
+  free(text);
+  return rc;
+}
+
+ek_mesh *ek_scene_mesh(const ek_scene *s, char *err, size_t errlen) {
+  if (s->mesh_file[0]) {
+    ek_mesh_opts opts = {0};
+    opts.fix_orientation = s->fix_orientation;
+    return ek_mesh_load_ex(s->mesh_file, &opts, err, errlen);
+  }
+  return ek_mesh_box(s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0],
+                     s->box_size[1], s->box_size[2], err, errlen);
+}

@@ -1,0 +1,487 @@
+// Material kernels (ek_material_eval_*, ek_pk1_*, ek_energy_f64) against the
+// double reference (reference/material/): for every ISA this CPU runs x
+// precision x model x clamp (off / on) x project (off / on), psi, P, dP and
+// the 9x9 Hessian are within EK_PK1_TOL_F32 / _F64 (norms in
+// include/ek/material.h) on random F near the identity, large
+// deformations, inverted and near-flat F, and rotations, with n not a
+// multiple of the lane count. Behaviour on the extremes (zero, rank 1 and
+// 2, reflections): finite wherever the model is defined (everywhere with
+// the clamp), NaN / +inf only for neo-Hookean without clamp at J <= 0, and
+// the return value counts exactly those. A NaN in one element leaves the
+// others untouched; invalid parameters give rc < 0 and write nothing; the
+// AoSoA forms give the same bits as the AoS ones; 1 and 2 threads give the
+// same bits; the neo-Hookean energy is within budget for J from the
+// subnormal range up (the vector log's range reduction); the Young/Poisson helpers invert each
+// other and refuse nu >= 0.5, nu <= -1, E <= 0.
+#include <ek/material.h>
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "material/material_ref.h"
+
+static uint64_t rng_state;
+static double urand(void) { // splitmix64 -> [0, 1)
+  uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  z ^= z >> 31;
+  return (double)(z >> 11) * 0x1p-53;
+}
+static double urange(double a, double b) { return a + (b - a) * urand(); }
+static void mul(const double A[9], const double B[9], double C[9]) {
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+static void rotation(double Q[9]) {
+  double q[4], n = 0;
+  for (int i = 0; i < 4; i++)
+    q[i] = urange(-1, 1), n += q[i] * q[i];
+  n = sqrt(n);
+  double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
+  double M[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+                 2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                 2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+  memcpy(Q, M, sizeof M);
+}
+static void from_sigma(const double s[3], double F[9]) {
+  double Q1[9], Q2[9], D[9] = {0}, T[9], Q2t[9];
+  rotation(Q1), rotation(Q2);
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      Q2t[3 * i + j] = Q2[3 * j + i];
+  D[0] = s[0], D[4] = s[1], D[8] = s[2];
+  mul(Q1, D, T);
+  mul(T, Q2t, F);
+}
+
+// Random catalogue: singular values in [0.2, 5] (the budgets' range), one
+// category per element so every vector mixes them.
+enum { NEAR_ID, LARGE, INVERTED, NEAR_FLAT, ROTATION, KINDS };
+static const char *const kind_names[KINDS] = {"near-identity", "large", "inverted", "near-flat",
+                                              "rotation"};
+static void make_F(int kind, double F[9]) {
+  double s[3];
+  switch (kind) {
+  case NEAR_ID:
+    for (int k = 0; k < 9; k++)
+      F[k] = (k % 4 == 0) + urange(-0.2, 0.2);
+    return;
+  case LARGE:
+    s[0] = urange(0.2, 5), s[1] = urange(0.2, 5), s[2] = urange(0.2, 5);
+    break;
+  case INVERTED: // sigma_i + sigma_j >= 0.3: away from the polar singularity
+    s[0] = urange(0.8, 2), s[1] = urange(0.8, 2), s[2] = -urange(0.1, 0.5);
+    break;
+  case NEAR_FLAT:
+    s[0] = urange(0.8, 2), s[1] = urange(0.8, 2), s[2] = urange(0.2, 0.25);
+    break;
+  default:
+    s[0] = s[1] = s[2] = 1;
+    break;
+  }
+  from_sigma(s, F);
+}
+
+static double amax(const double *a, size_t n) {
+  double m = 0;
+  for (size_t i = 0; i < n; i++)
+    m = fmax(m, fabs(a[i]));
+  return m;
+}
+static int all_finite(const double *a, size_t n) {
+  for (size_t i = 0; i < n; i++)
+    if (!isfinite(a[i]))
+      return 0;
+  return 1;
+}
+
+static int failures;
+static void fail(const char *what) {
+  failures++;
+  printf("    FAIL %s\n", what);
+}
+
+// Run one evaluation in the given precision; double arrays in and out.
+static int eval(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
+                const double *F, const double *R, const double *dF, double *out, int project) {
+  const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+  if (!f32)
+    return ek_material_eval_f64(m, op, isa, n, F, R, dF, out, project);
+  float *Ff = malloc(n * 9 * sizeof(float)), *Rf = malloc(n * 9 * sizeof(float));
+  float *dFf = malloc(n * 9 * sizeof(float)), *Of = malloc(n * nout * sizeof(float));
+  for (size_t i = 0; i < n * 9; i++)
+    Ff[i] = (float)F[i], Rf[i] = R ? (float)R[i] : 0, dFf[i] = dF ? (float)dF[i] : 0;
+  for (size_t i = 0; i < n * nout; i++)
+    Of[i] = (float)out[i];
+  int rc = ek_material_eval_f32(m, op, isa, n, Ff, R ? Rf : NULL, dF ? dFf : NULL, Of, project);
+  for (size_t i = 0; i < n * nout; i++)
+    out[i] = Of[i];
+  free(Ff), free(Rf), free(dFf), free(Of);
+  return rc;
+}
+
+static const char *const op_names[4] = {"psi", "P", "dP", "H"};
+
+static void print_element(const char *label, const double *a, size_t n) {
+  printf("      %-9s", label);
+  for (size_t i = 0; i < n && i < 9; i++)
+    printf(" %.9g", a[i]);
+  printf("%s\n", n > 9 ? " ..." : "");
+}
+
+// Accuracy of one (isa, precision, model, clamp, op, project) against the
+// reference. Returns 0 if within budget.
+static double check_accuracy(int f32, ek_isa isa, const ek_material *m, ek_material_op op,
+                             int project, size_t n, int verbose_fail) {
+  const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+  double *F = malloc(n * 9 * sizeof *F), *R = malloc(n * 9 * sizeof *R);
+  double *dF = malloc(n * 9 * sizeof *dF), *out = calloc(n * nout, sizeof *out);
+  int *kind = malloc(n * sizeof *kind);
+  for (size_t e = 0; e < n; e++) {
+    kind[e] = (int)(urand() * KINDS);
+    make_F(kind[e], F + 9 * e);
+    rotation(R + 9 * e);
+    for (int k = 0; k < 9; k++)
+      dF[9 * e + k] = urange(-1, 1);
+    if (f32) // the reference sees exactly the float input
+      for (int k = 0; k < 9; k++) {
+        F[9 * e + k] = (float)F[9 * e + k];
+        R[9 * e + k] = (float)R[9 * e + k];
+        dF[9 * e + k] = (float)dF[9 * e + k];
+      }
+  }
+  int rc = eval(f32, m, op, isa, n, F, R, dF, out, project);
+  ek_material_ref mr = {(int)m->model, m->mu, m->lambda, m->clamp};
+  double worst = 0;
+  long outside = 0;
+  const double tol = f32 ? EK_PK1_TOL_F32 : EK_PK1_TOL_F64;
+  for (size_t e = 0; e < n; e++) {
+    const double *Fe = F + 9 * e, *Re = R + 9 * e, *dFe = dF + 9 * e, *got = out + nout * e;
+    double ref[81];
+    switch (op) {
+    case EK_MAT_ENERGY:
+      ref[0] = ek_psi_ref(&mr, Fe, Re);
+      break;
+    case EK_MAT_PK1:
+      ek_pk1_ref(&mr, Fe, Re, ref);
+      break;
+    case EK_MAT_PK1_DIFF:
+      ek_pk1_diff_ref(&mr, Fe, Re, dFe, ref, project);
+      break;
+    default:
+      ek_hessian_ref(&mr, Fe, Re, ref, project);
+      break;
+    }
+    const double s = fmax(1, amax(Fe, 9)), lame = m->mu + fabs(m->lambda);
+    if (!all_finite(ref, nout)) { // outside the domain: must match
+      outside++;
+      int ok = op == EK_MAT_ENERGY ? got[0] == INFINITY : isnan(got[0]);
+      if (!ok) {
+        fail("outside the domain but not NaN / +inf");
+        print_element("F", Fe, 9), print_element("expected", ref, nout),
+            print_element("actual", got, nout);
+      }
+      continue;
+    }
+    double scale = op == EK_MAT_ENERGY     ? lame * s * s * s * s
+                   : op == EK_MAT_PK1      ? lame * s * s * s
+                   : op == EK_MAT_PK1_DIFF ? lame * s * s * amax(dFe, 9)
+                                           : lame * s * s;
+    double d = 0;
+    for (size_t k = 0; k < nout; k++)
+      d = fmax(d, fabs(got[k] - ref[k]));
+    if (!all_finite(got, nout))
+      d = INFINITY;
+    double err = d / fmax(amax(ref, nout), scale);
+    if (!(err <= worst))
+      worst = err;
+    if (!(err <= tol) && verbose_fail) {
+      printf("    element %zu (%s): err %.3e > %.1e\n", e, kind_names[kind[e]], err, tol);
+      print_element("F", Fe, 9), print_element("expected", ref, nout),
+          print_element("actual", got, nout);
+      verbose_fail--;
+    }
+  }
+  if (rc != outside) {
+    printf("    return value %d, expected %ld elements outside the domain\n", rc, outside);
+    fail("return value");
+  }
+  free(F), free(R), free(dF), free(out), free(kind);
+  return worst;
+}
+
+// Extremes: finite where defined, NaN only where the table says.
+static void check_extremes(int f32, ek_isa isa, const ek_material *m, int project) {
+  double ext[][9] = {
+      {0, 0, 0, 0, 0, 0, 0, 0, 0},      // zero
+      {1, 2, 3, 2, 4, 6, 3, 6, 9},      // rank 1
+      {1, 0, 0, 0, 1, 0, 0, 0, 0},      // rank 2 (flat)
+      {1, 0, 0, 0, 1, 0, 0, 0, -1},     // reflection
+      {-1, 0, 0, 0, -1, 0, 0, 0, -1},   // point reflection
+      {0.5, 0.1, 0, 0, -2, 0, 0, 0, 1}, // inverted
+      {1e-6, 0, 0, 0, 1e-6, 0, 0, 0, 1e-6}, {3, 0, 0, 0, 3, 0, 0, 0, 3},
+  };
+  const size_t n = sizeof ext / sizeof ext[0];
+  double R[sizeof ext / sizeof ext[0]][9], dF[sizeof ext / sizeof ext[0]][9];
+  for (size_t e = 0; e < n; e++) {
+    rotation(R[e]);
+    for (int k = 0; k < 9; k++)
+      dF[e][k] = urange(-1, 1);
+  }
+  int clamped = m->clamp > 0;
+  int polar = m->model == EK_MODEL_FIXED_COROTATED || m->model == EK_MODEL_ARAP;
+  for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++) {
+    const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+    double out[sizeof ext / sizeof ext[0] * 81];
+    int rc =
+        eval(f32, m, (ek_material_op)op, isa, n, &ext[0][0], &R[0][0], &dF[0][0], out, project);
+    int expect_rc = 0;
+    for (size_t e = 0; e < n; e++) {
+      double J = ext[e][0] * (ext[e][4] * ext[e][8] - ext[e][5] * ext[e][7]) -
+                 ext[e][1] * (ext[e][3] * ext[e][8] - ext[e][5] * ext[e][6]) +
+                 ext[e][2] * (ext[e][3] * ext[e][7] - ext[e][4] * ext[e][6]);
+      int nan_domain = m->model == EK_MODEL_NEO_HOOKEAN && !clamped && J <= 0;
+      // Fixed corotated / ARAP without clamp: dP holds 1/(sigma_i + sigma_j),
+      // infinite at the zero, rank-1 and reflected inputs, where some
+      // sigma_i + sigma_j = 0 (their own singularity, material.h); no
+      // requirement there.
+      int singular =
+          polar && !clamped && op >= EK_MAT_PK1_DIFF && (e == 0 || e == 1 || e == 3 || e == 4);
+      const double *got = out + nout * e;
+      if (nan_domain) {
+        expect_rc++;
+        int ok = op == EK_MAT_ENERGY ? got[0] == INFINITY : isnan(got[0]);
+        if (!ok) {
+          printf("    extreme %zu %s: expected NaN / +inf\n", e, op_names[op]);
+          print_element("F", ext[e], 9), print_element("actual", got, nout);
+          fail("extremes: NaN expected");
+        }
+      } else if (!singular && !all_finite(got, nout)) {
+        printf("    extreme %zu %s: expected finite\n", e, op_names[op]);
+        print_element("F", ext[e], 9), print_element("actual", got, nout);
+        fail("extremes: finite expected");
+      }
+    }
+    if (rc != expect_rc) {
+      printf("    extremes %s: rc %d, expected %d\n", op_names[op], rc, expect_rc);
+      fail("extremes: return value");
+    }
+  }
+}
+
+// A NaN in one element: that element's output is NaN, the others keep the
+// bits they have without it.
+static void check_nan_lane(int f32, ek_isa isa, const ek_material *m) {
+  const size_t n = 21;
+  double F[21 * 9], R[21 * 9], a[21 * 9], b[21 * 9];
+  for (size_t e = 0; e < n; e++)
+    make_F(NEAR_ID, F + 9 * e), rotation(R + 9 * e);
+  eval(f32, m, EK_MAT_PK1, isa, n, F, R, NULL, a, 0);
+  F[9 * 5 + 4] = NAN;
+  eval(f32, m, EK_MAT_PK1, isa, n, F, R, NULL, b, 0);
+  for (size_t e = 0; e < n; e++) {
+    int nan = isnan(b[9 * e]);
+    int same = memcmp(a + 9 * e, b + 9 * e, 9 * sizeof(double)) == 0;
+    if (e == 5 ? !nan : !same) {
+      printf("    NaN lane: element %zu %s\n", e, e == 5 ? "not NaN" : "changed");
+      fail("NaN in one element");
+    }
+  }
+}
+
+int main(int argc, char **argv) {
+  uint64_t seed = 1;
+  for (int i = 1; i < argc; i++)
+    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
+      seed = strtoull(argv[++i], NULL, 10);
+  rng_state = seed;
+  printf("test_material --seed %llu\n", (unsigned long long)seed);
+  const double clamps[2] = {0, 0.3};
+  const size_t n = 77; // not a multiple of any lane count
+
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+    if (!ek_isa_available((ek_isa)isa)) {
+      printf("skip ISA %s: not built or not supported by this CPU\n", ek_isa_name((ek_isa)isa));
+      continue;
+    }
+    for (int f32 = 1; f32 >= 0; f32--) {
+      const double tol = f32 ? EK_PK1_TOL_F32 : EK_PK1_TOL_F64;
+      printf("ISA %s, %s (budget %.0e)\n", ek_isa_name((ek_isa)isa), f32 ? "f32" : "f64", tol);
+      for (int model = 0; model < EK_MODEL_COUNT; model++)
+        for (int c = 0; c < 2; c++) {
+          ek_material m = {(ek_model)model, 1.3, 2.1, clamps[c]};
+          printf("  %-12s clamp %.1f:", ek_model_name((ek_model)model), clamps[c]);
+          double worst_all = 0;
+          for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++)
+            for (int project = 0; project < (op >= EK_MAT_PK1_DIFF ? 2 : 1); project++) {
+              double w = check_accuracy(f32, (ek_isa)isa, &m, (ek_material_op)op, project, n, 2);
+              printf(" %s%s %.1e", op_names[op], project ? "+" : "", w);
+              worst_all = fmax(worst_all, w);
+              if (!(w <= tol))
+                fail("accuracy");
+            }
+          double r = worst_all / tol;
+          printf("  err/budget %.3f %s\n", r, !(r <= 1) ? "FAIL" : r > 0.5 ? "MARGINAL" : "PASS");
+          for (int project = 0; project < 2; project++)
+            check_extremes(f32, (ek_isa)isa, &m, project);
+          check_nan_lane(f32, (ek_isa)isa, &m);
+        }
+    }
+  }
+
+  // Neo-Hookean energy over the whole range of J = a (F = diag(a, 1, 1)),
+  // subnormal a included: exercises the range reduction of the vector log.
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+    if (!ek_isa_available((ek_isa)isa))
+      continue;
+    for (int f32 = 1; f32 >= 0; f32--) {
+      const double tol = f32 ? EK_PK1_TOL_F32 : EK_PK1_TOL_F64;
+      const int lo = f32 ? -44 : -320, hi = f32 ? 15 : 150; // a^2 stays finite
+      const size_t n = (size_t)(hi - lo + 1);
+      double *F = calloc(n * 9, sizeof *F), *psi = calloc(n, sizeof *psi);
+      for (size_t e = 0; e < n; e++) {
+        double a = pow(10.0, lo + (int)e);
+        F[9 * e] = f32 ? (float)a : a, F[9 * e + 4] = F[9 * e + 8] = 1;
+      }
+      ek_material m = {EK_MODEL_NEO_HOOKEAN, 1.3, 2.1, 0};
+      ek_material_ref mr = {EK_MODEL_NEO_HOOKEAN, 1.3, 2.1, 0};
+      int rc = eval(f32, &m, EK_MAT_ENERGY, (ek_isa)isa, n, F, NULL, NULL, psi, 0);
+      double worst = 0;
+      for (size_t e = 0; e < n; e++) {
+        double ref = ek_psi_ref(&mr, F + 9 * e, NULL);
+        double s = fmax(1, F[9 * e]), scale = (m.mu + m.lambda) * s * s * s * s;
+        double err = fabs(psi[e] - ref) / fmax(fabs(ref), scale);
+        if (!(err <= tol))
+          printf("    nh psi at J = %.3g: %.17g, expected %.17g\n", F[9 * e], psi[e], ref);
+        if (!(err <= worst))
+          worst = err;
+      }
+      printf("ISA %s %s: neo-Hookean psi for J in 1e%d..1e%d: err %.2e, err/budget %.3f %s\n",
+             ek_isa_name((ek_isa)isa), f32 ? "f32" : "f64", lo, hi, worst, worst / tol,
+             !(worst <= tol)   ? "FAIL"
+             : worst > tol / 2 ? "MARGINAL"
+                               : "PASS");
+      if (!(worst <= tol) || rc != 0)
+        fail("neo-Hookean energy range");
+      free(F), free(psi);
+    }
+  }
+
+  // Invalid parameters: rc < 0 and nothing written.
+  {
+    const ek_material bad[] = {
+        {EK_MODEL_STVK, 0, 1, 0},
+        {EK_MODEL_STVK, -1, 1, 0},
+        {EK_MODEL_STVK, NAN, 1, 0},
+        {EK_MODEL_STVK, 1, INFINITY, 0},
+        {EK_MODEL_STVK, 1, -0.7, 0},
+        {EK_MODEL_NEO_HOOKEAN, 1, 1, -0.1},
+        {EK_MODEL_NEO_HOOKEAN, 1, 1, NAN},
+        {(ek_model)8, 1, 1, 0},
+        {EK_MODEL_STABLE_NEO_HOOKEAN, 1, 0, 0},
+    };
+    double F[9 * 3] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, out[81 * 3];
+    float Ff[9 * 3] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, outf[81 * 3];
+    int bad_ok = 1;
+    for (size_t b = 0; b < sizeof bad / sizeof bad[0]; b++)
+      for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++) {
+        for (int k = 0; k < 81 * 3; k++)
+          out[k] = -12345, outf[k] = -12345;
+        int rc = ek_material_eval_f64(&bad[b], (ek_material_op)op, EK_ISA_AUTO, 3, F, F, F, out, 0);
+        int rcf =
+            ek_material_eval_f32(&bad[b], (ek_material_op)op, EK_ISA_AUTO, 3, Ff, Ff, Ff, outf, 1);
+        int untouched = 1;
+        for (int k = 0; k < 81 * 3; k++)
+          untouched &= out[k] == -12345 && outf[k] == -12345;
+        if (rc >= 0 || rcf >= 0 || !untouched) {
+          printf("    invalid material %zu (model %d mu %g lambda %g clamp %g): rc %d / %d%s\n", b,
+                 (int)bad[b].model, bad[b].mu, bad[b].lambda, bad[b].clamp, rc, rcf,
+                 untouched ? "" : ", output written");
+          bad_ok = 0;
+        }
+      }
+    ek_material corot = {EK_MODEL_COROTATED_LINEAR, 1, 1, 0};
+    for (int k = 0; k < 9; k++)
+      out[k] = -12345;
+    if (ek_pk1_f64(&corot, 1, F, NULL, out) >= 0 || out[0] != -12345) {
+      printf("    corotated linear with R = NULL accepted\n");
+      bad_ok = 0;
+    }
+    ek_material ok = {EK_MODEL_STVK, 1, 1, 0};
+    if (ek_pk1_diff_f64(&ok, 1, F, NULL, NULL, out, 0) >= 0) {
+      printf("    dF = NULL accepted\n");
+      bad_ok = 0;
+    }
+    printf("invalid arguments: %s\n", bad_ok ? "PASS" : "FAIL");
+    if (!bad_ok)
+      fail("invalid arguments");
+  }
+
+  // AoSoA forms = AoS forms (bits), and 1 thread = 2 threads (bits).
+  {
+    const size_t big = 1000, nb = (big + EK_LANES_F64 - 1) / EK_LANES_F64;
+    double *F = malloc(big * 9 * sizeof *F), *P1 = malloc(big * 9 * sizeof *P1);
+    double *P2 = malloc(big * 9 * sizeof *P2), *dF = malloc(big * 9 * sizeof *dF);
+    double *Fs = malloc(nb * EK_LANES_F64 * 9 * sizeof *Fs);
+    double *dFs = malloc(nb * EK_LANES_F64 * 9 * sizeof *dFs);
+    double *Ps = malloc(nb * EK_LANES_F64 * 9 * sizeof *Ps);
+    for (size_t e = 0; e < big; e++) {
+      make_F((int)(urand() * KINDS), F + 9 * e);
+      for (int k = 0; k < 9; k++)
+        dF[9 * e + k] = urange(-1, 1);
+    }
+    for (size_t b = 0; b < nb; b++)
+      for (int q = 0; q < 9; q++)
+        for (int l = 0; l < EK_LANES_F64; l++) {
+          size_t e = b * EK_LANES_F64 + (size_t)l, s = (b * 9 + (size_t)q) * EK_LANES_F64 + l;
+          Fs[s] = e < big ? F[9 * e + q] : q % 4 == 0;
+          dFs[s] = e < big ? dF[9 * e + q] : 0;
+        }
+    int same_threads = 1, same_aosoa = 1;
+    for (int model = 0; model < EK_MODEL_COUNT; model++) {
+      if (model == EK_MODEL_COROTATED_LINEAR)
+        continue; // needs R; its kernel is covered above
+      ek_material m = {(ek_model)model, 1.3, 2.1, 0.3};
+      omp_set_num_threads(1);
+      ek_pk1_diff_f64(&m, big, F, NULL, dF, P1, 1);
+      omp_set_num_threads(2);
+      ek_pk1_diff_f64(&m, big, F, NULL, dF, P2, 1);
+      same_threads &= memcmp(P1, P2, big * 9 * sizeof *P1) == 0;
+      ek_pk1_diff_aosoa_f64(&m, nb, Fs, NULL, dFs, Ps, 1);
+      for (size_t e = 0; e < big; e++)
+        for (int q = 0; q < 9; q++)
+          same_aosoa &=
+              Ps[((e / EK_LANES_F64) * 9 + q) * EK_LANES_F64 + e % EK_LANES_F64] == P2[9 * e + q];
+    }
+    printf("1 vs 2 threads bitwise: %s; AoSoA vs AoS bitwise: %s\n", same_threads ? "PASS" : "FAIL",
+           same_aosoa ? "PASS" : "FAIL");
+    if (!same_threads || !same_aosoa)
+      fail("threads / AoSoA");
+    free(F), free(P1), free(P2), free(dF), free(Fs), free(dFs), free(Ps);
+  }
+
+  // Young / Poisson helpers.
+  {
+    double mu, lambda, E, nu;
+    int ok = ek_lame_from_young_poisson(1e5, 0.3, &mu, &lambda) == 0 &&
+             ek_young_poisson_from_lame(mu, lambda, &E, &nu) == 0 &&
+             fabs(E - 1e5) <= EK_PK1_TOL_F64 * 1e5 && fabs(nu - 0.3) <= EK_PK1_TOL_F64 &&
+             fabs(mu - 1e5 / 2.6) <= EK_PK1_TOL_F64 * mu;
+    ok &= ek_lame_from_young_poisson(1e5, 0.5, &mu, &lambda) < 0;
+    ok &= ek_lame_from_young_poisson(1e5, -1, &mu, &lambda) < 0;
+    ok &= ek_lame_from_young_poisson(0, 0.3, &mu, &lambda) < 0;
+    ok &= ek_lame_from_young_poisson(NAN, 0.3, &mu, &lambda) < 0;
+    ok &= ek_young_poisson_from_lame(1, -1, &E, &nu) < 0;
+    printf("Young/Poisson helpers: %s\n", ok ? "PASS" : "FAIL");
+    if (!ok)
+      fail("Young/Poisson");
+  }
+
+  printf("%s: %d failure(s)\n", failures ? "FAIL" : "PASS", failures);
+  return failures ? 1 : 0;
+}

@@ -1,0 +1,519 @@
+// Invariant: for every ISA this machine runs and both precisions, ek_svd3_*
+// returns A = U diag(S) V^T with U, V rotations, S ordered and signed by
+// det A, within EK_SVD3_TOL_F32 / _F64 of the LAPACK reference (relative to
+// s1) for the default options, on a random set and every extremes family;
+// a matrix with a NaN or infinity gives NaN in its own outputs only; the
+// result of a matrix does not depend on its position or on the batch size
+// (AoS and AoSoA entry points agree bit for bit, tails included); ISAs agree
+// within the budget and the f64 kernels agree with the scalar replica of the
+// algorithm (ek_svd3_mcadams_ref, same knobs) within EK_SVD3_REPLICA_TOL;
+// ek_polar3_* gives a rotation R and a symmetric Ssym with R Ssym = A; an
+// invalid option returns rc < 0 and writes nothing; 1 and 2 threads give the
+// same bits. Non-default options (approximate rsqrt, other sweeps) are the
+// speed/accuracy trade: their errors are printed, not judged, but they must
+// still give finite outputs for finite inputs.
+//
+// Usage: test_svd3 [--seed N]
+#include <ek/ek.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../kernels/kernels.h" // ek_svd3_knobs: the driver's defaults
+#include "check.h"
+#include "svd3/svd3_ref.h"
+
+ek_svd3_knobs ek_svd3_default_knobs_f64(void);
+
+enum { N_RANDOM = 20000, N_FAMILY = 500, N_TAIL = 1001, N_THREADS_TEST = 5000 };
+
+static int failures;
+
+static double budget_of(int bits) { return bits == 32 ? EK_SVD3_TOL_F32 : EK_SVD3_TOL_F64; }
+
+// Lanes of one vector of the ISA (EK_W of its kernels).
+static size_t vector_lanes(ek_isa isa, int bits) {
+  switch (isa) {
+  case EK_ISA_AVX2:
+    return bits == 32 ? 8 : 4;
+  case EK_ISA_AVX512:
+    return bits == 32 ? 16 : 8;
+  default:
+    return 1;
+  }
+}
+
+static size_t block_lanes(int bits) { return bits == 32 ? EK_LANES_F32 : EK_LANES_F64; }
+
+static void print_svd_case(const double A[9], const double U[9], const double S[3],
+                           const double V[9], const double S_ref[3]) {
+  ek_print3("A", A);
+  ek_print3("U", U);
+  ek_print3("V", V);
+  printf("  S actual   % .17g % .17g % .17g\n", S[0], S[1], S[2]);
+  if (S_ref)
+    printf("  S expected % .17g % .17g % .17g\n", S_ref[0], S_ref[1], S_ref[2]);
+}
+
+static int all_nan(const double *x, int n) {
+  for (int i = 0; i < n; i++)
+    if (!isnan(x[i]))
+      return 0;
+  return 1;
+}
+
+// ---- Accuracy against LAPACK ----
+// Runs one option set on one input set; prints one line. Default options
+// are judged against the budget; others (trade) only for finiteness and
+// NaN isolation.
+static void accuracy(int bits, ek_isa isa, const ek_svd3_set *s, const ek_svd3_opts *o,
+                     const char *optname, int trade, int polar, double *U, double *S, double *V) {
+  double budget = budget_of(bits);
+  char label[128];
+  snprintf(label, sizeof label, "%s %s f%d %s %s", polar ? "polar" : "svd", ek_isa_name(isa), bits,
+           optname, s->name);
+  int rc = ek_check_run_svd3(bits, polar, s->n, s->A, U, S, V, o);
+  if (rc != 0) {
+    printf("FAIL %s: rc %d (%s)\n", label, rc, ek_last_error());
+    failures++;
+    return;
+  }
+  double worst = 0;
+  long nonfinite = 0, leaks = 0;
+  int shown = 0;
+  for (size_t i = 0; i < s->n; i++) {
+    const double *A = s->A + 9 * i;
+    if (s->bad[i]) {
+      int nan_out =
+          all_nan(U + 9 * i, 9) && all_nan(V + 9 * i, 9) && (polar || all_nan(S + 3 * i, 3));
+      if (!nan_out && leaks++ < 2) {
+        printf("FAIL %s #%zu: non-finite input, outputs not all NaN\n", label, i);
+        print_svd_case(A, U + 9 * i, polar ? s->S_ref + 3 * i : S + 3 * i, V + 9 * i, NULL);
+      }
+      continue;
+    }
+    double w;
+    int nf;
+    if (polar) {
+      ek_polar3_metrics m;
+      ek_check_polar3(A, U + 9 * i, V + 9 * i, s->S_ref + 3 * i, s->R_ref + 9 * i, &m);
+      w = ek_polar3_metrics_worst(&m), nf = m.nonfinite;
+    } else {
+      ek_svd3_metrics m;
+      ek_check_svd3(A, U + 9 * i, S + 3 * i, V + 9 * i, s->S_ref + 3 * i, budget, &m);
+      w = ek_svd3_metrics_worst(&m), nf = m.nonfinite;
+    }
+    if (nf) {
+      if (nonfinite++ < 2) {
+        printf("FAIL %s #%zu: non-finite output for a finite input\n", label, i);
+        if (!polar)
+          print_svd_case(A, U + 9 * i, S + 3 * i, V + 9 * i, s->S_ref + 3 * i);
+        else
+          ek_print3("A", A), ek_print3("R", U + 9 * i), ek_print3("Ssym", V + 9 * i);
+      }
+      continue;
+    }
+    if (!trade && w > budget && shown++ < 2) {
+      printf("FAIL %s #%zu: error %.3g > budget %.3g\n", label, i, w, budget);
+      if (!polar)
+        print_svd_case(A, U + 9 * i, S + 3 * i, V + 9 * i, s->S_ref + 3 * i);
+      else
+        ek_print3("A", A), ek_print3("R", U + 9 * i), ek_print3("R expected", s->R_ref + 9 * i),
+            ek_print3("Ssym", V + 9 * i);
+    }
+    worst = fmax(worst, w);
+  }
+  if (nonfinite || leaks) {
+    printf("FAIL %s: %ld non-finite outputs for finite inputs, %ld NaN isolation errors\n", label,
+           nonfinite, leaks);
+    failures++;
+  }
+  if (trade)
+    printf("%-58s err=%-11.4g budget=%-8.3g ratio=%-9.3g trade (not judged)\n", label, worst,
+           budget, worst / budget);
+  else
+    failures += ek_check_report(label, worst, budget);
+}
+
+// ---- Position and batch-size independence, AoS vs AoSoA ----
+static int same_bits(const double *a, const double *b, size_t n) {
+  return memcmp(a, b, n * sizeof *a) == 0 || n == 0;
+}
+
+// AoSoA entry point on double data: pack, run, unpack (f32 converted).
+static int run_aosoa(int bits, size_t n, const double *A, double *U, double *S, double *V,
+                     const ek_svd3_opts *o, double *pad_worst) {
+  size_t L = block_lanes(bits), nb = (n + L - 1) / L, lanes = nb * L;
+  int rc;
+  *pad_worst = 0;
+  if (bits == 64) {
+    double *a = ek_aosoa_alloc_f64(n, 9), *u = ek_aosoa_alloc_f64(n, 9);
+    double *s = ek_aosoa_alloc_f64(n, 3), *v = ek_aosoa_alloc_f64(n, 9);
+    ek_aosoa_pack_f64(n, 9, A, a);
+    rc = ek_svd3_aosoa_f64(nb, a, u, s, v, o);
+    if (rc == 0) {
+      ek_aosoa_unpack_f64(n, 9, u, U), ek_aosoa_unpack_f64(n, 3, s, S);
+      ek_aosoa_unpack_f64(n, 9, v, V);
+      // Padding lanes hold the identity: S = (1, 1, 1) there.
+      for (size_t l = n; l < lanes; l++) {
+        size_t b = l / L, k = l % L;
+        for (int p = 0; p < 3; p++)
+          *pad_worst = fmax(*pad_worst, fabs(s[(b * 3 + p) * L + k] - 1));
+      }
+    }
+    ek_free(a), ek_free(u), ek_free(s), ek_free(v);
+  } else {
+    float *a32 = ek_check_malloc(9 * n * sizeof(float) + 1);
+    ek_check_to_f32(9 * n, A, a32);
+    float *a = ek_aosoa_alloc_f32(n, 9), *u = ek_aosoa_alloc_f32(n, 9);
+    float *s = ek_aosoa_alloc_f32(n, 3), *v = ek_aosoa_alloc_f32(n, 9);
+    float *U32 = ek_check_malloc(9 * n * sizeof(float) + 1);
+    float *S32 = ek_check_malloc(3 * n * sizeof(float) + 1);
+    float *V32 = ek_check_malloc(9 * n * sizeof(float) + 1);
+    ek_aosoa_pack_f32(n, 9, a32, a);
+    rc = ek_svd3_aosoa_f32(nb, a, u, s, v, o);
+    if (rc == 0) {
+      ek_aosoa_unpack_f32(n, 9, u, U32), ek_aosoa_unpack_f32(n, 3, s, S32);
+      ek_aosoa_unpack_f32(n, 9, v, V32);
+      ek_check_from_f32(9 * n, U32, U), ek_check_from_f32(3 * n, S32, S);
+      ek_check_from_f32(9 * n, V32, V);
+      for (size_t l = n; l < lanes; l++) {
+        size_t b = l / L, k = l % L;
+        for (int p = 0; p < 3; p++)
+          *pad_worst = fmax(*pad_worst, fabs(s[(b * 3 + p) * L + k] - 1));
+      }
+    }
+    ek_free(a), ek_free(u), ek_free(s), ek_free(v);
+    free(a32), free(U32), free(S32), free(V32);
+  }
+  return rc;
+}
+
+static void tails(int bits, ek_isa isa, const ek_svd3_set *random) {
+  ek_svd3_opts o = {.isa = isa};
+  size_t n_full = N_TAIL;
+  double *U0 = ek_check_malloc(9 * n_full * sizeof(double));
+  double *S0 = ek_check_malloc(3 * n_full * sizeof(double));
+  double *V0 = ek_check_malloc(9 * n_full * sizeof(double));
+  // Outputs one entry longer than asked, with a sentinel after the end.
+  double *U = ek_check_malloc((9 * n_full + 1) * sizeof(double));
+  double *S = ek_check_malloc((3 * n_full + 1) * sizeof(double));
+  double *V = ek_check_malloc((9 * n_full + 1) * sizeof(double));
+  if (ek_check_run_svd3(bits, 0, n_full, random->A, U0, S0, V0, &o) != 0) {
+    printf("FAIL tails %s f%d: rc != 0 (%s)\n", ek_isa_name(isa), bits, ek_last_error());
+    failures++;
+    return;
+  }
+  size_t W = vector_lanes(isa, bits), L = block_lanes(bits);
+  size_t sizes[] = {0, 1, W - 1, W + 1, L - 1, L + 1, 17, n_full};
+  int bad = 0;
+  double pad_worst_all = 0;
+  for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+    size_t n = sizes[k];
+    const double sentinel = 12345.0;
+    U[9 * n] = S[3 * n] = V[9 * n] = sentinel;
+    int rc = ek_check_run_svd3(bits, 0, n, random->A, U, S, V, &o);
+    int ok = rc == 0 && same_bits(U, U0, 9 * n) && same_bits(S, S0, 3 * n) &&
+             same_bits(V, V0, 9 * n) && U[9 * n] == sentinel && S[3 * n] == sentinel &&
+             V[9 * n] == sentinel;
+    if (!ok) {
+      printf("FAIL tails %s f%d AoS n=%zu: rc %d, results differ from the n=%zu batch or write "
+             "past the end\n",
+             ek_isa_name(isa), bits, n, rc, n_full);
+      bad++;
+    }
+    double pad_worst;
+    U[9 * n] = S[3 * n] = V[9 * n] = sentinel;
+    rc = run_aosoa(bits, n, random->A, U, S, V, &o, &pad_worst);
+    ok = rc == 0 && same_bits(U, U0, 9 * n) && same_bits(S, S0, 3 * n) && same_bits(V, V0, 9 * n) &&
+         U[9 * n] == sentinel;
+    if (!ok) {
+      printf("FAIL tails %s f%d AoSoA n=%zu: rc %d, results differ from the AoS batch\n",
+             ek_isa_name(isa), bits, n, rc);
+      bad++;
+    }
+    pad_worst_all = fmax(pad_worst_all, pad_worst);
+  }
+  printf("tails %s f%d: sizes 0 1 %zu %zu %zu %zu 17 %zu, AoS and AoSoA bit-identical to one "
+         "batch: %s\n",
+         ek_isa_name(isa), bits, W - 1, W + 1, L - 1, L + 1, n_full, bad ? "FAIL" : "PASS");
+  failures += bad != 0;
+  char label[96];
+  snprintf(label, sizeof label, "padding lanes (identity) %s f%d: |S - 1|", ek_isa_name(isa), bits);
+  failures += ek_check_report(label, pad_worst_all, budget_of(bits));
+  free(U0), free(S0), free(V0), free(U), free(S), free(V);
+}
+
+// ---- NaN isolation ----
+// NaN / inf put into a copy of the random batch: those matrices give NaN
+// everywhere, every other matrix gives the same bits as without them.
+static void nan_isolation(int bits, ek_isa isa, const ek_svd3_set *random) {
+  size_t n = N_TAIL, W = vector_lanes(isa, bits);
+  size_t where[] = {0, 1, W, W + 1, 500, n - 1};
+  const double poison[] = {NAN, INFINITY, -INFINITY, NAN, -NAN, INFINITY};
+  double *A = ek_check_malloc(9 * n * sizeof(double));
+  memcpy(A, random->A, 9 * n * sizeof(double));
+  char *bad = calloc(n, 1);
+  for (size_t k = 0; k < sizeof where / sizeof where[0]; k++) {
+    A[9 * where[k] + (k * 4) % 9] = poison[k];
+    bad[where[k]] = 1;
+  }
+  double *U0 = ek_check_malloc(9 * n * sizeof(double)),
+         *S0 = ek_check_malloc(3 * n * sizeof(double));
+  double *V0 = ek_check_malloc(9 * n * sizeof(double)),
+         *U = ek_check_malloc(9 * n * sizeof(double));
+  double *S = ek_check_malloc(3 * n * sizeof(double)), *V = ek_check_malloc(9 * n * sizeof(double));
+  ek_svd3_opts o = {.isa = isa};
+  int rc0 = ek_check_run_svd3(bits, 0, n, random->A, U0, S0, V0, &o);
+  int rc = ek_check_run_svd3(bits, 0, n, A, U, S, V, &o);
+  long errors = rc0 != 0 || rc != 0;
+  for (size_t i = 0; i < n && !errors; i++) {
+    int ok = bad[i] ? all_nan(U + 9 * i, 9) && all_nan(S + 3 * i, 3) && all_nan(V + 9 * i, 9)
+                    : same_bits(U + 9 * i, U0 + 9 * i, 9) && same_bits(S + 3 * i, S0 + 3 * i, 3) &&
+                          same_bits(V + 9 * i, V0 + 9 * i, 9);
+    if (!ok) {
+      printf("FAIL NaN isolation %s f%d: matrix %zu (%s)\n", ek_isa_name(isa), bits, i,
+             bad[i] ? "non-finite input, outputs not all NaN" : "neighbour changed");
+      print_svd_case(A + 9 * i, U + 9 * i, S + 3 * i, V + 9 * i, S0 + 3 * i);
+      errors++;
+    }
+  }
+  printf("NaN isolation %s f%d (NaN/inf in matrices 0 1 %zu %zu 500 %zu of %zu): %s\n",
+         ek_isa_name(isa), bits, W, W + 1, n - 1, n, errors ? "FAIL" : "PASS");
+  failures += errors != 0;
+  free(A), free(bad), free(U0), free(S0), free(V0), free(U), free(S), free(V);
+}
+
+// ---- ISA agreement, and f64 kernels vs the replica ----
+static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *S_scalar, double *U,
+                      double *S, double *V) {
+  ek_svd3_opts o = {.isa = isa};
+  if (ek_check_run_svd3(bits, 0, s->n, s->A, U, S, V, &o) != 0) {
+    failures++;
+    return;
+  }
+  double worst = 0, worst_rep = 0;
+  ek_svd3_knobs k = ek_svd3_default_knobs_f64();
+  int shown = 0;
+  for (size_t i = 0; i < s->n; i++) {
+    if (s->bad[i])
+      continue;
+    double s1 = s->S_ref[3 * i] > 0 ? s->S_ref[3 * i] : 1;
+    for (int j = 0; j < 3; j++)
+      worst = fmax(worst, fabs(S[3 * i + j] - S_scalar[3 * i + j]) / s1);
+    if (bits != 64)
+      continue;
+    double Ur[9], Sr[3], Vr[9];
+    ek_svd3_mcadams_ref(s->A + 9 * i, k.sweeps, k.refine, Ur, Sr, Vr);
+    double e = 0;
+    for (int j = 0; j < 3; j++)
+      e = fmax(e, fabs(S[3 * i + j] - Sr[j]) / s1);
+    const double *Sx = s->S_ref + 3 * i;
+    double gap = fmin(Sx[0] - Sx[1], Sx[1] - fabs(Sx[2]));
+    if (gap > EK_SVD3_REPLICA_GAP * s1)
+      for (int j = 0; j < 9; j++)
+        e = fmax(e, fmax(fabs(U[9 * i + j] - Ur[j]), fabs(V[9 * i + j] - Vr[j])));
+    if (!(e <= EK_SVD3_REPLICA_TOL) && shown++ < 2) {
+      printf("FAIL replica agreement %s f64 %s #%zu: %.3g\n", ek_isa_name(isa), s->name, i, e);
+      print_svd_case(s->A + 9 * i, U + 9 * i, S + 3 * i, V + 9 * i, Sr);
+      ek_print3("U replica", Ur);
+      ek_print3("V replica", Vr);
+    }
+    worst_rep = fmax(worst_rep, isnan(e) ? INFINITY : e);
+  }
+  char label[128];
+  snprintf(label, sizeof label, "S agreement %s vs scalar f%d %s", ek_isa_name(isa), bits, s->name);
+  failures += ek_check_report(label, worst, budget_of(bits));
+  if (bits == 64) {
+    snprintf(label, sizeof label, "replica agreement %s f64 %s", ek_isa_name(isa), s->name);
+    failures += ek_check_report(label, worst_rep, EK_SVD3_REPLICA_TOL);
+  }
+}
+
+// ---- Invalid options ----
+static void invalid_options(void) {
+  const ek_svd3_opts bad_opts[] = {
+      {.sweeps = 9}, {.sweeps = -1}, {.exact_rsqrt = 2}, {.exact_rsqrt = -2}, {.isa = (ek_isa)99},
+  };
+  const char *names[] = {"sweeps 9", "sweeps -1", "exact_rsqrt 2", "exact_rsqrt -2", "isa 99"};
+  int nbad = 0;
+  float a32[9 * 17], u32[9 * 17], s32[3 * 17], v32[9 * 17];
+  double a64[9 * 17], u64[9 * 17], s64[3 * 17], v64[9 * 17];
+  for (int i = 0; i < 9 * 17; i++)
+    a32[i] = (float)(a64[i] = (i % 4 == 0) + 0.1 * (i % 7));
+  float *pa32 = ek_aosoa_alloc_f32(17, 9), *pu32 = ek_aosoa_alloc_f32(17, 9);
+  float *ps32 = ek_aosoa_alloc_f32(17, 3), *pv32 = ek_aosoa_alloc_f32(17, 9);
+  double *pa64 = ek_aosoa_alloc_f64(17, 9), *pu64 = ek_aosoa_alloc_f64(17, 9);
+  double *ps64 = ek_aosoa_alloc_f64(17, 3), *pv64 = ek_aosoa_alloc_f64(17, 9);
+  ek_aosoa_pack_f32(17, 9, a32, pa32), ek_aosoa_pack_f64(17, 9, a64, pa64);
+  size_t nb32 = ek_aosoa_blocks_f32(17), nb64 = ek_aosoa_blocks_f64(17);
+  size_t n_opts = sizeof bad_opts / sizeof bad_opts[0];
+  for (size_t k = 0; k <= n_opts; k++) {
+    ek_svd3_opts o;
+    const char *name;
+    if (k < n_opts)
+      o = bad_opts[k], name = names[k];
+    else {
+      // A real ISA this CPU cannot run, if there is one.
+      int missing = -1;
+      for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+        if (!ek_isa_available((ek_isa)isa))
+          missing = isa;
+      if (missing < 0)
+        break;
+      o = (ek_svd3_opts){.isa = (ek_isa)missing};
+      name = ek_isa_name((ek_isa)missing);
+    }
+    // Fill every output with a sentinel byte pattern; it must survive.
+    memset(u32, 0x5a, sizeof u32), memset(s32, 0x5a, sizeof s32), memset(v32, 0x5a, sizeof v32);
+    memset(u64, 0x5a, sizeof u64), memset(s64, 0x5a, sizeof s64), memset(v64, 0x5a, sizeof v64);
+    size_t b32 = ek_aosoa_size_f32(17, 9) * sizeof(float);
+    size_t b64 = ek_aosoa_size_f64(17, 9) * sizeof(double);
+    memset(pu32, 0x5a, b32), memset(pv32, 0x5a, b32);
+    memset(ps32, 0x5a, ek_aosoa_size_f32(17, 3) * sizeof(float));
+    memset(pu64, 0x5a, b64), memset(pv64, 0x5a, b64);
+    memset(ps64, 0x5a, ek_aosoa_size_f64(17, 3) * sizeof(double));
+    int rc[8] = {
+        ek_svd3_f32(17, a32, u32, s32, v32, &o),
+        ek_svd3_f64(17, a64, u64, s64, v64, &o),
+        ek_polar3_f32(17, a32, u32, v32, &o),
+        ek_polar3_f64(17, a64, u64, v64, &o),
+        ek_svd3_aosoa_f32(nb32, pa32, pu32, ps32, pv32, &o),
+        ek_svd3_aosoa_f64(nb64, pa64, pu64, ps64, pv64, &o),
+        ek_polar3_aosoa_f32(nb32, pa32, pu32, pv32, &o),
+        ek_polar3_aosoa_f64(nb64, pa64, pu64, pv64, &o),
+    };
+    int untouched = 1;
+    const unsigned char *bufs[] = {(void *)u32,  (void *)s32,  (void *)v32,  (void *)u64,
+                                   (void *)s64,  (void *)v64,  (void *)pu32, (void *)ps32,
+                                   (void *)pv32, (void *)pu64, (void *)ps64, (void *)pv64};
+    size_t sizes[] = {sizeof u32,
+                      sizeof s32,
+                      sizeof v32,
+                      sizeof u64,
+                      sizeof s64,
+                      sizeof v64,
+                      b32,
+                      ek_aosoa_size_f32(17, 3) * sizeof(float),
+                      b32,
+                      b64,
+                      ek_aosoa_size_f64(17, 3) * sizeof(double),
+                      b64};
+    for (int b = 0; b < 12; b++)
+      for (size_t j = 0; j < sizes[b]; j++)
+        untouched &= bufs[b][j] == 0x5a;
+    int all_neg = 1;
+    for (int j = 0; j < 8; j++)
+      all_neg &= rc[j] < 0;
+    int ok = all_neg && untouched;
+    printf("invalid option %-16s rc = %d %d %d %d %d %d %d %d, outputs %s: %s\n", name, rc[0],
+           rc[1], rc[2], rc[3], rc[4], rc[5], rc[6], rc[7], untouched ? "untouched" : "WRITTEN",
+           ok ? "PASS" : "FAIL");
+    nbad += !ok;
+  }
+  ek_free(pa32), ek_free(pu32), ek_free(ps32), ek_free(pv32);
+  ek_free(pa64), ek_free(pu64), ek_free(ps64), ek_free(pv64);
+  failures += nbad;
+}
+
+// ---- Thread count ----
+static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
+  size_t n = N_THREADS_TEST < s->n ? N_THREADS_TEST : s->n;
+  double *U1 = ek_check_malloc(9 * n * sizeof(double)),
+         *S1 = ek_check_malloc(3 * n * sizeof(double));
+  double *V1 = ek_check_malloc(9 * n * sizeof(double)),
+         *U2 = ek_check_malloc(9 * n * sizeof(double));
+  double *S2 = ek_check_malloc(3 * n * sizeof(double)),
+         *V2 = ek_check_malloc(9 * n * sizeof(double));
+  ek_svd3_opts o = {.isa = isa};
+  double pad;
+  int saved = omp_get_max_threads(), ok = 1;
+  for (int api = 0; api < 2; api++) {
+    omp_set_num_threads(1);
+    int rc1 = api ? run_aosoa(bits, n, s->A, U1, S1, V1, &o, &pad)
+                  : ek_check_run_svd3(bits, 0, n, s->A, U1, S1, V1, &o);
+    omp_set_num_threads(2);
+    int rc2 = api ? run_aosoa(bits, n, s->A, U2, S2, V2, &o, &pad)
+                  : ek_check_run_svd3(bits, 0, n, s->A, U2, S2, V2, &o);
+    ok &= rc1 == 0 && rc2 == 0 && same_bits(U1, U2, 9 * n) && same_bits(S1, S2, 3 * n) &&
+          same_bits(V1, V2, 9 * n);
+  }
+  omp_set_num_threads(saved);
+  printf("threads %s f%d: 1 and 2 threads bit-identical (n=%zu, AoS and AoSoA): %s\n",
+         ek_isa_name(isa), bits, n, ok ? "PASS" : "FAIL");
+  failures += !ok;
+  free(U1), free(S1), free(V1), free(U2), free(S2), free(V2);
+}
+
+int main(int argc, char **argv) {
+  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  printf("test_svd3: seed %llu; default sweeps f32 %d, f64 %d\n", (unsigned long long)seed,
+         ek_svd3_default_sweeps_f32(), ek_svd3_default_sweeps_f64());
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+    if (!ek_isa_available((ek_isa)isa))
+      printf("note: ISA %s skipped: not built or not supported by this CPU\n",
+             ek_isa_name((ek_isa)isa));
+  invalid_options();
+
+  static const struct {
+    const char *name;
+    ek_svd3_opts o;
+  } trades[] = {
+      {"rsqrt=approx", {.exact_rsqrt = -1}},
+      {"sweeps=1", {.sweeps = 1}},
+      {"sweeps=2", {.sweeps = 2}},
+      {"sweeps=4", {.sweeps = 4}},
+      {"sweeps=8 rsqrt=approx", {.sweeps = 8, .exact_rsqrt = -1}},
+  };
+  for (int bits = 32; bits <= 64; bits += 32) {
+    int nsets = 0;
+    ek_svd3_set *sets = ek_check_malloc((size_t)(ek_check_nfamilies + 1) * sizeof *sets);
+    ek_svd3_set_init(&sets[nsets++], &ek_check_families[0], "random", seed, N_RANDOM, bits);
+    for (int f = 0; f < ek_check_nfamilies; f++)
+      if (ek_check_family_for(&ek_check_families[f], bits))
+        ek_svd3_set_init(&sets[nsets++], &ek_check_families[f], ek_check_families[f].name, seed,
+                         N_FAMILY, bits);
+    double *U = ek_check_malloc(9 * N_RANDOM * sizeof(double));
+    double *S = ek_check_malloc(3 * N_RANDOM * sizeof(double));
+    double *V = ek_check_malloc(9 * N_RANDOM * sizeof(double));
+    // S of the scalar ISA per set, for the agreement check.
+    double **S_scalar = ek_check_malloc((size_t)nsets * sizeof *S_scalar);
+    for (int k = 0; k < nsets; k++) {
+      S_scalar[k] = ek_check_malloc(3 * sets[k].n * sizeof(double));
+      ek_svd3_opts o = {.isa = EK_ISA_SCALAR};
+      double *Ut = ek_check_malloc(9 * sets[k].n * sizeof(double)),
+             *Vt = ek_check_malloc(9 * sets[k].n * sizeof(double));
+      if (ek_check_run_svd3(bits, 0, sets[k].n, sets[k].A, Ut, S_scalar[k], Vt, &o) != 0)
+        failures++;
+      free(Ut), free(Vt);
+    }
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+      if (!ek_isa_available((ek_isa)isa))
+        continue;
+      printf("\n== %s f%d\n", ek_isa_name((ek_isa)isa), bits);
+      ek_svd3_opts def = {.isa = (ek_isa)isa};
+      for (int k = 0; k < nsets; k++)
+        accuracy(bits, (ek_isa)isa, &sets[k], &def, "default", 0, 0, U, S, V);
+      for (int k = 0; k < nsets; k++)
+        accuracy(bits, (ek_isa)isa, &sets[k], &def, "default", 0, 1, U, S, V);
+      for (size_t t = 0; t < sizeof trades / sizeof trades[0]; t++)
+        for (int k = 0; k < nsets; k++) {
+          ek_svd3_opts o = trades[t].o;
+          o.isa = (ek_isa)isa;
+          accuracy(bits, (ek_isa)isa, &sets[k], &o, trades[t].name, 1, 0, U, S, V);
+        }
+      for (int k = 0; k < nsets; k++)
+        agreement(bits, (ek_isa)isa, &sets[k], S_scalar[k], U, S, V);
+      tails(bits, (ek_isa)isa, &sets[0]);
+      nan_isolation(bits, (ek_isa)isa, &sets[0]);
+      threads(bits, (ek_isa)isa, &sets[0]);
+    }
+    for (int k = 0; k < nsets; k++)
+      ek_svd3_set_free(&sets[k]), free(S_scalar[k]);
+    free(sets), free(S_scalar), free(U), free(S), free(V);
+  }
+  printf("\ntest_svd3: %s (%d failing checks)\n", failures ? "FAIL" : "PASS", failures);
+  return failures ? 1 : 0;
+}

@@ -1,0 +1,226 @@
+// ek-verify: every kernel variant this machine can run, against its double
+// reference, on a seeded random set and on every family of the extremes
+// catalogue; prints the worst errors and worst/budget per row and exits
+// non-zero if a default-option row misses its budget, a finite input gives
+// a non-finite output, or a NaN leaks into a neighbour.
+//
+// Usage: ek-verify [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]
+#include <cjson/cJSON.h>
+#include <ek/ek.h>
+#include <math.h>
+#include <regex.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "verify.h"
+
+// The family table: one row per kernel family (FFTW "favor a table").
+static const ek_verify_family families[] = {
+    {"svd3", verify_svd3, "3x3 SVD and polar decomposition vs LAPACK dgesvd"},
+    {"material", verify_material, "psi, P, dP, Hessian per model vs the double reference"},
+};
+
+struct ek_verify_ctx {
+  uint64_t seed;
+  size_t n_random, n_family;
+  int quick;
+  int has_filter;
+  regex_t filter;
+  cJSON *rows, *notes;
+  int failures, rows_printed;
+  const char *last_kernel;
+};
+
+uint64_t ek_verify_seed(const ek_verify_ctx *ctx) { return ctx->seed; }
+size_t ek_verify_n_random(const ek_verify_ctx *ctx) { return ctx->n_random; }
+size_t ek_verify_n_family(const ek_verify_ctx *ctx) { return ctx->n_family; }
+int ek_verify_quick(const ek_verify_ctx *ctx) { return ctx->quick; }
+
+int ek_verify_selected(const ek_verify_ctx *ctx, const char *kernel, const char *variant,
+                       const char *inputs) {
+  if (!ctx->has_filter)
+    return 1;
+  char name[256];
+  snprintf(name, sizeof name, "%s %s %s", kernel, variant, inputs);
+  return regexec(&ctx->filter, name, 0, NULL, 0) == 0;
+}
+
+void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) {
+  char msg[256];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(msg, sizeof msg, fmt, ap);
+  va_end(ap);
+  printf("note: %s\n", msg);
+  cJSON_AddItemToArray(ctx->notes, cJSON_CreateString(msg));
+}
+
+void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
+  double ratio = r->worst / r->budget;
+  ek_verdict v = ek_check_verdict(r->worst, r->budget);
+  const char *status;
+  int failed = r->nonfinite > 0 || r->leaks > 0;
+  if (failed)
+    status = "FAIL";
+  else if (r->trade)
+    status = "trade";
+  else {
+    status = ek_verdict_name(v);
+    failed = v == EK_FAIL;
+  }
+  ctx->failures += failed;
+  if (!ctx->last_kernel || strcmp(ctx->last_kernel, r->kernel) != 0) {
+    printf("\n%-7s %-32s %-16s %7s", "kernel", "variant", "inputs", "n");
+    for (int k = 0; k < r->nmetrics; k++)
+      printf(" %9s", r->metric[k]);
+    printf(" %9s %s\n", "worst/bud", "status");
+    ctx->last_kernel = r->kernel;
+  }
+  printf("%-7s %-32s %-16s %7zu", r->kernel, r->variant, r->inputs, r->count);
+  for (int k = 0; k < r->nmetrics; k++)
+    printf(" %9.2e", r->value[k]);
+  printf(" %9.3g %s", ratio, status);
+  if (r->worst_case[0])
+    printf(" (worst: %s)", r->worst_case);
+  if (r->nonfinite)
+    printf(" [%ld non-finite outputs for finite inputs]", r->nonfinite);
+  if (r->leaks)
+    printf(" [%ld NaN isolation errors]", r->leaks);
+  if (r->nonfinite_case[0])
+    printf(" [first in %s]", r->nonfinite_case);
+  printf("\n");
+  ctx->rows_printed++;
+
+  cJSON *j = cJSON_CreateObject();
+  cJSON_AddStringToObject(j, "kernel", r->kernel);
+  cJSON_AddStringToObject(j, "variant", r->variant);
+  cJSON_AddStringToObject(j, "inputs", r->inputs);
+  if (r->worst_case[0])
+    cJSON_AddStringToObject(j, "worst_inputs", r->worst_case);
+  cJSON_AddNumberToObject(j, "count", (double)r->count);
+  cJSON *m = cJSON_AddObjectToObject(j, "errors");
+  for (int k = 0; k < r->nmetrics; k++)
+    cJSON_AddNumberToObject(m, r->metric[k], isfinite(r->value[k]) ? r->value[k] : 1e308);
+  cJSON_AddNumberToObject(j, "worst", isfinite(r->worst) ? r->worst : 1e308);
+  cJSON_AddNumberToObject(j, "budget", r->budget);
+  cJSON_AddNumberToObject(j, "ratio", isfinite(ratio) ? ratio : 1e308);
+  cJSON_AddBoolToObject(j, "trade", r->trade);
+  cJSON_AddNumberToObject(j, "nonfinite", (double)r->nonfinite);
+  cJSON_AddNumberToObject(j, "leaks", (double)r->leaks);
+  if (r->nonfinite_case[0])
+    cJSON_AddStringToObject(j, "nonfinite_inputs", r->nonfinite_case);
+  cJSON_AddStringToObject(j, "status", status);
+  cJSON_AddItemToArray(ctx->rows, j);
+}
+
+static void usage(const char *prog) {
+  fprintf(stderr,
+          "usage: %s [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]\n"
+          "  --seed N       seed of every input set (default 1)\n"
+          "  --n N          size of the random set (default 100000; --quick 10000)\n"
+          "  --json FILE    also write the rows as JSON\n"
+          "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
+          "  --quick        fewer matrices and variants\n",
+          prog);
+}
+
+static int parse_size(const char *opt, const char *s, unsigned long long *out) {
+  char *end;
+  *out = strtoull(s, &end, 0);
+  if (!*s || *end || s[0] == '-') {
+    fprintf(stderr, "ek-verify: %s: '%s' is not a non-negative integer\n", opt, s);
+    return -1;
+  }
+  return 0;
+}
+
+int main(int argc, char **argv) {
+  ek_verify_ctx ctx = {.seed = 1, .n_random = 0, .n_family = 0};
+  const char *json_path = NULL, *filter = NULL;
+  unsigned long long n_opt = 0;
+  int have_n = 0;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    int has_value = i + 1 < argc;
+    unsigned long long v;
+    if (strcmp(a, "--quick") == 0)
+      ctx.quick = 1;
+    else if (strcmp(a, "--seed") == 0 && has_value) {
+      if (parse_size(a, argv[++i], &v))
+        return 2;
+      ctx.seed = v;
+    } else if (strcmp(a, "--n") == 0 && has_value) {
+      if (parse_size(a, argv[++i], &n_opt))
+        return 2;
+      have_n = 1;
+    } else if (strcmp(a, "--json") == 0 && has_value)
+      json_path = argv[++i];
+    else if (strcmp(a, "--filter") == 0 && has_value)
+      filter = argv[++i];
+    else {
+      fprintf(stderr, "ek-verify: unknown or incomplete option '%s'\n", a);
+      usage(argv[0]);
+      return 2;
+    }
+  }
+  ctx.n_random = have_n ? (size_t)n_opt : ctx.quick ? 10000 : 100000;
+  ctx.n_family = ctx.quick ? 200 : 2000;
+  if (filter) {
+    int rc = regcomp(&ctx.filter, filter, REG_EXTENDED | REG_NOSUB);
+    if (rc) {
+      char msg[128];
+      regerror(rc, &ctx.filter, msg, sizeof msg);
+      fprintf(stderr, "ek-verify: --filter '%s': %s\n", filter, msg);
+      return 2;
+    }
+    ctx.has_filter = 1;
+  }
+  ctx.rows = cJSON_CreateArray();
+  ctx.notes = cJSON_CreateArray();
+
+  printf("ek-verify: seed %llu, random set %zu, %zu per extremes family%s%s%s\n",
+         (unsigned long long)ctx.seed, ctx.n_random, ctx.n_family, ctx.quick ? ", quick" : "",
+         filter ? ", filter " : "", filter ? filter : "");
+  printf("errors relative to s1 of the input (absolute for the zero matrix); budgets apply to "
+         "default options; 'trade' rows are reported only\n");
+  int setup_errors = 0;
+  for (size_t f = 0; f < sizeof families / sizeof families[0]; f++) {
+    printf("\n== %s: %s\n", families[f].name, families[f].note);
+    setup_errors += families[f].run(&ctx) != 0;
+  }
+
+  int rc = ctx.failures || setup_errors ? 1 : 0;
+  printf("\nek-verify: %d rows, %d failing%s -> %s\n", ctx.rows_printed, ctx.failures,
+         setup_errors ? ", setup errors" : "", rc ? "FAIL" : "PASS");
+  if (json_path) {
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "tool", "ek-verify");
+    cJSON_AddNumberToObject(root, "seed", (double)ctx.seed);
+    cJSON_AddNumberToObject(root, "n_random", (double)ctx.n_random);
+    cJSON_AddNumberToObject(root, "n_family", (double)ctx.n_family);
+    cJSON_AddBoolToObject(root, "quick", ctx.quick);
+    if (filter)
+      cJSON_AddStringToObject(root, "filter", filter);
+    cJSON_AddItemToObject(root, "notes", ctx.notes);
+    cJSON_AddItemToObject(root, "rows", ctx.rows);
+    cJSON_AddNumberToObject(root, "failures", ctx.failures);
+    cJSON_AddStringToObject(root, "result", rc ? "FAIL" : "PASS");
+    char *text = cJSON_Print(root);
+    FILE *fp = fopen(json_path, "w");
+    if (!fp || fputs(text, fp) < 0 || fclose(fp) != 0) {
+      fprintf(stderr, "ek-verify: cannot write --json file '%s'\n", json_path);
+      rc = 1;
+    }
+    free(text);
+    cJSON_Delete(root);
+  } else {
+    cJSON_Delete(ctx.rows);
+    cJSON_Delete(ctx.notes);
+  }
+  if (ctx.has_filter)
+    regfree(&ctx.filter);
+  return rc;
+}
