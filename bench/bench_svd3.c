@@ -41,33 +41,33 @@
 
 // ---- declared work -------------------------------------------------------
 
-// Floating-point operations of one SVD as specified in
-// helper-notes/SVD_ALGORITHM.md, counting add, sub, mul, div, sqrt and
-// rsqrt as 1 each (the approximate rsqrt also as 1) and an fma as 2;
-// compares, min/max, abs, negation and selects are not counted.
-//   step 1, scale:           1 div (1/m) + 9 mul                       =  10
+// Floating-point operations of one SVD as kernels/svd3/svd3_core.h performs
+// them, counting add, sub, mul, div, sqrt and rsqrt as 1 each (the
+// approximate rsqrt also as 1) and an fma as 2; compares, min/max, abs,
+// negation and selects are not counted.
+//   step 1, scale:           1 mul (m) + 1 div (1/m) + 18 mul          =  20
 //   step 2, Gram A'^T A':    6 entries x (3 mul + 2 add)               =  30
-//   step 3, per pair:        angle: ch 2, ok-test 3, norm 2, scale 2,
-//                            c 3, s 2                                  =  14
-//                            update: c^2 s^2 cs 3, 2cs*b 2, s_pp 4,
-//                            s_qq 4, s_pq 5, s_pk 3, s_qk 3            =  24
+//   step 3, per pair:        angle: ch 2, ch^2 sh^2 n2 3, test 1,
+//                            rsq 1, scale 2                            =   9
+//                            c 3, s 2, w 5, s_pp s_qq s_pq 6,
+//                            s_pk s_qk 6                               =  22
 //                            quaternion (x) (ch, sh e_k): 4 x 3        =  12
-//                            -> 50 per pair, 150 per sweep
+//                            -> 43 per pair, 129 per sweep
 //   step 4, |q|^2 7, rsq 1, normalise 4; rotation matrix from q: 10
 //           products + 3 diagonals x 3 + 6 off-diagonals x 2; B = A' V:
 //           9 x 5                                                      =  88
-//   step 5, per pair:        3 dots x 5, x y 2, r 4, t 1, t^2+u^2 3,
-//                            rsq 1, c s 2, rotate 2 columns of B and
-//                            of V 36                                   =  64
-//                            -> 192 per refine sweep
+//   step 5, per pair:        3 dots x 5, x y 2, z 3, r 3, t 1,
+//                            t^2+u^2 3, rsq 1, c s 2, rotate 2 columns
+//                            of B and of V 36                          =  66
+//                            -> 198 per refine sweep
 //   step 6, rho_i:           3 x 5                                     =  15
 //   step 7, 3 Givens:        each n2 3, rsq 1, c s 2, rows of B 18     =  72
 //                            U = G1^T G2^T G3^T: 2 x 18                =  36
-//   step 8, S = S'/sc:       3 div                                     =   3
-// Total 254 + 150 sweeps + 192 refine. Polar adds R = U V^T (9 x 5) and
-// Ssym = V diag(S) V^T (9 mul + 6 x 5): 84.
-static double svd3_flops(int sweeps, int refine) { return 254.0 + 150.0 * sweeps + 192.0 * refine; }
-static double polar3_flops(int sweeps, int refine) { return svd3_flops(sweeps, refine) + 84.0; }
+//   step 8, S = S' m:        3 mul                                     =   3
+// Total 264 + 129 sweeps + 198 refine. Polar adds R = U V^T (9 x 5) and
+// Ssym = V diag(S) V^T (9 mul + 6 x 5 + 9 mul for the scale): 93.
+static double svd3_flops(int sweeps, int refine) { return 264.0 + 129.0 * sweeps + 198.0 * refine; }
+static double polar3_flops(int sweeps, int refine) { return svd3_flops(sweeps, refine) + 93.0; }
 
 // Bytes moved per matrix: SVD reads A (9) and writes U, S, V (21), 30
 // values; polar reads 9 and writes R and Ssym, 27 values; conversion
