@@ -23,8 +23,8 @@ ek_svd3_knobs ek_svd3_default_knobs_f64(void);
 // svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes.
 typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, float *S, float *V,
                                   const ek_svd3_knobs *k);
-typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, double *S,
-                                  double *V, const ek_svd3_knobs *k);
+typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, double *S, double *V,
+                                  const ek_svd3_knobs *k);
 // fma_probe: `iters` rounds of independent FMA chains; returns a value that
 // depends on every chain (so nothing is optimised away) and sets *flops.
 typedef double ek_fma_probe_fn(long iters, double *flops);

@@ -106,10 +106,14 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
            s->svd.sweeps
                ? s->svd.sweeps
                : (s->precision == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
-           s->svd.exact_rsqrt < 0 ? "approximate" : "exact");
+           (s->svd.exact_rsqrt   ? s->svd.exact_rsqrt > 0
+            : s->precision == 32 ? ek_svd3_default_exact_rsqrt_f32()
+                                 : ek_svd3_default_exact_rsqrt_f64())
+               ? "exact"
+               : "approximate");
   printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
   printf("       %s: %s\n", s->model_name, need_text(need, m));
-  ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_COLORED : s->scatter;
+  ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : s->scatter;
   static const char *why[] = {
       "", "tets of one colour share no vertex: blocks add straight into f, deterministic",
       "per-part force buffers summed in part order: deterministic, extra memory",

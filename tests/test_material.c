@@ -21,43 +21,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "check.h"
 #include "material/material_ref.h"
 
-static uint64_t rng_state;
-static double urand(void) { // splitmix64 -> [0, 1)
-  uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  z ^= z >> 31;
-  return (double)(z >> 11) * 0x1p-53;
-}
+// Random inputs from the shared check library (verify/check.h).
+static ek_rng rng;
+static double urand(void) { return ek_rng_uniform(&rng); }
 static double urange(double a, double b) { return a + (b - a) * urand(); }
-static void mul(const double A[9], const double B[9], double C[9]) {
-  for (int i = 0; i < 3; i++)
-    for (int j = 0; j < 3; j++)
-      C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
-}
-static void rotation(double Q[9]) {
-  double q[4], n = 0;
-  for (int i = 0; i < 4; i++)
-    q[i] = urange(-1, 1), n += q[i] * q[i];
-  n = sqrt(n);
-  double w = q[0] / n, x = q[1] / n, y = q[2] / n, z = q[3] / n;
-  double M[9] = {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
-                 2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                 2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
-  memcpy(Q, M, sizeof M);
-}
-static void from_sigma(const double s[3], double F[9]) {
-  double Q1[9], Q2[9], D[9] = {0}, T[9], Q2t[9];
-  rotation(Q1), rotation(Q2);
-  for (int i = 0; i < 3; i++)
-    for (int j = 0; j < 3; j++)
-      Q2t[3 * i + j] = Q2[3 * j + i];
-  D[0] = s[0], D[4] = s[1], D[8] = s[2];
-  mul(Q1, D, T);
-  mul(T, Q2t, F);
-}
+static void rotation(double Q[9]) { ek_rng_rotation(&rng, Q); }
+static void from_sigma(const double s[3], double F[9]) { ek_rng_with_sigma(&rng, s, F); }
 
 // Random catalogue: singular values in [0.2, 5] (the budgets' range), one
 // category per element so every vector mixes them.
@@ -299,7 +271,7 @@ int main(int argc, char **argv) {
   for (int i = 1; i < argc; i++)
     if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
       seed = strtoull(argv[++i], NULL, 10);
-  rng_state = seed;
+  ek_rng_seed(&rng, seed);
   printf("test_material --seed %llu\n", (unsigned long long)seed);
   const double clamps[2] = {0, 0.3};
   const size_t n = 77; // not a multiple of any lane count

@@ -185,7 +185,7 @@ int main(int argc, char **argv) {
          (unsigned long long)ctx.seed, ctx.n_random, ctx.n_family, ctx.quick ? ", quick" : "",
          filter ? ", filter " : "", filter ? filter : "");
   printf("errors relative to s1 of the input (absolute for the zero matrix); budgets apply to "
-         "default options; 'trade' rows are reported only\n");
+         "the default sweeps (either rsqrt mode); 'trade' rows are reported only\n");
   int setup_errors = 0;
   for (size_t f = 0; f < sizeof families / sizeof families[0]; f++) {
     printf("\n== %s: %s\n", families[f].name, families[f].note);

@@ -60,6 +60,9 @@ typedef enum {
   EK_SCATTER_COUNT
 } ek_scatter;
 
+// What AUTO means (see above).
+#define EK_SCATTER_DEFAULT EK_SCATTER_THREAD_BUFFERS
+
 #define EK_FVM_PARTS 4
 
 // Name of a strategy ("auto", "colored", "thread_buffers", "gather",

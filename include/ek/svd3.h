@@ -40,9 +40,12 @@ typedef struct {
   ek_isa isa;
 } ek_svd3_opts;
 
-// Sweeps used when opts->sweeps == 0 (chosen so the default meets the budget).
+// Sweeps and rsqrt mode (1 exact, 0 approximate) used when the option is 0
+// (chosen so the default meets the budget at the lowest cost).
 int ek_svd3_default_sweeps_f32(void);
 int ek_svd3_default_sweeps_f64(void);
+int ek_svd3_default_exact_rsqrt_f32(void);
+int ek_svd3_default_exact_rsqrt_f64(void);
 
 // A, U, V: n row-major 3x3 matrices; S: n x 3. opts may be NULL. U or V may
 // be NULL when not wanted. 0 on success, < 0 on error.

@@ -69,7 +69,6 @@ real *EK_P(aosoa_alloc)(size_t n, int nplanes) {
   for (size_t b = 0; b < nb; b++)
     for (int k = 0; k < nplanes; k++)
       for (int l = 0; l < EK_LANES; l++)
-        p[(b * nplanes + k) * EK_LANES + l] =
-            b * EK_LANES + l < n ? 0 : pad_value(nplanes, k);
+        p[(b * nplanes + k) * EK_LANES + l] = b * EK_LANES + l < n ? 0 : pad_value(nplanes, k);
   return p;
 }

@@ -391,7 +391,7 @@ int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x,
   if (o.svd_exact_rsqrt)
     knobs.exact_rsqrt = o.svd_exact_rsqrt > 0;
   // AUTO: see fvm.h for why thread buffers.
-  ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_THREAD_BUFFERS : o.scatter;
+  ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
 
   fvm_args a = {.R = o.R, .mat = mat, .svd = &knobs, .x = x};
   if (o.phase_times) {

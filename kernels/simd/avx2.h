@@ -26,7 +26,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm256_min_ps(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm256_max_ps(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm256_sqrt_ps(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_ps(a, b, c); }
-static inline vreal vrsqrt(vreal a) { return _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(a)); }
+static inline vreal vrsqrt(vreal a) {
+  return _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(a));
+}
 static inline vreal vrsqrt_est(vreal a) {
   // One Newton step y' = y (1.5 - 0.5 a y^2) on the 12-bit estimate.
   vreal y = _mm256_rsqrt_ps(a);
@@ -41,7 +43,9 @@ static inline vmask vge(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_GE_O
 static inline vmask veq(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_EQ_OQ); }
 static inline vmask vmand(vmask a, vmask b) { return _mm256_and_ps(a, b); }
 static inline vmask vmor(vmask a, vmask b) { return _mm256_or_ps(a, b); }
-static inline vmask vmnot(vmask a) { return _mm256_xor_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(-1))); }
+static inline vmask vmnot(vmask a) {
+  return _mm256_xor_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(-1)));
+}
 static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_ps(b, a, m); }
 static inline int vany(vmask m) { return _mm256_movemask_ps(m) != 0; }
 static inline int vall(vmask m) { return _mm256_movemask_ps(m) == 0xff; }
@@ -65,7 +69,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm256_min_pd(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm256_max_pd(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm256_sqrt_pd(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_pd(a, b, c); }
-static inline vreal vrsqrt(vreal a) { return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a)); }
+static inline vreal vrsqrt(vreal a) {
+  return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a));
+}
 static inline vreal vrsqrt_est(vreal a) {
   // AVX2 has no double estimate: take the 12-bit float one on a = m 2^(2k),
   // m in [1, 4) (so any positive normal double works, not only float's
@@ -75,7 +81,8 @@ static inline vreal vrsqrt_est(vreal a) {
   __m256i e = _mm256_srli_epi64(_mm256_castpd_si256(a), 52);
   __m256i p = _mm256_andnot_si256(e, _mm256_set1_epi64x(1));
   __m256i in = _mm256_add_epi64(_mm256_sub_epi64(_mm256_set1_epi64x(2046), e), p);
-  __m256i out = _mm256_srli_epi64(_mm256_add_epi64(_mm256_sub_epi64(_mm256_set1_epi64x(3069), e), p), 1);
+  __m256i out =
+      _mm256_srli_epi64(_mm256_add_epi64(_mm256_sub_epi64(_mm256_set1_epi64x(3069), e), p), 1);
   vreal m = _mm256_mul_pd(a, _mm256_castsi256_pd(_mm256_slli_epi64(in, 52)));
   vreal y = _mm256_mul_pd(_mm256_cvtps_pd(_mm_rsqrt_ps(_mm256_cvtpd_ps(m))),
                           _mm256_castsi256_pd(_mm256_slli_epi64(out, 52)));
@@ -91,7 +98,9 @@ static inline vmask vge(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_GE_O
 static inline vmask veq(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_EQ_OQ); }
 static inline vmask vmand(vmask a, vmask b) { return _mm256_and_pd(a, b); }
 static inline vmask vmor(vmask a, vmask b) { return _mm256_or_pd(a, b); }
-static inline vmask vmnot(vmask a) { return _mm256_xor_pd(a, _mm256_castsi256_pd(_mm256_set1_epi64x(-1))); }
+static inline vmask vmnot(vmask a) {
+  return _mm256_xor_pd(a, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
+}
 static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_pd(b, a, m); }
 static inline int vany(vmask m) { return _mm256_movemask_pd(m) != 0; }
 static inline int vall(vmask m) { return _mm256_movemask_pd(m) == 0xf; }
@@ -127,8 +136,8 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   // none): OR it into the mantissa of 2^52 and subtract 2^52.
   __m256i field = _mm256_srli_epi64(bits, 52);
   __m256d two52 = _mm256_set1_pd(0x1p52);
-  __m256d f = _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(field, _mm256_castpd_si256(two52))),
-                            two52);
+  __m256d f =
+      _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(field, _mm256_castpd_si256(two52))), two52);
   *e = _mm256_sub_pd(f, _mm256_set1_pd(1023.0));
   __m256i mant = _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi64x(0x000fffffffffffffLL)),
                                  _mm256_set1_epi64x(0x3ff0000000000000LL));

@@ -26,7 +26,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm512_min_ps(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm512_max_ps(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm512_sqrt_ps(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_ps(a, b, c); }
-static inline vreal vrsqrt(vreal a) { return _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(a)); }
+static inline vreal vrsqrt(vreal a) {
+  return _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(a));
+}
 static inline vreal vrsqrt_est(vreal a) {
   // One Newton step on the 14-bit estimate.
   vreal y = _mm512_rsqrt14_ps(a);
@@ -60,7 +62,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm512_min_pd(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm512_max_pd(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm512_sqrt_pd(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_pd(a, b, c); }
-static inline vreal vrsqrt(vreal a) { return _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_sqrt_pd(a)); }
+static inline vreal vrsqrt(vreal a) {
+  return _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_sqrt_pd(a));
+}
 static inline vreal vrsqrt_est(vreal a) {
   // Two Newton steps on the 14-bit estimate (14 -> 28 -> 56 bits).
   vreal y = _mm512_rsqrt14_pd(a);

@@ -30,11 +30,13 @@ typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define CHUNK_BLOCKS 32
 
 ek_svd3_knobs EK_P(svd3_default_knobs)(void) {
-  return (ek_svd3_knobs){.sweeps = DEFAULT_SWEEPS, .refine = DEFAULT_REFINE,
-                         .exact_rsqrt = DEFAULT_EXACT_RSQRT};
+  return (ek_svd3_knobs){
+      .sweeps = DEFAULT_SWEEPS, .refine = DEFAULT_REFINE, .exact_rsqrt = DEFAULT_EXACT_RSQRT};
 }
 
 int EK_P(svd3_default_sweeps)(void) { return DEFAULT_SWEEPS; }
+
+int EK_P(svd3_default_exact_rsqrt)(void) { return DEFAULT_EXACT_RSQRT; }
 
 static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_knobs *k,
                    svd3_block_fn **block) {

@@ -14,8 +14,8 @@ static inline size_t vec_offset(size_t j, int planes) {
 
 // n, exact and polar are compile-time constants at each call below, so
 // every combination gets its own straight-line code.
-EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V,
-                            int sweeps, int refine, int exact, int polar) {
+EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V, int sweeps,
+                            int refine, int exact, int polar) {
   vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9], scale[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 9; i++)

@@ -219,8 +219,9 @@ EK_INLINE void svd3_form_B(svd3_state *st, int exact) {
   svd3_quat_to_matrix(st->qt, st->V, exact);
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
-      st->B[3 * i + j] = vmla(st->A[3 * i], st->V[j],
-                              vmla(st->A[3 * i + 1], st->V[3 + j], vmul(st->A[3 * i + 2], st->V[6 + j])));
+      st->B[3 * i + j] =
+          vmla(st->A[3 * i], st->V[j],
+               vmla(st->A[3 * i + 1], st->V[3 + j], vmul(st->A[3 * i + 2], st->V[6 + j])));
 }
 
 // Steps 6-8: sort, QR, NaN for non-finite input. S is left scaled (the
@@ -257,12 +258,12 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], v
 }
 
 // The SVD of n independent vectors of matrices (n a compile-time constant
-// at every call), S scaled: A = U diag(S * scale) V^T. Each step runs for all n before the next: the Jacobi chain
-// of one vector is a long series of dependent operations (latency bound), so
-// two independent chains side by side let the core overlap them.
+// at every call), S scaled: A = U diag(S * scale) V^T. Each step runs for all n before the next:
+// the Jacobi chain of one vector is a long series of dependent operations (latency bound), so two
+// independent chains side by side let the core overlap them.
 #define SVD3_MAX_N 4
-EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)[3],
-                           vreal (*V)[9], vreal *scale, int sweeps, int refine, int exact) {
+EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)[3], vreal (*V)[9],
+                           vreal *scale, int sweeps, int refine, int exact) {
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
@@ -309,9 +310,9 @@ EK_INLINE void svd3_polar(const vreal U[9], const vreal S[3], const vreal V[9], 
     for (int j = 0; j < 3; j++) {
       R[3 * i + j] = vmla(U[3 * i], V[3 * j],
                           vmla(U[3 * i + 1], V[3 * j + 1], vmul(U[3 * i + 2], V[3 * j + 2])));
-      Ssym[3 * i + j] =
-          vmla(vmul(V[3 * i], S[0]), V[3 * j],
-               vmla(vmul(V[3 * i + 1], S[1]), V[3 * j + 1], vmul(vmul(V[3 * i + 2], S[2]), V[3 * j + 2])));
+      Ssym[3 * i + j] = vmla(vmul(V[3 * i], S[0]), V[3 * j],
+                             vmla(vmul(V[3 * i + 1], S[1]), V[3 * j + 1],
+                                  vmul(vmul(V[3 * i + 2], S[2]), V[3 * j + 2])));
       Ssym[3 * i + j] = vmul(Ssym[3 * i + j], scale);
     }
 }
