@@ -340,6 +340,29 @@ static int32_t find_tag(const tag_index *map, size_t n, long tag) {
   return lo < n && map[lo].tag == tag ? map[lo].index : -1;
 }
 
+// The 4 node tags of tetrahedron `tag` on the current line (Gmsh v2 and v4
+// alike), mapped to vertex indices and appended to a.
+static int read_tet_nodes(reader *r, const tag_index *map, size_t nnodes, long tag,
+                          mesh_arrays *a) {
+  int32_t t[4];
+  for (int c = 0; c < 4; c++) {
+    long node;
+    if (rd_long(r, "node tag", &node))
+      return -1;
+    t[c] = find_tag(map, nnodes, node);
+    if (t[c] < 0) {
+      mesh_error(r->err, r->errlen, "%s:%ld: element %ld: node tag %ld out of range (no such node)",
+                 r->path, r->lineno, tag, node);
+      return -1;
+    }
+  }
+  if (arrays_push_tet(a, t, r->lineno)) {
+    mesh_error(r->err, r->errlen, "%s: out of memory", r->path);
+    return -1;
+  }
+  return 0;
+}
+
 // Skip to the line "$name" (sections we do not read are skipped).
 static int find_section(reader *r, const char *name) {
   char what[64];
@@ -512,22 +535,8 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
       for (long k = 0; k < ntags; k++)
         if (rd_long(&r, "element tag value", &dummy))
           goto done;
-      int32_t t[4];
-      for (int c = 0; c < 4; c++) {
-        long node;
-        if (rd_long(&r, "node tag", &node))
-          goto done;
-        t[c] = find_tag(map, (size_t)nnodes, node);
-        if (t[c] < 0) {
-          mesh_error(err, errlen, "%s:%ld: element %ld: node tag %ld out of range (no such node)",
-                     path, r.lineno, tag, node);
-          goto done;
-        }
-      }
-      if (arrays_push_tet(&a, t, r.lineno)) {
-        mesh_error(err, errlen, "%s: out of memory", path);
+      if (read_tet_nodes(&r, map, (size_t)nnodes, tag, &a))
         goto done;
-      }
     }
   } else {
     // v4.1: "numBlocks numElements minTag maxTag"; per block "entityDim
@@ -550,22 +559,8 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
           goto done;
         if (type != 4)
           continue;
-        int32_t t[4];
-        for (int c = 0; c < 4; c++) {
-          long node;
-          if (rd_long(&r, "node tag", &node))
-            goto done;
-          t[c] = find_tag(map, (size_t)nnodes, node);
-          if (t[c] < 0) {
-            mesh_error(err, errlen, "%s:%ld: element %ld: node tag %ld out of range (no such node)",
-                       path, r.lineno, tag, node);
-            goto done;
-          }
-        }
-        if (arrays_push_tet(&a, t, r.lineno)) {
-          mesh_error(err, errlen, "%s: out of memory", path);
+        if (read_tet_nodes(&r, map, (size_t)nnodes, tag, &a))
           goto done;
-        }
       }
     }
   }
