@@ -4,20 +4,21 @@
 //
 // Algorithm (McAdams, Selle, Tamstorf, Teran, Sifakis 2011, "Computing the
 // Singular Value Decomposition of 3x3 matrices with minimal branching and
-// elementary floating point operations"), with ek's changes marked:
+// elementary floating point operations", UW-Madison TR1690), with ek's
+// changes marked:
 //   0. non-finite lanes are computed as the identity and set to NaN at the end
 //   1. [ek] scale A by 1/max|a_ij| (after a power-of-two prescale of tiny
 //      matrices) so A^T A neither overflows nor underflows
 //   2. S = A^T A
-//   3. Jacobi eigenanalysis of S with approximate Givens rotations (paper
-//      Alg. 2, the pi/8 fallback), accumulated in a quaternion (sec. 2.2)
+//   3. Jacobi eigenanalysis of S with approximate Givens rotations (TR1690
+//      sec. 2, with its pi/8 fallback), accumulated in a quaternion
 //   4. V from the quaternion, B = A V
 //   5. [ek] one-sided Jacobi sweeps (Hestenes) on the columns of B with exact
 //      angles: step 3 works on A^T A and squares the condition number, so once
 //      s1/s2 >~ 1e3 no number of sweeps meets the float budget; this step
 //      works on A itself (DESIGN.md, "Accuracy")
-//   6. sort columns of B and V by norm, descending, keeping det V = +1 (sec. 3)
-//   7. QR of B by Givens rotations (sec. 4): B = U R, S = diag(R)
+//   6. sort columns of B and V by norm, descending, keeping det V = +1
+//   7. QR of B by Givens rotations: B = U R, S = diag(R)
 // Conventions: A = U diag(S) V^T, det U = det V = +1, S0 >= S1 >= |S2|.
 // A rotation in plane (p,q) maps e_p -> c e_p + s e_q, e_q -> -s e_p + c e_q,
 // i.e. a rotation by +theta about e_k with (p,q,k) cyclic.
@@ -45,7 +46,7 @@ EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt
 
 // Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
 // block of the symmetric S, conjugate S by it and append it to quaternion
-// qt = (w, x, y, z). McAdams et al. 2011, Alg. 2 and eq. (2)-(3).
+// qt = (w, x, y, z). McAdams et al. 2011 (TR1690), sec. 2.
 EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k, int exact) {
   const real gamma = (real)5.82842712474619009760; // 3 + 2 sqrt(2) = cot^2(pi/8)
   const real cstar = (real)0.92387953251128675613; // cos(pi/8)
@@ -163,8 +164,8 @@ EK_INLINE void svd3_sort_pair(vreal B[9], vreal V[9], vreal rho[3], int i, int j
   rho[j] = vsel(m, ri, rho[j]);
 }
 
-// Step 7, Givens rotation that zeroes a2 against a1 (McAdams et al. 2011,
-// sec. 4): c = a1/n, s = a2/n, so the diagonal entry becomes n >= 0; the
+// Step 7, Givens rotation that zeroes a2 against a1 (the QR step of
+// TR1690): c = a1/n, s = a2/n, so the diagonal entry becomes n >= 0; the
 // identity when both are negligible (rank-deficient B).
 EK_INLINE void svd3_givens(vreal a1, vreal a2, vreal *c, vreal *s, int exact) {
   vreal n2 = vmla(a1, a1, vmul(a2, a2));

@@ -1,8 +1,8 @@
 // Scalar double replica of ek's SVD3 kernel algorithm, step for step
-// (/work/helper-notes/SVD_ALGORITHM.md): McAdams, Selle, Tamstorf, Teran,
+// (kernels/svd3/svd3_core.h): McAdams, Selle, Tamstorf, Teran,
 // Sifakis, "Computing the Singular Value Decomposition of 3x3 matrices with
 // minimal branching and elementary floating point operations", UW-Madison
-// TR1690, 2011 (Algorithms 2-4), plus a one-sided Jacobi refinement
+// TR1690, 2011 (sec. 2 for the Jacobi part), plus a one-sided Jacobi refinement
 // (Hestenes 1958) on B = A V. Exact 1/sqrt throughout. The step banners are
 // the kernel's.
 #include "svd3_ref.h"
@@ -12,7 +12,7 @@
 // Spec constants of the double kernel: below TINY2 = 1e-300 (relative to
 // the scaled matrix) a rotation is negligible; matrices below 2^-512 are
 // prescaled by 2^512 (exact) so subnormal entries become normal. GAMMA,
-// CSTAR, SSTAR: McAdams et al. 2011, Alg. 2 (the angle test and the pi/4
+// CSTAR, SSTAR: McAdams et al. 2011, sec. 2 (the angle test and the pi/4
 // fallback rotation of the half-angle pi/8).
 #define TINY2 1e-300
 #define TINY_MATRIX 0x1p-512
@@ -69,8 +69,8 @@ int ek_svd3_mcadams_ref(const double A_in[9], int sweeps, int refine, double U[9
     }
 
   // ---- 3. Jacobi eigenanalysis ----
-  // McAdams et al. 2011 Alg. 2 (approximate Givens half-angle) and Alg. 3
-  // (the conjugation S <- Q^T S Q written out, Q accumulated in q).
+  // McAdams et al. 2011 sec. 2: approximate Givens half-angle, the
+  // conjugation S <- Q^T S Q written out, Q accumulated in q.
   double qw = 1, qv[3] = {0, 0, 0};
   for (int sweep = 0; sweep < sweeps; sweep++)
     for (int t = 0; t < 3; t++) {
@@ -145,7 +145,7 @@ int ek_svd3_mcadams_ref(const double A_in[9], int sweeps, int refine, double U[9
     }
 
   // ---- 6. Sort singular values ----
-  // McAdams et al. 2011 Alg. 4: conditional swaps by column norm; negating
+  // As in McAdams et al. 2011: conditional swaps by column norm; negating
   // the new column j keeps det V = +1.
   double rho[3];
   for (int j = 0; j < 3; j++)
@@ -165,7 +165,7 @@ int ek_svd3_mcadams_ref(const double A_in[9], int sweeps, int refine, double U[9
   }
 
   // ---- 7. QR by Givens rotations ----
-  // McAdams et al. 2011 section 5: G3 G2 G1 B = R upper triangular, with
+  // As in McAdams et al. 2011: G3 G2 G1 B = R upper triangular, with
   // U = G1^T G2^T G3^T.
   double Um[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   static const int qr_rows[3][2] = {{0, 1}, {0, 2}, {1, 2}};

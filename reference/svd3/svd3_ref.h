@@ -40,7 +40,7 @@ int ek_svd3_ref(const double A[9], double U[9], double S[3], double V[9]);
 int ek_polar3_ref(const double A[9], double R[9], double Ssym[9]);
 
 // A plain scalar double replica of ek's kernel algorithm
-// (/work/helper-notes/SVD_ALGORITHM.md, McAdams et al. 2011 with a
+// (kernels/svd3/svd3_core.h, McAdams et al. 2011 with a
 // one-sided Jacobi refinement), exact 1/sqrt throughout. Not an independent
 // oracle (that is ek_svd3_ref): it exists so the f64 kernels can be compared
 // with the same algorithm to ~1e-12, which catches lane mixing and
