@@ -464,6 +464,11 @@ int main(int argc, char **argv) {
   int rc = parse_args(b, argc, argv, &o);
   if (rc)
     return rc;
+  // EK_ISA naming an ISA this CPU lacks stops the run before it starts
+  // (ek_isa_resolve prints the reason).
+  ek_isa auto_isa;
+  if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
+    return 2;
 
   // Output names, checked before anything runs so a long run is never
   // lost to an existing file.

@@ -197,6 +197,13 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ek-sim: %s\n", err);
     return 1;
   }
+  // An ISA the CPU lacks (the scene's or EK_ISA's) stops here, before any
+  // output exists.
+  ek_isa isa;
+  if (ek_isa_resolve(scene.svd.isa, &isa) != EK_OK) {
+    fprintf(stderr, "ek-sim: %s: %s\n", scene_path, ek_last_error());
+    return 1;
+  }
   if (steps < 0)
     steps = scene.steps;
   if (!out && scene.output_file[0])

@@ -178,6 +178,11 @@ int main(int argc, char **argv) {
     }
     ctx.has_filter = 1;
   }
+  // ek-verify runs every ISA this CPU has by name; EK_ISA only picks what
+  // AUTO means. One the CPU lacks is an error, not a silent pass without it.
+  ek_isa auto_isa;
+  if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
+    return 2;
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
 
