@@ -96,40 +96,42 @@ static char *rd_token(reader *r) {
   return start;
 }
 
-static int rd_long(reader *r, const char *what, long *out) {
+// The next token of the line, or NULL (error recorded) if the line ended.
+static char *rd_need_token(reader *r, const char *what) {
   char *tok = rd_token(r);
   if (!tok) {
     mesh_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
     r->failed = 1;
-    return -1;
   }
-  char *end;
+  return tok;
+}
+
+static int rd_bad_number(reader *r, const char *tok, const char *what) {
+  mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
+  r->failed = 1;
+  return -1;
+}
+
+static int rd_long(reader *r, const char *what, long *out) {
+  char *tok = rd_need_token(r, what), *end;
+  if (!tok)
+    return -1;
   errno = 0;
   long v = strtol(tok, &end, 10);
-  if (*end || errno) {
-    mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
-    r->failed = 1;
-    return -1;
-  }
+  if (*end || errno)
+    return rd_bad_number(r, tok, what);
   *out = v;
   return 0;
 }
 
 static int rd_double(reader *r, const char *what, double *out) {
-  char *tok = rd_token(r);
-  if (!tok) {
-    mesh_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
-    r->failed = 1;
+  char *tok = rd_need_token(r, what), *end;
+  if (!tok)
     return -1;
-  }
-  char *end;
   errno = 0;
   double v = strtod(tok, &end);
-  if (*end || (errno && errno != ERANGE)) {
-    mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
-    r->failed = 1;
-    return -1;
-  }
+  if (*end || (errno && errno != ERANGE))
+    return rd_bad_number(r, tok, what);
   // NaN / inf are parsed by strtod; they are reported by mesh_build with
   // this line number.
   *out = v;

@@ -209,6 +209,19 @@ int ek_scene_model_from_name(const char *name, ek_model *model) {
 
 // ---------------------------------------------------------------- sections
 
+// Every component of the 3-vector obj.key (already read into v) must be > 0.
+static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, const char *key,
+                        const double v[3]) {
+  for (int i = 0; i < 3; ++i)
+    if (!(v[i] > 0)) {
+      char p[64];
+      snprintf(p, sizeof p, "%s.%s[%d]", objname, key, i);
+      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(obj, key), i),
+                 "must be > 0");
+    }
+  return 0;
+}
+
 static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_scene *s) {
   const cJSON *mesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
   if (!mesh)
@@ -256,14 +269,7 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
   }
   if ((rc = get_vec(c, mesh, "mesh", "size", 1, 3, s->box_size)))
     return rc;
-  for (int i = 0; i < 3; ++i)
-    if (!(s->box_size[i] > 0)) {
-      char p[32];
-      snprintf(p, sizeof p, "mesh.size[%d]", i);
-      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(mesh, "size"), i),
-                 "must be > 0");
-    }
-  return 0;
+  return all_positive(c, mesh, "mesh", "size", s->box_size);
 }
 
 static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
@@ -282,14 +288,7 @@ static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
     rc = get_vec(c, init, "initial", "velocity", 0, 3, s->init_velocity);
   if (rc)
     return rc;
-  for (int i = 0; i < 3; ++i)
-    if (!(s->init_scale[i] > 0)) {
-      char p[32];
-      snprintf(p, sizeof p, "initial.scale[%d]", i);
-      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(init, "scale"), i),
-                 "must be > 0");
-    }
-  return 0;
+  return all_positive(c, init, "initial", "scale", s->init_scale);
 }
 
 static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {
