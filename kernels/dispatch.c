@@ -66,7 +66,7 @@ static unsigned long long xcr0(void) {
   return ((unsigned long long)hi << 32) | lo;
 }
 
-static int cpu_runs(ek_isa isa) {
+static int cpu_check(ek_isa isa) {
   __builtin_cpu_init();
   unsigned long long x = xcr0();
   switch (isa) {
@@ -80,6 +80,19 @@ static int cpu_runs(ek_isa isa) {
   default:
     return 0;
   }
+}
+
+// cpuid traps to the hypervisor in a VM (microseconds), and a forced ISA is
+// checked on every kernel call: the answer is computed once per ISA.
+// 0 = not yet known, 1 = no, 2 = yes; racing first calls agree.
+static int cpu_runs(ek_isa isa) {
+  static atomic_int known[EK_ISA_COUNT];
+  int k = atomic_load(&known[isa]);
+  if (!k) {
+    k = cpu_check(isa) ? 2 : 1;
+    atomic_store(&known[isa], k);
+  }
+  return k == 2;
 }
 
 static int built(ek_isa isa) {
