@@ -5,6 +5,7 @@
 #define EK_KERNELS_H
 
 #include <ek/core.h>
+#include <ek/material.h>
 #include <stddef.h>
 
 // Knobs of the SVD kernel, resolved from ek_svd3_opts by the driver.
@@ -19,6 +20,10 @@ typedef struct {
 // Defaults of the SVD knobs per precision (what opts zeroed means).
 ek_svd3_knobs ek_svd3_default_knobs_f32(void);
 ek_svd3_knobs ek_svd3_default_knobs_f64(void);
+// Knobs from the sweeps / exact_rsqrt options (0 = default), after the one
+// range check they share: EK_EINVAL with a message naming fn.
+int ek_svd3_knobs_from_f32(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k);
+int ek_svd3_knobs_from_f64(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k);
 
 // svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes.
 typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, float *S, float *V,
@@ -33,7 +38,9 @@ typedef double ek_fma_probe_fn(long iters, double *flops);
 // for op = energy / P / dP / Hessian (ek_material_op). Knobs resolved by
 // the driver (kernels/material/material.c) from ek_material.
 typedef struct {
-  int model, op, project;
+  ek_model model;
+  ek_material_op op;
+  int project;
   double mu, lambda, clamp;
   ek_svd3_knobs svd; // SVD knobs (the precision's defaults)
 } ek_material_knobs;

@@ -47,16 +47,17 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
   return 0;
 }
 
-static const char *need_text(ek_model_needs need, const ek_material *m) {
+static const char *need_text(ek_model_needs need) {
   switch (need) {
   case EK_NEEDS_NOTHING:
     return "no SVD: P is polynomial in F";
   case EK_NEEDS_J:
     return "no SVD: J = det F and F^-T only";
   case EK_NEEDS_POLAR:
-    return m->clamp > 0 ? "full SVD: singular values clamped at material.clamp (Irving 2004 "
-                          "sec. 5), P = U P_hat(sigma_hat) V^T"
-                        : "SVD for the polar rotation R(F) = U V^T";
+    return "SVD for the polar rotation R(F) = U V^T";
+  case EK_NEEDS_SVD:
+    return "full SVD: singular values clamped at material.clamp (Irving 2004 sec. 5), "
+           "P = U P_hat(sigma_hat) V^T";
   case EK_NEEDS_R_INPUT:
     return "no SVD in the force kernel: R^n given per tet, refreshed at step start";
   }
@@ -101,7 +102,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
          "(ek_fvm_forces_ex_f%d):\n",
          k++, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, s->precision);
   printf("       gather x of 4 corners -> F = Ds Dm^-1 -> ");
-  if (need == EK_NEEDS_POLAR)
+  if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD)
     printf("SVD3 (%d sweeps, %s rsqrt) -> ",
            s->svd.sweeps
                ? s->svd.sweeps
@@ -112,7 +113,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
                ? "exact"
                : "approximate");
   printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
-  printf("       %s: %s\n", s->model_name, need_text(need, m));
+  printf("       %s: %s\n", s->model_name, need_text(need));
   ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : s->scatter;
   static const char *why[] = {
       "", "tets of one colour share no vertex: blocks add straight into f, deterministic",

@@ -1,11 +1,21 @@
 // Internal: the one place meshes are validated and built (mesh.c), used by
-// the in-memory constructors, the box generator and the file readers.
+// the in-memory constructors, the box generator and the file readers, and
+// the layout of ek_mesh: what a validated mesh adds to its element layer.
 #ifndef EK_SIM_MESH_BUILD_H
 #define EK_SIM_MESH_BUILD_H
 
+#include <ek/elements.h>
 #include <ek/mesh.h>
 #include <stddef.h>
 #include <stdint.h>
+
+struct ek_mesh {
+  double *X;      // nverts x 3, caller order
+  double *lumped; // nverts, sum of V0/4
+  size_t nfixed;
+  double min_edge;
+  ek_tets *el; // caller-order tets (orientation fixes applied), V0, Dm^-1, orders, blocks
+};
 
 // Where the arrays came from, so errors can name file and line. vert_line
 // and tet_line (nverts / ntets entries) may be NULL; index_base is the
@@ -19,7 +29,6 @@ typedef struct {
 
 ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
                     const ek_mesh_opts *opts, const mesh_origin *origin, char *err, size_t errlen);
-int mesh_layout(ek_mesh *m);
 void mesh_error(char *err, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 

@@ -13,7 +13,6 @@
 #include <string.h>
 
 #include "mesh_build.h"
-#include "mesh_internal.h"
 
 // A line reader with a token cursor and line numbers for messages.
 typedef struct {

@@ -6,10 +6,8 @@
 // is right (Dm Dm^-1 = I, V0 = det Dm / 6 > 0, lumped volumes sum to the
 // total); the box generator is conforming (every face shared by at most two
 // tets, the boundary has exactly the box's triangles) with volume
-// lx*ly*lz; the internal layout is a valid colouring (tets of one colour,
-// hence of one block, share no vertex), a permutation of the tets, packed
-// planes equal to the caller-order data, and vertex lists that are sorted
-// and complete.
+// lx*ly*lz. The element layer the mesh hands its arrays to (orders,
+// colourings, packing) has its own test, tests/test_elements.c.
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,7 +16,6 @@
 #include <ek/mesh.h>
 
 #include "check.h"
-#include "mesh_internal.h"
 
 static int failures = 0;
 
@@ -105,110 +102,6 @@ static double check_precompute(const char *label, const ek_mesh *m) {
   return total.s;
 }
 
-// One slot order: a permutation of the tets (each exactly once, padding
-// -1) and packed planes equal to the caller-order data, padding inert.
-static int check_blocks(const ek_mesh *m, const ek_mesh_blocks *bl) {
-  size_t nt = m->ntets, ns = bl->nslots;
-  const size_t W32 = EK_LANES_F32, W64 = EK_LANES_F64;
-  int bad = 0;
-  if (ns % W32 || ns < nt)
-    bad |= 2;
-  int *seen = calloc(nt, sizeof *seen);
-  for (size_t s = 0; s < ns; s++) {
-    int32_t t = bl->slot_tet[s];
-    if (t >= 0 && ((size_t)t >= nt || seen[t]++))
-      bad |= 2;
-  }
-  for (size_t t = 0; t < nt; t++)
-    if (seen[t] != 1)
-      bad |= 2;
-  free(seen);
-  if (bad)
-    return bad;
-  for (size_t s = 0; s < ns; s++) {
-    int32_t t = bl->slot_tet[s];
-    size_t b32 = s / W32, l32 = s % W32, b64 = s / W64, l64 = s % W64;
-    for (int c = 0; c < 4; c++) {
-      int32_t want = t >= 0 ? m->tets[t * 4 + c] : -1;
-      if (bl->idx_f32[(b32 * 4 + c) * W32 + l32] != want ||
-          bl->idx_f64[(b64 * 4 + c) * W64 + l64] != want)
-        bad |= 8;
-    }
-    for (int k = 0; k < 9; k++) {
-      double want = t >= 0 ? m->Dm_inv[t * 9 + k] : 0;
-      if (bl->dm_inv_f64[(b64 * 9 + k) * W64 + l64] != want ||
-          bl->dm_inv_f32[(b32 * 9 + k) * W32 + l32] != (float)want)
-        bad |= 8;
-    }
-    double v0 = t >= 0 ? m->V0[t] : 0;
-    if (bl->v0_f64[b64 * W64 + l64] != v0 || bl->v0_f32[b32 * W32 + l32] != (float)v0)
-      bad |= 8;
-  }
-  return bad;
-}
-
-// The internal layout: colouring, both slot orders, vertex lists.
-static void check_layout(const char *label, const ek_mesh *m) {
-  size_t nt = m->ntets, nv = m->nverts;
-  const ek_mesh_blocks *cb = &m->colored, *mb = &m->morton;
-  const size_t W32 = EK_LANES_F32;
-  int bad = 0;
-  if (m->color_slot_start[0] != 0 || m->color_slot_start[m->ncolors] != cb->nslots)
-    bad |= 1;
-  for (int c = 0; c < m->ncolors; c++)
-    if (m->color_slot_start[c] % W32)
-      bad |= 1;
-  bad |= check_blocks(m, cb) | check_blocks(m, mb);
-  if (mb->nslots != (nt + W32 - 1) / W32 * W32)
-    bad |= 2;
-  // Tets of one colour share no vertex (so neither do the tets of a block,
-  // which never spans two colours).
-  int *stamp = malloc(nv * sizeof *stamp);
-  for (size_t v = 0; v < nv; v++)
-    stamp[v] = -1;
-  for (int c = 0; c < m->ncolors && !(bad & 2); c++)
-    for (size_t s = m->color_slot_start[c]; s < m->color_slot_start[c + 1]; s++) {
-      int32_t t = cb->slot_tet[s];
-      if (t < 0)
-        continue;
-      for (int j = 0; j < 4; j++) {
-        int32_t v = m->tets[t * 4 + j];
-        if (stamp[v] == c) {
-          if (!(bad & 4))
-            printf("%s: colour %d: vertex %d in two tets (slot %zu, tet %d)\n", label, c, v, s, t);
-          bad |= 4;
-        }
-        stamp[v] = c;
-      }
-    }
-  free(stamp);
-  // Vertex lists over the Morton order: ascending, each entry a tet corner
-  // at that vertex, and as many entries as the vertex has tet corners.
-  size_t total = 0;
-  for (size_t v = 0; v < nv && !(bad & 2); v++) {
-    for (int32_t e = m->vert_start[v]; e < m->vert_start[v + 1]; e++) {
-      int32_t slot = m->vert_entries[e] >> 2, c = m->vert_entries[e] & 3;
-      int32_t t = mb->slot_tet[slot];
-      if (t < 0 || m->tets[t * 4 + c] != (int32_t)v)
-        bad |= 16;
-      if (e > m->vert_start[v] && m->vert_entries[e] <= m->vert_entries[e - 1])
-        bad |= 16;
-    }
-    total += (size_t)(m->vert_start[v + 1] - m->vert_start[v]);
-  }
-  if (total != nt * 4)
-    bad |= 16;
-  const char *what[] = {"colour starts", "slot permutations", "colouring", "packed planes",
-                        "vertex lists"};
-  for (int k = 0; k < 5; k++) {
-    printf("%s: layout %s: %s\n", label, what[k], bad & (1 << k) ? "FAIL" : "PASS");
-    if (bad & (1 << k))
-      failures++;
-  }
-  printf("%s: %zu tets, %d colours, %zu coloured slots (%.1f%% padding)\n", label, nt, m->ncolors,
-         cb->nslots, 100.0 * (double)(cb->nslots - nt) / (double)cb->nslots);
-}
-
 static void check_cube_file(const char *path) {
   char err[512] = "";
   ek_mesh *m = ek_mesh_load(path, err, sizeof err);
@@ -224,7 +117,6 @@ static void check_cube_file(const char *path) {
   }
   double vol = check_precompute(path, m);
   failures += ek_check_report("  unit cube volume", fabs(vol - 1), EK_MESH_TOL);
-  check_layout(path, m);
   ek_mesh_destroy(m);
 }
 
@@ -316,7 +208,6 @@ static void check_box(int nx, int ny, int nz, double lx, double ly, double lz) {
          want, over, boundary == want && over == 0 ? "PASS" : "FAIL");
   if (boundary != want || over)
     failures++;
-  check_layout(label, m);
   ek_mesh_destroy(m);
 }
 
@@ -452,7 +343,6 @@ int main(int argc, char **argv) {
     } else {
       double vol = check_precompute("jittered renumbered box", m);
       failures += ek_check_report("  jittered box volume", fabs(vol - 1), EK_MESH_TOL);
-      check_layout("jittered renumbered box", m);
       ek_mesh_destroy(m);
     }
     ek_mesh_destroy(b);

@@ -15,6 +15,7 @@
 #include <stddef.h>
 
 #include "core.h"
+#include "elements.h"
 #include "material.h"
 #include "mesh.h"
 
@@ -36,8 +37,9 @@ extern "C" {
 #define EK_FVM_FD_TOL 1e-8
 
 // How per-tet forces are summed into vertices.
-//   COLORED: tets are greedily coloured so that tets of one colour share no
-//     vertex; blocks of one colour run in parallel and add straight into f.
+//   COLORED: the element layer's coloured order (elements.h): Morton chunks
+//     coloured so that chunks of one colour share no vertex; threads split
+//     each chunk colour's chunks and add straight into f.
 //   THREAD_BUFFERS: the blocks are cut into EK_FVM_PARTS fixed parts, each
 //     with its own force buffer; threads take parts, then the buffers are
 //     summed in part order (fixed parts, so any thread count gives the
@@ -47,10 +49,8 @@ extern "C" {
 //   ATOMIC: the baseline: one parallel loop adding with atomics; the
 //     summation order depends on the schedule, so the bits may change from
 //     run to run (non-deterministic).
-//   AUTO: THREAD_BUFFERS, the fastest in ek-bench on the 2-core Zen 3
-//     machine at 1e4..1e6 tets (it runs over the Morton tet order; the
-//     colour-major order of COLORED sweeps the whole vertex array once per
-//     colour, which costs most on meshes beyond the L2 cache).
+//   AUTO: THREAD_BUFFERS, the fastest or within a few percent of the fastest
+//     in ek-bench on the 2-core Zen 3 and Zen 4 machines at 1e4..1e6 tets.
 typedef enum {
   EK_SCATTER_AUTO = 0,
   EK_SCATTER_COLORED,
@@ -64,6 +64,12 @@ typedef enum {
 #define EK_SCATTER_DEFAULT EK_SCATTER_THREAD_BUFFERS
 
 #define EK_FVM_PARTS 4
+
+// Meshes with fewer tets run each force evaluation on the calling thread
+// alone: below this, waking a second thread costs more than it saves
+// (measured with ek-bench's fvm rows on the 2-core machines), and on a
+// loaded machine a woken thread can wait for a core for milliseconds.
+#define EK_FVM_PARALLEL_MIN_TETS 4096
 
 // Name of a strategy ("auto", "colored", "thread_buffers", "gather",
 // "atomic"); "invalid" for others.
@@ -129,6 +135,17 @@ double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const doub
 // Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
 // tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
 int ek_fvm_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F);
+
+// The same on an element layer built from plain arrays (ek_tets_create),
+// for simulators with their own mesh code: the ek_mesh forms above are
+// these on ek_mesh_elements(m).
+int ek_fvm_tet_forces_ex_f32(const ek_tets *el, const ek_material *mat, const float *x, float *f,
+                             const ek_fvm_opts *opts);
+int ek_fvm_tet_forces_ex_f64(const ek_tets *el, const ek_material *mat, const double *x, double *f,
+                             const ek_fvm_opts *opts);
+double ek_fvm_tet_energy_f64(const ek_tets *el, const ek_material *mat, const double *x,
+                             const double *R);
+int ek_fvm_tet_deformation_gradients_f64(const ek_tets *el, const double *x, double *F);
 
 #ifdef __cplusplus
 }

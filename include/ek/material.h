@@ -57,7 +57,10 @@
 //
 // SVD use: a model that needs no SVD never computes one for P or psi
 // (linear, StVK, Psi_R, and neo-Hookean / stable neo-Hookean without clamp;
-// corotated linear uses the given R). Fixed corotated and ARAP need R(F).
+// corotated linear uses the given R). Fixed corotated and ARAP need R(F);
+// the clampable models (fixed corotated, ARAP, neo-Hookean, stable
+// neo-Hookean) need the full SVD when clamp > 0 (ek_model_need). The table
+// of names and needs is kernels/material/models.h.
 //
 // Invalid arguments (rc = EK_EINVAL, message in ek_last_error(), nothing
 // written): unknown model, mu <= 0, a non-finite mu/lambda/clamp,
@@ -181,16 +184,23 @@ int ek_pk1_diff_aosoa_f64(const ek_material *m, size_t nblocks, const double *F,
 
 // Checks a material (the rules above): EK_OK or EK_EINVAL with a message.
 int ek_material_check(const ek_material *m);
-// "linear", "stvk", "corot_linear", "fixed_corot", "arap", "psi_r", "nh",
-// "snh"; "invalid" otherwise.
+// Short names: "linear", "stvk", "corot_linear", "fixed_corot", "arap",
+// "psi_r", "nh", "snh"; "invalid" otherwise.
 const char *ek_model_name(ek_model model);
+// Long names (scene files): "linear", "stvk", "corotated_linear",
+// "fixed_corotated", "arap", "psi_r", "neo_hookean", "stable_neo_hookean";
+// "invalid" otherwise.
+const char *ek_model_long_name(ek_model model);
+// Either name -> the model: EK_OK, or EK_EINVAL (no message) if unknown.
+int ek_model_from_name(const char *name, ek_model *model);
 
 // What a model needs per element, given the clamp.
 typedef enum {
   EK_NEEDS_NOTHING, // polynomial in F
   EK_NEEDS_J,       // det F and F^-T (neo-Hookean family without clamp)
-  EK_NEEDS_POLAR,   // R(F) from an SVD (or the full SVD under clamp)
-  EK_NEEDS_R_INPUT  // a given rotation per element
+  EK_NEEDS_POLAR,   // R(F) from an SVD (fixed corotated, ARAP without clamp)
+  EK_NEEDS_R_INPUT, // a given rotation per element
+  EK_NEEDS_SVD      // the full SVD: a clampable model with clamp > 0
 } ek_model_needs;
 ek_model_needs ek_model_need(ek_model model, double clamp);
 

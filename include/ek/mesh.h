@@ -3,9 +3,9 @@
 //
 // Vertex and tet order: every array the API takes or returns is in the
 // caller's order (the order of the file, of ek_mesh_create's arrays, or of
-// ek_mesh_box). The mesh reorders tets internally (Morton order of the
-// centroids, then a greedy colouring) for locality and vectorisation; that
-// order never leaks out.
+// ek_mesh_box). The element layer reorders tets internally (elements.h:
+// Morton order of the centroids, a colouring inside Morton chunks) for
+// locality and vectorisation; that order never leaks out.
 //
 // Validation (the same for files, ek_mesh_create and the box generator):
 //   - coordinates must be finite;
@@ -27,6 +27,7 @@
 #include <stdint.h>
 
 #include "core.h"
+#include "elements.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -73,6 +74,10 @@ ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz, ch
 
 void ek_mesh_destroy(ek_mesh *m);
 
+// The mesh's element layer (elements.h): the orders and blocks the kernels
+// read. Owned by the mesh.
+const ek_tets *ek_mesh_elements(const ek_mesh *m);
+
 // Accessors (caller order). Pointers stay valid until ek_mesh_destroy.
 size_t ek_mesh_nverts(const ek_mesh *m);
 size_t ek_mesh_ntets(const ek_mesh *m);
@@ -82,8 +87,8 @@ const double *ek_mesh_rest_volumes(const ek_mesh *m);   // ntets, V0 = det(Dm) /
 const double *ek_mesh_dm_inv(const ek_mesh *m);         // ntets x 9, row-major Dm^-1
 // Per vertex: sum of V0/4 over its tets (lumped mass = density * this).
 const double *ek_mesh_lumped_volume(const ek_mesh *m);
-// Colours of the internal greedy colouring (tets of one colour share no
-// vertex) and tets whose orientation was fixed.
+// Tet colours of the element layer's coloured order (ek_tets_ncolors) and
+// tets whose orientation was fixed.
 int ek_mesh_ncolors(const ek_mesh *m);
 size_t ek_mesh_nfixed(const ek_mesh *m);
 // Shortest edge of the rest mesh (for a CFL time-step estimate).

@@ -27,9 +27,13 @@ extern "C" {
 #define EK_SVD3_TOL_F32 2e-5
 #define EK_SVD3_TOL_F64 1e-12
 
+// Most Jacobi sweeps on A^T A an option may ask for.
+#define EK_SVD3_MAX_SWEEPS 8
+
 // Options; zero means default.
-//   sweeps: Jacobi sweeps on A^T A, 0 = default for the precision, 1..8 as
-//           given, anything else is EK_EINVAL (nothing written).
+//   sweeps: Jacobi sweeps on A^T A, 0 = default for the precision,
+//           1..EK_SVD3_MAX_SWEEPS as given, anything else is EK_EINVAL
+//           (nothing written).
 //   exact_rsqrt: 0 = default (approximate for f32, exact for f64), 1 = exact
 //           1/sqrt, -1 = approximate
 //           (hardware estimate refined by Newton steps).

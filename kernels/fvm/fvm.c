@@ -1,11 +1,15 @@
-// FVM force driver (public ek_fvm_* API): argument checks, dispatch, and
-// the scatter strategies, which own the OpenMP loops (the block kernel in
-// fvm_block.c does one range of blocks). Built once per precision.
+// FVM force driver (ek_fvm_tet_* API on the element layer; sim/mesh.c
+// forwards the ek_mesh forms): argument checks, dispatch, and the scatter
+// strategies, which own the OpenMP region (the block kernel in fvm_block.c
+// does one range of blocks). Built once per precision.
 //
+// Threads: one parallel region per force evaluation, static partitions,
+// and a mesh below EK_FVM_PARALLEL_MIN_TETS runs on the calling thread
+// alone (waking a second thread costs more than it saves there).
 // Determinism: COLORED, THREAD_BUFFERS and GATHER sum every vertex's
-// contributions in an order fixed by the mesh alone (colour order; part
-// order with EK_FVM_PARTS fixed parts; slot order), so the result has the
-// same bits for any thread count. ATOMIC does not.
+// contributions in an order fixed by the mesh alone (phase, chunk and slot
+// order; part order with EK_FVM_PARTS fixed parts; slot order), so the
+// result has the same bits for any thread count. ATOMIC does not.
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -14,7 +18,7 @@
 #include <ek/fvm.h>
 #include <ek/svd3.h>
 
-#include "../../sim/mesh_internal.h"
+#include "../elements/tets.h"
 #include "../kernels.h"
 #include "../real.h"
 #include "fvm_kernel.h"
@@ -60,26 +64,31 @@ static void share(size_t b0, size_t b1, int t, int nt, size_t *lo, size_t *hi) {
   *hi = b0 + n * (size_t)(t + 1) / (size_t)nt;
 }
 
+// Whether a force evaluation of this size runs on more than one thread.
+static int parallel_for(const ek_tets *el) { return el->ntets >= EK_FVM_PARALLEL_MIN_TETS; }
+
 static void zero_forces(real *f, size_t n) {
 #pragma omp for schedule(static)
   for (size_t i = 0; i < n; i++)
     f[i] = 0;
 }
 
-// COLORED: blocks of one colour share no vertex, so threads split each
-// colour's blocks and add straight into f; a barrier between colours.
-static void scatter_colored(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
+// COLORED: the element layer's coloured order. Chunks of one phase (chunk
+// colour) share no vertex, so threads split each phase's chunks and add
+// straight into f, with a barrier between phases; a chunk runs on one
+// thread, its colour groups in order, its vertices in cache.
+static void scatter_colored(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
   a.f = f;
   a.corner = NULL;
-#pragma omp parallel
+#pragma omp parallel if (parallel_for(el))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    zero_forces(f, m->nverts * 3);
-    for (int c = 0; c < m->ncolors; c++) {
+    zero_forces(f, el->nverts * 3);
+    for (int p = 0; p < el->nphases; p++) {
       size_t lo, hi;
-      share(m->color_slot_start[c] / L, m->color_slot_start[c + 1] / L, t, nt, &lo, &hi);
+      share(el->phase_chunk[p], el->phase_chunk[p + 1], t, nt, &lo, &hi);
       if (lo < hi)
-        KERNEL(kt)(&a, lo, hi);
+        KERNEL(kt)(&a, el->chunk_slot[lo] / L, el->chunk_slot[hi] / L);
 #pragma omp barrier
     }
   }
@@ -88,13 +97,13 @@ static void scatter_colored(const ek_kernel_table *kt, const ek_mesh *m, fvm_arg
 // THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one force
 // buffer each; threads take parts round-robin, then f = sum of the buffers
 // in part order (parallel over vertices).
-static int scatter_buffers(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
-  size_t n = m->nverts * 3, nb = m->morton.nslots / L;
+static int scatter_buffers(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
+  size_t n = el->nverts * 3, nb = el->morton.nslots / L;
   real *buf = scratch_get(0, EK_FVM_PARTS * n * sizeof(real));
   if (!buf)
     return EK_ENOMEM;
   a.corner = NULL;
-#pragma omp parallel
+#pragma omp parallel if (parallel_for(el))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for (int p = t; p < EK_FVM_PARTS; p += nt) {
@@ -120,14 +129,14 @@ static int scatter_buffers(const ek_kernel_table *kt, const ek_mesh *m, fvm_args
 
 // GATHER: corner forces of every tet into a scratch array, then each
 // vertex sums its (slot, corner) list in ascending order.
-static int scatter_gather(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
-  size_t nb = m->morton.nslots / L;
+static int scatter_gather(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
+  size_t nb = el->morton.nslots / L;
   real *corner = scratch_get(1, nb * 12 * L * sizeof(real));
   if (!corner)
     return EK_ENOMEM;
   a.f = NULL;
   a.corner = corner;
-#pragma omp parallel
+#pragma omp parallel if (parallel_for(el))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     size_t lo, hi;
@@ -136,10 +145,10 @@ static int scatter_gather(const ek_kernel_table *kt, const ek_mesh *m, fvm_args 
       KERNEL(kt)(&a, lo, hi);
 #pragma omp barrier
 #pragma omp for schedule(static)
-    for (size_t v = 0; v < m->nverts; v++) {
+    for (size_t v = 0; v < el->nverts; v++) {
       real s0 = 0, s1 = 0, s2 = 0;
-      for (int32_t e = m->vert_start[v]; e < m->vert_start[v + 1]; e++) {
-        size_t slot = (size_t)m->vert_entries[e] >> 2, c = (size_t)m->vert_entries[e] & 3;
+      for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
+        size_t slot = (size_t)el->vert_entries[e] >> 2, c = (size_t)el->vert_entries[e] & 3;
         const real *h = corner + ((slot / L) * 12 + c * 3) * L + slot % L;
         s0 += h[0];
         s1 += h[L];
@@ -158,17 +167,17 @@ static int scatter_gather(const ek_kernel_table *kt, const ek_mesh *m, fvm_args 
 // them with atomics. The order of the additions depends on the schedule:
 // not deterministic.
 #define ATOMIC_CHUNK 64
-static int scatter_atomic(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f) {
-  size_t nb = m->morton.nslots / L;
+static int scatter_atomic(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
+  size_t nb = el->morton.nslots / L;
   int err = 0;
-#pragma omp parallel
+#pragma omp parallel if (parallel_for(el))
   {
     real *corner = ek_alloc(ATOMIC_CHUNK * 12 * L * sizeof(real));
     if (!corner) {
 #pragma omp atomic write
       err = 1;
     }
-    zero_forces(f, m->nverts * 3);
+    zero_forces(f, el->nverts * 3);
     fvm_args at = a;
     at.f = NULL;
     at.corner = corner;
@@ -182,7 +191,7 @@ static int scatter_atomic(const ek_kernel_table *kt, const ek_mesh *m, fvm_args 
       at.corner = corner - b0 * 12 * L;
       KERNEL(kt)(&at, b0, b1);
       for (size_t b = b0; b < b1; b++) {
-        const int32_t *idx = BL_IDX(&m->morton) + b * 4 * L;
+        const int32_t *idx = BL_IDX(&el->morton) + b * 4 * L;
         const real *h = corner + (b - b0) * 12 * L;
         for (int l = 0; l < L; l++) {
           if (idx[l] < 0)
@@ -204,11 +213,11 @@ static int scatter_atomic(const ek_kernel_table *kt, const ek_mesh *m, fvm_args 
 
 // F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
 // from positions in the working precision.
-static void tet_F_f64(const ek_mesh *m, const real *x, double *F) {
-#pragma omp parallel for schedule(static)
-  for (size_t e = 0; e < m->ntets; e++) {
-    const int32_t *t = m->tets + e * 4;
-    const double *Dmi = m->Dm_inv + e * 9;
+static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
+#pragma omp parallel for schedule(static) if (parallel_for(el))
+  for (size_t e = 0; e < el->ntets; e++) {
+    const int32_t *t = el->tets + e * 4;
+    const double *Dmi = el->Dm_inv + e * 9;
     double Ds[9];
     for (int c = 0; c < 3; c++)
       for (int i = 0; i < 3; i++)
@@ -221,9 +230,9 @@ static void tet_F_f64(const ek_mesh *m, const real *x, double *F) {
 }
 
 // Per-tet output fields (ek_fvm_opts J, sigma_min, psi), in double.
-static int tet_fields(const ek_mesh *m, const ek_material *mat, const real *x, const double *R,
+static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, const double *R,
                       double *J, double *sigma_min, double *psi) {
-  size_t n = m->ntets;
+  size_t n = el->ntets;
   double *F = malloc(n * 9 * sizeof(double));
   double *S = sigma_min ? malloc(n * 3 * sizeof(double)) : NULL;
   if (!F || (sigma_min && !S)) {
@@ -232,7 +241,7 @@ static int tet_fields(const ek_mesh *m, const ek_material *mat, const real *x, c
     ek_set_error("ek_fvm_forces: out of memory for per-tet fields");
     return EK_ENOMEM;
   }
-  tet_F_f64(m, x, F);
+  tet_F_f64(el, x, F);
   int rc = EK_OK;
   if (J)
     for (size_t e = 0; e < n; e++) {
@@ -257,19 +266,16 @@ static int tet_fields(const ek_mesh *m, const ek_material *mat, const real *x, c
 
 static double now(void) { return omp_get_wtime(); }
 
-// Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
-// for models that need one), P pass through the material API, then H and
-// scatter from the stored P with the chosen strategy.
-static int run_strategy(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f,
+static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
                         ek_scatter s);
 
-// The slot order a strategy runs over (sim/mesh_internal.h): the colour-
-// major one for COLORED, the Morton one for the others.
-static const ek_mesh_blocks *blocks_for(const ek_mesh *m, ek_scatter s) {
-  return s == EK_SCATTER_COLORED ? &m->colored : &m->morton;
+// The slot order a strategy runs over (kernels/elements/tets.h): the
+// coloured one for COLORED, the Morton one for the others.
+static const ek_tet_blocks *blocks_for(const ek_tets *el, ek_scatter s) {
+  return s == EK_SCATTER_COLORED ? &el->colored : &el->morton;
 }
 
-static fvm_args args_for(fvm_args a, const ek_mesh_blocks *bl) {
+static fvm_args args_for(fvm_args a, const ek_tet_blocks *bl) {
   a.idx = BL_IDX(bl);
   a.dm_inv = BL_DMI(bl);
   a.v0 = BL_V0(bl);
@@ -277,10 +283,13 @@ static fvm_args args_for(fvm_args a, const ek_mesh_blocks *bl) {
   return a;
 }
 
-static int phased(const ek_kernel_table *kt, const ek_mesh *m, const ek_material *mat, fvm_args a,
+// Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
+// for models that need one), P pass through the material API, then H and
+// scatter from the stored P with the chosen strategy.
+static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_material *mat, fvm_args a,
                   real *f, ek_scatter s, const ek_svd3_opts *so, ek_isa isa,
                   ek_fvm_phase_times *pt) {
-  const ek_mesh_blocks *bl = blocks_for(m, s);
+  const ek_tet_blocks *bl = blocks_for(el, s);
   a = args_for(a, bl);
   size_t nb = bl->nslots / L;
   real *F = scratch_get(2, nb * 9 * L * 3 * sizeof(real));
@@ -290,7 +299,7 @@ static int phased(const ek_kernel_table *kt, const ek_mesh *m, const ek_material
   memset(pt, 0, sizeof *pt);
 
   double t0 = now();
-#pragma omp parallel
+#pragma omp parallel if (parallel_for(el))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     size_t lo, hi;
@@ -302,13 +311,14 @@ static int phased(const ek_kernel_table *kt, const ek_mesh *m, const ek_material
   pt->deformation_gradient = t1 - t0;
 
   ek_model_needs need = ek_model_need(mat->model, mat->clamp);
-  if (need == EK_NEEDS_POLAR) {
+  int takes_svd = need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD;
+  if (takes_svd) {
     int rc = EK_P(polar3_aosoa)(nb, F, R, NULL, so);
     if (rc < 0)
       return rc;
   }
   double t2 = now();
-  pt->svd = need == EK_NEEDS_POLAR ? t2 - t1 : 0;
+  pt->svd = takes_svd ? t2 - t1 : 0;
 
   if (mat->model == EK_MODEL_COROTATED_LINEAR) {
     // The given rotations, caller order -> slot blocks (identity padding).
@@ -327,37 +337,39 @@ static int phased(const ek_kernel_table *kt, const ek_mesh *m, const ek_material
   pt->pk1 = t4 - t3;
 
   a.P_in = P;
-  rc = run_strategy(kt, m, a, f, s);
+  rc = run_strategy(kt, el, a, f, s);
   pt->scatter = now() - t4;
   return rc;
 }
 
-static int run_strategy(const ek_kernel_table *kt, const ek_mesh *m, fvm_args a, real *f,
+static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
                         ek_scatter s) {
-  a = args_for(a, blocks_for(m, s));
+  a = args_for(a, blocks_for(el, s));
   switch (s) {
   case EK_SCATTER_COLORED:
-    scatter_colored(kt, m, a, f);
+    scatter_colored(kt, el, a, f);
     return EK_OK;
   case EK_SCATTER_THREAD_BUFFERS:
-    return scatter_buffers(kt, m, a, f);
+    return scatter_buffers(kt, el, a, f);
   case EK_SCATTER_GATHER:
-    return scatter_gather(kt, m, a, f);
+    return scatter_gather(kt, el, a, f);
   case EK_SCATTER_ATOMIC:
-    return scatter_atomic(kt, m, a, f);
-  default:
-    return EK_EINVAL;
+    return scatter_atomic(kt, el, a, f);
+  case EK_SCATTER_AUTO:
+  case EK_SCATTER_COUNT:
+    break; // resolved or refused by the caller
   }
+  return EK_EINVAL;
 }
 
-int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x, real *f,
-                        const ek_fvm_opts *opts) {
+int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const real *x, real *f,
+                            const ek_fvm_opts *opts) {
   static const char *fn = "ek_fvm_forces";
   ek_fvm_opts o = {0};
   if (opts)
     o = *opts;
-  if (!m || !mat || !x || !f) {
-    ek_set_error("%s: NULL argument (mesh %p, material %p, x %p, f %p)", fn, (const void *)m,
+  if (!el || !mat || !x || !f) {
+    ek_set_error("%s: NULL argument (elements %p, material %p, x %p, f %p)", fn, (const void *)el,
                  (const void *)mat, (const void *)x, (void *)f);
     return EK_EINVAL;
   }
@@ -372,11 +384,9 @@ int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x,
     ek_set_error("%s: scatter strategy %d is not a valid ek_scatter", fn, (int)o.scatter);
     return EK_EINVAL;
   }
-  if (o.svd_sweeps < 0 || o.svd_sweeps > 8 || o.svd_exact_rsqrt < -1 || o.svd_exact_rsqrt > 1) {
-    ek_set_error("%s: svd_sweeps %d (0..8) or svd_exact_rsqrt %d (-1..1) out of range", fn,
-                 o.svd_sweeps, o.svd_exact_rsqrt);
-    return EK_EINVAL;
-  }
+  ek_svd3_knobs knobs;
+  if ((rc = EK_P(svd3_knobs_from)(fn, o.svd_sweeps, o.svd_exact_rsqrt, &knobs)) < 0)
+    return rc;
   ek_isa isa;
   rc = ek_isa_resolve(o.isa, &isa);
   if (rc < 0)
@@ -385,20 +395,14 @@ int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x,
   if (!kt)
     return EK_EISA;
 
-  ek_svd3_knobs knobs = EK_P(svd3_default_knobs)();
-  if (o.svd_sweeps)
-    knobs.sweeps = o.svd_sweeps;
-  if (o.svd_exact_rsqrt)
-    knobs.exact_rsqrt = o.svd_exact_rsqrt > 0;
   // AUTO: see fvm.h for why thread buffers.
   ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
-
   fvm_args a = {.R = o.R, .mat = mat, .svd = &knobs, .x = x};
   if (o.phase_times) {
     ek_svd3_opts so = {.sweeps = o.svd_sweeps, .exact_rsqrt = o.svd_exact_rsqrt, .isa = isa};
-    rc = phased(kt, m, mat, a, f, s, &so, isa, o.phase_times);
+    rc = phased(kt, el, mat, a, f, s, &so, isa, o.phase_times);
   } else {
-    rc = run_strategy(kt, m, a, f, s);
+    rc = run_strategy(kt, el, a, f, s);
   }
   if (rc == EK_ENOMEM)
     ek_set_error("%s: out of memory for scratch buffers", fn);
@@ -406,12 +410,8 @@ int EK_P(fvm_forces_ex)(const ek_mesh *m, const ek_material *mat, const real *x,
     return rc;
 
   if (o.J || o.sigma_min || o.psi)
-    return tet_fields(m, mat, x, o.R, o.J, o.sigma_min, o.psi);
+    return tet_fields(el, mat, x, o.R, o.J, o.sigma_min, o.psi);
   return EK_OK;
-}
-
-int EK_P(fvm_forces)(const ek_mesh *m, const ek_material *mat, const real *x, real *f) {
-  return EK_P(fvm_forces_ex)(m, mat, x, f, NULL);
 }
 
 #if defined(EK_REAL_F64)
@@ -423,18 +423,18 @@ const char *ek_scatter_name(ek_scatter s) {
   return (unsigned)s < EK_SCATTER_COUNT ? names[s] : "invalid";
 }
 
-int ek_fvm_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F) {
-  if (!m || !x || !F) {
+int ek_fvm_tet_deformation_gradients_f64(const ek_tets *el, const double *x, double *F) {
+  if (!el || !x || !F) {
     ek_set_error("ek_fvm_deformation_gradients_f64: NULL argument");
     return EK_EINVAL;
   }
-  tet_F_f64(m, x, F);
+  tet_F_f64(el, x, F);
   return EK_OK;
 }
 
-double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
-                            const double *R) {
-  if (!m || !mat || !x) {
+double ek_fvm_tet_energy_f64(const ek_tets *el, const ek_material *mat, const double *x,
+                             const double *R) {
+  if (!el || !mat || !x) {
     ek_set_error("ek_fvm_energy_f64: NULL argument");
     return NAN;
   }
@@ -442,27 +442,23 @@ double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const doub
     ek_set_error("ek_fvm_energy_f64: corotated linear needs per-tet rotations (R is NULL)");
     return NAN;
   }
-  size_t n = m->ntets;
+  size_t n = el->ntets;
   double *F = malloc(n * 10 * sizeof(double));
   if (!F) {
     ek_set_error("ek_fvm_energy_f64: out of memory");
     return NAN;
   }
   double *psi = F + n * 9;
-  tet_F_f64(m, x, F);
+  tet_F_f64(el, x, F);
   int rc = ek_energy_f64(mat, n, F, R, psi);
   double E = NAN;
   if (rc >= 0) {
     // E = sum_e V0_e psi(F_e) in caller tet order (fixed, thread-free).
     E = 0;
     for (size_t e = 0; e < n; e++)
-      E += m->V0[e] * psi[e];
+      E += el->V0[e] * psi[e];
   }
   free(F);
   return E;
-}
-
-double ek_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x) {
-  return ek_fvm_energy_ex_f64(m, mat, x, NULL);
 }
 #endif

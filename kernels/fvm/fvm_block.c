@@ -3,8 +3,12 @@
 // Per tet: Ds = [x1-x0, x2-x0, x3-x0], F = Ds Dm^-1, P = P(F) (the
 // material's inline stress, kernels/material/material_core.h),
 // H = -V0 P Dm^-T, h1..h3 to vertices 1..3 and -(h1+h2+h3) to vertex 0.
-// The argument contract is in fvm_kernel.h; the scatter strategies (which
-// call this with f or corner set) live in the driver, fvm.c.
+// The block loop is instantiated per model (and, for the models that take
+// an SVD, per rsqrt mode) with the model a compile-time constant, so no
+// model is switched per vector; the models that take an SVD run two
+// vectors' Jacobi chains side by side (svd3_core_n), as the SVD kernel
+// does. The argument contract is in fvm_kernel.h; the scatter strategies
+// (which call this with f or corner set) live in the driver, fvm.c.
 #include "../simd/simd.h"
 
 #include "../material/material_core.h"
@@ -18,6 +22,10 @@ typedef struct ek_fvm_args_f64 fvm_args;
 #endif
 
 #define L EK_LANES
+// Blocks per group and vectors per group: a group holds two vectors (or
+// more), so two SVD chains can be in flight; AVX-512 (one vector per block)
+// takes two blocks at a time.
+#define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
 
 // Step 1: gather. Positions of the 4 corners of every lane of block b into
 // xb[(c*3 + i)*L + l] (the vector API has no gather, and a block-wide
@@ -49,8 +57,8 @@ static void gather_R(const fvm_args *a, size_t b, real *Rb) {
 
 // Step 2: F = Ds Dm^-1 for EK_W lanes at offset o of the block; padding
 // lanes get F = I so every model stays finite there.
-static void deformation_gradient(const real *xb, const real *dm_inv, const real *pad, int o,
-                                 vreal F[9]) {
+static inline void deformation_gradient(const real *xb, const real *dm_inv, const real *pad, int o,
+                                        vreal F[9]) {
   vreal Ds[9];
   for (int i = 0; i < 3; i++) {
     vreal x0 = vload(xb + (0 * 3 + i) * L + o);
@@ -72,7 +80,8 @@ static void deformation_gradient(const real *xb, const real *dm_inv, const real 
 
 // Step 4: H = -V0 P Dm^-T: H[i][c] = -V0 sum_k P[i][k] Dm^-1[c][k]; then the
 // four corner forces, corner 0 = -(h1 + h2 + h3), into hb[(c*3+i)*L + o].
-static void corner_forces(const vreal P[9], const real *dm_inv, const real *v0, int o, real *hb) {
+static inline void corner_forces(const vreal P[9], const real *dm_inv, const real *v0, int o,
+                                 real *hb) {
   vreal Dmi[9];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dm_inv + k * L + o);
@@ -108,43 +117,124 @@ static void scatter_block(const fvm_args *a, size_t b, const real *hb) {
   }
 }
 
-void EK_SYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1) {
-  _Alignas(64) real xb[12 * L];
-  _Alignas(64) real pad[L];
-  _Alignas(64) real Rb[9 * L];
-  _Alignas(64) real hb[12 * L];
-  ek_material_lanes mp =
-      material_lanes_make((int)a->mat->model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
-  int need_R = a->mat->model == EK_MODEL_COROTATED_LINEAR;
-  for (size_t b = b0; b < b1; b++) {
-    const real *dm_inv = a->dm_inv + b * 9 * L;
-    const real *v0 = a->v0 + b * L;
-    if (!a->P_in) {
-      gather_block(a, b, xb, pad);
-      if (need_R)
-        gather_R(a, b, Rb);
+// Blocks [b0, b1) for one model (a compile-time constant at every call
+// below), group by group: gather, F of every vector, P (through the SVD for
+// `sigma`, two vectors at a time), corner forces, scatter.
+EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, const fvm_args *a, size_t b0,
+                          size_t b1) {
+  _Alignas(64) real xb[GROUP_BLOCKS][12 * L];
+  _Alignas(64) real pad[GROUP_BLOCKS][L];
+  _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
+  const ek_material_lanes mp =
+      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
+    const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
+    for (int g = 0; g < nb; g++) {
+      gather_block(a, b + (size_t)g, xb[g], pad[g]);
+      if (model == EK_MODEL_COROTATED_LINEAR)
+        gather_R(a, b + (size_t)g, Rb[g]);
     }
+    for (int v0 = 0; v0 < nb * EK_VPB; v0 += 2) {
+      // 1 only for the last block of an odd range on AVX-512 (one vector per block).
+      const int nv = nb * EK_VPB - v0 < 2 ? 1 : 2;
+      vreal F[2][9], P[2][9];
+      for (int j = 0; j < nv; j++) {
+        const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+        deformation_gradient(xb[g], a->dm_inv + (b + (size_t)g) * 9 * L, pad[g], o, F[j]);
+      }
+      if (sigma) {
+        // Step 3a: the SVD of both vectors side by side, then P from it.
+        vreal U[2][9], S[2][3], V[2][9], scale[2];
+        if (nv == 2)
+          svd3_core_n(2, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
+        else
+          svd3_core_n(1, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
+        for (int j = 0; j < nv; j++) {
+          for (int i = 0; i < 3; i++)
+            S[j][i] = vmul(S[j][i], scale[j]);
+          material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
+        }
+      } else {
+        // Step 3b: P in F (R read for corotated linear only).
+        for (int j = 0; j < nv; j++) {
+          const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+          vreal R[9];
+          for (int k = 0; k < 9; k++)
+            R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(Rb[g] + k * L + o) : F[j][k];
+          material_pk1(&mp, F[j], R, P[j]);
+        }
+      }
+      for (int j = 0; j < nv; j++) {
+        const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+        const size_t bg = b + (size_t)g;
+        corner_forces(P[j], a->dm_inv + bg * 9 * L, a->v0 + bg * L, o,
+                      a->corner ? a->corner + bg * 12 * L : hb[g]);
+      }
+    }
+    if (!a->corner)
+      for (int g = 0; g < nb; g++)
+        scatter_block(a, b + (size_t)g, hb[g]);
+  }
+}
+
+// Phase-split pass: H and scatter from a stored P (9 planes per block).
+static void fvm_blocks_from_P(const fvm_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[12 * L];
+  for (size_t b = b0; b < b1; b++) {
     for (int o = 0; o < L; o += EK_W) {
       vreal P[9];
-      if (a->P_in) {
-        for (int k = 0; k < 9; k++)
-          P[k] = vload(a->P_in + (b * 9 + k) * L + o);
-      } else {
-        vreal F[9], R[9];
-        deformation_gradient(xb, dm_inv, pad, o, F);
-        // Step 3: the stress, inline (no memory round trip for F or P).
-        if (need_R)
-          for (int k = 0; k < 9; k++)
-            R[k] = vload(Rb + k * L + o);
-        else
-          for (int k = 0; k < 9; k++)
-            R[k] = F[k]; // never read: only corotated linear reads R
-        material_pk1(&mp, F, R, P);
-      }
-      corner_forces(P, dm_inv, v0, o, a->corner ? a->corner + b * 12 * L : hb);
+      for (int k = 0; k < 9; k++)
+        P[k] = vload(a->P_in + (b * 9 + k) * L + o);
+      corner_forces(P, a->dm_inv + b * 9 * L, a->v0 + b * L, o,
+                    a->corner ? a->corner + b * 12 * L : hb);
     }
     if (!a->corner)
       scatter_block(a, b, hb);
+  }
+}
+
+// The models that can take an SVD: through it (sigma, per rsqrt mode) when
+// the table says so for this clamp, else in F.
+EK_INLINE void fvm_blocks_sigma(ek_model model, const fvm_args *a, size_t b0, size_t b1) {
+  if (!ek_model_row_uses_sigma(model, a->mat->clamp))
+    fvm_blocks(model, 0, 0, a, b0, b1);
+  else if (a->svd->exact_rsqrt)
+    fvm_blocks(model, 1, 1, a, b0, b1);
+  else
+    fvm_blocks(model, 1, 0, a, b0, b1);
+}
+
+void EK_SYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1) {
+  if (a->P_in) {
+    fvm_blocks_from_P(a, b0, b1);
+    return;
+  }
+  switch (a->mat->model) {
+  case EK_MODEL_LINEAR:
+    fvm_blocks(EK_MODEL_LINEAR, 0, 0, a, b0, b1);
+    break;
+  case EK_MODEL_STVK:
+    fvm_blocks(EK_MODEL_STVK, 0, 0, a, b0, b1);
+    break;
+  case EK_MODEL_COROTATED_LINEAR:
+    fvm_blocks(EK_MODEL_COROTATED_LINEAR, 0, 0, a, b0, b1);
+    break;
+  case EK_MODEL_PSI_R:
+    fvm_blocks(EK_MODEL_PSI_R, 0, 0, a, b0, b1);
+    break;
+  case EK_MODEL_FIXED_COROTATED:
+    fvm_blocks_sigma(EK_MODEL_FIXED_COROTATED, a, b0, b1);
+    break;
+  case EK_MODEL_ARAP:
+    fvm_blocks_sigma(EK_MODEL_ARAP, a, b0, b1);
+    break;
+  case EK_MODEL_NEO_HOOKEAN:
+    fvm_blocks_sigma(EK_MODEL_NEO_HOOKEAN, a, b0, b1);
+    break;
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
+    fvm_blocks_sigma(EK_MODEL_STABLE_NEO_HOOKEAN, a, b0, b1);
+    break;
   }
 }
 

@@ -3,7 +3,8 @@
 // precision because the packed mesh planes and positions are in the working
 // precision.
 //
-// Blocks: AoSoA blocks of the mesh's slot order (sim/mesh_internal.h),
+// Blocks: AoSoA blocks of one of the element layer's slot orders
+// (kernels/elements/tets.h),
 // EK_LANES_F32 = 16 or EK_LANES_F64 = 8 tets per block; block b of the
 // packed planes: idx[(b*4 + c)*L + l], dm_inv[(b*9 + k)*L + l], v0[b*L + l].
 // Padding lanes have idx = -1; they are computed with F = I and never

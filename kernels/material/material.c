@@ -14,6 +14,7 @@
 
 #include "../kernels.h"
 #include "../real.h"
+#include "models.h"
 
 // Blocks per OpenMP work item / staging chunk (16 blocks of 16 floats: F,
 // dF and P of a chunk take 27 KB, a Hessian chunk 83 KB).
@@ -83,8 +84,8 @@ static int check_call(const char *fn, const ek_material *m, ek_material_op op, s
 }
 
 static ek_material_knobs knobs_of(const ek_material *m, ek_material_op op, int project) {
-  return (ek_material_knobs){.model = (int)m->model,
-                             .op = (int)op,
+  return (ek_material_knobs){.model = m->model,
+                             .op = op,
                              .project = project != 0,
                              .mu = m->mu,
                              .lambda = m->lambda,
@@ -241,24 +242,24 @@ int ek_energy_f64(const ek_material *m, size_t n, const double *F, const double 
 int ek_material_check(const ek_material *m) { return check_params("ek_material_check", m); }
 
 const char *ek_model_name(ek_model model) {
-  static const char *const names[EK_MODEL_COUNT] = {
-      "linear", "stvk", "corot_linear", "fixed_corot", "arap", "psi_r", "nh", "snh"};
-  return (unsigned)model < EK_MODEL_COUNT ? names[model] : "invalid";
+  return (unsigned)model < EK_MODEL_COUNT ? ek_model_rows[model].name : "invalid";
+}
+
+const char *ek_model_long_name(ek_model model) {
+  return (unsigned)model < EK_MODEL_COUNT ? ek_model_rows[model].long_name : "invalid";
+}
+
+int ek_model_from_name(const char *name, ek_model *model) {
+  for (int i = 0; name && i < EK_MODEL_COUNT; i++)
+    if (strcmp(name, ek_model_rows[i].name) == 0 || strcmp(name, ek_model_rows[i].long_name) == 0) {
+      *model = (ek_model)i;
+      return EK_OK;
+    }
+  return EK_EINVAL;
 }
 
 ek_model_needs ek_model_need(ek_model model, double clamp) {
-  switch (model) {
-  case EK_MODEL_COROTATED_LINEAR:
-    return EK_NEEDS_R_INPUT;
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_ARAP:
-    return EK_NEEDS_POLAR;
-  case EK_MODEL_NEO_HOOKEAN:
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    return clamp > 0 ? EK_NEEDS_POLAR : EK_NEEDS_J;
-  default:
-    return EK_NEEDS_NOTHING;
-  }
+  return (unsigned)model < EK_MODEL_COUNT ? ek_model_row_needs(model, clamp) : EK_NEEDS_NOTHING;
 }
 
 // Lame parameters from Young's modulus and Poisson ratio (e.g. Sifakis &

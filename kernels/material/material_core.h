@@ -1,10 +1,12 @@
 // Material models on registers: psi, P, dP and the element Hessian for one
-// vector of EK_W elements, model chosen at run time (one switch per call,
-// not per lane). Used by the material block kernels (kernels/material/
-// <model>.c, through material_blocks below) and fused into other kernels
-// (the FVM force kernel: gather -> F -> material_pk1 -> scatter, with no
-// memory round trip). Include after simd/simd.h; needs kernels.h for the
-// block loop's knobs.
+// vector of EK_W elements. Every function takes the model in
+// ek_material_lanes; callers pass a compile-time constant (the block kernels
+// of material_block.c, the FVM kernel instantiated per model), so the
+// switches and table look-ups (models.h) fold away and each model gets its
+// own straight-line code. Used by the material block kernels (through
+// material_blocks below) and fused into other kernels (the FVM force
+// kernel: gather -> F -> material_pk1 -> scatter, with no memory round
+// trip). Include after simd/simd.h.
 //
 // Which path a call takes (include/ek/material.h has the contract):
 // - linear, corotated linear: formulas in F; the Hessian is always PSD.
@@ -28,50 +30,45 @@
 #include "stvk.h"
 
 // Parameters for the inline functions (svd: e.g. ek_svd3_default_knobs_f32()).
-static inline ek_material_lanes material_lanes_make(int model, double mu, double lambda,
-                                                    double clamp, const ek_svd3_knobs *svd) {
+EK_INLINE ek_material_lanes material_lanes_make(ek_model model, double mu, double lambda,
+                                                double clamp, const ek_svd3_knobs *svd) {
   ek_material_lanes m = {model, (real)mu, (real)lambda, (real)clamp, *svd};
   return m;
 }
 
 // 1 if psi and P go through singular values for these parameters.
-static inline int material_uses_sigma(const ek_material_lanes *m) {
-  switch (m->model) {
-  case MAT_FIXED_COROT:
-  case MAT_ARAP:
-    return 1;
-  case MAT_NH:
-  case MAT_SNH:
-    return m->clamp > 0;
-  default:
-    return 0;
-  }
+EK_INLINE int material_uses_sigma(const ek_material_lanes *m) {
+  return ek_model_row_uses_sigma(m->model, m->clamp);
 }
 
-// 1 for the models with a singular-value form (all but the linear two).
-static inline int material_isotropic(int model) {
-  return model != MAT_LINEAR && model != MAT_COROT_LINEAR;
-}
+// The switches below list every model and have no default (kernels are
+// built with -Werror=switch, models.h). A model without the form a switch
+// selects never reaches it: the table sends it another way, and its case
+// says which.
 
-static inline void material_sigma_terms(const ek_material_lanes *m, const vreal s[3],
-                                        mat_sigma_terms *t) {
+// The singular-value form (isotropic models).
+EK_INLINE void material_sigma_terms(const ek_material_lanes *m, const vreal s[3],
+                                    mat_sigma_terms *t) {
   switch (m->model) {
-  case MAT_STVK:
+  case EK_MODEL_LINEAR:
+  case EK_MODEL_COROTATED_LINEAR:
+    break; // not isotropic: dP in F only
+  case EK_MODEL_STVK:
     stvk_sigma(m, s, t);
     break;
-  case MAT_PSI_R:
+  case EK_MODEL_PSI_R:
     psi_r_sigma(m, s, t);
     break;
-  case MAT_FIXED_COROT:
+  case EK_MODEL_FIXED_COROTATED:
     fixed_corot_sigma(m, s, t);
     break;
-  case MAT_ARAP:
+  case EK_MODEL_ARAP:
     arap_sigma(m, s, t);
     break;
-  case MAT_NH:
+  case EK_MODEL_NEO_HOOKEAN:
     nh_sigma(m, s, t);
     break;
-  default:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
     snh_sigma(m, s, t);
     break;
   }
@@ -80,18 +77,27 @@ static inline void material_sigma_terms(const ek_material_lanes *m, const vreal 
 // g = d psi_hat / d sigma alone, for the models P takes through singular
 // values (fixed corotated, ARAP, and neo-Hookean / stable neo-Hookean under
 // the clamp).
-static inline void material_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
+EK_INLINE void material_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
   switch (m->model) {
-  case MAT_FIXED_COROT:
+  case EK_MODEL_LINEAR:
+  case EK_MODEL_COROTATED_LINEAR:
+  case EK_MODEL_STVK:
+  case EK_MODEL_PSI_R:
+    // Not clampable: P in F only (the table never sends these here; the
+    // block loop is compiled for every op, so say what it would get).
+    for (int i = 0; i < 3; i++)
+      g[i] = vset((real)NAN);
+    break;
+  case EK_MODEL_FIXED_COROTATED:
     fixed_corot_sigma_grad(m, s, g);
     break;
-  case MAT_ARAP:
+  case EK_MODEL_ARAP:
     arap_sigma_grad(m, s, g);
     break;
-  case MAT_NH:
+  case EK_MODEL_NEO_HOOKEAN:
     nh_sigma_grad(m, s, g);
     break;
-  default:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
     snh_sigma_grad(m, s, g);
     break;
   }
@@ -99,49 +105,48 @@ static inline void material_sigma_grad(const ek_material_lanes *m, const vreal s
 
 // P from a given SVD of F: U diag(g(sigma_hat)) V^T (Irving et al. 2004
 // sec. 5), for the models with material_uses_sigma().
-static inline void material_pk1_svd(const ek_material_lanes *m, const vreal U[9], const vreal S[3],
-                                    const vreal V[9], vreal P[9]) {
+EK_INLINE void material_pk1_svd(const ek_material_lanes *m, const vreal U[9], const vreal S[3],
+                                const vreal V[9], vreal P[9]) {
   vreal Sh[3], g[3];
   mat_clamp_sigma(m, S, Sh);
   material_sigma_grad(m, Sh, g);
   mat_udvt(U, g, V, P);
 }
 
-// P(F). R is read only for corotated linear.
-static inline void material_pk1(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
-                                vreal P[9]) {
-  if (material_uses_sigma(m)) {
-    vreal U[9], S[3], V[9];
-    mat_svd(m, F, U, S, V);
-    material_pk1_svd(m, U, S, V, P);
-    return;
-  }
+// P(F) in F, for the parameters without material_uses_sigma() (those go
+// through an SVD of their caller's, material_pk1_svd). R is read only for
+// corotated linear.
+EK_INLINE void material_pk1(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                            vreal P[9]) {
   switch (m->model) {
-  case MAT_LINEAR:
+  case EK_MODEL_LINEAR:
     linear_pk1(m, F, P);
     break;
-  case MAT_COROT_LINEAR:
+  case EK_MODEL_COROTATED_LINEAR:
     corot_linear_pk1(m, F, R, P);
     break;
-  case MAT_STVK:
+  case EK_MODEL_STVK:
     stvk_pk1(m, F, P);
     break;
-  case MAT_PSI_R:
+  case EK_MODEL_PSI_R:
     psi_r_pk1(m, F, P);
     break;
-  case MAT_NH:
+  case EK_MODEL_NEO_HOOKEAN:
     nh_pk1(m, F, P);
     break;
-  default:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
     snh_pk1(m, F, P);
     break;
+  case EK_MODEL_FIXED_COROTATED:
+  case EK_MODEL_ARAP:
+    break; // need the polar decomposition: material_pk1_svd
   }
 }
 
 // psi(F); under the clamp extended to first order: psi_hat(sigma_hat) +
 // sum_i g_i (sigma_i - sigma_hat_i) (= P(F_hat):(F - F_hat), material.h).
 // psi from a given SVD of F (models with material_uses_sigma()).
-static inline vreal material_psi_svd(const ek_material_lanes *m, const vreal S[3]) {
+EK_INLINE vreal material_psi_svd(const ek_material_lanes *m, const vreal S[3]) {
   vreal Sh[3];
   mat_sigma_terms t;
   mat_clamp_sigma(m, S, Sh);
@@ -153,38 +158,37 @@ static inline vreal material_psi_svd(const ek_material_lanes *m, const vreal S[3
   return psi;
 }
 
-static inline vreal material_psi(const ek_material_lanes *m, const vreal F[9], const vreal R[9]) {
-  if (material_uses_sigma(m)) {
-    vreal U[9], S[3], V[9];
-    mat_svd(m, F, U, S, V);
-    return material_psi_svd(m, S);
-  }
+// psi(F) in F (parameters without material_uses_sigma()).
+EK_INLINE vreal material_psi(const ek_material_lanes *m, const vreal F[9], const vreal R[9]) {
   switch (m->model) {
-  case MAT_LINEAR:
+  case EK_MODEL_LINEAR:
     return linear_psi(m, F);
-  case MAT_COROT_LINEAR:
+  case EK_MODEL_COROTATED_LINEAR:
     return corot_linear_psi(m, F, R);
-  case MAT_STVK:
+  case EK_MODEL_STVK:
     return stvk_psi(m, F);
-  case MAT_PSI_R:
+  case EK_MODEL_PSI_R:
     return psi_r_psi(m, F);
-  case MAT_NH:
+  case EK_MODEL_NEO_HOOKEAN:
     return nh_psi(m, F);
-  default:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
     return snh_psi(m, F);
+  case EK_MODEL_FIXED_COROTATED:
+  case EK_MODEL_ARAP:
+    break; // need the polar decomposition: material_psi_svd
   }
+  return vset((real)NAN);
 }
 
 // 1 if dP for these parameters goes through the U, V frame.
-static inline int material_diff_uses_frame(const ek_material_lanes *m, int project) {
-  return material_uses_sigma(m) || (project && material_isotropic(m->model));
+EK_INLINE int material_diff_uses_frame(const ek_material_lanes *m, int project) {
+  return material_uses_sigma(m) || (project && ek_model_rows[m->model].isotropic);
 }
 
 // The U, V-frame operator from a given SVD of F (F itself is read for the
 // neo-Hookean domain test).
-static inline void material_frame_svd(const ek_material_lanes *m, const vreal F[9],
-                                      const vreal U[9], const vreal S[3], const vreal V[9],
-                                      int project, mat_frame *fr) {
+EK_INLINE void material_frame_svd(const ek_material_lanes *m, const vreal F[9], const vreal U[9],
+                                  const vreal S[3], const vreal V[9], int project, mat_frame *fr) {
   vreal Sh[3];
   mat_sigma_terms t;
   for (int i = 0; i < 9; i++)
@@ -192,7 +196,7 @@ static inline void material_frame_svd(const ek_material_lanes *m, const vreal F[
   mat_clamp_sigma(m, S, Sh);
   material_sigma_terms(m, Sh, &t);
   mat_frame_prepare(fr, &t, project);
-  if (m->model == MAT_NH && !(m->clamp > 0)) {
+  if (m->model == EK_MODEL_NEO_HOOKEAN && !(m->clamp > 0)) {
     // The domain is J = det F > 0, decided on F as in the F path (the
     // product of the computed singular values can differ in sign when J is
     // at rounding level, e.g. for a rank-1 F).
@@ -208,67 +212,40 @@ static inline void material_frame_svd(const ek_material_lanes *m, const vreal F[
   }
 }
 
-static inline void material_frame(const ek_material_lanes *m, const vreal F[9], int project,
-                                  mat_frame *fr) {
-  vreal U[9], S[3], V[9];
-  mat_svd(m, F, U, S, V);
-  material_frame_svd(m, F, U, S, V, project, fr);
-}
-
-// dP in F for the models that have it (no SVD).
-static inline void material_diff_direct(const ek_material_lanes *m, const vreal F[9],
-                                        const vreal R[9], const vreal dF[9], vreal dP[9]) {
+// dP in F for the models that have it (no SVD; parameters without
+// material_diff_uses_frame()).
+EK_INLINE void material_diff_direct(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                                    const vreal dF[9], vreal dP[9]) {
   switch (m->model) {
-  case MAT_LINEAR:
+  case EK_MODEL_LINEAR:
     linear_diff(m, dF, dP);
     break;
-  case MAT_COROT_LINEAR:
+  case EK_MODEL_COROTATED_LINEAR:
     corot_linear_diff(m, R, dF, dP);
     break;
-  case MAT_STVK:
+  case EK_MODEL_STVK:
     stvk_diff(m, F, dF, dP);
     break;
-  case MAT_PSI_R:
+  case EK_MODEL_PSI_R:
     psi_r_diff(m, F, dF, dP);
     break;
-  case MAT_NH:
+  case EK_MODEL_NEO_HOOKEAN:
     nh_diff(m, F, dF, dP);
     break;
-  default:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
     snh_diff(m, F, dF, dP);
     break;
+  case EK_MODEL_FIXED_COROTATED:
+  case EK_MODEL_ARAP:
+    break; // need the polar decomposition: through the U, V frame
   }
 }
 
-// dP = H : dF, H projected to PSD when project != 0.
-static inline void material_diff(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
-                                 const vreal dF[9], vreal dP[9], int project) {
-  if (material_diff_uses_frame(m, project)) {
-    mat_frame fr;
-    material_frame(m, F, project, &fr);
-    mat_frame_apply(&fr, dF, dP);
-    return;
-  }
-  material_diff_direct(m, F, R, dF, dP);
-}
-
-// The 9x9 Hessian, H[a*9 + b] = d P_a / d F_b (symmetric), one column per
-// unit dF.
-static inline void material_hessian(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
-                                    vreal H[81], int project) {
+// The 9x9 Hessian in F (parameters without material_diff_uses_frame()),
+// H[a*9 + b] = d P_a / d F_b (symmetric), one column per unit dF.
+EK_INLINE void material_hessian(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                                vreal H[81]) {
   vreal zero = vzero(), one = vset(1), dF[9], dP[9];
-  if (material_diff_uses_frame(m, project)) {
-    mat_frame fr;
-    material_frame(m, F, project, &fr);
-    for (int b = 0; b < 9; b++) {
-      for (int k = 0; k < 9; k++)
-        dF[k] = k == b ? one : zero;
-      mat_frame_apply(&fr, dF, dP);
-      for (int a = 0; a < 9; a++)
-        H[9 * a + b] = dP[a];
-    }
-    return;
-  }
   for (int b = 0; b < 9; b++) {
     for (int k = 0; k < 9; k++)
       dF[k] = k == b ? one : zero;
@@ -279,11 +256,9 @@ static inline void material_hessian(const ek_material_lanes *m, const vreal F[9]
 }
 
 // ---- Block loop over AoSoA data (layout of include/ek/batch.h) ----
-// The op of ek_material_knobs (values of ek_material_op).
-enum { MAT_OP_ENERGY, MAT_OP_PK1, MAT_OP_PK1_DIFF, MAT_OP_HESSIAN };
 
 // Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
-static inline size_t material_vec_offset(size_t j, int planes) {
+EK_INLINE size_t material_vec_offset(size_t j, int planes) {
   return (j / EK_VPB) * (size_t)planes * EK_LANES + (j % EK_VPB) * EK_W;
 }
 
@@ -307,15 +282,15 @@ EK_INLINE void material_vectors_svd(const ek_material_lanes *m, const ek_materia
     vreal P[9], dFv[9], zero = vzero(), one = vset(1);
     mat_frame fr;
     switch (k->op) {
-    case MAT_OP_ENERGY:
+    case EK_MAT_ENERGY:
       vstore(o, material_psi_svd(m, S[j]));
       break;
-    case MAT_OP_PK1:
+    case EK_MAT_PK1:
       material_pk1_svd(m, U[j], S[j], V[j], P);
       for (int i = 0; i < 9; i++)
         vstore(o + (size_t)i * EK_LANES, P[i]);
       break;
-    case MAT_OP_PK1_DIFF:
+    case EK_MAT_PK1_DIFF:
       material_frame_svd(m, Fv[j], U[j], S[j], V[j], k->project, &fr);
       for (int i = 0; i < 9; i++)
         dFv[i] = vload(dF + material_vec_offset(j0 + (size_t)j, 9) + (size_t)i * EK_LANES);
@@ -323,7 +298,7 @@ EK_INLINE void material_vectors_svd(const ek_material_lanes *m, const ek_materia
       for (int i = 0; i < 9; i++)
         vstore(o + (size_t)i * EK_LANES, P[i]);
       break;
-    default:
+    case EK_MAT_HESSIAN:
       material_frame_svd(m, Fv[j], U[j], S[j], V[j], k->project, &fr);
       for (int b = 0; b < 9; b++) {
         for (int i = 0; i < 9; i++)
@@ -351,11 +326,11 @@ EK_INLINE void material_blocks_svd(const ek_material_lanes *m, const ek_material
 // nblocks blocks of EK_LANES elements; F, R, dF 9 planes; out 1, 9 or 81
 // planes by op. `model` is a constant in each per-model kernel, so the
 // switches above fold away there.
-static inline void material_blocks(int model, size_t nblocks, const real *F, const real *R,
-                                   const real *dF, real *out, const ek_material_knobs *k) {
+EK_INLINE void material_blocks(ek_model model, size_t nblocks, const real *F, const real *R,
+                               const real *dF, real *out, const ek_material_knobs *k) {
   ek_material_lanes m = material_lanes_make(model, k->mu, k->lambda, k->clamp, &k->svd);
-  const int nout = k->op == MAT_OP_ENERGY ? 1 : k->op == MAT_OP_HESSIAN ? 81 : 9;
-  const int svd = k->op == MAT_OP_ENERGY || k->op == MAT_OP_PK1
+  const int nout = k->op == EK_MAT_ENERGY ? 1 : k->op == EK_MAT_HESSIAN ? 81 : 9;
+  const int svd = k->op == EK_MAT_ENERGY || k->op == EK_MAT_PK1
                       ? material_uses_sigma(&m)
                       : material_diff_uses_frame(&m, k->project);
   if (svd) {
@@ -372,27 +347,27 @@ static inline void material_blocks(int model, size_t nblocks, const real *F, con
       vreal Fv[9], Rv[9], dFv[9], P[9];
       for (int i = 0; i < 9; i++) {
         Fv[i] = vload(F + in + (size_t)i * EK_LANES);
-        Rv[i] = model == MAT_COROT_LINEAR ? vload(R + in + (size_t)i * EK_LANES) : vzero();
+        Rv[i] = model == EK_MODEL_COROTATED_LINEAR ? vload(R + in + (size_t)i * EK_LANES) : vzero();
       }
       switch (k->op) {
-      case MAT_OP_ENERGY:
+      case EK_MAT_ENERGY:
         vstore(out + o, material_psi(&m, Fv, Rv));
         break;
-      case MAT_OP_PK1:
+      case EK_MAT_PK1:
         material_pk1(&m, Fv, Rv, P);
         for (int i = 0; i < 9; i++)
           vstore(out + o + (size_t)i * EK_LANES, P[i]);
         break;
-      case MAT_OP_PK1_DIFF:
+      case EK_MAT_PK1_DIFF:
         for (int i = 0; i < 9; i++)
           dFv[i] = vload(dF + in + (size_t)i * EK_LANES);
-        material_diff(&m, Fv, Rv, dFv, P, k->project);
+        material_diff_direct(&m, Fv, Rv, dFv, P);
         for (int i = 0; i < 9; i++)
           vstore(out + o + (size_t)i * EK_LANES, P[i]);
         break;
-      default: {
+      case EK_MAT_HESSIAN: {
         vreal H[81];
-        material_hessian(&m, Fv, Rv, H, k->project);
+        material_hessian(&m, Fv, Rv, H);
         for (int i = 0; i < 81; i++)
           vstore(out + o + (size_t)i * EK_LANES, H[i]);
         break;

@@ -10,28 +10,16 @@
 #include "../kernels.h"
 #include "../simd/vmath.h"
 #include "../svd3/svd3_core.h"
+#include "models.h"
 
 // Model parameters for one call, in the precision of the translation unit.
-// model is an ek_model value; svd: the SVD knobs used by the models that
-// need an SVD (the defaults, ek_svd3_default_knobs_f32/f64()).
+// svd: the SVD knobs used by the models that need an SVD (the defaults,
+// ek_svd3_default_knobs_f32/f64(), unless the caller chose others).
 typedef struct {
-  int model;
+  ek_model model;
   real mu, lambda, clamp;
   ek_svd3_knobs svd;
 } ek_material_lanes;
-
-// ek_model values (include/ek/material.h), repeated so kernel sources need
-// no public header beyond batch.h.
-enum {
-  MAT_LINEAR,
-  MAT_STVK,
-  MAT_COROT_LINEAR,
-  MAT_FIXED_COROT,
-  MAT_ARAP,
-  MAT_PSI_R,
-  MAT_NH,
-  MAT_SNH
-};
 
 // ---- 3x3 helpers (C must not alias A or B) ----
 static inline void vm3_mul(const vreal A[9], const vreal B[9], vreal C[9]) {
@@ -108,12 +96,6 @@ typedef struct {
 } mat_sigma_terms;
 
 static const int mat_pair_i[3] = {0, 0, 1}, mat_pair_j[3] = {1, 2, 2}, mat_pair_k[3] = {2, 1, 0};
-
-// SVD of F with the kernel knobs.
-static inline void mat_svd(const ek_material_lanes *m, const vreal F[9], vreal U[9], vreal S[3],
-                           vreal V[9]) {
-  svd3_core(F, U, S, V, &m->svd);
-}
 
 // M = U diag(d) V^T.
 static inline void mat_udvt(const vreal U[9], const vreal d[3], const vreal V[9], vreal M[9]) {
@@ -227,10 +209,9 @@ static inline void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal
 // for the models evaluated through singular values; StVK and Psi_R go
 // through singular values only to project, and ignore the clamp.
 static inline void mat_clamp_sigma(const ek_material_lanes *m, const vreal S[3], vreal Sh[3]) {
-  int clampable = m->model == MAT_FIXED_COROT || m->model == MAT_ARAP || m->model == MAT_NH ||
-                  m->model == MAT_SNH;
+  int clamped = ek_model_rows[m->model].clampable && m->clamp > 0;
   for (int i = 0; i < 3; i++)
-    Sh[i] = clampable && m->clamp > 0 ? vmax(vset(m->clamp), S[i]) : S[i];
+    Sh[i] = clamped ? vmax(vset(m->clamp), S[i]) : S[i];
 }
 
 #endif

@@ -38,26 +38,36 @@ int EK_P(svd3_default_sweeps)(void) { return DEFAULT_SWEEPS; }
 
 int EK_P(svd3_default_exact_rsqrt)(void) { return DEFAULT_EXACT_RSQRT; }
 
+// The one check of the SVD options every entry point shares (ek_svd3_*,
+// ek_polar3_*, the FVM force's svd_sweeps / svd_exact_rsqrt), then the
+// knobs: the defaults with the non-zero options applied.
+int EK_P(svd3_knobs_from)(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k) {
+  *k = EK_P(svd3_default_knobs)();
+  if (sweeps < 0 || sweeps > EK_SVD3_MAX_SWEEPS) {
+    ek_set_error("%s: sweeps = %d, must be 0 (default) or 1..%d", fn, sweeps, EK_SVD3_MAX_SWEEPS);
+    return EK_EINVAL;
+  }
+  if (exact_rsqrt < -1 || exact_rsqrt > 1) {
+    ek_set_error("%s: exact_rsqrt = %d, must be 0 (default), 1 (exact) or -1 (approximate)", fn,
+                 exact_rsqrt);
+    return EK_EINVAL;
+  }
+  if (sweeps)
+    k->sweeps = sweeps;
+  if (exact_rsqrt)
+    k->exact_rsqrt = exact_rsqrt > 0;
+  return EK_OK;
+}
+
 static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_knobs *k,
                    svd3_block_fn **block) {
   static const ek_svd3_opts zero_opts;
   if (!o)
     o = &zero_opts;
-  *k = EK_P(svd3_default_knobs)();
+  int rc = EK_P(svd3_knobs_from)(fn, o->sweeps, o->exact_rsqrt, k);
+  if (rc < 0)
+    return rc;
   k->polar = polar;
-  if (o->sweeps < 0 || o->sweeps > 8) {
-    ek_set_error("%s: sweeps = %d, must be 0 (default) or 1..8", fn, o->sweeps);
-    return EK_EINVAL;
-  }
-  if (o->sweeps)
-    k->sweeps = o->sweeps;
-  if (o->exact_rsqrt < -1 || o->exact_rsqrt > 1) {
-    ek_set_error("%s: exact_rsqrt = %d, must be 0 (default), 1 (exact) or -1 (approximate)", fn,
-                 o->exact_rsqrt);
-    return EK_EINVAL;
-  }
-  if (o->exact_rsqrt)
-    k->exact_rsqrt = o->exact_rsqrt > 0;
   const ek_kernel_table *t = ek_kernels_resolve(o->isa);
   if (!t)
     return EK_EISA;

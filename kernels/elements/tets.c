@@ -1,0 +1,421 @@
+// The tet element layer (include/ek/elements.h): rest-shape data (Dm^-1,
+// V0; Teran et al. 2003 sec. 4, seed 004), the Morton order of the
+// centroids, the coloured order (colours formed inside Morton chunks, the
+// chunks coloured too), the AoSoA packing the kernels read, and the vertex
+// incidence lists. Built once per mesh, at baseline ISA.
+#include "tets.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void set_err(char *err, size_t errlen, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void set_err(char *err, size_t errlen, const char *fmt, ...) {
+  if (!err || errlen == 0)
+    return;
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(err, errlen, fmt, ap);
+  va_end(ap);
+}
+
+static void blocks_free(ek_tet_blocks *bl) {
+  free(bl->slot_tet);
+  ek_free(bl->idx_f32);
+  ek_free(bl->idx_f64);
+  ek_free(bl->dm_inv_f32);
+  ek_free(bl->v0_f32);
+  ek_free(bl->dm_inv_f64);
+  ek_free(bl->v0_f64);
+}
+
+void ek_tets_destroy(ek_tets *el) {
+  if (!el)
+    return;
+  free(el->tets);
+  free(el->V0);
+  free(el->Dm_inv);
+  blocks_free(&el->morton);
+  blocks_free(&el->colored);
+  free(el->phase_chunk);
+  free(el->chunk_slot);
+  free(el->chunk_group);
+  free(el->group_slot);
+  free(el->vert_start);
+  free(el->vert_entries);
+  free(el);
+}
+
+// Pack one slot order (bl->slot_tet, bl->nslots set) into AoSoA blocks of
+// both precisions; padding slots get index -1, Dm^-1 = 0, V0 = 0.
+static int blocks_pack(const ek_tets *el, ek_tet_blocks *bl) {
+  const size_t W32 = EK_LANES_F32, W64 = EK_LANES_F64;
+  size_t ns = bl->nslots, nb32 = ns / W32, nb64 = ns / W64;
+  bl->idx_f32 = ek_alloc(nb32 * 4 * W32 * sizeof(int32_t));
+  bl->idx_f64 = ek_alloc(nb64 * 4 * W64 * sizeof(int32_t));
+  bl->dm_inv_f32 = ek_alloc(nb32 * 9 * W32 * sizeof(float));
+  bl->dm_inv_f64 = ek_alloc(nb64 * 9 * W64 * sizeof(double));
+  bl->v0_f32 = ek_alloc(nb32 * W32 * sizeof(float));
+  bl->v0_f64 = ek_alloc(nb64 * W64 * sizeof(double));
+  if (!bl->idx_f32 || !bl->idx_f64 || !bl->dm_inv_f32 || !bl->dm_inv_f64 || !bl->v0_f32 ||
+      !bl->v0_f64)
+    return -1;
+  for (size_t s = 0; s < ns; s++) {
+    int32_t t = bl->slot_tet[s];
+    size_t b32 = s / W32, l32 = s % W32, b64 = s / W64, l64 = s % W64;
+    for (int c = 0; c < 4; c++) {
+      int32_t vi = t >= 0 ? el->tets[(size_t)t * 4 + c] : -1;
+      bl->idx_f32[(b32 * 4 + c) * W32 + l32] = vi;
+      bl->idx_f64[(b64 * 4 + c) * W64 + l64] = vi;
+    }
+    for (int k = 0; k < 9; k++) {
+      double d = t >= 0 ? el->Dm_inv[(size_t)t * 9 + k] : 0.0;
+      bl->dm_inv_f32[(b32 * 9 + k) * W32 + l32] = (float)d;
+      bl->dm_inv_f64[(b64 * 9 + k) * W64 + l64] = d;
+    }
+    double v0 = t >= 0 ? el->V0[t] : 0.0;
+    bl->v0_f32[b32 * W32 + l32] = (float)v0;
+    bl->v0_f64[b64 * W64 + l64] = v0;
+  }
+  return 0;
+}
+
+// Dm = [X1-X0, X2-X0, X3-X0] as columns (Teran et al. 2003 sec. 4), its
+// determinant (6 V0) and inverse by the adjugate.
+static double rest_frame(const double *X, const int32_t *t, double Dm_inv[9]) {
+  double A[9];
+  for (int c = 0; c < 3; c++)
+    for (int r = 0; r < 3; r++)
+      A[r * 3 + c] = X[(size_t)t[c + 1] * 3 + r] - X[(size_t)t[0] * 3 + r];
+  double det = A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
+               A[2] * (A[3] * A[7] - A[4] * A[6]);
+  double s = 1.0 / det;
+  Dm_inv[0] = (A[4] * A[8] - A[5] * A[7]) * s;
+  Dm_inv[1] = (A[2] * A[7] - A[1] * A[8]) * s;
+  Dm_inv[2] = (A[1] * A[5] - A[2] * A[4]) * s;
+  Dm_inv[3] = (A[5] * A[6] - A[3] * A[8]) * s;
+  Dm_inv[4] = (A[0] * A[8] - A[2] * A[6]) * s;
+  Dm_inv[5] = (A[2] * A[3] - A[0] * A[5]) * s;
+  Dm_inv[6] = (A[3] * A[7] - A[4] * A[6]) * s;
+  Dm_inv[7] = (A[1] * A[6] - A[0] * A[7]) * s;
+  Dm_inv[8] = (A[0] * A[4] - A[1] * A[3]) * s;
+  return det;
+}
+
+// Spread the low 21 bits of v so that there are two zero bits between
+// consecutive bits (3D Morton interleave).
+static uint64_t spread3(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+typedef struct {
+  uint64_t key;
+  int32_t tet;
+} keyed_tet;
+
+static int cmp_keyed(const void *a, const void *b) {
+  const keyed_tet *x = a, *y = b;
+  if (x->key != y->key)
+    return x->key < y->key ? -1 : 1;
+  return (x->tet > y->tet) - (x->tet < y->tet); // stable: ties by index
+}
+
+// Morton order of the centroids in the bounding box, 21 bits per axis.
+static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
+  size_t nt = el->ntets, nv = el->nverts;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t v = 0; v < nv; v++)
+    for (int k = 0; k < 3; k++) {
+      lo[k] = fmin(lo[k], X[v * 3 + k]);
+      hi[k] = fmax(hi[k], X[v * 3 + k]);
+    }
+  keyed_tet *keyed = malloc(nt * sizeof *keyed);
+  if (!keyed)
+    return -1;
+  for (size_t t = 0; t < nt; t++) {
+    uint64_t key = 0;
+    for (int k = 0; k < 3; k++) {
+      double c = 0;
+      for (int j = 0; j < 4; j++)
+        c += X[(size_t)el->tets[t * 4 + j] * 3 + k];
+      c /= 4;
+      double span = hi[k] - lo[k];
+      double u = span > 0 ? (c - lo[k]) / span : 0;
+      key |= spread3((uint64_t)(u * 2097151.0)) << k;
+    }
+    keyed[t].key = key;
+    keyed[t].tet = (int32_t)t;
+  }
+  qsort(keyed, nt, sizeof *keyed, cmp_keyed);
+  for (size_t t = 0; t < nt; t++)
+    order[t] = keyed[t].tet;
+  free(keyed);
+  return 0;
+}
+
+// Vertex incidence (CSR) over the Morton slots: entries ascending by slot
+// then corner, because slots are visited in order.
+static int incidence(ek_tets *el) {
+  size_t nv = el->nverts;
+  el->vert_start = calloc(nv + 1, sizeof(int32_t));
+  el->vert_entries = malloc(el->ntets * 4 * sizeof(int32_t));
+  int32_t *next = malloc(nv * sizeof(int32_t));
+  if (!el->vert_start || !el->vert_entries || !next) {
+    free(next);
+    return -1;
+  }
+  for (size_t i = 0; i < el->ntets * 4; i++)
+    el->vert_start[el->tets[i] + 1]++;
+  for (size_t v = 0; v < nv; v++)
+    el->vert_start[v + 1] += el->vert_start[v];
+  memcpy(next, el->vert_start, nv * sizeof(int32_t));
+  for (size_t s = 0; s < el->morton.nslots; s++) {
+    int32_t t = el->morton.slot_tet[s];
+    if (t < 0)
+      continue;
+    for (int c = 0; c < 4; c++)
+      el->vert_entries[next[el->tets[(size_t)t * 4 + c]]++] = (int32_t)(s * 4 + (size_t)c);
+  }
+  free(next);
+  return 0;
+}
+
+// Tets per Morton chunk of the coloured order: small enough that a chunk's
+// vertices stay in L1/L2 across its colours and that a phase has several
+// chunks to share between threads, large enough that the padding of its
+// colour groups (each a whole block) stays small. A multiple of the f32
+// block; depends on the mesh size only.
+static size_t chunk_tets(size_t ntets) {
+  size_t c = ntets / 64;
+  c = c < 512 ? 512 : c > 4096 ? 4096 : c;
+  return c / EK_LANES_F32 * EK_LANES_F32;
+}
+
+// The coloured order. Chunks are consecutive ranges of the Morton order.
+// Chunk colours: greedy over the chunks in Morton order, each taking the
+// smallest colour no chunk sharing a vertex with it has (neighbours found
+// through the incidence lists). Tet colours: greedy inside each chunk in
+// Morton order, each tet taking the smallest colour no tet of its chunk
+// sharing a vertex has (per-vertex bit sets, cleared after the chunk).
+static int colored_order(ek_tets *el) {
+  const size_t W = EK_LANES_F32, nt = el->ntets, nv = el->nverts;
+  const int32_t *T = el->tets, *morton = el->morton.slot_tet;
+  const size_t ct = chunk_tets(nt), nchunks = (nt + ct - 1) / ct;
+  el->nchunks = nchunks;
+  int rc = -1;
+  int *chunk_color = malloc(nchunks * sizeof(int));
+  int *tet_color = malloc(nt * sizeof(int)); // by Morton position
+  size_t *stamp = malloc(nchunks * sizeof(size_t));
+  int *busy = calloc(nchunks + 1, sizeof(int));
+  int32_t maxdeg = 0;
+  for (size_t v = 0; v < nv; v++)
+    if (el->vert_start[v + 1] - el->vert_start[v] > maxdeg)
+      maxdeg = el->vert_start[v + 1] - el->vert_start[v];
+  // Greedy needs at most (tets sharing a vertex with one tet) + 1 colours.
+  const size_t words = ((size_t)4 * (size_t)maxdeg + 1 + 63) / 64;
+  uint64_t *used = calloc(nv * words, sizeof(uint64_t));
+  size_t *count = NULL, *fill = NULL;
+  if (!chunk_color || !tet_color || !stamp || !busy || !used)
+    goto done;
+
+  el->nphases = 0;
+  for (size_t k = 0; k < nchunks; k++)
+    stamp[k] = (size_t)-1;
+  for (size_t k = 0; k < nchunks; k++) {
+    size_t t0 = k * ct, t1 = t0 + ct < nt ? t0 + ct : nt;
+    int nbusy = 0;
+    for (size_t i = t0; i < t1; i++)
+      for (int c = 0; c < 4; c++) {
+        int32_t v = T[(size_t)morton[i] * 4 + c];
+        for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
+          size_t other = ((size_t)el->vert_entries[e] >> 2) / ct;
+          if (other < k && stamp[other] != k) {
+            stamp[other] = k;
+            busy[nbusy++] = chunk_color[other];
+          }
+        }
+      }
+    int *taken = calloc((size_t)el->nphases + 1, sizeof(int));
+    if (!taken)
+      goto done;
+    for (int i = 0; i < nbusy; i++)
+      taken[busy[i]] = 1;
+    int c = 0;
+    while (taken[c])
+      c++;
+    free(taken);
+    chunk_color[k] = c;
+    if (c + 1 > el->nphases)
+      el->nphases = c + 1;
+
+    for (size_t i = t0; i < t1; i++) {
+      const int32_t *tv = T + (size_t)morton[i] * 4;
+      int col = 0;
+      for (size_t w = 0; w < words; w++) {
+        uint64_t b = 0;
+        for (int j = 0; j < 4; j++)
+          b |= used[(size_t)tv[j] * words + w];
+        if (~b) {
+          col = (int)(w * 64) + __builtin_ctzll(~b);
+          break;
+        }
+      }
+      tet_color[i] = col;
+      for (int j = 0; j < 4; j++)
+        used[(size_t)tv[j] * words + (size_t)col / 64] |= 1ULL << (col % 64);
+      if (col + 1 > el->ncolors)
+        el->ncolors = col + 1;
+    }
+    for (size_t i = t0; i < t1; i++)
+      for (int j = 0; j < 4; j++)
+        memset(used + (size_t)T[(size_t)morton[i] * 4 + j] * words, 0, words * sizeof(uint64_t));
+  }
+
+  // Lay out: phase by phase, its chunks in Morton order, each chunk colour
+  // group by colour group, every group padded to a whole f32 block.
+  const size_t nc = (size_t)el->ncolors;
+  count = calloc(nchunks * nc, sizeof(size_t));
+  el->phase_chunk = calloc((size_t)el->nphases + 1, sizeof(size_t));
+  el->chunk_slot = malloc((nchunks + 1) * sizeof(size_t));
+  el->chunk_group = malloc((nchunks + 1) * sizeof(size_t));
+  if (!count || !el->phase_chunk || !el->chunk_slot || !el->chunk_group)
+    goto done;
+  for (size_t i = 0; i < nt; i++)
+    count[(i / ct) * nc + (size_t)tet_color[i]]++;
+  size_t ngroups = 0, nslots = 0;
+  for (size_t k = 0; k < nchunks; k++)
+    for (size_t c = 0; c < nc; c++)
+      if (count[k * nc + c]) {
+        ngroups++;
+        nslots += (count[k * nc + c] + W - 1) / W * W;
+      }
+  el->ngroups = ngroups;
+  el->group_slot = malloc((ngroups + 1) * sizeof(size_t));
+  el->colored.nslots = nslots;
+  el->colored.slot_tet = malloc((nslots ? nslots : 1) * sizeof(int32_t));
+  fill = malloc(nc * sizeof(size_t));
+  if (!el->group_slot || !el->colored.slot_tet || !fill)
+    goto done;
+  size_t slot = 0, g = 0, ck = 0;
+  for (int p = 0; p < el->nphases; p++) {
+    el->phase_chunk[p] = ck;
+    for (size_t k = 0; k < nchunks; k++) {
+      if (chunk_color[k] != p)
+        continue;
+      el->chunk_slot[ck] = slot;
+      el->chunk_group[ck] = g;
+      ck++;
+      size_t t0 = k * ct, t1 = t0 + ct < nt ? t0 + ct : nt;
+      for (size_t c = 0; c < nc; c++) {
+        fill[c] = slot;
+        if (!count[k * nc + c])
+          continue;
+        el->group_slot[g++] = slot;
+        size_t padded = (count[k * nc + c] + W - 1) / W * W;
+        for (size_t s = slot; s < slot + padded; s++)
+          el->colored.slot_tet[s] = -1;
+        slot += padded;
+      }
+      for (size_t i = t0; i < t1; i++)
+        el->colored.slot_tet[fill[tet_color[i]]++] = morton[i];
+    }
+  }
+  el->phase_chunk[el->nphases] = ck;
+  el->chunk_slot[ck] = slot;
+  el->chunk_group[ck] = g;
+  el->group_slot[g] = slot;
+  rc = blocks_pack(el, &el->colored);
+done:
+  free(chunk_color);
+  free(tet_color);
+  free(stamp);
+  free(busy);
+  free(used);
+  free(count);
+  free(fill);
+  return rc;
+}
+
+ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                        char *err, size_t errlen) {
+  static const char fn[] = "ek_tets_create";
+  if ((nverts && !X) || !tets) {
+    set_err(err, errlen, "%s: NULL vertex or tet array", fn);
+    return NULL;
+  }
+  if (ntets == 0) {
+    set_err(err, errlen, "%s: no tetrahedra", fn);
+    return NULL;
+  }
+  if (nverts > INT32_MAX || ntets > (size_t)INT32_MAX / 4) {
+    set_err(err, errlen, "%s: too large (%zu vertices, %zu tets; limit 2^31 - 1 corners)", fn,
+            nverts, ntets);
+    return NULL;
+  }
+  for (size_t i = 0; i < nverts * 3; i++)
+    if (!isfinite(X[i])) {
+      set_err(err, errlen, "%s: vertex %zu: coordinate %c = %g is not finite", fn, i / 3,
+              "xyz"[i % 3], X[i]);
+      return NULL;
+    }
+  for (size_t i = 0; i < ntets * 4; i++)
+    if (tets[i] < 0 || (size_t)tets[i] >= nverts) {
+      set_err(err, errlen, "%s: tet %zu: vertex index %d out of range [0, %zu)", fn, i / 4,
+              (int)tets[i], nverts);
+      return NULL;
+    }
+  ek_tets *el = calloc(1, sizeof *el);
+  if (!el) {
+    set_err(err, errlen, "%s: out of memory", fn);
+    return NULL;
+  }
+  el->nverts = nverts;
+  el->ntets = ntets;
+  el->tets = malloc(ntets * 4 * sizeof(int32_t));
+  el->V0 = malloc(ntets * sizeof(double));
+  el->Dm_inv = malloc(ntets * 9 * sizeof(double));
+  const size_t W = EK_LANES_F32;
+  el->morton.nslots = (ntets + W - 1) / W * W;
+  el->morton.slot_tet = malloc(el->morton.nslots * sizeof(int32_t));
+  if (!el->tets || !el->V0 || !el->Dm_inv || !el->morton.slot_tet)
+    goto oom;
+  memcpy(el->tets, tets, ntets * 4 * sizeof(int32_t));
+  for (size_t t = 0; t < ntets; t++) {
+    double six_v = rest_frame(X, el->tets + t * 4, el->Dm_inv + t * 9);
+    if (!(six_v > 0) || !isfinite(six_v)) {
+      set_err(err, errlen, "%s: tet %zu: det(Dm) = 6V = %g, must be finite and > 0", fn, t, six_v);
+      ek_tets_destroy(el);
+      return NULL;
+    }
+    el->V0[t] = six_v / 6;
+  }
+  for (size_t s = ntets; s < el->morton.nslots; s++)
+    el->morton.slot_tet[s] = -1;
+  if (morton_order(el, X, el->morton.slot_tet) || blocks_pack(el, &el->morton) || incidence(el) ||
+      colored_order(el))
+    goto oom;
+  return el;
+oom:
+  ek_tets_destroy(el);
+  set_err(err, errlen, "%s: out of memory (%zu vertices, %zu tets)", fn, nverts, ntets);
+  return NULL;
+}
+
+size_t ek_tets_nverts(const ek_tets *el) { return el ? el->nverts : 0; }
+size_t ek_tets_count(const ek_tets *el) { return el ? el->ntets : 0; }
+const int32_t *ek_tets_vertices(const ek_tets *el) { return el ? el->tets : NULL; }
+const double *ek_tets_rest_volumes(const ek_tets *el) { return el ? el->V0 : NULL; }
+const double *ek_tets_dm_inv(const ek_tets *el) { return el ? el->Dm_inv : NULL; }
+int ek_tets_ncolors(const ek_tets *el) { return el ? el->ncolors : 0; }
+int ek_tets_nphases(const ek_tets *el) { return el ? el->nphases : 0; }
+size_t ek_tets_nchunks(const ek_tets *el) { return el ? el->nchunks : 0; }
+size_t ek_tets_colored_slots(const ek_tets *el) { return el ? el->colored.nslots : 0; }
