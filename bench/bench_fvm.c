@@ -9,17 +9,21 @@
 //   - fixed corotated, f64, best ISA: every strategy at ~1e5 tets;
 //   - every other model x precision, default strategy (thread buffers),
 //     best ISA, ~1e5 tets (what each model's needs cost inside the force
-//     kernel);
+//     kernel), and neo-Hookean / stable neo-Hookean f32 at ~1e6 (the
+//     bandwidth-bound case);
 //   - fixed corotated f32, thread buffers, ~1e5 tets on every other
 //     available ISA (scalar, ...), for the vectorisation gain.
-// Kept to these so the default suite's share stays small on 2 cores; the
-// 1e6-tet meshes appear only in the fixed-corotated f32 rows.
+// Kept to these so the default suite's share stays small on 2 cores.
 //
-// Declared work per tet: bytes moved, counted as 4 vertex indices, 9 Dm^-1
-// entries and V0 read, 12 position reals gathered, and 12 force reals
-// read and written by the scatter (gather and scatter counted as if they
-// missed the cache, which they mostly do not: GB/s is an upper bound on
-// traffic). No flop count: P's cost depends on the model and its SVD.
+// Declared work per tet: the bytes a force evaluation must move, per tet:
+// the element block (4 vertex indices, 9 Dm^-1 entries and V0: 16 + 10 r
+// bytes, r = 4 or 8 for f32 / f64), streamed once, plus each vertex's
+// position read and force written once (6 r bytes per vertex, about a
+// sixth of a vertex per tet on these box meshes): 60 bytes per tet in f32
+// on the 1e6 mesh. Scratch traffic a strategy adds (force buffers, corner
+// arrays) is not counted: %bw is the fraction of the triad bandwidth the
+// row would need if it moved only what it must. No flop count: P's cost
+// depends on the model and its SVD.
 #include <ek/fvm.h>
 #include <ek/mesh.h>
 #include <math.h>
@@ -150,6 +154,8 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
   snprintf(knobs, sizeof knobs, "model=%s;scatter=%s;tets=%zu;ncolors=%d", models[model].name,
            ek_scatter_name(s), ntets, mc->mesh ? ek_mesh_ncolors(mc->mesh) : 0);
   double real_bytes = f32 ? 4 : 8;
+  double verts_per_tet = (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) /
+                         (double)ntets;
   ek_bench_row row = {.name = name,
                       .family = "fvm",
                       .isa = isa,
@@ -158,7 +164,7 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
                       .knobs = knobs,
                       .items = ntets,
                       .flops_per_item = 0,
-                      .bytes_per_item = 4 * 4 + (10 + 12 + 24) * real_bytes,
+                      .bytes_per_item = 4 * 4 + 10 * real_bytes + 6 * real_bytes * verts_per_tet,
                       .baseline = s == EK_SCATTER_ATOMIC || !with_baseline ? NULL : base,
                       .fn = run_forces,
                       .ctx = &ctx};
@@ -187,6 +193,11 @@ int bench_fvm(ek_bench *b) {
       for (int f32 = 1; f32 >= 0; f32--)
         if (!(m == FIXED_COROT))
           rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, f32, 1, counts[t], 0);
+    // The SVD-free neo-Hookean pair at 1e6, f32: the bandwidth-bound rows.
+    for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
+      if (models[m].mat.model == EK_MODEL_NEO_HOOKEAN ||
+          models[m].mat.model == EK_MODEL_STABLE_NEO_HOOKEAN)
+        rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, 1, 2, counts[t], 0);
     // The other ISAs.
     for (int i = 0; i < nisa - 1; i++)
       rc |= one_row(b, FIXED_COROT, EK_SCATTER_THREAD_BUFFERS, isas[i], 1, 1, counts[t], 0);

@@ -356,8 +356,10 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
     set_err(err, errlen, "%s: no tetrahedra", fn);
     return NULL;
   }
-  if (nverts > INT32_MAX || ntets > (size_t)INT32_MAX / 4) {
-    set_err(err, errlen, "%s: too large (%zu vertices, %zu tets; limit 2^31 - 1 corners)", fn,
+  // Kernels gather coordinates at int32 offsets 3 v + k (vgather_points).
+  if (nverts > INT32_MAX / 3 || ntets > (size_t)INT32_MAX / 4) {
+    set_err(err, errlen,
+            "%s: too large (%zu vertices, %zu tets; limits 2^31 / 3 vertices, 2^31 / 4 tets)", fn,
             nverts, ntets);
     return NULL;
   }

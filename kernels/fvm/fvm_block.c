@@ -27,24 +27,6 @@ typedef struct ek_fvm_args_f64 fvm_args;
 // takes two blocks at a time.
 #define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
 
-// Step 1: gather. Positions of the 4 corners of every lane of block b into
-// xb[(c*3 + i)*L + l] (the vector API has no gather, and a block-wide
-// scalar gather into a cache-resident buffer lets the arithmetic below use
-// aligned plane loads). Padding lanes read vertex 0 and are masked later.
-static void gather_block(const fvm_args *a, size_t b, real *xb, real *pad) {
-  const int32_t *idx = a->idx + b * 4 * L;
-  for (int c = 0; c < 4; c++)
-    for (int l = 0; l < L; l++) {
-      int32_t v = idx[c * L + l];
-      const real *p = a->x + (size_t)(v < 0 ? 0 : v) * 3;
-      xb[(c * 3 + 0) * L + l] = p[0];
-      xb[(c * 3 + 1) * L + l] = p[1];
-      xb[(c * 3 + 2) * L + l] = p[2];
-    }
-  for (int l = 0; l < L; l++)
-    pad[l] = idx[l] < 0 ? (real)1 : (real)0;
-}
-
 // Rotations of corotated linear, caller tet order -> lanes (identity in
 // padding lanes).
 static void gather_R(const fvm_args *a, size_t b, real *Rb) {
@@ -55,20 +37,20 @@ static void gather_R(const fvm_args *a, size_t b, real *Rb) {
   }
 }
 
-// Step 2: F = Ds Dm^-1 for EK_W lanes at offset o of the block; padding
-// lanes get F = I so every model stays finite there.
-static inline void deformation_gradient(const real *xb, const real *dm_inv, const real *pad, int o,
-                                        vreal F[9]) {
-  vreal Ds[9];
-  for (int i = 0; i < 3; i++) {
-    vreal x0 = vload(xb + (0 * 3 + i) * L + o);
-    for (int c = 0; c < 3; c++)
-      Ds[i * 3 + c] = vsub(vload(xb + ((c + 1) * 3 + i) * L + o), x0);
+// Steps 1-2: gather the 4 corners of EK_W lanes at offset o of block b
+// (vgather_points, straight into registers) and F = Ds Dm^-1; padding
+// lanes (index -1) get F = I so every model stays finite there.
+static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
+  const int32_t *idx = a->idx + b * 4 * L + o;
+  vreal x0[3], xc[3], Ds[9], Dmi[9];
+  vmask is_pad = vgather_points(a->x, idx, x0);
+  for (int c = 0; c < 3; c++) {
+    vgather_points(a->x, idx + (c + 1) * L, xc);
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
   }
-  vreal Dmi[9];
   for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(dm_inv + k * L + o);
-  vmask is_pad = vgt(vload(pad + o), vzero());
+    Dmi[k] = vload(a->dm_inv + b * 9 * L + k * L + o);
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++) {
       vreal s = vmul(Ds[i * 3 + 0], Dmi[0 * 3 + j]);
@@ -122,26 +104,22 @@ static void scatter_block(const fvm_args *a, size_t b, const real *hb) {
 // `sigma`, two vectors at a time), corner forces, scatter.
 EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, const fvm_args *a, size_t b0,
                           size_t b1) {
-  _Alignas(64) real xb[GROUP_BLOCKS][12 * L];
-  _Alignas(64) real pad[GROUP_BLOCKS][L];
   _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
   _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
   const ek_material_lanes mp =
       material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
     const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
-    for (int g = 0; g < nb; g++) {
-      gather_block(a, b + (size_t)g, xb[g], pad[g]);
-      if (model == EK_MODEL_COROTATED_LINEAR)
+    if (model == EK_MODEL_COROTATED_LINEAR)
+      for (int g = 0; g < nb; g++)
         gather_R(a, b + (size_t)g, Rb[g]);
-    }
     for (int v0 = 0; v0 < nb * EK_VPB; v0 += 2) {
       // 1 only for the last block of an odd range on AVX-512 (one vector per block).
       const int nv = nb * EK_VPB - v0 < 2 ? 1 : 2;
       vreal F[2][9], P[2][9];
       for (int j = 0; j < nv; j++) {
         const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
-        deformation_gradient(xb[g], a->dm_inv + (b + (size_t)g) * 9 * L, pad[g], o, F[j]);
+        deformation_gradient(a, b + (size_t)g, o, F[j]);
       }
       if (sigma) {
         // Step 3a: the SVD of both vectors side by side, then P from it.
@@ -240,13 +218,10 @@ void EK_SYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1) {
 
 // Phase-split pass 1: F only, into F[(b*9 + k)*L + l].
 void EK_SYM(fvm_F_block)(const fvm_args *a, size_t b0, size_t b1, real *Fout) {
-  _Alignas(64) real xb[12 * L];
-  _Alignas(64) real pad[L];
   for (size_t b = b0; b < b1; b++) {
-    gather_block(a, b, xb, pad);
     for (int o = 0; o < L; o += EK_W) {
       vreal F[9];
-      deformation_gradient(xb, a->dm_inv + b * 9 * L, pad, o, F);
+      deformation_gradient(a, b, o, F);
       for (int k = 0; k < 9; k++)
         vstore(Fout + (b * 9 + k) * L + o, F[k]);
     }

@@ -6,6 +6,7 @@
 #error "the avx2 target needs -mavx2 -mfma"
 #endif
 #include <immintrin.h>
+#include <stdint.h>
 
 #if defined(EK_REAL_F32)
 #define EK_W 8
@@ -142,6 +143,26 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   __m256i mant = _mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi64x(0x000fffffffffffffLL)),
                                  _mm256_set1_epi64x(0x3ff0000000000000LL));
   return _mm256_castsi256_pd(mant);
+}
+#endif
+// vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
+// n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
+// point 0 and is set in the returned mask. Indices below 2^31 / 3.
+#if defined(EK_REAL_F32)
+static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]) {
+  __m256i i = _mm256_loadu_si256((const __m256i *)idx), zero = _mm256_setzero_si256();
+  __m256i o = _mm256_mullo_epi32(_mm256_max_epi32(i, zero), _mm256_set1_epi32(3));
+  for (int k = 0; k < 3; k++)
+    p[k] = _mm256_i32gather_ps(x + k, o, 4);
+  return _mm256_castsi256_ps(_mm256_cmpgt_epi32(zero, i));
+}
+#else
+static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]) {
+  __m128i i = _mm_loadu_si128((const __m128i *)idx), zero = _mm_setzero_si128();
+  __m128i o = _mm_mullo_epi32(_mm_max_epi32(i, zero), _mm_set1_epi32(3));
+  for (int k = 0; k < 3; k++)
+    p[k] = _mm256_i32gather_pd(x + k, o, 8);
+  return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(zero, i)));
 }
 #endif
 #endif

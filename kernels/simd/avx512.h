@@ -6,6 +6,7 @@
 #error "the avx512 target needs -mavx512f -mavx512dq -mavx512vl"
 #endif
 #include <immintrin.h>
+#include <stdint.h>
 
 #if defined(EK_REAL_F32)
 #define EK_W 16
@@ -117,6 +118,26 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   __m512i mant = _mm512_or_si512(_mm512_and_si512(bits, _mm512_set1_epi64(0x000fffffffffffffLL)),
                                  _mm512_set1_epi64(0x3ff0000000000000LL));
   return _mm512_castsi512_pd(mant);
+}
+#endif
+// vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
+// n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
+// point 0 and is set in the returned mask. Indices below 2^31 / 3.
+#if defined(EK_REAL_F32)
+static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]) {
+  __m512i i = _mm512_loadu_si512(idx), zero = _mm512_setzero_si512();
+  __m512i o = _mm512_mullo_epi32(_mm512_max_epi32(i, zero), _mm512_set1_epi32(3));
+  for (int k = 0; k < 3; k++)
+    p[k] = _mm512_i32gather_ps(o, x + k, 4);
+  return _mm512_cmplt_epi32_mask(i, zero);
+}
+#else
+static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]) {
+  __m256i i = _mm256_loadu_si256((const __m256i *)idx), zero = _mm256_setzero_si256();
+  __m256i o = _mm256_mullo_epi32(_mm256_max_epi32(i, zero), _mm256_set1_epi32(3));
+  for (int k = 0; k < 3; k++)
+    p[k] = _mm512_i32gather_pd(o, x + k, 8);
+  return _mm256_cmplt_epi32_mask(i, zero);
 }
 #endif
 #endif

@@ -3,6 +3,8 @@
 #define EK_SIMD_SCALAR_H
 
 #include <math.h>
+#include <stddef.h>
+#include <stdint.h>
 
 #define EK_W 1
 typedef real vreal;
@@ -64,4 +66,13 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   *e = (real)(k - 1);
   return m + m;
 }
+// vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
+// n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
+// point 0 and is set in the returned mask. Indices below 2^31 / 3.
+static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]) {
+  int32_t v = *idx < 0 ? 0 : *idx;
+  p[0] = x[(size_t)v * 3], p[1] = x[(size_t)v * 3 + 1], p[2] = x[(size_t)v * 3 + 2];
+  return *idx < 0;
+}
+
 #endif
