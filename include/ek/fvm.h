@@ -65,11 +65,15 @@ typedef enum {
 
 #define EK_FVM_PARTS 4
 
-// Meshes with fewer tets run each force evaluation on the calling thread
-// alone: below this, waking a second thread costs more than it saves
-// (measured with ek-bench's fvm rows on the 2-core machines), and on a
-// loaded machine a woken thread can wait for a core for milliseconds.
-#define EK_FVM_PARALLEL_MIN_TETS 4096
+// Meshes with fewer tets than these run each force evaluation on the
+// calling thread alone: below about 10 us of work, waking a second thread
+// costs more than it saves. Measured on the 2-core Zen 4 machine with
+// libgomp's default wait policy, median of 201 x 20 calls: stable
+// neo-Hookean f32 at 384 tets 6.6 us at 1 thread, 7.3 us at 2; at 1296 tets
+// 21.0 / 16.4 us; fixed corotated f64 (SVD) at 384 tets 31.2 / 20.6 us.
+// (With OMP_WAIT_POLICY=passive a wake-up cost 60-90 us there.)
+#define EK_FVM_PARALLEL_MIN_TETS 1024
+#define EK_FVM_PARALLEL_MIN_TETS_SVD 256
 
 // Name of a strategy ("auto", "colored", "thread_buffers", "gather",
 // "atomic"); "invalid" for others.

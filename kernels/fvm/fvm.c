@@ -4,8 +4,8 @@
 // does one range of blocks). Built once per precision.
 //
 // Threads: one parallel region per force evaluation, static partitions,
-// and a mesh below EK_FVM_PARALLEL_MIN_TETS runs on the calling thread
-// alone (waking a second thread costs more than it saves there).
+// and a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling
+// thread alone (waking a second thread costs more than it saves there).
 // Determinism: COLORED, THREAD_BUFFERS and GATHER sum every vertex's
 // contributions in an order fixed by the mesh alone (phase, chunk and slot
 // order; part order with EK_FVM_PARTS fixed parts; slot order), so the
@@ -20,6 +20,7 @@
 
 #include "../elements/tets.h"
 #include "../kernels.h"
+#include "../material/models.h"
 #include "../real.h"
 #include "fvm_kernel.h"
 
@@ -64,8 +65,13 @@ static void share(size_t b0, size_t b1, int t, int nt, size_t *lo, size_t *hi) {
   *hi = b0 + n * (size_t)(t + 1) / (size_t)nt;
 }
 
-// Whether a force evaluation of this size runs on more than one thread.
-static int parallel_for(const ek_tets *el) { return el->ntets >= EK_FVM_PARALLEL_MIN_TETS; }
+// Whether a force evaluation runs on more than one thread (fvm.h: the
+// models that take an SVD cost several times more per tet).
+static int parallel_for(const ek_tets *el, const ek_material *mat) {
+  return el->ntets >= (ek_model_row_uses_sigma(mat->model, mat->clamp)
+                           ? EK_FVM_PARALLEL_MIN_TETS_SVD
+                           : EK_FVM_PARALLEL_MIN_TETS);
+}
 
 static void zero_forces(real *f, size_t n) {
 #pragma omp for schedule(static)
@@ -80,7 +86,7 @@ static void zero_forces(real *f, size_t n) {
 static void scatter_colored(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
   a.f = f;
   a.corner = NULL;
-#pragma omp parallel if (parallel_for(el))
+#pragma omp parallel if (parallel_for(el, a.mat))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     zero_forces(f, el->nverts * 3);
@@ -103,7 +109,7 @@ static int scatter_buffers(const ek_kernel_table *kt, const ek_tets *el, fvm_arg
   if (!buf)
     return EK_ENOMEM;
   a.corner = NULL;
-#pragma omp parallel if (parallel_for(el))
+#pragma omp parallel if (parallel_for(el, a.mat))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for (int p = t; p < EK_FVM_PARTS; p += nt) {
@@ -136,7 +142,7 @@ static int scatter_gather(const ek_kernel_table *kt, const ek_tets *el, fvm_args
     return EK_ENOMEM;
   a.f = NULL;
   a.corner = corner;
-#pragma omp parallel if (parallel_for(el))
+#pragma omp parallel if (parallel_for(el, a.mat))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     size_t lo, hi;
@@ -170,7 +176,7 @@ static int scatter_gather(const ek_kernel_table *kt, const ek_tets *el, fvm_args
 static int scatter_atomic(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
   size_t nb = el->morton.nslots / L;
   int err = 0;
-#pragma omp parallel if (parallel_for(el))
+#pragma omp parallel if (parallel_for(el, a.mat))
   {
     real *corner = ek_alloc(ATOMIC_CHUNK * 12 * L * sizeof(real));
     if (!corner) {
@@ -214,7 +220,7 @@ static int scatter_atomic(const ek_kernel_table *kt, const ek_tets *el, fvm_args
 // F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
 // from positions in the working precision.
 static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
-#pragma omp parallel for schedule(static) if (parallel_for(el))
+#pragma omp parallel for schedule(static) if (el->ntets >= EK_FVM_PARALLEL_MIN_TETS)
   for (size_t e = 0; e < el->ntets; e++) {
     const int32_t *t = el->tets + e * 4;
     const double *Dmi = el->Dm_inv + e * 9;
@@ -299,7 +305,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   memset(pt, 0, sizeof *pt);
 
   double t0 = now();
-#pragma omp parallel if (parallel_for(el))
+#pragma omp parallel if (parallel_for(el, a.mat))
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     size_t lo, hi;
