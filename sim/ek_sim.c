@@ -1,4 +1,4 @@
-// ek-sim: run a scene with the explicit loop.
+// ek-sim: run a scene with its integrator.
 //
 //   ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5] [--force] [--explain]
 //
@@ -89,6 +89,8 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
     if (!ek_isa_available((ek_isa)i))
       printf("           %s: skipped (not built or not supported by this CPU)\n",
              ek_isa_name((ek_isa)i));
+  printf("integrator %s: %s\n", ek_scene_integrator_name(s->integrator),
+         ek_scene_integrator_description(s->integrator));
   ek_model_needs need = ek_model_need(m->model, m->clamp);
   printf("pipeline   per step:\n");
   int k = 1;
@@ -121,7 +123,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
       "atomics: the baseline, summation order varies (not deterministic)"};
   printf("       scatter %s%s: %s\n", ek_scatter_name(sc),
          s->scatter == EK_SCATTER_AUTO ? " (auto)" : "", why[sc]);
-  printf("  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n", k++);
+  ek_scene_integrator_explain(s, stdout, k);
   printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
          s->gravity[0], s->gravity[1], s->gravity[2], s->damping, s->dt, steps,
          s->dt * (double)steps);
@@ -145,7 +147,6 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   if (s->has_ground)
     printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
            s->ground_height);
-  printf("       CFL check at start: dt vs h_min / sqrt((lambda + 2 mu) / rho)\n");
   if (out && out[0])
     printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
            "energy density (one extra double pass per frame)\n",
@@ -247,10 +248,10 @@ int main(int argc, char **argv) {
     }
   }
   t_setup = now() - t_setup;
-  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, f%d, %d threads, dt %g "
-         "(CFL h_min/c = %g), %ld steps\n",
-         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, scene.precision, nthreads,
-         scene.dt, ek_sim_cfl_dt(sim), steps);
+  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
+         "threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
+         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 

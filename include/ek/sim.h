@@ -1,19 +1,23 @@
-// ek simulation: scene files, the explicit loop and HDF5 frames.
+// ek simulation: scene files, the simulation loop and HDF5 frames.
 //
 // A scene (JSON, parsed by ek_scene_load) names a mesh (file or box
 // generator), a material, the precision of the force kernel, the SVD knobs,
-// boundary conditions, gravity, a ground plane, damping, the time step and
-// the output. Axes: z is up; the ground is the plane z = height.
+// boundary conditions, gravity, a ground plane, damping, the time step, the
+// integrator and the output. Axes: z is up; the ground is the plane
+// z = height.
 //
-// The explicit loop (ek_sim_*) is symplectic Euler with the FVM force of
-// fvm.h (Teran et al. 2003, seed 004):
-//   v += dt M^-1 (f(x) + M g - c M v);  x += dt v
-// with lumped masses M, mass-proportional damping c, pinned and prescribed
-// vertices and a friction-free ground (position projected onto the plane,
-// normal velocity into the ground zeroed). Positions and velocities are kept
-// in double; the force kernel runs in the scene's precision (f32 converts x
-// to float once per step). Corotated linear refreshes R^n per tet from the
-// positions at the start of every step (seed 000: R^n = polar(F^n)).
+// The loop (ek_sim_*) is a simulation core shared by every integrator
+// (state, lumped masses M, pinned and prescribed vertices, a friction-free
+// ground: position projected onto the plane, normal velocity into the
+// ground zeroed; energies, per-tet fields, timing) and one integrator, the
+// scene's "integrator":
+//   explicit  symplectic Euler with the FVM force of fvm.h (Teran et al.
+//             2003, seed 004) and mass-proportional damping c:
+//               v += dt M^-1 (f(x) + M g - c M v);  x += dt v
+// Positions and velocities are kept in double; the force kernel runs in the
+// scene's precision (f32 converts x to float once per force evaluation).
+// Corotated linear refreshes R^n per tet from the positions at the start of
+// every step (seed 000: R^n = polar(F^n)).
 //
 // Scene file keys (required ones marked *; every other key is an error):
 //   description   free text
@@ -36,6 +40,7 @@
 //   ground        {"height": z}
 //   damping       c >= 0, 1/s (default 0)
 //   dt*, steps*   seconds, count
+//   integrator    {"type": "explicit"} (default: explicit)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
 //
@@ -49,6 +54,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "core.h"
 #include "fvm.h"
@@ -92,6 +98,12 @@ extern "C" {
 #define EK_SIM_EINVERTED (-10)
 
 // ---------------------------------------------------------------- scenes
+
+// Time integrators, the scene's "integrator": {"type": NAME}.
+typedef enum {
+  EK_INTEGRATOR_EXPLICIT = 0, // "explicit": symplectic Euler (sim/explicit.c)
+  EK_INTEGRATOR_COUNT
+} ek_integrator_type;
 
 typedef enum {
   EK_BC_PIN,     // held at the initial position
@@ -144,6 +156,7 @@ typedef struct {
   double damping; // c of the mass-proportional damping force -c m v, 1/s
   double dt;
   long steps;
+  ek_integrator_type integrator;
   // Output ("" = none): frames every output_every steps (and the first).
   char output_file[EK_SCENE_PATH_MAX];
   long output_every;
@@ -163,6 +176,13 @@ ek_mesh *ek_scene_mesh(const ek_scene *scene, char *err, size_t errlen);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
 int ek_scene_model_from_name(const char *name, ek_model *model);
+// "explicit" etc. and a one-line description of an integrator; NULL if
+// unknown.
+const char *ek_scene_integrator_name(ek_integrator_type type);
+const char *ek_scene_integrator_description(ek_integrator_type type);
+// Print the scene integrator's part of the per-step pipeline (ek-sim
+// --explain) as lines numbered from `number`; returns the next number.
+int ek_scene_integrator_explain(const ek_scene *scene, FILE *out, int number);
 
 // ---------------------------------------------------------------- loop
 
@@ -190,10 +210,13 @@ typedef struct {
 // and destroys it after the sim). NULL with err on failure.
 ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
 void ek_sim_destroy(ek_sim *sim);
-// Advance one step. 0, EK_SIM_EINVERTED or < 0 (message in
-// ek_sim_last_error); on error the state is left as it was before the step.
+// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED or < 0
+// (message in ek_sim_last_error); on error the state is left as it was
+// before the step.
 int ek_sim_step(ek_sim *sim);
 const char *ek_sim_last_error(const ek_sim *sim);
+// Name of the integrator the sim steps with ("explicit").
+const char *ek_sim_integrator_name(const ek_sim *sim);
 // Tets with J <= 0 in the current state.
 size_t ek_sim_inverted_count(const ek_sim *sim);
 // Ask for the per-phase split on the next steps (costs extra passes).
