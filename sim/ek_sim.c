@@ -149,7 +149,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
            s->ground_height);
   if (out && out[0])
     printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
-           "energy density (one extra double pass per frame)\n",
+           "energy density from the rest shape (one extra double pass per frame)\n",
            out, s->output_every);
   else
     printf("output     none\n");

@@ -170,6 +170,7 @@ void ek_sim_destroy(ek_sim *s) {
   free(s->ff);
   free(s->F);
   free(s->R);
+  free(s->psi_rest);
   free(s->x_next);
   free(s->v_next);
   free(s->bc_of);
@@ -222,6 +223,9 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     s->F = malloc(9 * nt * sizeof(double));
     s->R = malloc(9 * nt * sizeof(double));
     ok = ok && s->F && s->R;
+  } else {
+    s->psi_rest = malloc(nt * sizeof(double));
+    ok = ok && s->psi_rest;
   }
   if (!ok) {
     if (err && errlen)
@@ -310,10 +314,20 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     return NULL;
   }
   s->times.polar_refresh = 0;
-  // Corotated linear is 0 at rest for any R; the others are evaluated.
-  s->elastic_rest = s->mat.model == EK_MODEL_COROTATED_LINEAR
-                        ? 0.0
-                        : ek_fvm_energy_f64(mesh, &s->mat, ek_mesh_rest_positions(mesh));
+  // Corotated linear is 0 at rest (R = polar(I) = I); the others are
+  // evaluated, per tet for the frames' field and summed for the energy.
+  s->elastic_rest = 0.0;
+  if (s->psi_rest) {
+    s->elastic_rest = ek_fvm_energy_f64(mesh, &s->mat, X);
+    ek_fvm_opts o = s->fvm;
+    o.psi = s->psi_rest;
+    if (ek_fvm_forces_ex_f64(mesh, &s->mat, X, s->f, &o) != 0) {
+      if (err && errlen)
+        snprintf(err, errlen, "%s: energy density at rest: %s", scene->path, ek_last_error());
+      ek_sim_destroy(s);
+      return NULL;
+    }
+  }
 
   s->integrator = sim_integrators[scene->integrator];
   if (s->integrator->create && s->integrator->create(s, &s->integrator_data) != 0) {
@@ -479,5 +493,10 @@ int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
   o.phase_times = NULL;
   int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
   free(scratch);
+  // Measured from the rest shape, like ek_sim_energy's elastic energy:
+  // sum_e V0_e psi_e is that energy.
+  if (rc == 0 && psi && s->psi_rest)
+    for (size_t e = 0; e < s->nt; ++e)
+      psi[e] -= s->psi_rest[e];
   return rc;
 }

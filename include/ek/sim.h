@@ -46,9 +46,9 @@
 //
 // Frames (ek_frames_*): one HDF5 file with the rest mesh once and, per
 // output frame, positions and per-tet fields (J, smallest singular value,
-// energy density) and the time, flushed every frame, plus an XDMF file beside
-// it (same name, extension .xmf, the XDMF extension ParaView
-// also reads) so ParaView opens the time series.
+// energy density measured from the rest shape) and the time, flushed every
+// frame, plus an XDMF file beside it (same name, extension .xmf, the XDMF
+// extension ParaView also reads) so ParaView opens the time series.
 #ifndef EK_SIM_H
 #define EK_SIM_H
 
@@ -91,6 +91,13 @@ extern "C" {
 #define EK_SIM_CANTILEVER_TOL 0.05
 // Crushed and released cube (invertible model): |V - V0| / V0 at rest.
 #define EK_SIM_VOLUME_TOL 0.01
+// The frames' energy density field (ek_sim_tet_fields), measured from the
+// rest shape, against rounding: at rest, max_e |psi_e| / (mu + |lambda|)
+// (a stress scale); after steps, |sum_e V0_e psi_e - elastic| /
+// sum_e V0_e (|Psi(F_e)| + |Psi(F_rest,e)|) (the cancellation-free size of
+// the sum), elastic from ek_sim_energy. Both sides evaluate the same Psi
+// per tet; only the order of the sums differs.
+#define EK_SIM_ENERGY_FIELD_TOL 1e-12
 
 // Return code of ek_sim_step when an element left the model's domain (J <= 0
 // for neo-Hookean without clamp): the step is not applied, the message names
@@ -239,7 +246,10 @@ double ek_sim_volume(const ek_sim *sim);
 // wave speed sqrt((lambda + 2 mu) / rho), h_min the smallest tet height.
 double ek_sim_cfl_dt(const ek_sim *sim);
 // Per-tet fields of the current state, caller tet order (any may be NULL):
-// J = det F, smallest signed singular value of F, energy density Psi(F).
+// J = det F, smallest signed singular value of F, and the energy density
+// measured from the rest shape, Psi(F) - Psi(F_rest) per unit rest volume
+// (0 at rest for every model; sum_e V0_e psi_e is ek_sim_energy's elastic
+// energy).
 int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
 // Number of vertices held by a boundary condition right now.
 size_t ek_sim_constrained_count(const ek_sim *sim);
@@ -253,7 +263,11 @@ typedef struct ek_frames ek_frames;
 //   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
 //   /frames/time     nframes double        /frames/step nframes int64
 //   /frames/positions nframes x nverts x 3 double
-//   /frames/J, /frames/smin, /frames/energy_density  nframes x ntets double
+//   /frames/J, /frames/smin                nframes x ntets double
+//   /frames/energy_density_from_rest       nframes x ntets double
+// The XDMF names the cell attributes as the datasets. The energy density is
+// the `psi` ek_frames_write is given; ek-sim writes ek_sim_tet_fields' (from
+// the rest shape: 0 at rest, and it sums to the elastic energy).
 // The file is written in HDF5's single-writer/multiple-reader mode and
 // flushed after each frame, so a killed writer leaves a consistent file; the
 // number of complete frames is the length of /frames/time (written last).
@@ -261,7 +275,8 @@ typedef struct ek_frames ek_frames;
 // `h5clear -s FILE`).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
-// Append one frame; J, smin, psi may be NULL (written as NaN).
+// Append one frame; J, smin, psi (energy density from the rest shape) may
+// be NULL (written as NaN).
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen);
 long ek_frames_count(const ek_frames *fr);
