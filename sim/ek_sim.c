@@ -18,6 +18,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "omp_env.h"
+
 static double now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -31,7 +33,11 @@ static void usage(FILE *out) {
                "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
                "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
                "  --force       overwrite existing output files\n"
-               "  --explain     print the pipeline the scene runs, run nothing\n");
+               "  --explain     print the pipeline the scene runs, run nothing\n"
+               "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
+               "pinned, one per core) and OMP_WAIT_POLICY to passive (a waiting thread sleeps:\n"
+               "on a shared machine a spinning one can hold the core another thread needs);\n"
+               "values the user set are kept.\n");
 }
 
 static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
@@ -156,6 +162,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
 }
 
 int main(int argc, char **argv) {
+  omp_env_defaults("ek-sim", argv, 1);
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
   int force = 0, do_explain = 0;
