@@ -91,12 +91,12 @@ extern "C" {
 #define EK_SIM_CANTILEVER_TOL 0.05
 // Crushed and released cube (invertible model): |V - V0| / V0 at rest.
 #define EK_SIM_VOLUME_TOL 0.01
-// The frames' energy density field (ek_sim_tet_fields), measured from the
-// rest shape, against rounding: at rest, max_e |psi_e| / (mu + |lambda|)
-// (a stress scale); after steps, |sum_e V0_e psi_e - elastic| /
-// sum_e V0_e (|Psi(F_e)| + |Psi(F_rest,e)|) (the cancellation-free size of
-// the sum), elastic from ek_sim_energy. Both sides evaluate the same Psi
-// per tet; only the order of the sums differs.
+// Checked by tests/test_sim_core.c: the frames' energy density
+// (ek_sim_tet_fields, measured from the rest shape) against rounding. At
+// rest, max_e |psi_e| / (mu + |lambda|) (a stress scale); after steps,
+// |sum_e V0_e psi_e - elastic| / sum_e V0_e (|Psi(F_e)| + |Psi(F_rest,e)|)
+// (the cancellation-free size of the sum), elastic from ek_sim_energy. Both
+// sides evaluate the same Psi per tet; only the order of the sums differs.
 #define EK_SIM_ENERGY_FIELD_TOL 1e-12
 
 // Return code of ek_sim_step when an element left the model's domain (J <= 0
