@@ -34,6 +34,7 @@
 #include <ek/core.h>
 #include <stddef.h>
 
+#include "check.h" // ek_rng
 #include "timer.h"
 
 #ifdef __cplusplus
@@ -108,10 +109,11 @@ void ek_bench_fail(ek_bench *b, const char *fmt, ...) __attribute__((format(prin
 // A family entry point; returns 0, or < 0 after ek_bench_fail.
 typedef int ek_bench_family_fn(ek_bench *b);
 
-// Seeded Gaussian numbers for inputs (xoshiro256** + Box-Muller): the
-// same seed gives the same inputs on every run and thread count.
+// Seeded Gaussian numbers for inputs (the check library's xoshiro256**
+// words + Box-Muller): the same seed gives the same inputs on every run and
+// thread count.
 typedef struct {
-  unsigned long long s[4];
+  ek_rng words;
   int has_spare;
   double spare;
 } ek_bench_rng;

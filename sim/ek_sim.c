@@ -1,9 +1,11 @@
-// ek-sim: run a scene with the explicit loop.
+// ek-sim: run a scene with its integrator.
 //
-//   ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5] [--force] [--explain]
+//   ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] [--force]
+//          [--explain]
 //
 // Prints a progress line, and at the end the time per step split by phase,
-// tets per second and the energies at start and end. --explain prints the
+// the median, 95th percentile and minimum of the steps' wall times, tets
+// per second and the energies at start and end. --explain prints the
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
 // Exit status: 0 done, 1 bad usage or scene, 2 the run failed (e.g. an
 // element inverted with a model undefined there).
@@ -18,6 +20,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "omp_env.h"
+
 static double now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -25,13 +29,32 @@ static double now(void) {
 }
 
 static void usage(FILE *out) {
-  fprintf(out, "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5] [--force] "
-               "[--explain]\n"
+  fprintf(out, "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
+               "[--force] [--explain]\n"
                "  --steps N     override the scene's step count\n"
                "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
                "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
+               "  --no-output   write no frames (overrides the scene's output.file)\n"
                "  --force       overwrite existing output files\n"
-               "  --explain     print the pipeline the scene runs, run nothing\n");
+               "  --explain     print the pipeline the scene runs, run nothing\n"
+               "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
+               "pinned, one per core) and OMP_WAIT_POLICY to passive (a waiting thread sleeps:\n"
+               "on a shared machine a spinning one can hold the core another thread needs);\n"
+               "values the user set are kept.\n");
+}
+
+static int compare_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+// Median and 95th percentile (nearest rank: the smallest value with at
+// least 95% of the samples at or below it) of n > 0 samples; sorts them.
+static void median_p95(double *v, size_t n, double *median, double *p95) {
+  qsort(v, n, sizeof *v, compare_double);
+  *median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  size_t rank = (size_t)ceil(0.95 * (double)n);
+  *p95 = v[rank > 0 ? rank - 1 : 0];
 }
 
 static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
@@ -90,6 +113,8 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
     if (!ek_isa_available((ek_isa)i))
       printf("           %s: skipped (not built or not supported by this CPU)\n",
              ek_isa_name((ek_isa)i));
+  printf("integrator %s: %s\n", ek_scene_integrator_name(s->integrator),
+         ek_scene_integrator_description(s->integrator));
   ek_model_needs need = ek_model_need(m->model, m->clamp);
   printf("pipeline   per step:\n");
   int k = 1;
@@ -122,7 +147,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
       "atomics: the baseline, summation order varies (not deterministic)"};
   printf("       scatter %s%s: %s\n", ek_scatter_name(sc),
          s->scatter == EK_SCATTER_AUTO ? " (auto)" : "", why[sc]);
-  printf("  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n", k++);
+  ek_scene_integrator_explain(s, stdout, k);
   printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
          s->gravity[0], s->gravity[1], s->gravity[2], s->damping, s->dt, steps,
          s->dt * (double)steps);
@@ -146,19 +171,19 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   if (s->has_ground)
     printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
            s->ground_height);
-  printf("       CFL check at start: dt vs h_min / sqrt((lambda + 2 mu) / rho)\n");
   if (out && out[0])
     printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
-           "energy density (one extra double pass per frame)\n",
+           "energy density from the rest shape (one extra double pass per frame)\n",
            out, s->output_every);
   else
     printf("output     none\n");
 }
 
 int main(int argc, char **argv) {
+  omp_env_defaults("ek-sim", argv, 1);
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
-  int force = 0, do_explain = 0;
+  int force = 0, do_explain = 0, no_output = 0;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     if (strcmp(a, "--steps") == 0) {
@@ -173,6 +198,8 @@ int main(int argc, char **argv) {
         return 1;
       }
       out = argv[++i];
+    } else if (strcmp(a, "--no-output") == 0) {
+      no_output = 1;
     } else if (strcmp(a, "--force") == 0) {
       force = 1;
     } else if (strcmp(a, "--explain") == 0) {
@@ -192,6 +219,10 @@ int main(int argc, char **argv) {
     usage(stderr);
     return 1;
   }
+  if (out && no_output) {
+    fprintf(stderr, "ek-sim: --out and --no-output exclude each other\n");
+    return 1;
+  }
   char err[1024];
   static ek_scene scene;
   if (ek_scene_load(scene_path, &scene, err, sizeof err) != 0) {
@@ -207,7 +238,7 @@ int main(int argc, char **argv) {
   }
   if (steps < 0)
     steps = scene.steps;
-  if (!out && scene.output_file[0])
+  if (!out && !no_output && scene.output_file[0])
     out = scene.output_file;
   if (threads > 0)
     omp_set_num_threads((int)threads);
@@ -231,6 +262,16 @@ int main(int argc, char **argv) {
     return 1;
   }
   size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
+  // Wall time of each step that ran the fused force kernel (one in ten runs
+  // the phases as separate passes, for the split): their median and p95.
+  double *step_s = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
+  size_t nstep_s = 0;
+  if (!step_s) {
+    fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
+    ek_sim_destroy(sim);
+    ek_mesh_destroy(mesh);
+    return 1;
+  }
   double *J = NULL, *smin = NULL, *psi = NULL;
   ek_frames *frames = NULL;
   if (out) {
@@ -242,16 +283,17 @@ int main(int argc, char **argv) {
     if (!frames || !J || !smin || !psi) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
+      free(step_s);
       ek_sim_destroy(sim);
       ek_mesh_destroy(mesh);
       return 1;
     }
   }
   t_setup = now() - t_setup;
-  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, f%d, %d threads, dt %g "
-         "(CFL h_min/c = %g), %ld steps\n",
-         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, scene.precision, nthreads,
-         scene.dt, ek_sim_cfl_dt(sim), steps);
+  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
+         "threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
+         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
@@ -274,13 +316,18 @@ int main(int argc, char **argv) {
       break;
     // One step in ten runs the force phases as separate passes, for the
     // split; the other nine are the fused kernel the timing reports.
-    ek_sim_time_phases(sim, n % 10 == 5);
+    int phase_timed = n % 10 == 5;
+    ek_sim_time_phases(sim, phase_timed);
+    double t_step = now();
     int src = ek_sim_step(sim);
+    t_step = now() - t_step;
     if (src != 0) {
       fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
       rc = 2;
       break;
     }
+    if (!phase_timed)
+      step_s[nstep_s++] = t_step;
     double t = now();
     if (t - t_last_progress > 0.5 || n + 1 == steps) {
       t_last_progress = t;
@@ -322,6 +369,13 @@ int main(int argc, char **argv) {
     if (polar_ms > 0)
       printf(", R^n refresh %.4f ms", polar_ms);
     printf("\n");
+    if (nstep_s > 0) {
+      double median, p95;
+      median_p95(step_s, nstep_s, &median, &p95); // sorted: step_s[0] is the fastest
+      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
+             "fused-kernel steps)\n",
+             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
+    }
     double phase_sum = tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
     if (tm->phase_timed_steps > 0 && phase_sum > 0) {
       double p = (double)tm->phase_timed_steps;
@@ -347,6 +401,7 @@ int main(int argc, char **argv) {
   free(J);
   free(smin);
   free(psi);
+  free(step_s);
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
   return rc;

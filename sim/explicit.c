@@ -1,4 +1,5 @@
-// The explicit loop: symplectic (semi-implicit) Euler with the FVM force.
+// The explicit integrator: symplectic (semi-implicit) Euler with the FVM
+// force.
 //
 //   v^{n+1} = v^n + dt M^-1 (f(x^n) + M g - c M v^n)
 //   x^{n+1} = x^n + dt v^{n+1}
@@ -6,432 +7,64 @@
 // (Hairer, Lubich, Wanner, "Geometric Numerical Integration", 2nd ed.,
 // sec. I.1.2 and VI.3: the symplectic Euler method; undamped it conserves a
 // modified energy, so the energy error stays bounded instead of drifting.)
-// f is the finite-volume force of Teran et al. 2003 (seed 004) through
-// fvm.h, M the lumped mass (density times the vertex's share V0/4 of each
-// incident tet), c the mass-proportional damping coefficient. Corotated
-// linear takes R^n = polar(F^n) per tet at the start of each step (seed
-// 000). Vertices under a boundary condition follow it exactly; free
-// vertices below the ground plane are projected onto it and lose their
-// velocity into it (friction-free contact).
-#include <ek/sim.h>
+// M is the lumped mass, c the mass-proportional damping coefficient. One
+// force evaluation per step; stable for dt up to the CFL limit.
+#include "sim_internal.h"
 
-#include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include <time.h>
 
-struct ek_sim {
-  ek_scene scene;
-  const ek_mesh *mesh;
-  ek_material mat;
-  size_t nv, nt;
-  double *x, *v, *x0; // nv x 3: state and the initial positions BCs refer to
-  double *mass, *inv_mass;
-  double *f;             // nv x 3 force (double)
-  float *xf, *ff;        // f32 force path
-  double *F, *R;         // nt x 9, corotated linear only
-  double *x_new, *v_new; // candidate state (a failed step leaves x, v as they were)
-  signed char *bc_of;    // per vertex: index of its boundary condition, -1 free
-  ek_fvm_opts fvm;
-  ek_fvm_phase_times phase;
-  int time_phases;
-  double t;
-  long n;
-  double cfl_dt, h_min, wave_speed;
-  double elastic_rest; // E(X): not 0 for every model (stable neo-Hookean)
-  ek_sim_times times;
-  char error[512];
-};
+// Up to this many vertices the update loop runs on one thread. It takes
+// about 5 ns per vertex, and waking the sleeping thread of ek-sim's
+// OMP_WAIT_POLICY=passive took 12-60 us on the 2-core development machine:
+// a second thread pays off only from several thousand vertices, and more
+// on a loaded machine.
+#define EXPLICIT_PARALLEL_GRAIN 20000
 
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+static int explicit_explain(const ek_scene *s, FILE *out, int number) {
+  (void)s; // nothing scene-specific beyond what ek-sim prints
+  fprintf(out, "  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n",
+          number);
+  fprintf(out, "       CFL check at start: dt vs h_min / sqrt((lambda + 2 mu) / rho)\n");
+  return number + 1;
 }
 
-__attribute__((format(printf, 2, 3))) static int fail(ek_sim *s, const char *fmt, ...) {
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(s->error, sizeof s->error, fmt, ap);
-  va_end(ap);
-  return EK_EINVAL;
-}
-
-static double det3(const double *A) {
-  return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
-         A[2] * (A[3] * A[7] - A[4] * A[6]);
-}
-
-// Signed volume of tet e at positions x: det[x1-x0, x2-x0, x3-x0] / 6.
-static double tet_volume(const double *x, const int32_t *t) {
-  const double *a = x + 3 * t[0];
-  double D[9];
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k < 3; ++k)
-      D[3 * k + c] = x[3 * t[c + 1] + k] - a[k];
-  return det3(D) / 6.0;
-}
-
-static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
-static void cross3(const double *a, const double *b, double *c) {
-  c[0] = a[1] * b[2] - a[2] * b[1];
-  c[1] = a[2] * b[0] - a[0] * b[2];
-  c[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-// Smallest height of any rest tet: 3 V / (area of the opposite face),
-// minimised over the four faces. The CFL length of an explicit FEM step.
-static double min_tet_height(const ek_mesh *m) {
-  const double *X = ek_mesh_rest_positions(m);
-  const int32_t *T = ek_mesh_tets(m);
-  size_t nt = ek_mesh_ntets(m);
-  double h = INFINITY;
-  for (size_t e = 0; e < nt; ++e) {
-    const int32_t *t = T + 4 * e;
-    double V = fabs(tet_volume(X, t));
-    for (int skip = 0; skip < 4; ++skip) {
-      int f[3], k = 0;
-      for (int c = 0; c < 4; ++c)
-        if (c != skip)
-          f[k++] = t[c];
-      double a[3], b[3], n[3];
-      for (int i = 0; i < 3; ++i) {
-        a[i] = X[3 * f[1] + i] - X[3 * f[0] + i];
-        b[i] = X[3 * f[2] + i] - X[3 * f[0] + i];
-      }
-      cross3(a, b, n);
-      double area = 0.5 * norm3(n);
-      if (area > 0 && 3.0 * V / area < h)
-        h = 3.0 * V / area;
-    }
-  }
-  return h;
-}
-
-// Rodrigues' rotation of p about unit axis k by angle theta.
-static void rotate(const double *k, double theta, const double *p, double *out) {
-  double c = cos(theta), s = sin(theta), kxp[3];
-  cross3(k, p, kxp);
-  double kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
-  for (int i = 0; i < 3; ++i)
-    out[i] = p[i] * c + kxp[i] * s + k[i] * kp * (1.0 - c);
-}
-
-// Is the boundary condition still holding its vertices at time t?
-static int bc_holds(const ek_scene_bc *b, double t) { return !(b->release && t >= b->until); }
-
-// Position and velocity of a constrained vertex at time t.
-static void bc_state(const ek_scene_bc *b, const double *x0, double t, double *x, double *v) {
-  double tm = t < b->until ? t : b->until; // motion stops at `until`
-  int moving = t < b->until;
-  switch (b->kind) {
-  case EK_BC_PIN:
-    for (int i = 0; i < 3; ++i) {
-      x[i] = x0[i];
-      v[i] = 0;
-    }
-    break;
-  case EK_BC_TWIST: {
-    double r[3], rr[3];
-    for (int i = 0; i < 3; ++i)
-      r[i] = x0[i] - b->center[i];
-    rotate(b->axis, b->rate * tm, r, rr);
-    double w[3] = {b->rate * b->axis[0], b->rate * b->axis[1], b->rate * b->axis[2]}, wr[3];
-    cross3(w, rr, wr); // v = omega x (x - c)
-    for (int i = 0; i < 3; ++i) {
-      x[i] = b->center[i] + rr[i];
-      v[i] = moving ? wr[i] : 0;
-    }
-    break;
-  }
-  case EK_BC_STRETCH:
-    for (int i = 0; i < 3; ++i) {
-      x[i] = x0[i] + b->velocity[i] * tm;
-      v[i] = moving ? b->velocity[i] : 0;
-    }
-    break;
-  }
-}
-
-static int refresh_rotations(ek_sim *s) {
-  if (s->mat.model != EK_MODEL_COROTATED_LINEAR)
-    return 0;
-  double t0 = now();
-  int rc = ek_fvm_deformation_gradients_f64(s->mesh, s->x, s->F);
-  if (rc == 0) {
-    ek_svd3_opts o = s->scene.svd;
-    rc = ek_polar3_f64(s->nt, s->F, s->R, NULL, &o);
-  }
-  s->times.polar_refresh += now() - t0;
-  if (rc)
-    return fail(s, "corotated linear: refreshing R^n failed: %s", ek_last_error());
-  return 0;
-}
-
-void ek_sim_destroy(ek_sim *s) {
-  if (!s)
-    return;
-  free(s->x);
-  free(s->v);
-  free(s->x0);
-  free(s->mass);
-  free(s->inv_mass);
-  free(s->f);
-  free(s->xf);
-  free(s->ff);
-  free(s->F);
-  free(s->R);
-  free(s->x_new);
-  free(s->v_new);
-  free(s->bc_of);
-  free(s);
-}
-
-ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
-  if (err && errlen)
-    err[0] = '\0';
-  if (!scene || !mesh) {
-    if (err && errlen)
-      snprintf(err, errlen, "ek_sim_create: no scene or mesh");
-    return NULL;
-  }
-  ek_sim *s = calloc(1, sizeof *s);
-  if (!s)
-    return NULL;
-  s->scene = *scene;
-  s->mesh = mesh;
-  s->mat = scene->material;
-  if (ek_material_check(&s->mat) != 0) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: material: %s", scene->path, ek_last_error());
-    ek_sim_destroy(s);
-    return NULL;
-  }
-  size_t nv = s->nv = ek_mesh_nverts(mesh), nt = s->nt = ek_mesh_ntets(mesh);
-  s->x = malloc(3 * nv * sizeof(double));
-  s->v = malloc(3 * nv * sizeof(double));
-  s->x0 = malloc(3 * nv * sizeof(double));
-  s->x_new = malloc(3 * nv * sizeof(double));
-  s->v_new = malloc(3 * nv * sizeof(double));
-  s->f = malloc(3 * nv * sizeof(double));
-  s->mass = malloc(nv * sizeof(double));
-  s->inv_mass = malloc(nv * sizeof(double));
-  s->bc_of = malloc(nv);
-  int ok =
-      s->x && s->v && s->x0 && s->x_new && s->v_new && s->f && s->mass && s->inv_mass && s->bc_of;
-  if (scene->precision == 32) {
-    s->xf = malloc(3 * nv * sizeof(float));
-    s->ff = malloc(3 * nv * sizeof(float));
-    ok = ok && s->xf && s->ff;
-  }
-  if (s->mat.model == EK_MODEL_COROTATED_LINEAR) {
-    s->F = malloc(9 * nt * sizeof(double));
-    s->R = malloc(9 * nt * sizeof(double));
-    ok = ok && s->F && s->R;
-  }
-  if (!ok) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: out of memory for %zu vertices, %zu tets", scene->path, nv, nt);
-    ek_sim_destroy(s);
-    return NULL;
-  }
-
-  // Initial state: rest shape scaled about its bounding-box centre, then
-  // translated; uniform velocity.
-  const double *X = ek_mesh_rest_positions(mesh);
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t i = 0; i < nv; ++i)
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = fmin(lo[k], X[3 * i + k]);
-      hi[k] = fmax(hi[k], X[3 * i + k]);
-    }
-  double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                     (hi[2] - lo[2]) * (hi[2] - lo[2]));
-  for (size_t i = 0; i < nv; ++i)
-    for (int k = 0; k < 3; ++k) {
-      double c = 0.5 * (lo[k] + hi[k]);
-      s->x[3 * i + k] = c + scene->init_scale[k] * (X[3 * i + k] - c) + scene->init_translate[k];
-      s->v[3 * i + k] = scene->init_velocity[k];
-    }
-  memcpy(s->x0, s->x, 3 * nv * sizeof(double));
-
-  // Lumped masses (Teran 2003 sec. 4: each tet gives a quarter of its mass
-  // to each corner).
-  const double *lumped = ek_mesh_lumped_volume(mesh);
-  for (size_t i = 0; i < nv; ++i) {
-    s->mass[i] = scene->density * lumped[i];
-    s->inv_mass[i] = s->mass[i] > 0 ? 1.0 / s->mass[i] : 0.0;
-  }
-
-  // Boundary conditions: the first condition whose box holds the vertex's
-  // rest position owns it.
-  double tol = 1e-9 * diag;
-  size_t counts[EK_SCENE_MAX_BC] = {0};
-  for (size_t i = 0; i < nv; ++i) {
-    s->bc_of[i] = -1;
-    for (int b = 0; b < scene->nbc && s->bc_of[i] < 0; ++b) {
-      const ek_scene_bc *c = &scene->bc[b];
-      int in = 1;
-      for (int k = 0; k < 3; ++k)
-        in &= X[3 * i + k] >= c->box_min[k] - tol && X[3 * i + k] <= c->box_max[k] + tol;
-      if (in) {
-        s->bc_of[i] = (signed char)b;
-        counts[b]++;
-      }
-    }
-  }
-  for (int b = 0; b < scene->nbc; ++b)
-    if (counts[b] == 0) {
-      if (err && errlen)
-        snprintf(err, errlen,
-                 "%s: boundary[%d].region = [%g %g %g]..[%g %g %g]: holds no vertex of the mesh "
-                 "(its bounding box is [%g %g %g]..[%g %g %g])",
-                 scene->path, b, scene->bc[b].box_min[0], scene->bc[b].box_min[1],
-                 scene->bc[b].box_min[2], scene->bc[b].box_max[0], scene->bc[b].box_max[1],
-                 scene->bc[b].box_max[2], lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
-      ek_sim_destroy(s);
-      return NULL;
-    }
-  for (size_t i = 0; i < nv; ++i)
-    if (s->bc_of[i] >= 0)
-      bc_state(&scene->bc[s->bc_of[i]], s->x0 + 3 * i, 0.0, s->x + 3 * i, s->v + 3 * i);
-
-  // CFL: an explicit step must not outrun the fastest (dilatational) wave
-  // across the smallest element, dt <= h_min / c, c = sqrt((lambda + 2 mu)
-  // / rho) (Courant, Friedrichs, Lewy 1928; the P-wave speed of linear
-  // elasticity).
-  s->h_min = min_tet_height(mesh);
-  s->wave_speed = sqrt((s->mat.lambda + 2.0 * s->mat.mu) / scene->density);
-  s->cfl_dt = s->h_min / s->wave_speed;
-  if (scene->dt > s->cfl_dt)
+// Above the CFL limit an explicit step may outrun the fastest wave. The
+// limit is an estimate, so the scene is warned about, not refused.
+static int explicit_create(ek_sim *s, void **data) {
+  *data = NULL;
+  if (s->scene.dt > s->cfl_dt)
     fprintf(stderr,
             "ek-sim: warning: %s: dt = %g is above the CFL limit h_min / c = %g "
             "(h_min = %g, c = sqrt((lambda + 2 mu) / rho) = %g): the explicit loop may be "
             "unstable\n",
-            scene->path, scene->dt, s->cfl_dt, s->h_min, s->wave_speed);
-
-  s->fvm.scatter = scene->scatter;
-  s->fvm.isa = scene->svd.isa;
-  s->fvm.svd_sweeps = scene->svd.sweeps;
-  s->fvm.svd_exact_rsqrt = scene->svd.exact_rsqrt;
-  s->fvm.R = s->R;
-  if (refresh_rotations(s) != 0) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: %s", scene->path, s->error);
-    ek_sim_destroy(s);
-    return NULL;
-  }
-  s->times.polar_refresh = 0;
-  // Corotated linear is 0 at rest for any R; the others are evaluated.
-  s->elastic_rest = s->mat.model == EK_MODEL_COROTATED_LINEAR
-                        ? 0.0
-                        : ek_fvm_energy_f64(mesh, &s->mat, ek_mesh_rest_positions(mesh));
-  return s;
-}
-
-const char *ek_sim_last_error(const ek_sim *s) { return s ? s->error : "no simulation"; }
-
-size_t ek_sim_inverted_count(const ek_sim *s) {
-  const int32_t *T = ek_mesh_tets(s->mesh);
-  size_t n = 0;
-  for (size_t e = 0; e < s->nt; ++e)
-    n += !(tet_volume(s->x, T + 4 * e) > 0);
-  return n;
-}
-
-// f(x) into s->f in the scene's precision.
-static int compute_forces(ek_sim *s, const double *x) {
-  ek_fvm_opts o = s->fvm;
-  ek_fvm_phase_times pt = {0, 0, 0, 0};
-  if (s->time_phases)
-    o.phase_times = &pt;
-  size_t n3 = 3 * s->nv;
-  double t0 = now();
-  int rc;
-  if (s->scene.precision == 32) {
-    for (size_t i = 0; i < n3; ++i)
-      s->xf[i] = (float)x[i];
-    rc = ek_fvm_forces_ex_f32(s->mesh, &s->mat, s->xf, s->ff, &o);
-    for (size_t i = 0; rc == 0 && i < n3; ++i)
-      s->f[i] = (double)s->ff[i];
-  } else {
-    rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, x, s->f, &o);
-  }
-  double t1 = now();
-  if (s->time_phases) {
-    s->times.deformation_gradient += pt.deformation_gradient;
-    s->times.svd_polar += pt.svd;
-    s->times.pk1 += pt.pk1;
-    s->times.scatter += pt.scatter;
-    s->times.phase_timed_steps++;
-  } else {
-    s->times.forces += t1 - t0;
-  }
-  if (rc)
-    return fail(s, "FVM force kernel failed (rc %d): %s", rc, ek_last_error());
+            s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed);
   return 0;
 }
 
-int ek_sim_step(ek_sim *s) {
-  if (!s)
-    return EK_EINVAL;
-  s->error[0] = '\0';
-  int rc = refresh_rotations(s);
+static int explicit_step(ek_sim *s, void *data) {
+  (void)data;
+  int rc = sim_forces(s, s->x);
   if (rc)
     return rc;
-  if ((rc = compute_forces(s, s->x)) != 0)
+
+  double t0 = sim_now();
+  if ((rc = sim_check_forces(s, s->x)) != 0) {
+    s->times.integration += sim_now() - t0;
     return rc;
-
-  double t0 = now();
-  const ek_scene *sc = &s->scene;
-  const double dt = sc->dt, c = sc->damping, t_next = s->t + dt;
-  const double *g = sc->gravity;
-  size_t bad_vertex = (size_t)-1;
-  for (size_t i = 0; i < s->nv && bad_vertex == (size_t)-1; ++i)
-    for (int k = 0; k < 3; ++k)
-      if (!isfinite(s->f[3 * i + k]))
-        bad_vertex = i;
-  if (bad_vertex != (size_t)-1) {
-    // Forces are NaN where an element left the model's domain (neo-Hookean
-    // with J <= 0, fvm.h); say which, and keep the state of the last step.
-    const int32_t *T = ek_mesh_tets(s->mesh);
-    size_t inverted = 0, first = 0;
-    double first_J = 0;
-    const double *V0 = ek_mesh_rest_volumes(s->mesh);
-    for (size_t e = 0; e < s->nt; ++e) {
-      double J = tet_volume(s->x, T + 4 * e) / V0[e];
-      if (!(J > 0) && inverted++ == 0) {
-        first = e;
-        first_J = J;
-      }
-    }
-    s->times.integration += now() - t0;
-    if (inverted) {
-      snprintf(s->error, sizeof s->error,
-               "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
-               "model %s is undefined there (use an invertible model or material.clamp > 0)",
-               s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
-      return EK_SIM_EINVERTED;
-    }
-    return fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
-                s->t, bad_vertex, dt, s->cfl_dt);
   }
-
   // Symplectic Euler (free vertices), exact motion (constrained ones),
   // then the ground. Vertices are independent: any thread count gives the
   // same bits.
-  const double *f = s->f;
-  double *xn = s->x_new, *vn = s->v_new;
-  const double ground = sc->ground_height;
-  const int has_ground = sc->has_ground;
+  const ek_scene *sc = &s->scene;
+  const double dt = sc->dt, c = sc->damping, t_next = s->t + dt;
+  const double *g = sc->gravity, *f = s->f;
+  double *xn = s->x_next, *vn = s->v_next;
   long nv = (long)s->nv;
-#pragma omp parallel for schedule(static) if (nv > 20000)
+#pragma omp parallel for schedule(static) if (nv > EXPLICIT_PARALLEL_GRAIN)
   for (long i = 0; i < nv; ++i) {
-    int b = s->bc_of[i];
-    if (b >= 0 && bc_holds(&sc->bc[b], t_next)) {
-      bc_state(&sc->bc[b], s->x0 + 3 * i, t_next, xn + 3 * i, vn + 3 * i);
+    const ek_scene_bc *bc = sim_bc_at(s, (size_t)i, t_next);
+    if (bc) {
+      sim_bc_state(bc, s->x0 + 3 * i, t_next, xn + 3 * i, vn + 3 * i);
       continue;
     }
     double im = s->inv_mass[i];
@@ -442,82 +75,18 @@ int ek_sim_step(ek_sim *s) {
       vn[3 * i + k] = v + dt * a;
       xn[3 * i + k] = s->x[3 * i + k] + dt * vn[3 * i + k];
     }
-    if (has_ground && xn[3 * i + 2] < ground) {
-      xn[3 * i + 2] = ground;
-      if (vn[3 * i + 2] < 0)
-        vn[3 * i + 2] = 0;
-    }
+    sim_ground_contact(s, xn + 3 * i, vn + 3 * i);
   }
-  double *tmp = s->x;
-  s->x = s->x_new;
-  s->x_new = tmp;
-  tmp = s->v;
-  s->v = s->v_new;
-  s->v_new = tmp;
-  s->t = t_next;
-  s->n++;
-  s->times.steps++;
-  s->times.integration += now() - t0;
+  s->times.integration += sim_now() - t0;
   return 0;
 }
 
-void ek_sim_time_phases(ek_sim *s, int on) { s->time_phases = on; }
-const ek_sim_times *ek_sim_timings(const ek_sim *s) { return &s->times; }
-double ek_sim_time(const ek_sim *s) { return s->t; }
-long ek_sim_steps_done(const ek_sim *s) { return s->n; }
-const double *ek_sim_positions(const ek_sim *s) { return s->x; }
-const double *ek_sim_velocities(const ek_sim *s) { return s->v; }
-const double *ek_sim_masses(const ek_sim *s) { return s->mass; }
-double ek_sim_cfl_dt(const ek_sim *s) { return s->cfl_dt; }
-
-size_t ek_sim_constrained_count(const ek_sim *s) {
-  size_t n = 0;
-  for (size_t i = 0; i < s->nv; ++i)
-    n += s->bc_of[i] >= 0 && bc_holds(&s->scene.bc[s->bc_of[i]], s->t);
-  return n;
-}
-
-int ek_sim_energy(const ek_sim *s, ek_sim_energies *e) {
-  double kinetic = 0, potential = 0;
-  const double *g = s->scene.gravity;
-  for (size_t i = 0; i < s->nv; ++i) {
-    const double *v = s->v + 3 * i, *x = s->x + 3 * i;
-    kinetic += 0.5 * s->mass[i] * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    potential -= s->mass[i] * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
-  }
-  e->kinetic = kinetic;
-  e->potential = potential;
-  e->elastic = ek_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R) - s->elastic_rest;
-  return isnan(e->elastic) ? EK_EINVAL : 0;
-}
-
-void ek_sim_momentum(const ek_sim *s, double p[3]) {
-  p[0] = p[1] = p[2] = 0;
-  for (size_t i = 0; i < s->nv; ++i)
-    for (int k = 0; k < 3; ++k)
-      p[k] += s->mass[i] * s->v[3 * i + k];
-}
-
-double ek_sim_volume(const ek_sim *s) {
-  const int32_t *T = ek_mesh_tets(s->mesh);
-  double V = 0;
-  for (size_t e = 0; e < s->nt; ++e)
-    V += tet_volume(s->x, T + 4 * e);
-  return V;
-}
-
-int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
-  // The FVM kernel computes the fields in double in a separate pass
-  // (fvm.h); the force it returns alongside is discarded.
-  double *scratch = malloc(3 * s->nv * sizeof(double));
-  if (!scratch)
-    return EK_ENOMEM;
-  ek_fvm_opts o = s->fvm;
-  o.J = J;
-  o.sigma_min = smin;
-  o.psi = psi;
-  o.phase_times = NULL;
-  int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
-  free(scratch);
-  return rc;
-}
+const sim_integrator sim_integrator_explicit = {
+    .name = "explicit",
+    .description = "symplectic Euler (Hairer, Lubich, Wanner sec. VI.3): one force evaluation "
+                   "per step, stable up to the CFL limit",
+    .explain = explicit_explain,
+    .create = explicit_create,
+    .destroy = NULL,
+    .step = explicit_step,
+};

@@ -150,7 +150,7 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
   fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
              "<Xdmf Version=\"3.0\">\n <Domain>\n"
              "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-  static const char *fields[] = {"J", "smin", "energy_density"};
+  static const char *fields[] = {"J", "smin", "energy_density_from_rest"};
   for (long i = 0; i < nf; ++i) {
     fprintf(f, "   <Grid Name=\"frame_%06ld\" GridType=\"Uniform\">\n", i);
     fprintf(f, "    <Time Value=\"%.17g\"/>\n", fr->times[i]);
@@ -260,7 +260,7 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
     fr->positions = create_series(frames, "positions", H5T_NATIVE_DOUBLE, 2, pos_inner);
     fr->J = create_series(frames, "J", H5T_NATIVE_DOUBLE, 1, tet_inner);
     fr->smin = create_series(frames, "smin", H5T_NATIVE_DOUBLE, 1, tet_inner);
-    fr->psi = create_series(frames, "energy_density", H5T_NATIVE_DOUBLE, 1, tet_inner);
+    fr->psi = create_series(frames, "energy_density_from_rest", H5T_NATIVE_DOUBLE, 1, tet_inner);
     fr->step = create_series(frames, "step", H5T_NATIVE_INT64, 0, NULL);
     fr->time = create_series(frames, "time", H5T_NATIVE_DOUBLE, 0, NULL);
     ok = frames >= 0 && fr->positions >= 0 && fr->J >= 0 && fr->smin >= 0 && fr->psi >= 0 &&

@@ -1,7 +1,7 @@
 // Scene files: JSON (cJSON) -> ek_scene, with errors that name the file,
 // the key path and the offending value, and unknown keys refused (a typo in
 // a scene must not silently fall back to a default).
-#include <ek/sim.h>
+#include "sim_internal.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -583,6 +583,37 @@ static int parse_loads(parse_ctx *c, const cJSON *root, ek_scene *s) {
   return 0;
 }
 
+// "integrator": {"type": NAME}, optional (default explicit). The type comes
+// first: the keys an integrator takes besides it depend on which one it is
+// (explicit takes none).
+static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *integ = cJSON_GetObjectItemCaseSensitive(root, "integrator");
+  if (!integ)
+    return 0;
+  const char *type = NULL;
+  const cJSON *node = NULL;
+  int rc = want_object(c, integ, "integrator");
+  if (!rc)
+    rc = get_string(c, integ, "integrator", "type", 1, &type, &node);
+  if (rc)
+    return rc;
+  int found = -1;
+  for (int i = 0; i < EK_INTEGRATOR_COUNT; ++i)
+    if (strcmp(type, sim_integrators[i]->name) == 0)
+      found = i;
+  if (found < 0) {
+    char list[256] = "";
+    for (int i = 0; i < EK_INTEGRATOR_COUNT; ++i) {
+      strncat(list, sim_integrators[i]->name, sizeof list - strlen(list) - 1);
+      if (i + 1 < EK_INTEGRATOR_COUNT)
+        strncat(list, ", ", sizeof list - strlen(list) - 1);
+    }
+    return bad(c, "integrator.type", node, "unknown integrator (known: %s)", list);
+  }
+  s->integrator = (ek_integrator_type)found;
+  return check_keys(c, integ, "integrator", (const char *const[]){"type", NULL});
+}
+
 // ---------------------------------------------------------------- entry
 
 static void scene_defaults(ek_scene *s) {
@@ -592,6 +623,7 @@ static void scene_defaults(ek_scene *s) {
   s->precision = 64;
   s->scatter = EK_SCATTER_AUTO;
   s->svd.isa = EK_ISA_AUTO;
+  s->integrator = EK_INTEGRATOR_EXPLICIT;
   s->young = NAN;
   s->poisson = NAN;
   s->output_every = 1;
@@ -637,7 +669,7 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
     rc = check_keys(&c, root, "",
                     (const char *const[]){"description", "mesh", "initial", "material", "precision",
                                           "isa", "scatter", "svd", "boundary", "gravity", "ground",
-                                          "damping", "dt", "steps", "output", NULL});
+                                          "damping", "dt", "steps", "integrator", "output", NULL});
   if (!rc) {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (d && !cJSON_IsString(d))
@@ -655,6 +687,8 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
     rc = parse_boundary(&c, root, &s);
   if (!rc)
     rc = parse_loads(&c, root, &s);
+  if (!rc)
+    rc = parse_integrator(&c, root, &s);
   cJSON_Delete(root);
   if (rc)
     return rc;

@@ -129,7 +129,7 @@ static long check_file(hid_t file, size_t nv, size_t nt, const double *X, const 
   int64_t *step = malloc((size_t)(nframes + 1) * sizeof(int64_t));
   for (long k = 0; k < nframes; ++k) {
     fill_frame(k, nv, nt, x, f[0], f[1], f[2]);
-    static const char *names[] = {"/frames/J", "/frames/smin", "/frames/energy_density"};
+    static const char *names[] = {"/frames/J", "/frames/smin", "/frames/energy_density_from_rest"};
     if (read_row(file, "/frames/positions", k, nv, xr)) {
       printf("  frame %ld: cannot read positions\n", k);
       bad++;

@@ -170,6 +170,18 @@ static const bad_case bad_cases[] = {
     {"initial scale 0",
      "{" MESH ", " MAT ", " TAIL ", \"initial\": {\"scale\": [1, 0, 1]}}",
      {"initial.scale[1] = 0", "> 0"}},
+    {"unknown integrator",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"rk4\"}}",
+     {"integrator.type = \"rk4\"", "unknown integrator", "explicit"}},
+    {"integrator without type",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {}}",
+     {"integrator.type", "missing"}},
+    {"integrator not an object",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": \"explicit\"}",
+     {"integrator = \"explicit\"", "object"}},
+    {"unknown integrator key",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"explicit\", \"substeps\": 2}}",
+     {"integrator.substeps = 2", "unknown key"}},
     {"invalid JSON (line 2)", "{" MESH ",\n  " MAT " " TAIL "}", {"test.json:2:", "invalid JSON"}},
     {"not an object", "[1, 2, 3]", {"(top level) = [1,2,3]", "object"}},
 };
@@ -213,6 +225,11 @@ int main(int argc, char **argv) {
     snprintf(what, sizeof what, "shipped scene %s parses", shipped[i]);
     verdict(what, rc == 0 && s.dt > 0 && s.steps > 0 && s.output_file[0], detail);
   }
+  // No "integrator" key: explicit.
+  snprintf(path, sizeof path, "%s/drop.json", scenes_dir);
+  if (ek_scene_load(path, &s, err, sizeof err) == 0)
+    verdict("integrator defaults to explicit", s.integrator == EK_INTEGRATOR_EXPLICIT,
+            ek_scene_integrator_name(s.integrator));
   snprintf(path, sizeof path, "%s/cantilever.json", scenes_dir);
   if (ek_scene_load(path, &s, err, sizeof err) == 0) {
     // E = 1e8, nu = 0: mu = E / 2, lambda = 0.
@@ -254,6 +271,12 @@ int main(int argc, char **argv) {
                       "test.json", ".", &s, err, sizeof err);
   verdict("twist axis normalised",
           rc == 0 && close_to(s.bc[0].axis[1], 0.6) && close_to(s.bc[0].axis[2], 0.8), err);
+  rc = ek_scene_parse("{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"explicit\"}}",
+                      "test.json", ".", &s, err, sizeof err);
+  verdict("integrator.type explicit",
+          rc == 0 && s.integrator == EK_INTEGRATOR_EXPLICIT &&
+              strcmp(ek_scene_integrator_name(s.integrator), "explicit") == 0,
+          err);
 
   // 2. Bad scenes: each refused with file, key path and value.
   int nbad = (int)(sizeof bad_cases / sizeof bad_cases[0]);

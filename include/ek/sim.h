@@ -1,19 +1,23 @@
-// ek simulation: scene files, the explicit loop and HDF5 frames.
+// ek simulation: scene files, the simulation loop and HDF5 frames.
 //
 // A scene (JSON, parsed by ek_scene_load) names a mesh (file or box
 // generator), a material, the precision of the force kernel, the SVD knobs,
-// boundary conditions, gravity, a ground plane, damping, the time step and
-// the output. Axes: z is up; the ground is the plane z = height.
+// boundary conditions, gravity, a ground plane, damping, the time step, the
+// integrator and the output. Axes: z is up; the ground is the plane
+// z = height.
 //
-// The explicit loop (ek_sim_*) is symplectic Euler with the FVM force of
-// fvm.h (Teran et al. 2003, seed 004):
-//   v += dt M^-1 (f(x) + M g - c M v);  x += dt v
-// with lumped masses M, mass-proportional damping c, pinned and prescribed
-// vertices and a friction-free ground (position projected onto the plane,
-// normal velocity into the ground zeroed). Positions and velocities are kept
-// in double; the force kernel runs in the scene's precision (f32 converts x
-// to float once per step). Corotated linear refreshes R^n per tet from the
-// positions at the start of every step (seed 000: R^n = polar(F^n)).
+// The loop (ek_sim_*) is a simulation core shared by every integrator
+// (state, lumped masses M, pinned and prescribed vertices, a friction-free
+// ground: position projected onto the plane, normal velocity into the
+// ground zeroed; energies, per-tet fields, timing) and one integrator, the
+// scene's "integrator":
+//   explicit  symplectic Euler with the FVM force of fvm.h (Teran et al.
+//             2003, seed 004) and mass-proportional damping c:
+//               v += dt M^-1 (f(x) + M g - c M v);  x += dt v
+// Positions and velocities are kept in double; the force kernel runs in the
+// scene's precision (f32 converts x to float once per force evaluation).
+// Corotated linear refreshes R^n per tet from the positions at the start of
+// every step (seed 000: R^n = polar(F^n)).
 //
 // Scene file keys (required ones marked *; every other key is an error):
 //   description   free text
@@ -36,19 +40,21 @@
 //   ground        {"height": z}
 //   damping       c >= 0, 1/s (default 0)
 //   dt*, steps*   seconds, count
+//   integrator    {"type": "explicit"} (default: explicit)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
 //
 // Frames (ek_frames_*): one HDF5 file with the rest mesh once and, per
 // output frame, positions and per-tet fields (J, smallest singular value,
-// energy density) and the time, flushed every frame, plus an XDMF file beside
-// it (same name, extension .xmf, the XDMF extension ParaView
-// also reads) so ParaView opens the time series.
+// energy density measured from the rest shape) and the time, flushed every
+// frame, plus an XDMF file beside it (same name, extension .xmf, the XDMF
+// extension ParaView also reads) so ParaView opens the time series.
 #ifndef EK_SIM_H
 #define EK_SIM_H
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "core.h"
 #include "fvm.h"
@@ -85,6 +91,13 @@ extern "C" {
 #define EK_SIM_CANTILEVER_TOL 0.05
 // Crushed and released cube (invertible model): |V - V0| / V0 at rest.
 #define EK_SIM_VOLUME_TOL 0.01
+// Checked by tests/test_sim_core.c: the frames' energy density
+// (ek_sim_tet_fields, measured from the rest shape) against rounding. At
+// rest, max_e |psi_e| / (mu + |lambda|) (a stress scale); after steps,
+// |sum_e V0_e psi_e - elastic| / sum_e V0_e (|Psi(F_e)| + |Psi(F_rest,e)|)
+// (the cancellation-free size of the sum), elastic from ek_sim_energy. Both
+// sides evaluate the same Psi per tet; only the order of the sums differs.
+#define EK_SIM_ENERGY_FIELD_TOL 1e-12
 
 // Return code of ek_sim_step when an element left the model's domain (J <= 0
 // for neo-Hookean without clamp): the step is not applied, the message names
@@ -92,6 +105,12 @@ extern "C" {
 #define EK_SIM_EINVERTED (-10)
 
 // ---------------------------------------------------------------- scenes
+
+// Time integrators, the scene's "integrator": {"type": NAME}.
+typedef enum {
+  EK_INTEGRATOR_EXPLICIT = 0, // "explicit": symplectic Euler (sim/explicit.c)
+  EK_INTEGRATOR_COUNT
+} ek_integrator_type;
 
 typedef enum {
   EK_BC_PIN,     // held at the initial position
@@ -144,6 +163,7 @@ typedef struct {
   double damping; // c of the mass-proportional damping force -c m v, 1/s
   double dt;
   long steps;
+  ek_integrator_type integrator;
   // Output ("" = none): frames every output_every steps (and the first).
   char output_file[EK_SCENE_PATH_MAX];
   long output_every;
@@ -163,6 +183,13 @@ ek_mesh *ek_scene_mesh(const ek_scene *scene, char *err, size_t errlen);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
 int ek_scene_model_from_name(const char *name, ek_model *model);
+// "explicit" etc. and a one-line description of an integrator; NULL if
+// unknown.
+const char *ek_scene_integrator_name(ek_integrator_type type);
+const char *ek_scene_integrator_description(ek_integrator_type type);
+// Print the scene integrator's part of the per-step pipeline (ek-sim
+// --explain) as lines numbered from `number`; returns the next number.
+int ek_scene_integrator_explain(const ek_scene *scene, FILE *out, int number);
 
 // ---------------------------------------------------------------- loop
 
@@ -190,10 +217,13 @@ typedef struct {
 // and destroys it after the sim). NULL with err on failure.
 ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
 void ek_sim_destroy(ek_sim *sim);
-// Advance one step. 0, EK_SIM_EINVERTED or < 0 (message in
-// ek_sim_last_error); on error the state is left as it was before the step.
+// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED or < 0
+// (message in ek_sim_last_error); on error the state is left as it was
+// before the step.
 int ek_sim_step(ek_sim *sim);
 const char *ek_sim_last_error(const ek_sim *sim);
+// Name of the integrator the sim steps with ("explicit").
+const char *ek_sim_integrator_name(const ek_sim *sim);
 // Tets with J <= 0 in the current state.
 size_t ek_sim_inverted_count(const ek_sim *sim);
 // Ask for the per-phase split on the next steps (costs extra passes).
@@ -216,7 +246,10 @@ double ek_sim_volume(const ek_sim *sim);
 // wave speed sqrt((lambda + 2 mu) / rho), h_min the smallest tet height.
 double ek_sim_cfl_dt(const ek_sim *sim);
 // Per-tet fields of the current state, caller tet order (any may be NULL):
-// J = det F, smallest signed singular value of F, energy density Psi(F).
+// J = det F, smallest signed singular value of F, and the energy density
+// measured from the rest shape, Psi(F) - Psi(F_rest) per unit rest volume
+// (0 at rest for every model; sum_e V0_e psi_e is ek_sim_energy's elastic
+// energy).
 int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
 // Number of vertices held by a boundary condition right now.
 size_t ek_sim_constrained_count(const ek_sim *sim);
@@ -230,7 +263,11 @@ typedef struct ek_frames ek_frames;
 //   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
 //   /frames/time     nframes double        /frames/step nframes int64
 //   /frames/positions nframes x nverts x 3 double
-//   /frames/J, /frames/smin, /frames/energy_density  nframes x ntets double
+//   /frames/J, /frames/smin                nframes x ntets double
+//   /frames/energy_density_from_rest       nframes x ntets double
+// The XDMF names the cell attributes as the datasets. The energy density is
+// the `psi` ek_frames_write is given; ek-sim writes ek_sim_tet_fields' (from
+// the rest shape: 0 at rest, and it sums to the elastic energy).
 // The file is written in HDF5's single-writer/multiple-reader mode and
 // flushed after each frame, so a killed writer leaves a consistent file; the
 // number of complete frames is the length of /frames/time (written last).
@@ -238,7 +275,8 @@ typedef struct ek_frames ek_frames;
 // `h5clear -s FILE`).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
-// Append one frame; J, smin, psi may be NULL (written as NaN).
+// Append one frame; J, smin, psi (energy density from the rest shape) may
+// be NULL (written as NaN).
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen);
 long ek_frames_count(const ek_frames *fr);

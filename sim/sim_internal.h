@@ -1,0 +1,111 @@
+// Internal: the simulation core shared by the integrators (sim/sim_core.c)
+// and the integrator interface (one file per integrator: sim/explicit.c).
+// Not installed.
+//
+// The core owns what every integrator needs: the state, lumped masses,
+// boundary conditions, the ground, energies, per-tet fields, the CFL
+// estimate, R^n for corotated linear, the force evaluation in the scene's
+// precision, the inverted-element report and the timing. An integrator owns
+// one step and nothing else. ek_sim_step (core) refreshes R^n from x^n
+// (seed 000), calls the integrator's step, and only if that succeeds makes
+// (x_next, v_next) the state at t_{n+1} = t_n + dt; so a failed step leaves
+// the state as it was, whatever the integrator wrote.
+#ifndef EK_SIM_INTERNAL_H
+#define EK_SIM_INTERNAL_H
+
+#include <ek/sim.h>
+#include <stdio.h>
+
+// One time integrator. A new one is a file sim/<name>.c defining a
+// `const sim_integrator sim_integrator_<name>`, an ek_integrator_type value
+// in sim.h and a row in sim_integrators (sim_core.c).
+typedef struct {
+  const char *name;        // the scene's integrator.type
+  const char *description; // one line, printed by ek-sim --explain
+  // Print this integrator's part of the per-step pipeline (after the force
+  // kernel lines) as lines numbered from `number`; returns the next number.
+  int (*explain)(const ek_scene *scene, FILE *out, int number);
+  // Called once the core is built (state, masses, boundary conditions, CFL
+  // estimate): check what this integrator needs of the scene and build its
+  // private data (*data may stay NULL). 0, or < 0 with the message in
+  // sim->error. NULL: nothing to do.
+  int (*create)(ek_sim *sim, void **data);
+  // Free the private data; NULL: nothing to free.
+  void (*destroy)(void *data);
+  // One step from t_n = sim->t, (sim->x, sim->v), R^n refreshed: write the
+  // state at t_{n+1} = t_n + dt into sim->x_next and sim->v_next, with the
+  // boundary conditions and the ground applied at t_{n+1}. Calls the core
+  // for forces (sim_forces, sim_check_forces). 0, or EK_SIM_EINVERTED / < 0
+  // with the message in sim->error.
+  int (*step)(ek_sim *sim, void *data);
+} sim_integrator;
+
+extern const sim_integrator sim_integrator_explicit;
+// Indexed by ek_integrator_type.
+extern const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT];
+
+struct ek_sim {
+  ek_scene scene;
+  const ek_mesh *mesh;
+  ek_material mat;
+  size_t nv, nt;
+  double *x, *v;           // nv x 3: the state at t_n
+  double *x_next, *v_next; // the candidate state at t_{n+1} a step writes
+  double *x0;              // initial positions, which boundary conditions move
+  double *mass, *inv_mass; // lumped; inv_mass 0 for a massless vertex
+  signed char *bc_of;      // per vertex: index of its boundary condition, -1 free
+  double *f;               // nv x 3: the force of the last sim_forces call
+  float *xf, *ff;          // f32 force path
+  double *F, *R;           // nt x 9, corotated linear only: R^n
+  // Energy density at the rest shape per tet, subtracted from the frames'
+  // field; NULL for corotated linear, which is 0 there.
+  double *psi_rest;
+  ek_fvm_opts fvm;
+  int time_phases;
+  double t;
+  long n;
+  double cfl_dt, h_min, wave_speed;
+  double elastic_rest; // E(X): not 0 for every model (stable neo-Hookean)
+  ek_sim_times times;
+  const sim_integrator *integrator;
+  void *integrator_data;
+  char error[512];
+};
+
+double sim_now(void);
+// Message into sim->error; returns EK_EINVAL.
+int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// sim->f = f(x), x nv x 3 in double, through the FVM kernel in the scene's
+// precision (f32 converts x to float and f back), with the phase split
+// when sim->time_phases is set. Timed into sim->times.
+int sim_forces(ek_sim *sim, const double *x);
+// 0 if sim->f is finite. Otherwise the step cannot go on: EK_SIM_EINVERTED
+// naming the inverted tets of x (the model is undefined there), or
+// EK_EINVAL for a non-finite force with no inverted tet (e.g. dt far above
+// the CFL limit); message in sim->error.
+int sim_check_forces(ek_sim *sim, const double *x);
+// Position and velocity that condition b prescribes at time t to a vertex
+// whose initial position is x0.
+void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3], double v[3]);
+
+// The boundary condition holding vertex i at time t, NULL if it is free then
+// (a released condition lets its vertices go).
+static inline const ek_scene_bc *sim_bc_at(const ek_sim *sim, size_t i, double t) {
+  int b = sim->bc_of[i];
+  if (b < 0)
+    return NULL;
+  const ek_scene_bc *bc = &sim->scene.bc[b];
+  return bc->release && t >= bc->until ? NULL : bc;
+}
+
+// Friction-free ground contact of one vertex: below the plane it is put onto
+// it and loses its velocity into it.
+static inline void sim_ground_contact(const ek_sim *sim, double x[3], double v[3]) {
+  if (sim->scene.has_ground && x[2] < sim->scene.ground_height) {
+    x[2] = sim->scene.ground_height;
+    if (v[2] < 0)
+      v[2] = 0;
+  }
+}
+
+#endif
