@@ -406,7 +406,7 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
 int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
-  omp_env_defaults("ek-bench", argv, 0);
+  omp_env_defaults("ek-bench", argv);
   static ek_bench bench;
   ek_bench *b = &bench;
   b->timer = ek_timer_defaults();

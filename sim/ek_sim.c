@@ -29,18 +29,18 @@ static double now(void) {
 }
 
 static void usage(FILE *out) {
-  fprintf(out, "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
-               "[--force] [--explain]\n"
-               "  --steps N     override the scene's step count\n"
-               "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
-               "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
-               "  --no-output   write no frames (overrides the scene's output.file)\n"
-               "  --force       overwrite existing output files\n"
-               "  --explain     print the pipeline the scene runs, run nothing\n"
-               "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
-               "pinned, one per core) and OMP_WAIT_POLICY to passive (a waiting thread sleeps:\n"
-               "on a shared machine a spinning one can hold the core another thread needs);\n"
-               "values the user set are kept.\n");
+  fprintf(out,
+          "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
+          "[--force] [--explain]\n"
+          "  --steps N     override the scene's step count\n"
+          "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
+          "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
+          "  --no-output   write no frames (overrides the scene's output.file)\n"
+          "  --force       overwrite existing output files\n"
+          "  --explain     print the pipeline the scene runs, run nothing\n"
+          "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
+          "pinned, one per core); values the user set are kept. Meshes below a few\n"
+          "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
 }
 
 static int compare_double(const void *a, const void *b) {
@@ -180,7 +180,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
 }
 
 int main(int argc, char **argv) {
-  omp_env_defaults("ek-sim", argv, 1);
+  omp_env_defaults("ek-sim", argv);
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
   int force = 0, do_explain = 0, no_output = 0;

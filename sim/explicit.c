@@ -14,10 +14,9 @@
 #include <stdio.h>
 
 // Up to this many vertices the update loop runs on one thread. It takes
-// about 5 ns per vertex, and waking the sleeping thread of ek-sim's
-// OMP_WAIT_POLICY=passive took 12-60 us on the 2-core development machine:
-// a second thread pays off only from several thousand vertices, and more
-// on a loaded machine.
+// about 5 ns per vertex, and waking a sleeping OpenMP thread took 12-90 us
+// on the 2-core development machine: a second thread pays off only from
+// several thousand vertices, and more on a loaded machine.
 #define EXPLICIT_PARALLEL_GRAIN 20000
 
 static int explicit_explain(const ek_scene *s, FILE *out, int number) {

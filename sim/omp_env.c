@@ -18,11 +18,9 @@ static int set_default(const char *name, const char *value) {
   return 1;
 }
 
-void omp_env_defaults(const char *program, char **argv, int passive_wait) {
+void omp_env_defaults(const char *program, char **argv) {
   int set = set_default("OMP_PROC_BIND", "close");
   set |= set_default("OMP_PLACES", "cores");
-  if (passive_wait)
-    set |= set_default("OMP_WAIT_POLICY", "passive");
   if (set && !getenv(REEXEC_GUARD)) {
     setenv(REEXEC_GUARD, "1", 1);
     execv("/proc/self/exe", argv);

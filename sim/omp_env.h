@@ -6,14 +6,15 @@
 // Call first thing in main. For each of these the user has not set, set it:
 //   OMP_PROC_BIND=close, OMP_PLACES=cores: one thread per core, thread k on
 //     core k, so a thread keeps its caches and two never share a core;
-//   OMP_WAIT_POLICY=passive (when passive_wait): a thread that waits at a
-//     barrier sleeps instead of spinning. On a shared machine a spinning
-//     thread can hold the core that the thread it waits for needs.
+// The wait policy stays libgomp's (spin a while, then sleep): with
+// OMP_WAIT_POLICY=passive every fork woke a sleeping thread, 60-90 us on
+// the 2-core machine, which made the small scenes 2.6-3.5x slower at 2
+// threads (tools/scene_threads.sh; issue 8's closing note).
 // libgomp reads OMP_* variables once, when it loads, before main runs, so
 // setting them takes effect only in a fresh process image: if any was set,
 // the program re-executes itself (/proc/self/exe, same argv) once. Returns
 // when nothing had to be set, or when the re-execution failed (a note on
 // stderr names `program`; it then runs with libgomp's defaults).
-void omp_env_defaults(const char *program, char **argv, int passive_wait);
+void omp_env_defaults(const char *program, char **argv);
 
 #endif

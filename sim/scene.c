@@ -175,36 +175,14 @@ static int get_count(parse_ctx *c, const cJSON *obj, const char *parent, const c
 
 // ---------------------------------------------------------------- models
 
-static const struct {
-  ek_model model;
-  const char *name;
-} model_names[] = {
-    {EK_MODEL_LINEAR, "linear"},
-    {EK_MODEL_STVK, "stvk"},
-    {EK_MODEL_COROTATED_LINEAR, "corotated_linear"},
-    {EK_MODEL_FIXED_COROTATED, "fixed_corotated"},
-    {EK_MODEL_ARAP, "arap"},
-    {EK_MODEL_PSI_R, "psi_r"},
-    {EK_MODEL_NEO_HOOKEAN, "neo_hookean"},
-    {EK_MODEL_STABLE_NEO_HOOKEAN, "stable_neo_hookean"},
-};
-#define N_MODELS (sizeof model_names / sizeof model_names[0])
-
+// The names live in the model table (kernels/material/models.h): scenes
+// take the long names or the short ones.
 const char *ek_scene_model_name(ek_model model) {
-  for (size_t i = 0; i < N_MODELS; ++i)
-    if (model_names[i].model == model)
-      return model_names[i].name;
-  return NULL;
+  return (unsigned)model < EK_MODEL_COUNT ? ek_model_long_name(model) : NULL;
 }
 
 int ek_scene_model_from_name(const char *name, ek_model *model) {
-  for (size_t i = 0; i < N_MODELS; ++i)
-    if (strcmp(model_names[i].name, name) == 0 ||
-        strcmp(ek_model_name(model_names[i].model), name) == 0) {
-      *model = model_names[i].model;
-      return 0;
-    }
-  return -1;
+  return ek_model_from_name(name, model) == EK_OK ? 0 : -1;
 }
 
 // ---------------------------------------------------------------- sections
@@ -308,9 +286,9 @@ static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {
     return rc;
   if (ek_scene_model_from_name(model, &s->material.model) != 0) {
     char list[256] = "";
-    for (size_t i = 0; i < N_MODELS; ++i) {
-      strncat(list, model_names[i].name, sizeof list - strlen(list) - 1);
-      if (i + 1 < N_MODELS)
+    for (int i = 0; i < EK_MODEL_COUNT; ++i) {
+      strncat(list, ek_model_long_name((ek_model)i), sizeof list - strlen(list) - 1);
+      if (i + 1 < EK_MODEL_COUNT)
         strncat(list, ", ", sizeof list - strlen(list) - 1);
     }
     return bad(c, "material.model", model_node, "unknown model (known: %s)", list);
@@ -419,7 +397,7 @@ static int parse_kernels(parse_ctx *c, const cJSON *root, ek_scene *s) {
       (rc = check_keys(c, svd, "svd", (const char *const[]){"sweeps", "rsqrt", NULL})))
     return rc;
   long sweeps = 0;
-  if ((rc = get_count(c, svd, "svd", "sweeps", 0, 0, 8, &sweeps)))
+  if ((rc = get_count(c, svd, "svd", "sweeps", 0, 0, EK_SVD3_MAX_SWEEPS, &sweeps)))
     return rc;
   s->svd.sweeps = (int)sweeps;
   str = NULL;

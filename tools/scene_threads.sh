@@ -11,7 +11,7 @@
 # that run the fused force kernel), 3 repetitions, build/release/bin/ek-sim.
 # Runs alternate 1T, 2T, 1T, 2T, ... so that a slow spell of the machine
 # hits both; each row is the median over the repetitions. ek-sim's own
-# OpenMP defaults apply (threads pinned, passive waiting) unless OMP_*
+# OpenMP defaults apply (threads pinned) unless OMP_*
 # variables are set in the environment.
 set -euo pipefail
 

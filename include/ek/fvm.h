@@ -66,14 +66,16 @@ typedef enum {
 #define EK_FVM_PARTS 4
 
 // Meshes with fewer tets than these run each force evaluation on the
-// calling thread alone: below about 10 us of work, waking a second thread
-// costs more than it saves. Measured on the 2-core Zen 4 machine with
-// libgomp's default wait policy, median of 201 x 20 calls: stable
-// neo-Hookean f32 at 384 tets 6.6 us at 1 thread, 7.3 us at 2; at 1296 tets
-// 21.0 / 16.4 us; fixed corotated f64 (SVD) at 384 tets 31.2 / 20.6 us.
-// (With OMP_WAIT_POLICY=passive a wake-up cost 60-90 us there.)
-#define EK_FVM_PARALLEL_MIN_TETS 1024
-#define EK_FVM_PARALLEL_MIN_TETS_SVD 256
+// calling thread alone: below some 30 us of work, waking a second thread
+// saves too little to be sure of a gain on a shared machine (and on a
+// loaded one the woken thread may wait for its core). Measured on the
+// 2-core Zen 4 machine with libgomp's default wait policy, median of 201 x
+// 20 calls, 1 / 2 threads: stable neo-Hookean f32 at 1296 tets 21.0 / 16.4
+// us, at 3072 tets 47.5 / 34.7 us, at 6000 tets 91.3 / 60.4 us; fixed
+// corotated f64 (SVD) at 384 tets 31.2 / 20.6 us. (With
+// OMP_WAIT_POLICY=passive a wake-up cost 60-90 us there.)
+#define EK_FVM_PARALLEL_MIN_TETS 4096
+#define EK_FVM_PARALLEL_MIN_TETS_SVD 512
 
 // Name of a strategy ("auto", "colored", "thread_buffers", "gather",
 // "atomic"); "invalid" for others.
