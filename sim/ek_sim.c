@@ -109,13 +109,20 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
          isa_ok ? ek_isa_name(isa) : "UNAVAILABLE",
          s->svd.isa == EK_ISA_AUTO ? " (auto: best this CPU runs)" : " (forced by the scene)",
          threads);
+  ek_model_needs need = ek_model_need(m->model, m->clamp);
+  long grain = need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD ? EK_FVM_PARALLEL_MIN_TETS_SVD
+                                                              : EK_FVM_PARALLEL_MIN_TETS;
+  long box_tets = 6L * s->box_cells[0] * s->box_cells[1] * s->box_cells[2];
+  if (threads > 1 && !s->mesh_file[0] && box_tets < grain)
+    printf("           the force runs on 1 thread: %ld tets, below the parallel grain of %ld "
+           "(EK_FVM_PARALLEL_MIN_TETS%s in fvm.h)\n",
+           box_tets, grain, grain == EK_FVM_PARALLEL_MIN_TETS ? "" : "_SVD");
   for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; ++i)
     if (!ek_isa_available((ek_isa)i))
       printf("           %s: skipped (not built or not supported by this CPU)\n",
              ek_isa_name((ek_isa)i));
   printf("integrator %s: %s\n", ek_scene_integrator_name(s->integrator),
          ek_scene_integrator_description(s->integrator));
-  ek_model_needs need = ek_model_need(m->model, m->clamp);
   printf("pipeline   per step:\n");
   int k = 1;
   if (need == EK_NEEDS_R_INPUT)
