@@ -3,6 +3,7 @@
 #define EK_EK_H
 #include "batch.h"
 #include "core.h"
+#include "elements.h"
 #include "fvm.h"
 #include "material.h"
 #include "mesh.h"
