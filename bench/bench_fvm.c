@@ -39,6 +39,9 @@ typedef struct {
   float *x32, *f32;
   double *x64, *f64;
   double *R; // identity-free rotations for corotated linear (all tets)
+  // The same as per-element state (elements.h), f32 and f64: the form the
+  // simulation core hands the force kernel.
+  ek_tet_state *R32, *R64;
 } fvm_mesh_case;
 
 // ~1e4, 1e5, 1e6 tets.
@@ -103,6 +106,13 @@ static int mesh_setup(ek_bench *b, fvm_mesh_case *mc) {
     double R[9] = {ca, -sa, 0, sa, ca, 0, 0, 0, 1};
     memcpy(mc->R + e * 9, R, sizeof R);
   }
+  mc->R32 = ek_tet_state_create(ek_mesh_elements(mc->mesh), 9, 0);
+  mc->R64 = ek_tet_state_create(ek_mesh_elements(mc->mesh), 9, 1);
+  if (!mc->R32 || !mc->R64 || ek_tet_state_set_f64(mc->R32, mc->R) ||
+      ek_tet_state_set_f64(mc->R64, mc->R)) {
+    ek_bench_fail(b, "fvm: per-element state: %s", ek_last_error());
+    return -1;
+  }
   return 0;
 }
 
@@ -147,15 +157,16 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
     ctx.mat = models[model].mat;
     ctx.opts.scatter = s;
     ctx.opts.isa = isa;
-    ctx.opts.R = ctx.mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R : NULL;
+    if (ctx.mat.model == EK_MODEL_COROTATED_LINEAR)
+      ctx.opts.R_state = f32 ? mc->R32 : mc->R64;
     ctx.f32 = f32;
     ctx.b = b;
   }
   snprintf(knobs, sizeof knobs, "model=%s;scatter=%s;tets=%zu;ncolors=%d", models[model].name,
            ek_scatter_name(s), ntets, mc->mesh ? ek_mesh_ncolors(mc->mesh) : 0);
   double real_bytes = f32 ? 4 : 8;
-  double verts_per_tet = (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) /
-                         (double)ntets;
+  double verts_per_tet =
+      (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) / (double)ntets;
   ek_bench_row row = {.name = name,
                       .family = "fvm",
                       .isa = isa,
@@ -205,6 +216,9 @@ int bench_fvm(ek_bench *b) {
   if (!ek_bench_listing(b))
     for (int size = 0; size < 3; size++) {
       fvm_mesh_case *mc = &sizes[size];
+      ek_tet_state_destroy(mc->R32);
+      ek_tet_state_destroy(mc->R64);
+      mc->R32 = mc->R64 = NULL;
       ek_mesh_destroy(mc->mesh);
       free(mc->x32);
       free(mc->f32);

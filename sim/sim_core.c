@@ -149,6 +149,8 @@ static int refresh_rotations(ek_sim *s) {
     ek_svd3_opts o = s->scene.svd;
     rc = ek_polar3_f64(s->nt, s->F, s->R, NULL, &o);
   }
+  if (rc == 0)
+    rc = ek_tet_state_set_f64(s->R_state, s->R);
   s->times.polar_refresh += sim_now() - t0;
   if (rc)
     return sim_fail(s, "corotated linear: refreshing R^n failed: %s", ek_last_error());
@@ -170,6 +172,7 @@ void ek_sim_destroy(ek_sim *s) {
   free(s->ff);
   free(s->F);
   free(s->R);
+  ek_tet_state_destroy(s->R_state);
   free(s->psi_rest);
   free(s->x_next);
   free(s->v_next);
@@ -307,6 +310,16 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
   s->fvm.svd_sweeps = scene->svd.sweeps;
   s->fvm.svd_exact_rsqrt = scene->svd.exact_rsqrt;
   s->fvm.R = s->R;
+  if (s->mat.model == EK_MODEL_COROTATED_LINEAR) {
+    s->R_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64);
+    if (!s->R_state) {
+      if (err && errlen)
+        snprintf(err, errlen, "%s: %s", scene->path, ek_last_error());
+      ek_sim_destroy(s);
+      return NULL;
+    }
+    s->fvm.R_state = s->R_state;
+  }
   if (refresh_rotations(s) != 0) {
     if (err && errlen)
       snprintf(err, errlen, "%s: %s", scene->path, s->error);
@@ -491,6 +504,7 @@ int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
   o.sigma_min = smin;
   o.psi = psi;
   o.phase_times = NULL;
+  o.R_state = NULL; // in the scene's precision; this pass is double and has R
   int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
   free(scratch);
   // Measured from the rest shape, like ek_sim_energy's elastic energy:

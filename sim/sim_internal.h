@@ -57,6 +57,7 @@ struct ek_sim {
   double *f;               // nv x 3: the force of the last sim_forces call
   float *xf, *ff;          // f32 force path
   double *F, *R;           // nt x 9, corotated linear only: R^n
+  ek_tet_state *R_state;   // R^n again, as the force kernel reads it (elements.h)
   // Energy density at the rest shape per tet, subtracted from the frames'
   // field; NULL for corotated linear, which is 0 there.
   double *psi_rest;

@@ -7,7 +7,8 @@
 // them on different threads); the vertex lists are sorted and complete.
 // ek_tets_create refuses bad arrays with the tet and value named. Checked
 // on box meshes from one cell to 384 000 tets (many chunks and phases) and
-// on a randomly renumbered box built from plain arrays.
+// on a randomly renumbered box built from plain arrays. Per-element state
+// round-trips through the Morton slots.
 #include <ek/elements.h>
 #include <ek/mesh.h>
 #include <math.h>
@@ -233,6 +234,40 @@ static void check_refusals(void) {
   ek_tets_destroy(el);
 }
 
+// Per-element state: set / get round trip through the Morton slots (f64
+// exact, f32 the float rounding), padding slots left at the identity.
+static void check_state(ek_rng *rng) {
+  char err[256];
+  ek_mesh *m = ek_mesh_box(5, 4, 3, 1, 1, 1, err, sizeof err);
+  const ek_tets *el = ek_mesh_elements(m);
+  size_t nt = el->ntets;
+  double *in = malloc(nt * 9 * sizeof(double)), *out = malloc(nt * 9 * sizeof(double));
+  for (size_t i = 0; i < nt * 9; i++)
+    in[i] = ek_rng_gauss(rng);
+  int ok64 = 0, ok32 = 1, pad = 1;
+  ek_tet_state *s64 = ek_tet_state_create(el, 9, 1), *s32 = ek_tet_state_create(el, 9, 0);
+  if (s64 && s32 && ek_tet_state_set_f64(s64, in) == 0 && ek_tet_state_get_f64(s64, out) == 0)
+    ok64 = memcmp(in, out, nt * 9 * sizeof(double)) == 0;
+  if (s64 && s32 && ek_tet_state_set_f64(s32, in) == 0 && ek_tet_state_get_f64(s32, out) == 0)
+    for (size_t i = 0; i < nt * 9; i++)
+      ok32 &= out[i] == (double)(float)in[i];
+  for (size_t sl = nt; s32 && sl < el->morton.nslots; sl++)
+    for (int k = 0; k < 9; k++)
+      pad &= ((const float *)s32->data)[((sl / 16) * 9 + (size_t)k) * 16 + sl % 16] ==
+             (k % 4 == 0 ? 1.0f : 0.0f);
+  verdict("per-element state", "f64 set/get round trip is exact", ok64);
+  verdict("per-element state", "f32 set/get gives the float rounding", ok32);
+  verdict("per-element state", "padding slots stay the identity", pad);
+  verdict("per-element state", "bad arguments refused",
+          !ek_tet_state_create(el, 0, 0) && !ek_tet_state_create(el, 9, 2) &&
+              !ek_tet_state_create(NULL, 9, 0) && ek_tet_state_set_f64(s32, NULL) == EK_EINVAL);
+  ek_tet_state_destroy(s64);
+  ek_tet_state_destroy(s32);
+  free(in);
+  free(out);
+  ek_mesh_destroy(m);
+}
+
 int main(int argc, char **argv) {
   uint64_t seed = ek_check_seed_arg(argc, argv, 5);
   printf("test_elements: seed %llu\n", (unsigned long long)seed);
@@ -244,6 +279,7 @@ int main(int argc, char **argv) {
   check_box(100, 1, 10);
   check_box(40, 40, 40);
   check_renumbered(&rng);
+  check_state(&rng);
   printf("test_elements: %s (%d failures)\n", failures ? "FAIL" : "PASS", failures);
   return failures ? 1 : 0;
 }

@@ -62,6 +62,27 @@ int ek_tets_nphases(const ek_tets *el);
 size_t ek_tets_nchunks(const ek_tets *el);
 size_t ek_tets_colored_slots(const ek_tets *el);
 
+// Per-element state a loop keeps between passes, stored with the element
+// blocks: `planes` values per tet in the Morton order's AoSoA layout (block
+// b, plane k, lane l at [(b * planes + k) * LANES + l], LANES = 16 for f32,
+// 8 for f64). Corotated linear's rotation R^n is 9 planes, refreshed once a
+// step and read by every force evaluation of the step
+// (ek_fvm_opts.R_state); an implicit loop keeps the material eigensystem of
+// its gradient pass this way for its Hessian products.
+typedef struct ek_tet_state ek_tet_state;
+
+// planes 1..81; f64 0 (float) or 1 (double). NULL, message in
+// ek_last_error, on a bad argument or no memory. The state starts as the
+// identity (9 planes) or zero (other plane counts) in every slot.
+ek_tet_state *ek_tet_state_create(const ek_tets *el, int planes, int f64);
+void ek_tet_state_destroy(ek_tet_state *st);
+int ek_tet_state_planes(const ek_tet_state *st);
+// Caller order <-> state: values is ntets x planes (per tet, row-major),
+// rounded to the state's precision on set. Padding slots keep their
+// identity / zero. EK_OK or EK_EINVAL (NULL argument).
+int ek_tet_state_set_f64(ek_tet_state *st, const double *values);
+int ek_tet_state_get_f64(const ek_tet_state *st, double *values);
+
 #ifdef __cplusplus
 }
 #endif

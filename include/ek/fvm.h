@@ -100,7 +100,12 @@ typedef struct {
 //   svd_sweeps, svd_exact_rsqrt: as in ek_svd3_opts (used by models that
 //     take an SVD: fixed corotated, ARAP, clamped models).
 //   R: ntets x 9 row-major rotations in caller tet order; read only for
-//     EK_MODEL_COROTATED_LINEAR (required there, seed 000).
+//     EK_MODEL_COROTATED_LINEAR (required there, seed 000, unless R_state).
+//   R_state: the same rotations as per-element state of these elements
+//     (elements.h: 9 planes, in the call's precision); when set, the force
+//     reads it instead of R (a plane load per block in the Morton order
+//     instead of a per-lane gather of caller-order doubles). The per-tet
+//     psi output still reads R.
 //   J, sigma_min, psi: optional per-tet outputs (ntets each, caller tet
 //     order): det F, the smallest signed singular value of F, and the
 //     energy density Psi(F) (per unit rest volume). Computed in double from
@@ -112,6 +117,7 @@ typedef struct {
   int svd_sweeps;
   int svd_exact_rsqrt;
   const double *R;
+  const ek_tet_state *R_state;
   double *J;
   double *sigma_min;
   double *psi;

@@ -5,6 +5,8 @@
 // incidence lists. Built once per mesh, at baseline ISA.
 #include "tets.h"
 
+#include "../kernels.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -44,6 +46,7 @@ void ek_tets_destroy(ek_tets *el) {
   free(el->chunk_slot);
   free(el->chunk_group);
   free(el->group_slot);
+  free(el->morton_slot);
   free(el->vert_start);
   free(el->vert_entries);
   free(el);
@@ -405,6 +408,11 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   if (morton_order(el, X, el->morton.slot_tet) || blocks_pack(el, &el->morton) || incidence(el) ||
       colored_order(el))
     goto oom;
+  el->morton_slot = malloc(ntets * sizeof(int32_t));
+  if (!el->morton_slot)
+    goto oom;
+  for (size_t s = 0; s < ntets; s++)
+    el->morton_slot[el->morton.slot_tet[s]] = (int32_t)s;
   return el;
 oom:
   ek_tets_destroy(el);
@@ -421,3 +429,80 @@ int ek_tets_ncolors(const ek_tets *el) { return el ? el->ncolors : 0; }
 int ek_tets_nphases(const ek_tets *el) { return el ? el->nphases : 0; }
 size_t ek_tets_nchunks(const ek_tets *el) { return el ? el->nchunks : 0; }
 size_t ek_tets_colored_slots(const ek_tets *el) { return el ? el->colored.nslots : 0; }
+
+// ---- Per-element state ----
+
+ek_tet_state *ek_tet_state_create(const ek_tets *el, int planes, int f64) {
+  if (!el || planes < 1 || planes > 81 || (f64 != 0 && f64 != 1)) {
+    ek_set_error("ek_tet_state_create: elements %p, planes = %d (1..81), f64 = %d (0 or 1)",
+                 (const void *)el, planes, f64);
+    return NULL;
+  }
+  ek_tet_state *st = calloc(1, sizeof *st);
+  size_t lanes = f64 ? EK_LANES_F64 : EK_LANES_F32, n = el->morton.nslots * (size_t)planes;
+  if (st)
+    st->data = ek_alloc(n * (f64 ? sizeof(double) : sizeof(float)));
+  if (!st || !st->data) {
+    free(st);
+    ek_set_error("ek_tet_state_create: out of memory (%zu values)", n);
+    return NULL;
+  }
+  st->el = el;
+  st->planes = planes;
+  st->f64 = f64;
+  for (size_t i = 0; i < n; i++) {
+    size_t k = i / lanes % (size_t)planes; // plane of value i
+    double v = planes == 9 && k % 4 == 0 ? 1 : 0;
+    if (f64)
+      ((double *)st->data)[i] = v;
+    else
+      ((float *)st->data)[i] = (float)v;
+  }
+  return st;
+}
+
+void ek_tet_state_destroy(ek_tet_state *st) {
+  if (!st)
+    return;
+  ek_free(st->data);
+  free(st);
+}
+
+int ek_tet_state_planes(const ek_tet_state *st) { return st ? st->planes : 0; }
+
+// Index of (slot, plane k) in the state's AoSoA data.
+static size_t state_index(const ek_tet_state *st, size_t slot, int k) {
+  size_t lanes = st->f64 ? EK_LANES_F64 : EK_LANES_F32;
+  return ((slot / lanes) * (size_t)st->planes + (size_t)k) * lanes + slot % lanes;
+}
+
+int ek_tet_state_set_f64(ek_tet_state *st, const double *values) {
+  if (!st || !values) {
+    ek_set_error("ek_tet_state_set_f64: NULL argument");
+    return EK_EINVAL;
+  }
+  for (size_t t = 0; t < st->el->ntets; t++)
+    for (int k = 0; k < st->planes; k++) {
+      size_t i = state_index(st, (size_t)st->el->morton_slot[t], k);
+      double v = values[t * (size_t)st->planes + (size_t)k];
+      if (st->f64)
+        ((double *)st->data)[i] = v;
+      else
+        ((float *)st->data)[i] = (float)v;
+    }
+  return EK_OK;
+}
+
+int ek_tet_state_get_f64(const ek_tet_state *st, double *values) {
+  if (!st || !values) {
+    ek_set_error("ek_tet_state_get_f64: NULL argument");
+    return EK_EINVAL;
+  }
+  for (size_t t = 0; t < st->el->ntets; t++)
+    for (int k = 0; k < st->planes; k++) {
+      size_t i = state_index(st, (size_t)st->el->morton_slot[t], k);
+      values[t * (size_t)st->planes + (size_t)k] =
+          st->f64 ? ((const double *)st->data)[i] : (double)((const float *)st->data)[i];
+    }
+  return EK_OK;
+}

@@ -43,9 +43,20 @@ struct ek_tets {
   size_t nchunks, ngroups;
   size_t *phase_chunk, *chunk_slot, *chunk_group, *group_slot;
 
+  // Caller tet -> its slot in the Morton order (ntets).
+  int32_t *morton_slot;
+
   // Vertex incidence over the Morton order: entries vert_entries[
   // vert_start[v] .. vert_start[v+1]) are slot * 4 + corner, ascending.
   int32_t *vert_start, *vert_entries;
+};
+
+// Per-element state (elements.h): nblocks * planes * LANES values of the
+// precision, Morton slot order.
+struct ek_tet_state {
+  const ek_tets *el;
+  int planes, f64;
+  void *data;
 };
 
 #endif

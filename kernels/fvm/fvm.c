@@ -281,11 +281,12 @@ static const ek_tet_blocks *blocks_for(const ek_tets *el, ek_scatter s) {
   return s == EK_SCATTER_COLORED ? &el->colored : &el->morton;
 }
 
-static fvm_args args_for(fvm_args a, const ek_tet_blocks *bl) {
+static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl) {
   a.idx = BL_IDX(bl);
   a.dm_inv = BL_DMI(bl);
   a.v0 = BL_V0(bl);
   a.slot_tet = bl->slot_tet;
+  a.R_direct = a.R_planes && bl == &el->morton;
   return a;
 }
 
@@ -296,7 +297,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
                   real *f, ek_scatter s, const ek_svd3_opts *so, ek_isa isa,
                   ek_fvm_phase_times *pt) {
   const ek_tet_blocks *bl = blocks_for(el, s);
-  a = args_for(a, bl);
+  a = args_for(a, el, bl);
   size_t nb = bl->nslots / L;
   real *F = scratch_get(2, nb * 9 * L * 3 * sizeof(real));
   if (!F)
@@ -327,12 +328,19 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   pt->svd = takes_svd ? t2 - t1 : 0;
 
   if (mat->model == EK_MODEL_COROTATED_LINEAR) {
-    // The given rotations, caller order -> slot blocks (identity padding).
+    // The given rotations (state or caller order) -> slot blocks.
     for (size_t sl = 0; sl < bl->nslots; sl++) {
       int32_t t = bl->slot_tet[sl];
-      for (int k = 0; k < 9; k++)
-        R[((sl / L) * 9 + k) * L + sl % L] =
-            t >= 0 ? (real)a.R[(size_t)t * 9 + k] : (real)(k % 4 == 0);
+      for (int k = 0; k < 9; k++) {
+        real v = (real)(k % 4 == 0);
+        if (t >= 0 && a.R_planes) {
+          size_t ms = (size_t)el->morton_slot[t];
+          v = a.R_planes[((ms / L) * 9 + k) * L + ms % L];
+        } else if (t >= 0) {
+          v = (real)a.R[(size_t)t * 9 + k];
+        }
+        R[((sl / L) * 9 + k) * L + sl % L] = v;
+      }
     }
   }
   double t3 = now();
@@ -350,7 +358,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
 
 static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
                         ek_scatter s) {
-  a = args_for(a, blocks_for(el, s));
+  a = args_for(a, el, blocks_for(el, s));
   switch (s) {
   case EK_SCATTER_COLORED:
     scatter_colored(kt, el, a, f);
@@ -382,8 +390,16 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
   int rc = ek_material_check(mat);
   if (rc < 0)
     return rc;
-  if (mat->model == EK_MODEL_COROTATED_LINEAR && !o.R) {
-    ek_set_error("%s: corotated linear needs per-tet rotations (opts->R is NULL)", fn);
+  if (mat->model == EK_MODEL_COROTATED_LINEAR && (o.R_state ? !o.R && o.psi : !o.R)) {
+    ek_set_error("%s: corotated linear needs per-tet rotations (opts->R is NULL%s)", fn,
+                 o.R_state ? "; the psi output reads it" : " and so is opts->R_state");
+    return EK_EINVAL;
+  }
+  const ek_tet_state *st = o.R_state;
+  if (st && (st->el != el || st->planes != 9 || st->f64 != (sizeof(real) == 8))) {
+    ek_set_error("%s: opts->R_state must be a 9-plane state of these elements in the call's "
+                 "precision (got %d planes, %s, %s elements)",
+                 fn, st->planes, st->f64 ? "f64" : "f32", st->el == el ? "these" : "other");
     return EK_EINVAL;
   }
   if ((unsigned)o.scatter >= EK_SCATTER_COUNT) {
@@ -403,7 +419,12 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
 
   // AUTO: see fvm.h for why thread buffers.
   ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
-  fvm_args a = {.R = o.R, .mat = mat, .svd = &knobs, .x = x};
+  fvm_args a = {.R = o.R,
+                .R_planes = st && mat->model == EK_MODEL_COROTATED_LINEAR ? st->data : NULL,
+                .morton_slot = el->morton_slot,
+                .mat = mat,
+                .svd = &knobs,
+                .x = x};
   if (o.phase_times) {
     ek_svd3_opts so = {.sweeps = o.svd_sweeps, .exact_rsqrt = o.svd_exact_rsqrt, .isa = isa};
     rc = phased(kt, el, mat, a, f, s, &so, isa, o.phase_times);

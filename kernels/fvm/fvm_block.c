@@ -27,13 +27,21 @@ typedef struct ek_fvm_args_f64 fvm_args;
 // takes two blocks at a time.
 #define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
 
-// Rotations of corotated linear, caller tet order -> lanes (identity in
-// padding lanes).
+// Rotations of corotated linear for block b's lanes (identity in padding
+// lanes), from the per-element state or the caller-order array.
 static void gather_R(const fvm_args *a, size_t b, real *Rb) {
   for (int l = 0; l < L; l++) {
     int32_t t = a->slot_tet[b * L + l];
-    for (int k = 0; k < 9; k++)
-      Rb[k * L + l] = t >= 0 ? (real)a->R[(size_t)t * 9 + k] : (real)(k % 4 == 0);
+    for (int k = 0; k < 9; k++) {
+      real v = (real)(k % 4 == 0);
+      if (t >= 0 && a->R_planes) {
+        size_t s = (size_t)a->morton_slot[t];
+        v = a->R_planes[(s / L * 9 + (size_t)k) * L + s % L];
+      } else if (t >= 0) {
+        v = (real)a->R[(size_t)t * 9 + k];
+      }
+      Rb[k * L + l] = v;
+    }
   }
 }
 
@@ -110,7 +118,7 @@ EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, const fvm_args *
       material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
     const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
-    if (model == EK_MODEL_COROTATED_LINEAR)
+    if (model == EK_MODEL_COROTATED_LINEAR && !a->R_direct)
       for (int g = 0; g < nb; g++)
         gather_R(a, b + (size_t)g, Rb[g]);
     for (int v0 = 0; v0 < nb * EK_VPB; v0 += 2) {
@@ -138,8 +146,9 @@ EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, const fvm_args *
         for (int j = 0; j < nv; j++) {
           const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
           vreal R[9];
+          const real *Rsrc = a->R_direct ? a->R_planes + (b + (size_t)g) * 9 * L : Rb[g];
           for (int k = 0; k < 9; k++)
-            R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(Rb[g] + k * L + o) : F[j][k];
+            R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(Rsrc + k * L + o) : F[j][k];
           material_pk1(&mp, F[j], R, P[j]);
         }
       }

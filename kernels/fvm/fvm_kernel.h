@@ -33,7 +33,14 @@ struct ek_fvm_args_f32 {
   const float *dm_inv;
   const float *v0;
   const int32_t *slot_tet; // slot -> caller tet (for R), -1 = padding
-  const double *R;         // ntets x 9, caller order; corotated linear only
+  // Corotated linear's R: R_planes (per-element state, 9 planes, Morton
+  // slots; morton_slot maps a caller tet to its slot) when set, else R
+  // (ntets x 9, caller order). R_direct: these blocks are the Morton order,
+  // so block b's rotations are R_planes' block b.
+  const double *R;
+  const float *R_planes;
+  const int32_t *morton_slot;
+  int R_direct;
   const ek_material *mat;
   const ek_svd3_knobs *svd;
   const float *x;
@@ -48,6 +55,9 @@ struct ek_fvm_args_f64 {
   const double *v0;
   const int32_t *slot_tet;
   const double *R;
+  const double *R_planes;
+  const int32_t *morton_slot;
+  int R_direct;
   const ek_material *mat;
   const ek_svd3_knobs *svd;
   const double *x;
