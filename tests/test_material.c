@@ -396,7 +396,9 @@ int main(int argc, char **argv) {
 
   // AoSoA forms = AoS forms (bits), and 1 thread = 2 threads (bits).
   {
-    const size_t big = 1000, nb = (big + EK_LANES_F64 - 1) / EK_LANES_F64;
+    // Above EK_MATERIAL_PARALLEL_MIN, so that 2 threads really split it.
+    const size_t big = 2 * EK_MATERIAL_PARALLEL_MIN + 17,
+                 nb = (big + EK_LANES_F64 - 1) / EK_LANES_F64;
     double *F = malloc(big * 9 * sizeof *F), *P1 = malloc(big * 9 * sizeof *P1);
     double *P2 = malloc(big * 9 * sizeof *P2), *dF = malloc(big * 9 * sizeof *dF);
     double *Fs = malloc(nb * EK_LANES_F64 * 9 * sizeof *Fs);

@@ -68,7 +68,8 @@
 // R == NULL for corotated linear, a NULL array with n > 0.
 //
 // Threads: OpenMP over blocks; results are bitwise identical for any
-// thread count.
+// thread count. Batches below EK_MATERIAL_PARALLEL_MIN elements run on the
+// calling thread (a few us of work: less than waking a second one costs).
 #ifndef EK_MATERIAL_H
 #define EK_MATERIAL_H
 
@@ -90,6 +91,7 @@ typedef enum {
   EK_MODEL_STABLE_NEO_HOOKEAN
 } ek_model;
 #define EK_MODEL_COUNT 8
+#define EK_MATERIAL_PARALLEL_MIN 4096
 
 typedef struct {
   ek_model model;

@@ -19,9 +19,6 @@
 // Blocks per OpenMP work item / staging chunk (16 blocks of 16 floats: F,
 // dF and P of a chunk take 27 KB, a Hessian chunk 83 KB).
 #define CHUNK_BLOCKS 16
-// Batches below this many elements run on the calling thread: a few us of
-// work, less than waking a second thread costs (as in fvm.h).
-#define PARALLEL_MIN_ELEMENTS 4096
 
 static int out_planes(ek_material_op op) {
   return op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
@@ -137,7 +134,7 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
   const size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
   long count = 0;
 #pragma omp parallel for schedule(static) reduction(+ : count) \
-    if (nblocks * EK_LANES >= PARALLEL_MIN_ELEMENTS)
+    if (nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN)
   for (size_t c = 0; c < nchunks; c++) {
     size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
     const size_t in = b0 * 9 * EK_LANES;
@@ -179,7 +176,7 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
     return EK_ENOMEM;
   }
   long count = 0;
-#pragma omp parallel num_threads(nthreads) reduction(+ : count) if (n >= PARALLEL_MIN_ELEMENTS)
+#pragma omp parallel num_threads(nthreads) reduction(+ : count) if (n >= EK_MATERIAL_PARALLEL_MIN)
   {
     real *Fs = buffers + (size_t)omp_get_thread_num() * per_thread;
     real *Rs = Fs + chunk * 9;
