@@ -1,15 +1,13 @@
 // FVM force driver (ek_fvm_tet_* API on the element layer; sim/mesh.c
-// forwards the ek_mesh forms): argument checks, dispatch, and the scatter
-// strategies, which own the OpenMP region (the block kernel in fvm_block.c
-// does one range of blocks). Built once per precision.
+// forwards the ek_mesh forms): argument checks and dispatch; the scatter
+// strategies (scatter.c) own the OpenMP region and the block kernel in
+// fvm_block.c does one range of blocks. Built once per precision.
 //
 // Threads: one parallel region per force evaluation, static partitions,
 // and a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling
 // thread alone (waking a second thread costs more than it saves there).
-// Determinism: COLORED, THREAD_BUFFERS and GATHER sum every vertex's
-// contributions in an order fixed by the mesh alone (phase, chunk and slot
-// order; part order with EK_FVM_PARTS fixed parts; slot order), so the
-// result has the same bits for any thread count. ATOMIC does not.
+// Every strategy but ATOMIC gives the same bits for any thread count
+// (scatter.h).
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -23,6 +21,7 @@
 #include "../material/models.h"
 #include "../real.h"
 #include "fvm_kernel.h"
+#include "scatter.h"
 
 #if defined(EK_REAL_F32)
 typedef struct ek_fvm_args_f32 fvm_args;
@@ -41,30 +40,6 @@ typedef struct ek_fvm_args_f64 fvm_args;
 #endif
 #define L EK_LANES
 
-// Scratch reused across calls from one calling thread (forces are called
-// every step; allocating and faulting in tens of MB each time would cost
-// more than the kernel). Grows, never shrinks; freed at thread exit never.
-static _Thread_local struct {
-  void *p;
-  size_t bytes;
-} scratch[3];
-
-static real *scratch_get(int which, size_t bytes) {
-  if (scratch[which].bytes < bytes) {
-    ek_free(scratch[which].p);
-    scratch[which].p = ek_alloc(bytes);
-    scratch[which].bytes = scratch[which].p ? bytes : 0;
-  }
-  return scratch[which].p;
-}
-
-// Contiguous share [*lo, *hi) of [b0, b1) for thread t of nt.
-static void share(size_t b0, size_t b1, int t, int nt, size_t *lo, size_t *hi) {
-  size_t n = b1 - b0;
-  *lo = b0 + n * (size_t)t / (size_t)nt;
-  *hi = b0 + n * (size_t)(t + 1) / (size_t)nt;
-}
-
 // Whether a force evaluation runs on more than one thread (fvm.h: the
 // models that take an SVD cost several times more per tet).
 static int parallel_for(const ek_tets *el, const ek_material *mat) {
@@ -73,148 +48,18 @@ static int parallel_for(const ek_tets *el, const ek_material *mat) {
                            : EK_FVM_PARALLEL_MIN_TETS);
 }
 
-static void zero_forces(real *f, size_t n) {
-#pragma omp for schedule(static)
-  for (size_t i = 0; i < n; i++)
-    f[i] = 0;
-}
+typedef struct {
+  const ek_kernel_table *kt;
+  fvm_args a;
+} fvm_ctx;
 
-// COLORED: the element layer's coloured order. Chunks of one phase (chunk
-// colour) share no vertex, so threads split each phase's chunks and add
-// straight into f, with a barrier between phases; a chunk runs on one
-// thread, its colour groups in order, its vertices in cache.
-static void scatter_colored(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
+// scatter_range_fn of the force kernel.
+static void fvm_range(const void *ctx, size_t b0, size_t b1, real *f, real *corner) {
+  const fvm_ctx *c = ctx;
+  fvm_args a = c->a;
   a.f = f;
-  a.corner = NULL;
-#pragma omp parallel if (parallel_for(el, a.mat))
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    zero_forces(f, el->nverts * 3);
-    for (int p = 0; p < el->nphases; p++) {
-      size_t lo, hi;
-      share(el->phase_chunk[p], el->phase_chunk[p + 1], t, nt, &lo, &hi);
-      if (lo < hi)
-        KERNEL(kt)(&a, el->chunk_slot[lo] / L, el->chunk_slot[hi] / L);
-#pragma omp barrier
-    }
-  }
-}
-
-// THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one force
-// buffer each; threads take parts round-robin, then f = sum of the buffers
-// in part order (parallel over vertices).
-static int scatter_buffers(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
-  size_t n = el->nverts * 3, nb = el->morton.nslots / L;
-  real *buf = scratch_get(0, EK_FVM_PARTS * n * sizeof(real));
-  if (!buf)
-    return EK_ENOMEM;
-  a.corner = NULL;
-#pragma omp parallel if (parallel_for(el, a.mat))
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    for (int p = t; p < EK_FVM_PARTS; p += nt) {
-      fvm_args ap = a;
-      ap.f = buf + (size_t)p * n;
-      memset(ap.f, 0, n * sizeof(real));
-      size_t lo, hi;
-      share(0, nb, p, EK_FVM_PARTS, &lo, &hi);
-      if (lo < hi)
-        KERNEL(kt)(&ap, lo, hi);
-    }
-#pragma omp barrier
-#pragma omp for schedule(static)
-    for (size_t i = 0; i < n; i++) {
-      real s = buf[i];
-      for (int p = 1; p < EK_FVM_PARTS; p++)
-        s += buf[(size_t)p * n + i];
-      f[i] = s;
-    }
-  }
-  return EK_OK;
-}
-
-// GATHER: corner forces of every tet into a scratch array, then each
-// vertex sums its (slot, corner) list in ascending order.
-static int scatter_gather(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
-  size_t nb = el->morton.nslots / L;
-  real *corner = scratch_get(1, nb * 12 * L * sizeof(real));
-  if (!corner)
-    return EK_ENOMEM;
-  a.f = NULL;
   a.corner = corner;
-#pragma omp parallel if (parallel_for(el, a.mat))
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    size_t lo, hi;
-    share(0, nb, t, nt, &lo, &hi);
-    if (lo < hi)
-      KERNEL(kt)(&a, lo, hi);
-#pragma omp barrier
-#pragma omp for schedule(static)
-    for (size_t v = 0; v < el->nverts; v++) {
-      real s0 = 0, s1 = 0, s2 = 0;
-      for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
-        size_t slot = (size_t)el->vert_entries[e] >> 2, c = (size_t)el->vert_entries[e] & 3;
-        const real *h = corner + ((slot / L) * 12 + c * 3) * L + slot % L;
-        s0 += h[0];
-        s1 += h[L];
-        s2 += h[2 * L];
-      }
-      f[v * 3 + 0] = s0;
-      f[v * 3 + 1] = s1;
-      f[v * 3 + 2] = s2;
-    }
-  }
-  return EK_OK;
-}
-
-// ATOMIC (baseline): one parallel loop over all blocks; each thread
-// computes corner forces for a chunk into its own small buffer and adds
-// them with atomics. The order of the additions depends on the schedule:
-// not deterministic.
-#define ATOMIC_CHUNK 64
-static int scatter_atomic(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f) {
-  size_t nb = el->morton.nslots / L;
-  int err = 0;
-#pragma omp parallel if (parallel_for(el, a.mat))
-  {
-    real *corner = ek_alloc(ATOMIC_CHUNK * 12 * L * sizeof(real));
-    if (!corner) {
-#pragma omp atomic write
-      err = 1;
-    }
-    zero_forces(f, el->nverts * 3);
-    fvm_args at = a;
-    at.f = NULL;
-    at.corner = corner;
-#pragma omp for schedule(static)
-    for (size_t b0 = 0; b0 < nb; b0 += ATOMIC_CHUNK) {
-      if (!corner)
-        continue;
-      size_t b1 = b0 + ATOMIC_CHUNK < nb ? b0 + ATOMIC_CHUNK : nb;
-      // The kernel writes block b at corner + b*12*L: shift the base so
-      // block b0 lands at the start of the chunk buffer.
-      at.corner = corner - b0 * 12 * L;
-      KERNEL(kt)(&at, b0, b1);
-      for (size_t b = b0; b < b1; b++) {
-        const int32_t *idx = BL_IDX(&el->morton) + b * 4 * L;
-        const real *h = corner + (b - b0) * 12 * L;
-        for (int l = 0; l < L; l++) {
-          if (idx[l] < 0)
-            continue;
-          for (int c = 0; c < 4; c++)
-            for (int i = 0; i < 3; i++) {
-              real *dst = f + (size_t)idx[c * L + l] * 3 + i;
-              real val = h[(c * 3 + i) * L + l];
-#pragma omp atomic update
-              *dst += val;
-            }
-        }
-      }
-    }
-    ek_free(corner);
-  }
-  return err ? EK_ENOMEM : EK_OK;
+  KERNEL(c->kt)(&a, b0, b1);
 }
 
 // F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
@@ -272,15 +117,6 @@ static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, 
 
 static double now(void) { return omp_get_wtime(); }
 
-static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
-                        ek_scatter s);
-
-// The slot order a strategy runs over (kernels/elements/tets.h): the
-// coloured one for COLORED, the Morton one for the others.
-static const ek_tet_blocks *blocks_for(const ek_tets *el, ek_scatter s) {
-  return s == EK_SCATTER_COLORED ? &el->colored : &el->morton;
-}
-
 static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl) {
   a.idx = BL_IDX(bl);
   a.dm_inv = BL_DMI(bl);
@@ -290,16 +126,23 @@ static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl)
   return a;
 }
 
+static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
+                        ek_scatter s) {
+  fvm_ctx c = {kt, args_for(a, el, scatter_blocks(el, s))};
+  scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c};
+  return EK_P(scatter_run)(&j, f);
+}
+
 // Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
 // for models that need one), P pass through the material API, then H and
 // scatter from the stored P with the chosen strategy.
 static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_material *mat, fvm_args a,
                   real *f, ek_scatter s, const ek_svd3_opts *so, ek_isa isa,
                   ek_fvm_phase_times *pt) {
-  const ek_tet_blocks *bl = blocks_for(el, s);
+  const ek_tet_blocks *bl = scatter_blocks(el, s);
   a = args_for(a, el, bl);
   size_t nb = bl->nslots / L;
-  real *F = scratch_get(2, nb * 9 * L * 3 * sizeof(real));
+  real *F = EK_P(scratch_get)(SCATTER_SCRATCH_FREE, nb * 9 * L * 3 * sizeof(real));
   if (!F)
     return EK_ENOMEM;
   real *P = F + nb * 9 * L, *R = P + nb * 9 * L;
@@ -310,7 +153,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     size_t lo, hi;
-    share(0, nb, t, nt, &lo, &hi);
+    scatter_share(0, nb, t, nt, &lo, &hi);
     if (lo < hi)
       F_KERNEL(kt)(&a, lo, hi, F);
   }
@@ -354,26 +197,6 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   rc = run_strategy(kt, el, a, f, s);
   pt->scatter = now() - t4;
   return rc;
-}
-
-static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
-                        ek_scatter s) {
-  a = args_for(a, el, blocks_for(el, s));
-  switch (s) {
-  case EK_SCATTER_COLORED:
-    scatter_colored(kt, el, a, f);
-    return EK_OK;
-  case EK_SCATTER_THREAD_BUFFERS:
-    return scatter_buffers(kt, el, a, f);
-  case EK_SCATTER_GATHER:
-    return scatter_gather(kt, el, a, f);
-  case EK_SCATTER_ATOMIC:
-    return scatter_atomic(kt, el, a, f);
-  case EK_SCATTER_AUTO:
-  case EK_SCATTER_COUNT:
-    break; // resolved or refused by the caller
-  }
-  return EK_EINVAL;
 }
 
 int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const real *x, real *f,

@@ -14,6 +14,7 @@
 #include "../material/material_core.h"
 #include "../svd3/svd3_core.h"
 #include "fvm_kernel.h"
+#include "fvm_tet.h"
 
 #if defined(EK_REAL_F32)
 typedef struct ek_fvm_args_f32 fvm_args;
@@ -45,66 +46,19 @@ static void gather_R(const fvm_args *a, size_t b, real *Rb) {
   }
 }
 
-// Steps 1-2: gather the 4 corners of EK_W lanes at offset o of block b
-// (vgather_points, straight into registers) and F = Ds Dm^-1; padding
-// lanes (index -1) get F = I so every model stays finite there.
+// Steps 1-2 (gather, F = Ds Dm^-1) and 4-5 (H = -V0 P Dm^-T, scatter) are
+// fvm_tet.h's, shared with the Hessian kernels.
 static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
-  const int32_t *idx = a->idx + b * 4 * L + o;
-  vreal x0[3], xc[3], Ds[9], Dmi[9];
-  vmask is_pad = vgather_points(a->x, idx, x0);
-  for (int c = 0; c < 3; c++) {
-    vgather_points(a->x, idx + (c + 1) * L, xc);
-    for (int i = 0; i < 3; i++)
-      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
-  }
-  for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(a->dm_inv + b * 9 * L + k * L + o);
-  for (int i = 0; i < 3; i++)
-    for (int j = 0; j < 3; j++) {
-      vreal s = vmul(Ds[i * 3 + 0], Dmi[0 * 3 + j]);
-      s = vfma(Ds[i * 3 + 1], Dmi[1 * 3 + j], s);
-      s = vfma(Ds[i * 3 + 2], Dmi[2 * 3 + j], s);
-      F[i * 3 + j] = vsel(is_pad, vset((real)(i == j)), s);
-    }
+  tet_gradient(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
 }
 
-// Step 4: H = -V0 P Dm^-T: H[i][c] = -V0 sum_k P[i][k] Dm^-1[c][k]; then the
-// four corner forces, corner 0 = -(h1 + h2 + h3), into hb[(c*3+i)*L + o].
 static inline void corner_forces(const vreal P[9], const real *dm_inv, const real *v0, int o,
                                  real *hb) {
-  vreal Dmi[9];
-  for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(dm_inv + k * L + o);
-  vreal nv0 = vneg(vload(v0 + o));
-  for (int i = 0; i < 3; i++) {
-    vreal h[3];
-    for (int c = 0; c < 3; c++) {
-      vreal s = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
-      s = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], s);
-      s = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], s);
-      h[c] = vmul(nv0, s);
-      vstore(hb + ((c + 1) * 3 + i) * L + o, h[c]);
-    }
-    vstore(hb + (0 * 3 + i) * L + o, vneg(vadd(vadd(h[0], h[1]), h[2])));
-  }
+  tet_corner_values(P, dm_inv, vneg(vload(v0 + o)), o, hb);
 }
 
-// Step 5: scatter one block's corner forces into f, lane by lane (the
-// block's tets share no vertex, so the order inside a block is free; lane
-// order keeps it fixed anyway).
 static void scatter_block(const fvm_args *a, size_t b, const real *hb) {
-  const int32_t *idx = a->idx + b * 4 * L;
-  real *f = a->f;
-  for (int l = 0; l < L; l++) {
-    if (idx[l] < 0)
-      continue;
-    for (int c = 0; c < 4; c++) {
-      real *fv = f + (size_t)idx[c * L + l] * 3;
-      fv[0] += hb[(c * 3 + 0) * L + l];
-      fv[1] += hb[(c * 3 + 1) * L + l];
-      fv[2] += hb[(c * 3 + 2) * L + l];
-    }
-  }
+  tet_scatter_block(a->idx + b * 4 * L, hb, 3, a->f);
 }
 
 // Blocks [b0, b1) for one model (a compile-time constant at every call

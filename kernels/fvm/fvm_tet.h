@@ -1,0 +1,75 @@
+// Per-tet steps shared by the FVM block kernels (fvm_block.c: the force;
+// hessian_block.c: the gradient, the Hessian product and its diagonal
+// blocks), on AoSoA tet blocks (kernels/elements/tets.h; block b of the
+// packed planes: idx[(b*4 + c)*L + l], dm_inv[(b*9 + k)*L + l],
+// v0[b*L + l]). Include after simd/simd.h.
+#ifndef EK_FVM_TET_H
+#define EK_FVM_TET_H
+
+#include <stdint.h>
+
+// Gather the 4 corners of the EK_W lanes at offset o of block b from the
+// points x (vgather_points, straight into registers) and form
+// D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
+// positions, dF for a displacement. Padding lanes (index -1) get `pad`
+// (the identity for F, zero for dF) so every model stays finite there.
+static inline void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block,
+                                int o, real pad, vreal D[9]) {
+  const int32_t *idx = idx_block + o;
+  vreal x0[3], xc[3], Ds[9], Dmi[9];
+  vmask is_pad = vgather_points(x, idx, x0);
+  for (int c = 0; c < 3; c++) {
+    vgather_points(x, idx + (c + 1) * EK_LANES, xc);
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
+  }
+  for (int k = 0; k < 9; k++)
+    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++) {
+      vreal s = vmul(Ds[i * 3 + 0], Dmi[0 * 3 + j]);
+      s = vfma(Ds[i * 3 + 1], Dmi[1 * 3 + j], s);
+      s = vfma(Ds[i * 3 + 2], Dmi[2 * 3 + j], s);
+      D[i * 3 + j] = vsel(is_pad, vset(i == j ? pad : 0), s);
+    }
+}
+
+// H = s P Dm^-T: H[i][c] = s sum_k P[i][k] Dm^-1[c][k], with s = -V0 for
+// the force (H's columns are the forces on corners 1..3, Teran et al.
+// 2003 sec. 4) and s = V0 for the energy's gradient or its differential;
+// corner 0 gets -(h1 + h2 + h3). Written to hb[(c*3 + i)*L + o].
+static inline void tet_corner_values(const vreal P[9], const real *dmi_block, vreal s, int o,
+                                     real *hb) {
+  vreal Dmi[9];
+  for (int k = 0; k < 9; k++)
+    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  for (int i = 0; i < 3; i++) {
+    vreal h[3];
+    for (int c = 0; c < 3; c++) {
+      vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
+      t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
+      t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
+      h[c] = vmul(s, t);
+      vstore(hb + ((c + 1) * 3 + i) * EK_LANES + o, h[c]);
+    }
+    vstore(hb + (0 * 3 + i) * EK_LANES + o, vneg(vadd(vadd(h[0], h[1]), h[2])));
+  }
+}
+
+// Add one block's corner values hb[(c*ncomp + i)*L + l] into out (nverts x
+// ncomp), lane by lane (the block's tets share no vertex, so the order
+// inside a block is free; lane order keeps it fixed anyway).
+static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, int ncomp,
+                                     real *out) {
+  for (int l = 0; l < EK_LANES; l++) {
+    if (idx_block[l] < 0)
+      continue;
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx_block[c * EK_LANES + l] * (size_t)ncomp;
+      for (int i = 0; i < ncomp; i++)
+        o[i] += hb[(c * ncomp + i) * EK_LANES + l];
+    }
+  }
+}
+
+#endif

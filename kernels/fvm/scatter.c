@@ -1,0 +1,183 @@
+// The scatter strategies (scatter.h), shared by the FVM force and the
+// Hessian passes. One parallel region per call, static partitions.
+#include <omp.h>
+#include <string.h>
+
+#include "../kernels.h"
+#include "scatter.h"
+
+#define L EK_LANES
+#if defined(EK_REAL_F32)
+#define MORTON_IDX(el) ((el)->morton.idx_f32)
+#else
+#define MORTON_IDX(el) ((el)->morton.idx_f64)
+#endif
+
+static _Thread_local struct {
+  void *p;
+  size_t bytes;
+} scratch[SCATTER_SCRATCH_SLOTS];
+
+real *EK_P(scratch_get)(int which, size_t bytes) {
+  if (scratch[which].bytes < bytes) {
+    ek_free(scratch[which].p);
+    scratch[which].p = ek_alloc(bytes);
+    scratch[which].bytes = scratch[which].p ? bytes : 0;
+  }
+  return scratch[which].p;
+}
+
+static void zero_out(real *out, size_t n) {
+#pragma omp for schedule(static)
+  for (size_t i = 0; i < n; i++)
+    out[i] = 0;
+}
+
+// COLORED: chunks of one phase (chunk colour) share no vertex, so threads
+// split each phase's chunks and add straight into out, with a barrier
+// between phases; a chunk runs on one thread, its colour groups in order,
+// its vertices in cache.
+static void run_colored(const scatter_job *j, real *out) {
+  const ek_tets *el = j->el;
+#pragma omp parallel if (j->parallel)
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    zero_out(out, el->nverts * (size_t)j->ncomp);
+    for (int p = 0; p < el->nphases; p++) {
+      size_t lo, hi;
+      scatter_share(el->phase_chunk[p], el->phase_chunk[p + 1], t, nt, &lo, &hi);
+      if (lo < hi)
+        j->range(j->ctx, el->chunk_slot[lo] / L, el->chunk_slot[hi] / L, out, NULL);
+#pragma omp barrier
+    }
+  }
+}
+
+// THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one buffer
+// each; threads take parts round-robin, then out = sum of the buffers in
+// part order (parallel over vertices).
+static int run_buffers(const scatter_job *j, real *out) {
+  size_t n = j->el->nverts * (size_t)j->ncomp, nb = j->el->morton.nslots / L;
+  real *buf = EK_P(scratch_get)(0, EK_FVM_PARTS * n * sizeof(real));
+  if (!buf)
+    return EK_ENOMEM;
+#pragma omp parallel if (j->parallel)
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    for (int p = t; p < EK_FVM_PARTS; p += nt) {
+      real *b = buf + (size_t)p * n;
+      memset(b, 0, n * sizeof(real));
+      size_t lo, hi;
+      scatter_share(0, nb, p, EK_FVM_PARTS, &lo, &hi);
+      if (lo < hi)
+        j->range(j->ctx, lo, hi, b, NULL);
+    }
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (size_t i = 0; i < n; i++) {
+      real s = buf[i];
+      for (int p = 1; p < EK_FVM_PARTS; p++)
+        s += buf[(size_t)p * n + i];
+      out[i] = s;
+    }
+  }
+  return EK_OK;
+}
+
+// GATHER: corner values of every tet into a scratch array, then each
+// vertex sums its (slot, corner) list in ascending order.
+static int run_gather(const scatter_job *j, real *out) {
+  const ek_tets *el = j->el;
+  const int nc = j->ncomp;
+  size_t nb = el->morton.nslots / L;
+  real *corner = EK_P(scratch_get)(1, nb * 4 * (size_t)nc * L * sizeof(real));
+  if (!corner)
+    return EK_ENOMEM;
+#pragma omp parallel if (j->parallel)
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    size_t lo, hi;
+    scatter_share(0, nb, t, nt, &lo, &hi);
+    if (lo < hi)
+      j->range(j->ctx, lo, hi, NULL, corner);
+#pragma omp barrier
+#pragma omp for schedule(static)
+    for (size_t v = 0; v < el->nverts; v++) {
+      real s[6] = {0};
+      for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
+        size_t slot = (size_t)el->vert_entries[e] >> 2, c = (size_t)el->vert_entries[e] & 3;
+        const real *h = corner + ((slot / L) * 4 * (size_t)nc + c * (size_t)nc) * L + slot % L;
+        for (int i = 0; i < nc; i++)
+          s[i] += h[(size_t)i * L];
+      }
+      for (int i = 0; i < nc; i++)
+        out[v * (size_t)nc + (size_t)i] = s[i];
+    }
+  }
+  return EK_OK;
+}
+
+// ATOMIC (baseline): one parallel loop over all blocks; each thread
+// computes corner values for a chunk into its own small buffer and adds
+// them with atomics. The order of the additions depends on the schedule:
+// not deterministic.
+#define ATOMIC_CHUNK 64
+static int run_atomic(const scatter_job *j, real *out) {
+  const ek_tets *el = j->el;
+  const int nc = j->ncomp;
+  size_t nb = el->morton.nslots / L, cb = 4 * (size_t)nc * L;
+  int err = 0;
+#pragma omp parallel if (j->parallel)
+  {
+    real *corner = ek_alloc(ATOMIC_CHUNK * cb * sizeof(real));
+    if (!corner) {
+#pragma omp atomic write
+      err = 1;
+    }
+    zero_out(out, el->nverts * (size_t)nc);
+#pragma omp for schedule(static)
+    for (size_t b0 = 0; b0 < nb; b0 += ATOMIC_CHUNK) {
+      if (!corner)
+        continue;
+      size_t b1 = b0 + ATOMIC_CHUNK < nb ? b0 + ATOMIC_CHUNK : nb;
+      // The range writes block b at corner + b * cb: shift the base so
+      // block b0 lands at the start of the chunk buffer.
+      j->range(j->ctx, b0, b1, NULL, corner - b0 * cb);
+      for (size_t b = b0; b < b1; b++) {
+        const int32_t *bi = MORTON_IDX(el) + b * 4 * L;
+        const real *h = corner + (b - b0) * cb;
+        for (int l = 0; l < L; l++) {
+          if (bi[l] < 0)
+            continue;
+          for (int c = 0; c < 4; c++)
+            for (int i = 0; i < nc; i++) {
+              real *dst = out + (size_t)bi[c * L + l] * (size_t)nc + (size_t)i;
+              real val = h[((size_t)c * (size_t)nc + (size_t)i) * L + (size_t)l];
+#pragma omp atomic update
+              *dst += val;
+            }
+        }
+      }
+    }
+    ek_free(corner);
+  }
+  return err ? EK_ENOMEM : EK_OK;
+}
+
+int EK_P(scatter_run)(const scatter_job *j, real *out) {
+  switch (j->strategy) {
+  case EK_SCATTER_COLORED:
+    run_colored(j, out);
+    return EK_OK;
+  case EK_SCATTER_THREAD_BUFFERS:
+    return run_buffers(j, out);
+  case EK_SCATTER_GATHER:
+    return run_gather(j, out);
+  case EK_SCATTER_ATOMIC:
+    return run_atomic(j, out);
+  case EK_SCATTER_AUTO:
+  case EK_SCATTER_COUNT:
+    break; // resolved or refused by the caller
+  }
+  return EK_EINVAL;
+}
