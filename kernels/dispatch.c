@@ -19,7 +19,9 @@
   ek_fvm_block_f32_fn ek_fvm_block_##t##_f32;                                                      \
   ek_fvm_block_f64_fn ek_fvm_block_##t##_f64;                                                      \
   ek_fvm_F_block_f32_fn ek_fvm_F_block_##t##_f32;                                                  \
-  ek_fvm_F_block_f64_fn ek_fvm_F_block_##t##_f64;
+  ek_fvm_F_block_f64_fn ek_fvm_F_block_##t##_f64;                                                  \
+  ek_hessian_block_f32_fn ek_hessian_block_##t##_f32;                                              \
+  ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;
 #define EK_ROW(t, isa_, w32, w64)                                                                  \
   {                                                                                                \
     .isa = isa_, .lanes_f32 = w32, .lanes_f64 = w64, .svd3_block_f32 = ek_svd3_block_##t##_f32,    \
@@ -27,7 +29,8 @@
     .fma_probe_f64 = ek_fma_probe_##t##_f64, .material_block_f32 = ek_material_block_##t##_f32,    \
     .material_block_f64 = ek_material_block_##t##_f64, .fvm_block_f32 = ek_fvm_block_##t##_f32,    \
     .fvm_block_f64 = ek_fvm_block_##t##_f64, .fvm_F_block_f32 = ek_fvm_F_block_##t##_f32,          \
-    .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64                                                    \
+    .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \
+    .hessian_block_f64 = ek_hessian_block_##t##_f64                                                \
   }
 
 EK_DECLARE_TARGET(scalar)

@@ -5,6 +5,7 @@
 #include "core.h"
 #include "elements.h"
 #include "fvm.h"
+#include "hessian.h"
 #include "material.h"
 #include "mesh.h"
 #include "sim.h"

@@ -32,6 +32,15 @@ double ek_fvm_energy_ref(size_t nverts, const double *X, size_t ntets, const int
 double ek_fvm_tet_F_ref(const double *X, const double *x, const int32_t tet[4], double F[9],
                         double Dm_inv[9]);
 
+// y = K p, K = d(grad E)/dx = -df/dx at x, each element's 9x9 Hessian in F
+// projected to PSD when project != 0 (ek_hessian_ref): per tet dF =
+// [p1-p0, p2-p0, p3-p0] Dm^-1, dP = H : dF, V0 dP Dm^-T to corners 1..3 and
+// minus their sum to corner 0 (reference/fvm/hessian_ref.c). yscale (may
+// be NULL): per component, the sum of the contributions' absolute values.
+void ek_fvm_hessian_apply_ref(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                              const ek_material_ref *m, const double *R, const double *x,
+                              const double *p, int project, double *y, double *yscale);
+
 #ifdef __cplusplus
 }
 #endif

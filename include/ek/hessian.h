@@ -1,0 +1,98 @@
+// The elastic energy's gradient and its Hessian as a matrix-free operator,
+// for implicit integration (Newton on backward Euler: sim/implicit.c).
+// E(x) = sum_e V0_e Psi(F_e) over the tets of an element layer
+// (elements.h), F_e = Ds Dm^-1 (Teran et al. 2003 sec. 4; seed 004):
+//   grad E:  per tet G = V0 P(F) Dm^-T, columns to corners 1..3,
+//            -(sum of columns) to corner 0 (the FVM force with the sign
+//            flipped, fvm.h);
+//   K p:     per tet dF = dDs(p) Dm^-1, dP = dP(F; dF), V0 dP Dm^-T
+//            scattered the same way; K = sum_e of the element Hessians,
+//            each projected to positive semi-definite unless unprojected.
+// The gradient pass caches per tet what the products need, in the
+// product's precision and the AoSoA layout of the element blocks: the
+// U, V-frame eigensystem of the isotropic models (U, V, the 3x3 block
+// over the singular values and the flip/twist pairs: Teran et al. 2005;
+// Smith et al. 2019), R for corotated linear, nothing for linear. A
+// product is then one fused pass (gather p, dF, dP from the cache, scatter)
+// with no SVD and no assembled matrix.
+//
+// Threads: one OpenMP region per pass; with every scatter strategy but
+// EK_SCATTER_ATOMIC the gradient, the energy (summed in slot order), the
+// products and the diagonal blocks have the same bits for any thread
+// count.
+#ifndef EK_HESSIAN_H
+#define EK_HESSIAN_H
+
+#include <stddef.h>
+
+#include "core.h"
+#include "elements.h"
+#include "fvm.h"
+#include "material.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Error budgets against the double reference (tests/test_hessian.c):
+//   max_i |(Kp)_i - (Kp)_ref,i| / max_i s_i,
+// s_i the sum over the contributions to entry i of their absolute values
+// (the cancellation-free size, as EK_FVM_TOL_*). f32: the products run in
+// float from an eigensystem computed in double and rounded once.
+#define EK_HESSIAN_TOL_F32 1e-4
+#define EK_HESSIAN_TOL_F64 1e-10
+
+typedef struct ek_fvm_hessian ek_fvm_hessian;
+
+// Options; zero means default.
+//   scatter, isa, svd_sweeps, svd_exact_rsqrt: as in ek_fvm_opts.
+//   unprojected: 1 = the exact element Hessians (indefinite in general:
+//     for checks against finite differences), 0 = each projected to PSD
+//     (what Newton needs: a descent direction, CG on an SPD system).
+//   precision: 32 or 64 (0 = 64): the precision of the cached eigensystems
+//     and of ek_fvm_hessian_apply_*. The gradient is computed in double
+//     either way.
+typedef struct {
+  ek_scatter scatter;
+  ek_isa isa;
+  int svd_sweeps;
+  int svd_exact_rsqrt;
+  int unprojected;
+  int precision;
+} ek_fvm_hessian_opts;
+
+// NULL with ek_last_error on a bad argument or no memory. Keeps pointers
+// to el (alive until destroy); copies mat and opts.
+ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
+                                      const ek_fvm_hessian_opts *opts);
+void ek_fvm_hessian_destroy(ek_fvm_hessian *h);
+
+// grad = dE/dx at x (nverts x 3; overwritten), *energy = E(x) summed in
+// slot order (may be NULL), and the cache for the products at x. R_state:
+// corotated linear's rotations (9 planes, f64, elements.h), NULL for the
+// other models. E is +inf when an element is outside the model's domain
+// (neo-Hookean with J <= 0 and no clamp); grad is then NaN at its vertices
+// and the cache is not usable. cache_eigensystems 0 skips the cache (a
+// gradient only; products then refuse until a pass caches again).
+int ek_fvm_hessian_gradient_f64(ek_fvm_hessian *h, const double *x, const ek_tet_state *R_state,
+                                double *grad, double *energy, int cache_eigensystems);
+
+// y = K p (nverts x 3 each; y overwritten) at the x of the last caching
+// gradient pass; the function of the cache's precision (opts.precision).
+int ek_fvm_hessian_apply_f32(const ek_fvm_hessian *h, const float *p, float *y);
+int ek_fvm_hessian_apply_f64(const ek_fvm_hessian *h, const double *p, double *y);
+
+// The 3x3 diagonal blocks of K, one per vertex (nverts x 6: xx, xy, xz, yy,
+// yz, zz), from the cache (in its precision, returned in double): the
+// Jacobi and block-Jacobi preconditioners of CG.
+int ek_fvm_hessian_diagonal_f64(const ek_fvm_hessian *h, double *blocks);
+
+// The cache's size in bytes and planes per tet (30 for the isotropic
+// models' eigensystem, 9 for corotated linear's R, 0 for linear).
+size_t ek_fvm_hessian_cache_bytes(const ek_fvm_hessian *h);
+int ek_fvm_hessian_cache_planes(const ek_fvm_hessian *h);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

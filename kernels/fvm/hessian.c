@@ -1,0 +1,276 @@
+// Driver of ek_fvm_hessian (include/ek/hessian.h): argument checks, the
+// cache, dispatch, and the passes through the scatter strategies
+// (scatter.c). Built once per precision: the products and diagonal blocks
+// of each precision here; creation and the (double) gradient pass in the
+// f64 instance.
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ek/hessian.h>
+
+#include "../elements/tets.h"
+#include "../kernels.h"
+#include "../material/models.h"
+#include "../real.h"
+#include "hessian_kernel.h"
+#include "scatter.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_hess_args_f32 hess_args;
+#define KERNEL(t) ((t)->hessian_block_f32)
+#define BL_IDX(bl) ((bl)->idx_f32)
+#define BL_DMI(bl) ((bl)->dm_inv_f32)
+#define BL_V0(bl) ((bl)->v0_f32)
+#define PRECISION 32
+#else
+typedef struct ek_hess_args_f64 hess_args;
+#define KERNEL(t) ((t)->hessian_block_f64)
+#define BL_IDX(bl) ((bl)->idx_f64)
+#define BL_DMI(bl) ((bl)->dm_inv_f64)
+#define BL_V0(bl) ((bl)->v0_f64)
+#define PRECISION 64
+#endif
+
+typedef struct {
+  const ek_kernel_table *kt;
+  hess_args a;
+} hess_ctx;
+
+static void hess_range(const void *ctx, size_t b0, size_t b1, real *out, real *corner) {
+  const hess_ctx *c = ctx;
+  hess_args a = c->a;
+  a.out = out;
+  a.corner = corner;
+  KERNEL(c->kt)(&a, b0, b1);
+}
+
+static hess_args args_for(const ek_fvm_hessian *h, int op) {
+  const ek_tet_blocks *bl = scatter_blocks(h->el, h->scatter);
+  hess_args a = {.op = op,
+                 .idx = BL_IDX(bl),
+                 .dm_inv = BL_DMI(bl),
+                 .v0 = BL_V0(bl),
+                 .slot_tet = bl->slot_tet,
+                 .mat = &h->mat,
+                 .svd = &h->svd,
+                 .project = h->project,
+                 .planes = h->planes,
+                 .morton_slot = h->el->morton_slot};
+  return a;
+}
+
+// A product or a diagonal pass costs about what a force evaluation
+// without an SVD does: the same grain (fvm.h).
+static int run(const ek_fvm_hessian *h, const hess_args *a, int ncomp, int parallel, real *out) {
+  hess_ctx c = {h->kt, *a};
+  scatter_job j = {h->el, h->scatter, ncomp, parallel, hess_range, &c};
+  int rc = EK_P(scatter_run)(&j, out);
+  if (rc == EK_ENOMEM)
+    ek_set_error("ek_fvm_hessian: out of memory for scratch buffers");
+  return rc;
+}
+
+static int check_cached(const ek_fvm_hessian *h, const char *fn, const void *in, const void *out) {
+  if (!h || !in || !out) {
+    ek_set_error("%s: NULL argument", fn);
+    return EK_EINVAL;
+  }
+  if (h->precision != PRECISION) {
+    ek_set_error("%s: this Hessian's cache is in f%d (ek_fvm_hessian_opts.precision); call the "
+                 "f%d function",
+                 fn, h->precision, h->precision);
+    return EK_EINVAL;
+  }
+  if (!h->cached) {
+    ek_set_error("%s: no eigensystems cached: call ek_fvm_hessian_gradient_f64 with "
+                 "cache_eigensystems = 1 first",
+                 fn);
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+int EK_P(fvm_hessian_apply)(const ek_fvm_hessian *h, const real *p, real *y) {
+  int rc = check_cached(h, "ek_fvm_hessian_apply", p, y);
+  if (rc < 0)
+    return rc;
+  hess_args a = args_for(h, HESS_APPLY);
+  a.x = p;
+  a.cache = h->cache;
+  return run(h, &a, 3, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, y);
+}
+
+int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
+  int rc = check_cached(h, "ek_fvm_hessian_diagonal", blocks, blocks);
+  if (rc < 0)
+    return rc;
+  hess_args a = args_for(h, HESS_DIAG);
+  a.cache = h->cache;
+  return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
+}
+
+#if defined(EK_REAL_F64)
+// Precision-free entry points and the gradient, built once (in the f64
+// instance).
+
+ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
+                                      const ek_fvm_hessian_opts *opts) {
+  static const char *fn = "ek_fvm_hessian_create";
+  ek_fvm_hessian_opts o = {0};
+  if (opts)
+    o = *opts;
+  if (!el || !mat) {
+    ek_set_error("%s: NULL argument (elements %p, material %p)", fn, (const void *)el,
+                 (const void *)mat);
+    return NULL;
+  }
+  if (ek_material_check(mat) < 0)
+    return NULL;
+  if ((unsigned)o.scatter >= EK_SCATTER_COUNT) {
+    ek_set_error("%s: scatter strategy %d is not a valid ek_scatter", fn, (int)o.scatter);
+    return NULL;
+  }
+  if (o.precision != 0 && o.precision != 32 && o.precision != 64) {
+    ek_set_error("%s: precision %d: must be 32 or 64 (0 = 64)", fn, o.precision);
+    return NULL;
+  }
+  ek_svd3_knobs knobs;
+  if (ek_svd3_knobs_from_f64(fn, o.svd_sweeps, o.svd_exact_rsqrt, &knobs) < 0)
+    return NULL;
+  ek_isa isa;
+  if (ek_isa_resolve(o.isa, &isa) < 0)
+    return NULL;
+  const ek_kernel_table *kt = ek_kernels_for(isa);
+  if (!kt)
+    return NULL;
+  ek_fvm_hessian *h = calloc(1, sizeof *h);
+  if (!h) {
+    ek_set_error("%s: out of memory", fn);
+    return NULL;
+  }
+  h->el = el;
+  h->mat = *mat;
+  h->scatter = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
+  h->isa = isa;
+  h->kt = kt;
+  h->svd = knobs;
+  h->project = !o.unprojected;
+  h->precision = o.precision ? o.precision : 64;
+  h->planes = mat->model == EK_MODEL_LINEAR             ? 0
+              : mat->model == EK_MODEL_COROTATED_LINEAR ? 9
+                                                        : HESS_FRAME_PLANES;
+  const size_t nslots = scatter_blocks(el, h->scatter)->nslots;
+  h->cache_bytes = nslots * (size_t)h->planes * (h->precision == 32 ? 4 : 8);
+  h->energy = ek_alloc(nslots * sizeof(double));
+  h->cache = h->cache_bytes ? ek_alloc(h->cache_bytes) : NULL;
+  if (!h->energy || (h->cache_bytes && !h->cache)) {
+    ek_set_error("%s: out of memory for the eigensystem cache (%zu bytes)", fn, h->cache_bytes);
+    ek_fvm_hessian_destroy(h);
+    return NULL;
+  }
+  return h;
+}
+
+void ek_fvm_hessian_destroy(ek_fvm_hessian *h) {
+  if (!h)
+    return;
+  ek_free(h->cache);
+  ek_free(h->energy);
+  free(h);
+}
+
+size_t ek_fvm_hessian_cache_bytes(const ek_fvm_hessian *h) { return h ? h->cache_bytes : 0; }
+int ek_fvm_hessian_cache_planes(const ek_fvm_hessian *h) { return h ? h->planes : 0; }
+
+// Fixed chunks of the slot range, summed in parallel, then in chunk order:
+// the same bits for any thread count.
+#define ENERGY_CHUNK 4096
+static double sum_energy(const double *e, size_t n, int parallel) {
+  size_t nc = (n + ENERGY_CHUNK - 1) / ENERGY_CHUNK;
+  double part[256], *parts = nc <= 256 ? part : malloc(nc * sizeof(double));
+  if (!parts) {
+    double s = 0;
+    for (size_t i = 0; i < n; i++)
+      s += e[i];
+    return s;
+  }
+#pragma omp parallel for schedule(static) if (parallel)
+  for (size_t c = 0; c < nc; c++) {
+    size_t hi = (c + 1) * ENERGY_CHUNK < n ? (c + 1) * ENERGY_CHUNK : n;
+    double s = 0;
+    for (size_t i = c * ENERGY_CHUNK; i < hi; i++)
+      s += e[i];
+    parts[c] = s;
+  }
+  double s = 0;
+  for (size_t c = 0; c < nc; c++)
+    s += parts[c];
+  if (parts != part)
+    free(parts);
+  return s;
+}
+
+int ek_fvm_hessian_gradient_f64(ek_fvm_hessian *h, const double *x, const ek_tet_state *R_state,
+                                double *grad, double *energy, int cache_eigensystems) {
+  static const char *fn = "ek_fvm_hessian_gradient_f64";
+  if (!h || !x || !grad) {
+    ek_set_error("%s: NULL argument (hessian %p, x %p, grad %p)", fn, (void *)h, (const void *)x,
+                 (void *)grad);
+    return EK_EINVAL;
+  }
+  const int corot = h->mat.model == EK_MODEL_COROTATED_LINEAR;
+  if (corot && (!R_state || R_state->el != h->el || R_state->planes != 9 || !R_state->f64)) {
+    ek_set_error("%s: corotated linear needs its rotations as a 9-plane f64 state of these "
+                 "elements (R_state %s)",
+                 fn, R_state ? "of another shape" : "is NULL");
+    return EK_EINVAL;
+  }
+  hess_args a = args_for(h, HESS_GRADIENT);
+  a.x = x;
+  a.R_planes = corot ? R_state->data : NULL;
+  a.energy = h->energy;
+  if (cache_eigensystems) {
+    if (h->precision == 32)
+      a.cache_out_f32 = h->cache;
+    else
+      a.cache_out = h->cache;
+  }
+  h->cached = 0;
+  const int iso = ek_model_rows[h->mat.model].isotropic;
+  const int svd =
+      iso && (cache_eigensystems || ek_model_row_uses_sigma(h->mat.model, h->mat.clamp));
+  int parallel = h->el->ntets >= (svd ? EK_FVM_PARALLEL_MIN_TETS_SVD : EK_FVM_PARALLEL_MIN_TETS);
+  int rc = run(h, &a, 3, parallel, grad);
+  if (rc < 0)
+    return rc;
+  h->cached = cache_eigensystems != 0;
+  if (energy) {
+    double E = sum_energy(h->energy, scatter_blocks(h->el, h->scatter)->nslots, parallel);
+    *energy = isnan(E) ? INFINITY : E; // an element outside the domain: +inf
+  }
+  return EK_OK;
+}
+
+int ek_fvm_hessian_diagonal_f64(const ek_fvm_hessian *h, double *blocks) {
+  if (!h || h->precision == 64)
+    return ek_fvm_hessian_diag_f64(h, blocks);
+  if (!blocks) {
+    ek_set_error("ek_fvm_hessian_diagonal: NULL argument");
+    return EK_EINVAL;
+  }
+  size_t n = h->el->nverts * 6;
+  float *b = malloc(n * sizeof(float));
+  if (!b) {
+    ek_set_error("ek_fvm_hessian_diagonal: out of memory");
+    return EK_ENOMEM;
+  }
+  int rc = ek_fvm_hessian_diag_f32(h, b);
+  if (rc >= 0)
+    for (size_t i = 0; i < n; i++)
+      blocks[i] = b[i];
+  free(b);
+  return rc;
+}
+#endif

@@ -1,0 +1,341 @@
+// Hessian block kernels (contract in hessian_kernel.h; API in
+// include/ek/hessian.h), written once against the vector API and built per
+// (ISA x precision), instantiated per model as the force kernel is
+// (fvm_block.c), so the model is a compile-time constant in each loop.
+//   gradient: the force kernel's steps with G = +V0 P Dm^-T, V0 psi, and
+//             the cache: for the isotropic models the U, V-frame
+//             eigensystem of the SVD (material_frame_svd: Teran et al.
+//             2005, Smith et al. 2019), projected to PSD unless asked not
+//             to; R for corotated linear;
+//   apply:    dF = dDs Dm^-1 of the direction, dP = U Hhat(U^T dF V) V^T
+//             from the cache (mat_frame_apply), V0 dP Dm^-T: no SVD;
+//   diagonal: per corner c, dF = e_k g_c^T for a unit move along k (g_c
+//             row c-1 of Dm^-1, g_0 = -(sum of rows)), so U^T dF V =
+//             a b^T with a = U^T e_k, b = V^T g_c, and the block is
+//             V0 U M U^T with M (3x3, symmetric) read off the frame:
+//               M_ii = A_ii b_i^2 + sum_{j != i} h_ij b_j^2,
+//               M_il = b_i b_l (A_il + q_il)   (i != l)
+//             (mat_frame_apply's entries contracted with b twice).
+#include "../simd/simd.h"
+
+#include "../material/material_core.h"
+#include "../svd3/svd3_core.h"
+#include "fvm_tet.h"
+#include "hessian_kernel.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_hess_args_f32 hess_args;
+#else
+typedef struct ek_hess_args_f64 hess_args;
+#endif
+
+#define L EK_LANES
+#define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
+
+static inline const real *cache_block(const hess_args *a, size_t b) {
+  return a->cache + b * (size_t)a->planes * L;
+}
+
+// The cached frame of the EK_W lanes at offset o of a block's cache.
+static inline void load_frame(const real *c, int o, mat_frame *fr) {
+  static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
+  for (int k = 0; k < 9; k++) {
+    fr->U[k] = vload(c + k * L + o);
+    fr->V[k] = vload(c + (9 + k) * L + o);
+  }
+  for (int k = 0; k < 6; k++)
+    fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (18 + k) * L + o);
+  for (int p = 0; p < 3; p++) {
+    fr->h[p] = vload(c + (24 + p) * L + o);
+    fr->q[p] = vload(c + (27 + p) * L + o);
+  }
+}
+
+static void apply_or_diag_scatter(const hess_args *a, size_t b, const real *hb, int ncomp) {
+  tet_scatter_block(a->idx + b * 4 * L, hb, ncomp, a->out);
+}
+
+// ---- Product: K p ----
+EK_INLINE void apply_blocks(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[12 * L];
+  const ek_material_lanes mp =
+      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L,
+               *c = model == EK_MODEL_LINEAR ? NULL : cache_block(a, b);
+    real *dst = a->corner ? a->corner + b * 12 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      vreal dF[9], dP[9];
+      tet_gradient(a->x, a->idx + b * 4 * L, dmi, o, 0, dF);
+      if (model == EK_MODEL_LINEAR) {
+        material_diff_direct(&mp, dF, dF, dF, dP);
+      } else if (model == EK_MODEL_COROTATED_LINEAR) {
+        vreal R[9];
+        for (int k = 0; k < 9; k++)
+          R[k] = vload(c + k * L + o);
+        material_diff_direct(&mp, dF, R, dF, dP);
+      } else {
+        mat_frame fr;
+        load_frame(c, o, &fr);
+        mat_frame_apply(&fr, dF, dP);
+      }
+      tet_corner_values(dP, dmi, vload(a->v0 + b * L + o), o, dst);
+    }
+    if (!a->corner)
+      apply_or_diag_scatter(a, b, hb, 3);
+  }
+}
+
+// ---- Diagonal blocks ----
+// g_c of corner c for the vector's lanes: row c-1 of Dm^-1, g_0 = -sum.
+static inline void corner_dirs(const vreal Dmi[9], vreal g[4][3]) {
+  for (int c = 1; c < 4; c++)
+    for (int j = 0; j < 3; j++)
+      g[c][j] = Dmi[(c - 1) * 3 + j];
+  for (int j = 0; j < 3; j++)
+    g[0][j] = vneg(vadd(vadd(g[1][j], g[2][j]), g[3][j]));
+}
+
+static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
+  static const int e[6] = {0, 1, 2, 4, 5, 8};
+  for (int k = 0; k < 6; k++)
+    vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
+}
+
+EK_INLINE void diag_blocks(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[24 * L];
+  const ek_material_lanes mp =
+      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  const int iso = ek_model_rows[model].isotropic;
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L,
+               *cb = model == EK_MODEL_LINEAR ? NULL : cache_block(a, b);
+    real *dst = a->corner ? a->corner + b * 24 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      vreal Dmi[9], g[4][3], B[9], v0 = vload(a->v0 + b * L + o);
+      for (int k = 0; k < 9; k++)
+        Dmi[k] = vload(dmi + k * L + o);
+      corner_dirs(Dmi, g);
+      if (iso) {
+        mat_frame fr;
+        load_frame(cb, o, &fr);
+        for (int c = 0; c < 4; c++) {
+          vreal bv[3], M[9], T[9];
+          for (int i = 0; i < 3; i++)
+            bv[i] = vmla(fr.V[i], g[c][0], vmla(fr.V[3 + i], g[c][1], vmul(fr.V[6 + i], g[c][2])));
+          for (int p = 0; p < 3; p++) {
+            const int i = mat_pair_i[p], j = mat_pair_j[p];
+            M[3 * i + j] = M[3 * j + i] = vmul(vmul(bv[i], bv[j]), vadd(fr.A[i][j], fr.q[p]));
+          }
+          vreal b2[3] = {vmul(bv[0], bv[0]), vmul(bv[1], bv[1]), vmul(bv[2], bv[2])};
+          // pairs: 0 = (0,1), 1 = (0,2), 2 = (1,2)
+          M[0] = vmla(fr.A[0][0], b2[0], vmla(fr.h[0], b2[1], vmul(fr.h[1], b2[2])));
+          M[4] = vmla(fr.A[1][1], b2[1], vmla(fr.h[0], b2[0], vmul(fr.h[2], b2[2])));
+          M[8] = vmla(fr.A[2][2], b2[2], vmla(fr.h[1], b2[0], vmul(fr.h[2], b2[1])));
+          vm3_mul(fr.U, M, T);
+          vm3_mul_nt(T, fr.U, B);
+          for (int k = 0; k < 9; k++)
+            B[k] = vmul(v0, B[k]);
+          store_block6(B, c, o, dst);
+        }
+      } else {
+        vreal R[9], zero = vzero();
+        for (int k = 0; k < 9; k++)
+          R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(cb + k * L + o) : zero;
+        for (int c = 0; c < 4; c++) {
+          for (int k = 0; k < 3; k++) {
+            // Column k: dF = e_k g_c^T, B[:, k] = V0 dP g_c.
+            vreal dF[9], dP[9];
+            for (int i = 0; i < 9; i++)
+              dF[i] = i / 3 == k ? g[c][i % 3] : zero;
+            material_diff_direct(&mp, dF, R, dF, dP);
+            for (int i = 0; i < 3; i++)
+              B[3 * i + k] =
+                  vmul(v0, vmla(dP[3 * i], g[c][0],
+                                vmla(dP[3 * i + 1], g[c][1], vmul(dP[3 * i + 2], g[c][2]))));
+          }
+          store_block6(B, c, o, dst);
+        }
+      }
+    }
+    if (!a->corner)
+      apply_or_diag_scatter(a, b, hb, 6);
+  }
+}
+
+#if defined(EK_REAL_F64)
+// ---- Gradient (double only: ek_fvm_hessian_gradient_f64) ----
+
+// Plane k of the cache for the vector at offset o of block b: in double
+// (this kernel's layout) or rounded to float (the float layout, by slot).
+static inline void cache_store(const hess_args *a, size_t b, int o, int k, vreal v) {
+  if (a->cache_out_f32) {
+    _Alignas(64) double t[EK_W];
+    vstore(t, v);
+    const size_t s0 = b * L + (size_t)o, P = (size_t)a->planes;
+    float *d =
+        a->cache_out_f32 + ((s0 / EK_LANES_F32) * P + (size_t)k) * EK_LANES_F32 + s0 % EK_LANES_F32;
+    for (int l = 0; l < EK_W; l++)
+      d[l] = (float)t[l];
+  } else if (a->cache_out) {
+    vstore(a->cache_out + (b * (size_t)a->planes + (size_t)k) * L + (size_t)o, v);
+  }
+}
+
+static inline void store_frame(const hess_args *a, size_t b, int o, const mat_frame *fr) {
+  static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
+  for (int k = 0; k < 9; k++) {
+    cache_store(a, b, o, k, fr->U[k]);
+    cache_store(a, b, o, 9 + k, fr->V[k]);
+  }
+  for (int k = 0; k < 6; k++)
+    cache_store(a, b, o, 18 + k, fr->A[ai[k]][aj[k]]);
+  for (int p = 0; p < 3; p++) {
+    cache_store(a, b, o, 24 + p, fr->h[p]);
+    cache_store(a, b, o, 27 + p, fr->q[p]);
+  }
+}
+
+// Corotated linear's R^n for block b's lanes (identity in padding lanes).
+static void gather_R(const hess_args *a, size_t b, real *Rb) {
+  for (int l = 0; l < L; l++) {
+    int32_t t = a->slot_tet[b * L + l];
+    size_t s = t >= 0 ? (size_t)a->morton_slot[t] : 0;
+    for (int k = 0; k < 9; k++)
+      Rb[k * L + l] =
+          t >= 0 ? a->R_planes[(s / EK_LANES_F64 * 9 + (size_t)k) * EK_LANES_F64 + s % EK_LANES_F64]
+                 : (real)(k % 4 == 0);
+  }
+}
+
+EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, size_t b0,
+                               size_t b1) {
+  _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
+  const ek_material_lanes mp =
+      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  const int iso = ek_model_rows[model].isotropic;
+  const int sigma = material_uses_sigma(&mp);
+  const int cache = a->cache_out || a->cache_out_f32;
+  for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
+    const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
+    if (model == EK_MODEL_COROTATED_LINEAR)
+      for (int g = 0; g < nb; g++)
+        gather_R(a, b + (size_t)g, Rb[g]);
+    for (int v = 0; v < nb * EK_VPB; v += 2) {
+      const int nv = nb * EK_VPB - v < 2 ? 1 : 2;
+      vreal F[2][9], P[2][9], psi[2];
+      int og[2];
+      size_t bg[2];
+      for (int j = 0; j < nv; j++) {
+        bg[j] = b + (size_t)((v + j) / EK_VPB);
+        og[j] = (v + j) % EK_VPB * EK_W;
+        tet_gradient(a->x, a->idx + bg[j] * 4 * L, a->dm_inv + bg[j] * 9 * L, og[j], 1, F[j]);
+      }
+      if (iso && (sigma || cache)) {
+        // The SVD of both vectors side by side; P and psi from it or in F
+        // (as the force kernel would), the frame from it.
+        vreal U[2][9], S[2][3], V[2][9], scale[2];
+        if (nv == 2)
+          svd3_core_n(2, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
+        else
+          svd3_core_n(1, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
+        for (int j = 0; j < nv; j++) {
+          for (int i = 0; i < 3; i++)
+            S[j][i] = vmul(S[j][i], scale[j]);
+          if (sigma) {
+            material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
+            psi[j] = material_psi_svd(&mp, S[j]);
+          } else {
+            material_pk1(&mp, F[j], F[j], P[j]);
+            psi[j] = material_psi(&mp, F[j], F[j]);
+          }
+          if (cache) {
+            mat_frame fr;
+            material_frame_svd(&mp, F[j], U[j], S[j], V[j], a->project, &fr);
+            store_frame(a, bg[j], og[j], &fr);
+          }
+        }
+      } else {
+        for (int j = 0; j < nv; j++) {
+          vreal R[9];
+          const int g = (v + j) / EK_VPB;
+          for (int k = 0; k < 9; k++) {
+            R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(Rb[g] + k * L + og[j]) : F[j][k];
+            if (model == EK_MODEL_COROTATED_LINEAR && cache)
+              cache_store(a, bg[j], og[j], k, R[k]);
+          }
+          material_pk1(&mp, F[j], R, P[j]);
+          psi[j] = material_psi(&mp, F[j], R);
+        }
+      }
+      for (int j = 0; j < nv; j++) {
+        const int g = (v + j) / EK_VPB;
+        vreal v0 = vload(a->v0 + bg[j] * L + og[j]);
+        vstore(a->energy + bg[j] * L + og[j], vmul(v0, psi[j]));
+        tet_corner_values(P[j], a->dm_inv + bg[j] * 9 * L, v0, og[j],
+                          a->corner ? a->corner + bg[j] * 12 * L : hb[g]);
+      }
+    }
+    if (!a->corner)
+      for (int g = 0; g < nb; g++)
+        apply_or_diag_scatter(a, b + (size_t)g, hb[g], 3);
+  }
+}
+
+EK_INLINE void gradient_blocks_iso(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+  if (a->svd->exact_rsqrt)
+    gradient_blocks(model, 1, a, b0, b1);
+  else
+    gradient_blocks(model, 0, a, b0, b1);
+}
+#endif
+
+// One model, every op (model a compile-time constant at each call below).
+EK_INLINE void hess_model(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+  switch (a->op) {
+  case HESS_GRADIENT:
+#if defined(EK_REAL_F64)
+    if (ek_model_rows[model].isotropic)
+      gradient_blocks_iso(model, a, b0, b1);
+    else
+      gradient_blocks(model, 0, a, b0, b1);
+#endif
+    break;
+  case HESS_APPLY:
+    apply_blocks(model, a, b0, b1);
+    break;
+  case HESS_DIAG:
+    diag_blocks(model, a, b0, b1);
+    break;
+  }
+}
+
+void EK_SYM(hessian_block)(const hess_args *a, size_t b0, size_t b1) {
+  switch (a->mat->model) {
+  case EK_MODEL_LINEAR:
+    hess_model(EK_MODEL_LINEAR, a, b0, b1);
+    break;
+  case EK_MODEL_STVK:
+    hess_model(EK_MODEL_STVK, a, b0, b1);
+    break;
+  case EK_MODEL_COROTATED_LINEAR:
+    hess_model(EK_MODEL_COROTATED_LINEAR, a, b0, b1);
+    break;
+  case EK_MODEL_PSI_R:
+    hess_model(EK_MODEL_PSI_R, a, b0, b1);
+    break;
+  case EK_MODEL_FIXED_COROTATED:
+    hess_model(EK_MODEL_FIXED_COROTATED, a, b0, b1);
+    break;
+  case EK_MODEL_ARAP:
+    hess_model(EK_MODEL_ARAP, a, b0, b1);
+    break;
+  case EK_MODEL_NEO_HOOKEAN:
+    hess_model(EK_MODEL_NEO_HOOKEAN, a, b0, b1);
+    break;
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
+    hess_model(EK_MODEL_STABLE_NEO_HOOKEAN, a, b0, b1);
+    break;
+  }
+}

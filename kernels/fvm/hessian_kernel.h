@@ -1,0 +1,83 @@
+// Internal: arguments of the Hessian block kernels (kernels/fvm/
+// hessian_block.c) and the state behind ek_fvm_hessian (include/ek/
+// hessian.h), shared by the kernel and its driver (kernels/fvm/hessian.c).
+//
+// What one call does for blocks [b0, b1) of the driver's slot order
+// (block planes as in fvm_kernel.h):
+//   HESS_GRADIENT (f64 kernels only): gather x, F = Ds Dm^-1, P and psi;
+//     corner values V0 P Dm^-T (3 per corner), energy[slot] = V0 psi, and,
+//     when cache_out or cache_out_f32 is set, the cache of the products;
+//   HESS_APPLY: gather x (the direction p), dF = dDs Dm^-1, dP from the
+//     cache, corner values V0 dP Dm^-T (3 per corner);
+//   HESS_DIAG: per corner c the 3x3 block V0 G_c^T H G_c of the element
+//     Hessian H (G_c: dF of a unit move of corner c), 6 values per corner
+//     (xx, xy, xz, yy, yz, zz);
+// then out (add, lane order) or corner (write) as in scatter.h.
+//
+// Cache: `planes` planes per tet, plane k of block b at
+// cache[(b * planes + k) * LANES + l] in the cache's precision (LANES 16
+// for float, 8 for double; both orders have the same slots, so the f64
+// gradient kernel can write a float cache by slot). Isotropic models:
+// HESS_FRAME_PLANES planes, U (0-8), V (9-17), the symmetric 3x3 block A
+// (18-23: A00 A01 A02 A11 A12 A22), h (24-26), q (27-29) of mat_frame
+// (kernels/material/material_math.h); corotated linear: R (9 planes);
+// linear: none.
+#ifndef EK_FVM_HESSIAN_KERNEL_H
+#define EK_FVM_HESSIAN_KERNEL_H
+
+#include <ek/hessian.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../kernels.h"
+
+enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG };
+#define HESS_FRAME_PLANES 30
+
+#define EK_HESS_ARGS(T, NAME)                                                                      \
+  struct NAME {                                                                                    \
+    int op;                                                                                        \
+    const int32_t *idx;                                                                            \
+    const T *dm_inv;                                                                               \
+    const T *v0;                                                                                   \
+    const int32_t *slot_tet; /* slot -> caller tet, -1 = padding */                                \
+    const ek_material *mat;                                                                        \
+    const ek_svd3_knobs *svd;                                                                      \
+    int project;                                                                                   \
+    int planes;                                                                                    \
+    const T *x; /* positions (gradient) or the direction p (apply) */                              \
+    /* corotated linear's R^n (gradient): 9 planes, f64, Morton slots */                           \
+    const double *R_planes;                                                                        \
+    const int32_t *morton_slot;                                                                    \
+    T *cache_out;         /* gradient: cache in this precision, or */                              \
+    float *cache_out_f32; /* gradient (f64 kernel): cache in float */                              \
+    const T *cache;       /* apply, diag */                                                        \
+    T *energy;            /* gradient: V0 psi per slot */                                          \
+    T *out;                                                                                        \
+    T *corner;                                                                                     \
+  }
+EK_HESS_ARGS(float, ek_hess_args_f32);
+EK_HESS_ARGS(double, ek_hess_args_f64);
+
+// Behind ek_fvm_hessian.
+struct ek_fvm_hessian {
+  const ek_tets *el;
+  ek_material mat;
+  ek_scatter scatter; // resolved
+  ek_isa isa;         // resolved
+  const ek_kernel_table *kt;
+  ek_svd3_knobs svd; // the gradient pass's (double)
+  int project;
+  int precision; // 32 or 64: the cache's and the products'
+  int planes;    // cache planes per tet
+  void *cache;   // nslots * planes values, or NULL (no planes)
+  size_t cache_bytes;
+  double *energy; // nslots
+  int cached;     // a caching gradient pass ran
+};
+
+// The diagonal blocks in the cache's precision (hessian.c, per precision).
+int ek_fvm_hessian_diag_f32(const ek_fvm_hessian *h, float *blocks);
+int ek_fvm_hessian_diag_f64(const ek_fvm_hessian *h, double *blocks);
+
+#endif

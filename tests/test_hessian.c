@@ -1,0 +1,410 @@
+// Invariants of the gradient and Hessian kernels (include/ek/hessian.h):
+//   1. every model x available ISA x product precision x scatter strategy x
+//      projection: the gradient equals minus the reference force and the
+//      energy the reference energy (EK_FVM_TOL_F64); the product K p
+//      equals the reference (the material reference's 9x9 Hessian,
+//      projected by LAPACK when asked) within EK_HESSIAN_TOL_F32/_F64, on
+//      jittered, renumbered meshes with tails;
+//   2. unprojected, K p equals the central difference of the gradient
+//      (every model), EK_HESSIAN_FD_TOL;
+//   3. projected, K is symmetric (q.Kp = p.Kq) and PSD (p.Kp >= 0) on
+//      random directions;
+//   4. the diagonal blocks equal the vertex blocks of K read off products
+//      with unit vectors;
+//   5. gradient, energy, products and diagonal blocks have the same bits
+//      at 1 and 2 threads (every strategy but ATOMIC), on a mesh above the
+//      one-thread grains;
+//   6. neo-Hookean with an inverted tet: energy +inf; bad arguments are
+//      refused (products before a caching gradient, wrong precision,
+//      corotated linear without R); ISAs the CPU lacks are reported as
+//      skipped.
+#include <ek/elements.h>
+#include <ek/hessian.h>
+#include <omp.h>
+
+#include "test_fvm_common.h"
+
+// Central differences of the kernel's own gradient with step h = 1e-6 of
+// the cell size (1e-7): rounding ~1e-16 / h = 1e-9 relative to the
+// contribution scale, truncation ~h^2 far below; the same budget as the
+// force's (EK_FVM_FD_TOL).
+#define EK_HESSIAN_FD_TOL EK_FVM_FD_TOL
+// Symmetry and PSD: |q.Kp - p.Kq| and max(0, -p.Kp) relative to
+// |p| |Kp| (f64 products).
+#define EK_HESSIAN_SYM_TOL 1e-12
+
+static int failures = 0;
+static const ek_scatter strategies[] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED,
+                                        EK_SCATTER_THREAD_BUFFERS, EK_SCATTER_GATHER,
+                                        EK_SCATTER_ATOMIC};
+#define NSTRAT ((int)(sizeof strategies / sizeof strategies[0]))
+
+static void fail_if(int bad, const char *what) {
+  if (bad) {
+    failures++;
+    printf("%s: FAIL\n", what);
+  }
+}
+
+typedef struct {
+  ek_tets *el;
+  ek_tet_state *R_state;
+  const double *R;
+} setup;
+
+static ek_fvm_hessian *make(const setup *s, const ek_material *mat, ek_isa isa, ek_scatter sc,
+                            int prec, int unprojected) {
+  ek_fvm_hessian_opts o = {
+      .scatter = sc, .isa = isa, .precision = prec, .unprojected = unprojected};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(s->el, mat, &o);
+  if (!h) {
+    printf("ek_fvm_hessian_create: %s\nFAIL\n", ek_last_error());
+    failures++;
+  }
+  return h;
+}
+
+// y = K p with the product of the Hessian's precision.
+static int apply(const ek_fvm_hessian *h, int prec, size_t n3, const double *p, double *y) {
+  if (prec == 64)
+    return ek_fvm_hessian_apply_f64(h, p, y);
+  float *pf = calloc(n3, sizeof(float)), *yf = malloc(n3 * sizeof(float));
+  for (size_t i = 0; i < n3; i++)
+    pf[i] = (float)p[i];
+  int rc = ek_fvm_hessian_apply_f32(h, pf, yf);
+  for (size_t i = 0; i < n3; i++)
+    y[i] = yf[i];
+  free(pf);
+  free(yf);
+  return rc;
+}
+
+static double dot(size_t n, const double *a, const double *b) {
+  double s = 0;
+  for (size_t i = 0; i < n; i++)
+    s += a[i] * b[i];
+  return s;
+}
+
+// 1: one model against the reference, every ISA x precision x strategy x
+// projection.
+static void check_model(const test_model *tm, const test_mesh *t, const setup *s, const double *x,
+                        ek_rng *rng) {
+  size_t nv = t->nverts, n3 = nv * 3;
+  ek_material_ref mref = test_ref_material(&tm->mat);
+  double *fref = malloc(n3 * sizeof(double)), *fs = malloc(n3 * sizeof(double));
+  double *g = malloc(n3 * sizeof(double)), *p = malloc(n3 * sizeof(double));
+  double *y = malloc(n3 * sizeof(double)), *yref = malloc(n3 * sizeof(double));
+  double *ys = malloc(n3 * sizeof(double));
+  ek_fvm_forces_ref(nv, t->X, t->ntets, t->T, &mref, s->R, x, fref, fs);
+  for (size_t i = 0; i < n3; i++)
+    fref[i] = -fref[i];
+  double Eref = ek_fvm_energy_ref(nv, t->X, t->ntets, t->T, &mref, s->R, x), Escale = 0;
+  for (size_t e = 0; e < t->ntets; e++) {
+    double F[9], Dmi[9];
+    double V0 = ek_fvm_tet_F_ref(t->X, x, t->T + e * 4, F, Dmi);
+    Escale += V0 * fabs(ek_psi_ref(&mref, F, s->R ? s->R + e * 9 : NULL));
+  }
+  for (size_t i = 0; i < n3; i++)
+    p[i] = 0.1 * (2 * ek_rng_uniform(rng) - 1); // a cell's size
+  double worst_g = 0, worst_E = 0, worst[2][2] = {{0}};
+  int cases = 0;
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+    if (!ek_isa_available((ek_isa)isa))
+      continue;
+    for (int si = 0; si < NSTRAT; si++)
+      for (int prec = 32; prec <= 64; prec += 32)
+        for (int proj = 0; proj < 2; proj++) {
+          ek_fvm_hessian *h = make(s, &tm->mat, (ek_isa)isa, strategies[si], prec, !proj);
+          if (!h)
+            continue;
+          double E;
+          int rc = ek_fvm_hessian_gradient_f64(h, x, s->R_state, g, &E, 1);
+          // The f32 product reads p rounded to float: so does its reference.
+          double *pp = malloc(n3 * sizeof(double));
+          for (size_t i = 0; i < n3; i++)
+            pp[i] = prec == 32 ? (double)(float)p[i] : p[i];
+          ek_fvm_hessian_apply_ref(nv, t->X, t->ntets, t->T, &mref, s->R, x, pp, proj, yref, ys);
+          if (rc == 0)
+            rc = apply(h, prec, n3, pp, y);
+          free(pp);
+          char label[160];
+          snprintf(label, sizeof label, "%-17s %-6s f%d %-14s %s", tm->name,
+                   ek_isa_name((ek_isa)isa), prec, ek_scatter_name(strategies[si]),
+                   proj ? "projected" : "exact");
+          if (rc != 0) {
+            printf("%s: rc %d (%s)\nFAIL\n", label, rc, ek_last_error());
+            failures++;
+            ek_fvm_hessian_destroy(h);
+            continue;
+          }
+          size_t wi;
+          worst_g = fmax(worst_g, test_force_error(n3, g, fref, fs, &wi));
+          worst_E = fmax(worst_E, fabs(E - Eref) / Escale);
+          double e = test_force_error(n3, y, yref, ys, &wi);
+          double tol = prec == 32 ? EK_HESSIAN_TOL_F32 : EK_HESSIAN_TOL_F64;
+          if (!(e <= tol)) {
+            printf("%s: K p error %.3g > %g at vertex %zu component %zu (kernel %.9g, reference "
+                   "%.17g)\nFAIL\n",
+                   label, e, tol, wi / 3, wi % 3, y[wi], yref[wi]);
+            failures++;
+          }
+          worst[prec == 64][proj] = fmax(worst[prec == 64][proj], e);
+          cases++;
+          ek_fvm_hessian_destroy(h);
+        }
+  }
+  char label[200];
+  snprintf(label, sizeof label, "%-17s gradient = -force ref (%d cases)", tm->name, cases);
+  failures += ek_check_report(label, worst_g, EK_FVM_TOL_F64);
+  snprintf(label, sizeof label, "%-17s energy = ref", tm->name);
+  failures += ek_check_report(label, worst_E, EK_FVM_TOL_F64);
+  for (int prec = 0; prec < 2; prec++)
+    for (int proj = 0; proj < 2; proj++) {
+      snprintf(label, sizeof label, "%-17s K p f%d %s", tm->name, prec ? 64 : 32,
+               proj ? "projected" : "exact");
+      failures +=
+          ek_check_report(label, worst[prec][proj], prec ? EK_HESSIAN_TOL_F64 : EK_HESSIAN_TOL_F32);
+    }
+  free(fref);
+  free(fs);
+  free(g);
+  free(p);
+  free(y);
+  free(yref);
+  free(ys);
+}
+
+// 2 and 3: finite differences of the gradient (exact Hessian); symmetry
+// and PSD (projected).
+static void check_fd_sym(const test_model *tm, const test_mesh *t, const setup *s, const double *x,
+                         ek_rng *rng) {
+  size_t n3 = t->nverts * 3;
+  double *p = malloc(n3 * sizeof(double)), *q = malloc(n3 * sizeof(double));
+  double *y = malloc(n3 * sizeof(double)), *yq = malloc(n3 * sizeof(double));
+  double *gp = malloc(n3 * sizeof(double)), *gm = malloc(n3 * sizeof(double));
+  double *xs = malloc(n3 * sizeof(double)), *sc = malloc(n3 * sizeof(double));
+  ek_material_ref mref = test_ref_material(&tm->mat);
+  for (size_t i = 0; i < n3; i++)
+    p[i] = 2 * ek_rng_uniform(rng) - 1;
+  ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, 1);
+  const double step = 1e-6 * 0.1;
+  ek_fvm_hessian_gradient_f64(h, x, s->R_state, gp, NULL, 1);
+  ek_fvm_hessian_apply_f64(h, p, y);
+  ek_fvm_hessian_apply_ref(t->nverts, t->X, t->ntets, t->T, &mref, s->R, x, p, 0, yq, sc);
+  for (size_t i = 0; i < n3; i++)
+    xs[i] = x[i] + step * p[i];
+  ek_fvm_hessian_gradient_f64(h, xs, s->R_state, gp, NULL, 0);
+  for (size_t i = 0; i < n3; i++)
+    xs[i] = x[i] - step * p[i];
+  ek_fvm_hessian_gradient_f64(h, xs, s->R_state, gm, NULL, 0);
+  for (size_t i = 0; i < n3; i++)
+    gp[i] = (gp[i] - gm[i]) / (2 * step);
+  size_t wi;
+  char label[160];
+  snprintf(label, sizeof label, "%-17s K p = central difference of the gradient", tm->name);
+  failures += ek_check_report(label, test_force_error(n3, y, gp, sc, &wi), EK_HESSIAN_FD_TOL);
+  ek_fvm_hessian_destroy(h);
+
+  h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, 0);
+  ek_fvm_hessian_gradient_f64(h, x, s->R_state, gp, NULL, 1);
+  double sym = 0, psd = 0;
+  for (int r = 0; r < 8; r++) {
+    for (size_t i = 0; i < n3; i++) {
+      p[i] = 2 * ek_rng_uniform(rng) - 1;
+      q[i] = 2 * ek_rng_uniform(rng) - 1;
+    }
+    ek_fvm_hessian_apply_f64(h, p, y);
+    ek_fvm_hessian_apply_f64(h, q, yq);
+    double ny = sqrt(dot(n3, y, y)), np = sqrt(dot(n3, p, p)), nq = sqrt(dot(n3, q, q));
+    double nyq = sqrt(dot(n3, yq, yq));
+    sym = fmax(sym, fabs(dot(n3, q, y) - dot(n3, p, yq)) / fmax(nq * ny, np * nyq));
+    psd = fmax(psd, fmax(0, -dot(n3, p, y)) / (np * ny));
+  }
+  snprintf(label, sizeof label, "%-17s projected K symmetric (q.Kp - p.Kq)", tm->name);
+  failures += ek_check_report(label, sym, EK_HESSIAN_SYM_TOL);
+  snprintf(label, sizeof label, "%-17s projected K PSD (-p.Kp)", tm->name);
+  failures += ek_check_report(label, psd, EK_HESSIAN_SYM_TOL);
+  ek_fvm_hessian_destroy(h);
+  free(p);
+  free(q);
+  free(y);
+  free(yq);
+  free(gp);
+  free(gm);
+  free(xs);
+  free(sc);
+}
+
+// 4: diagonal blocks = K's vertex blocks from unit products, both
+// precisions (each against the products of its own precision).
+static void check_diagonal(const test_model *tm, const test_mesh *t, const setup *s,
+                           const double *x) {
+  size_t nv = t->nverts, n3 = nv * 3;
+  double *e = calloc(n3, sizeof(double)), *y = malloc(n3 * sizeof(double));
+  double *B = malloc(nv * 6 * sizeof(double)), *g = malloc(n3 * sizeof(double));
+  static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
+  for (int prec = 32; prec <= 64; prec += 32) {
+    ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, prec, 0);
+    ek_fvm_hessian_gradient_f64(h, x, s->R_state, g, NULL, 1);
+    int rc = ek_fvm_hessian_diagonal_f64(h, B);
+    double err = rc == 0 ? 0 : INFINITY, scale = 0;
+    for (size_t v = 0; v < nv && rc == 0; v++)
+      for (int k = 0; k < 3; k++) {
+        e[v * 3 + k] = 1;
+        apply(h, prec, n3, e, y);
+        e[v * 3 + k] = 0;
+        for (int c = 0; c < 6; c++) {
+          if (col[c] != k)
+            continue;
+          err = fmax(err, fabs(B[v * 6 + c] - y[v * 3 + row[c]]));
+        }
+        scale = fmax(scale, fabs(y[v * 3 + k]));
+      }
+    char label[160];
+    snprintf(label, sizeof label, "%-17s diagonal blocks = K e_i, f%d", tm->name, prec);
+    failures += ek_check_report(label, err / scale, prec == 32 ? EK_HESSIAN_TOL_F32 : 1e-12);
+    ek_fvm_hessian_destroy(h);
+  }
+  free(e);
+  free(y);
+  free(B);
+  free(g);
+}
+
+// 5: bits at 1 and 2 threads.
+static void check_threads(ek_rng *rng) {
+  test_mesh t = test_mesh_random(rng, 12, 10, 8, 0.2); // 5760 tets: above the grains
+  char err[256];
+  ek_tets *el = ek_tets_create(t.nverts, t.X, t.ntets, t.T, err, sizeof err);
+  size_t n3 = t.nverts * 3;
+  double *x = malloc(n3 * sizeof(double)), *p = malloc(n3 * sizeof(double));
+  test_deform(rng, &t, 0.2, 0.1, x);
+  for (size_t i = 0; i < n3; i++)
+    p[i] = 2 * ek_rng_uniform(rng) - 1;
+  double *out[2][4];
+  float *o32[2];
+  for (int r = 0; r < 2; r++) {
+    for (int k = 0; k < 4; k++)
+      out[r][k] = malloc(t.nverts * 6 * sizeof(double));
+    o32[r] = malloc(n3 * sizeof(float));
+  }
+  float *p32 = malloc(n3 * sizeof(float));
+  for (size_t i = 0; i < n3; i++)
+    p32[i] = (float)p[i];
+  int same = 1, cases = 0;
+  ek_material mats[2] = {{EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0},
+                         {EK_MODEL_FIXED_COROTATED, 1, 2, 0}};
+  for (int mi = 0; mi < 2; mi++)
+    for (int si = 0; si < NSTRAT; si++) {
+      if (strategies[si] == EK_SCATTER_ATOMIC)
+        continue;
+      double E[2];
+      for (int r = 0; r < 2; r++) {
+        omp_set_num_threads(r + 1);
+        ek_fvm_hessian_opts o = {.scatter = strategies[si]};
+        ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[mi], &o);
+        ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], &E[r], 1);
+        ek_fvm_hessian_apply_f64(h, p, out[r][1]);
+        ek_fvm_hessian_diagonal_f64(h, out[r][2]);
+        ek_fvm_hessian_destroy(h);
+        o.precision = 32;
+        h = ek_fvm_hessian_create(el, &mats[mi], &o);
+        ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][3], NULL, 1);
+        ek_fvm_hessian_apply_f32(h, p32, o32[r]);
+        ek_fvm_hessian_destroy(h);
+      }
+      same &= memcmp(&E[0], &E[1], sizeof(double)) == 0;
+      same &= memcmp(out[0][0], out[1][0], n3 * sizeof(double)) == 0;
+      same &= memcmp(out[0][1], out[1][1], n3 * sizeof(double)) == 0;
+      same &= memcmp(out[0][2], out[1][2], t.nverts * 6 * sizeof(double)) == 0;
+      same &= memcmp(o32[0], o32[1], n3 * sizeof(float)) == 0;
+      cases++;
+    }
+  omp_set_num_threads(2);
+  printf("1 and 2 threads: same bits for gradient, energy, K p (f64, f32), diagonal blocks, "
+         "%zu tets, %d cases: %s\n",
+         t.ntets, cases, same ? "PASS" : "FAIL");
+  failures += !same;
+  for (int r = 0; r < 2; r++) {
+    for (int k = 0; k < 4; k++)
+      free(out[r][k]);
+    free(o32[r]);
+  }
+  free(p32);
+  free(x);
+  free(p);
+  ek_tets_destroy(el);
+  test_mesh_free(&t);
+}
+
+// 6: the domain and bad arguments.
+static void check_errors(void) {
+  double X[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, x[12], g[12], y[12];
+  int32_t T[4] = {0, 1, 2, 3};
+  char err[256];
+  ek_tets *el = ek_tets_create(4, X, 1, T, err, sizeof err);
+  memcpy(x, X, sizeof x);
+  x[3 * 3 + 2] = -0.5; // inverted
+  ek_material nh = {EK_MODEL_NEO_HOOKEAN, 1, 2, 0}, cl = {EK_MODEL_COROTATED_LINEAR, 1, 2, 0};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(el, &nh, NULL);
+  int rc = ek_fvm_hessian_apply_f64(h, x, y);
+  fail_if(rc != EK_EINVAL, "a product before any caching gradient is refused");
+  double E = 0;
+  rc = ek_fvm_hessian_gradient_f64(h, x, NULL, g, &E, 1);
+  printf("neo-Hookean, inverted tet: rc %d, energy %g (expected +inf)\n", rc, E);
+  fail_if(rc != 0 || !(isinf(E) && E > 0), "inverted neo-Hookean energy is +inf");
+  float pf[12] = {0}, yf[12];
+  fail_if(ek_fvm_hessian_apply_f32(h, pf, yf) != EK_EINVAL, "f32 product on an f64 cache refused");
+  ek_fvm_hessian_destroy(h);
+  h = ek_fvm_hessian_create(el, &cl, NULL);
+  fail_if(ek_fvm_hessian_gradient_f64(h, X, NULL, g, NULL, 1) != EK_EINVAL,
+          "corotated linear without R refused");
+  ek_fvm_hessian_destroy(h);
+  ek_fvm_hessian_opts bad = {.precision = 16};
+  fail_if(ek_fvm_hessian_create(el, &nh, &bad) != NULL, "precision 16 refused");
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+    if (!ek_isa_available((ek_isa)isa)) {
+      ek_fvm_hessian_opts o = {.isa = (ek_isa)isa};
+      h = ek_fvm_hessian_create(el, &nh, &o);
+      printf("skipped %s: not available on this CPU/build (create refused: %s)\n",
+             ek_isa_name((ek_isa)isa), h ? "FAIL" : "PASS");
+      failures += h != NULL;
+      ek_fvm_hessian_destroy(h);
+    }
+  printf("errors and domain: %s\n", failures ? "(see above)" : "PASS");
+  ek_tets_destroy(el);
+}
+
+int main(int argc, char **argv) {
+  uint64_t seed = ek_check_seed_arg(argc, argv, 2026);
+  printf("test_hessian: seed %llu\n", (unsigned long long)seed);
+  ek_rng rng;
+  ek_rng_seed(&rng, seed);
+  check_errors();
+  // A tail: 3*3*2*6 = 108 tets (not a multiple of 16).
+  test_mesh t = test_mesh_random(&rng, 3, 3, 2, 0.2);
+  char err[256];
+  ek_tets *el = ek_tets_create(t.nverts, t.X, t.ntets, t.T, err, sizeof err);
+  double *x = malloc(t.nverts * 3 * sizeof(double));
+  test_deform(&rng, &t, 0.25, 0.1, x);
+  double *R = test_rotations(&rng, t.ntets);
+  ek_tet_state *Rs = ek_tet_state_create(el, 9, 1);
+  ek_tet_state_set_f64(Rs, R);
+  for (int mi = 0; mi < test_nmodels; mi++) {
+    const test_model *tm = &test_models[mi];
+    int corot = tm->mat.model == EK_MODEL_COROTATED_LINEAR;
+    setup s = {el, corot ? Rs : NULL, corot ? R : NULL};
+    check_model(tm, &t, &s, x, &rng);
+    check_fd_sym(tm, &t, &s, x, &rng);
+    check_diagonal(tm, &t, &s, x);
+  }
+  check_threads(&rng);
+  ek_tet_state_destroy(Rs);
+  ek_tets_destroy(el);
+  free(R);
+  free(x);
+  test_mesh_free(&t);
+  printf("%s\n", failures ? "FAIL" : "PASS");
+  return failures != 0;
+}
