@@ -13,6 +13,13 @@
 //     bandwidth-bound case);
 //   - fixed corotated f32, thread buffers, ~1e5 tets on every other
 //     available ISA (scalar, ...), for the vectorisation gain.
+//   - the Hessian of the implicit loop (include/ek/hessian.h), thread
+//     buffers, best ISA, ~1e5 tets: one product K p per model x precision
+//     (name hessian/<model>/apply/...; the speed-up column is the force
+//     row of the same model, precision, size and threads divided by it:
+//     the "one product <= 1.2x one force evaluation" reads as a
+//     speed-up >= 0.83), and the caching gradient pass (hessian/<model>/
+//     gradient/..., double, cache in the row's precision) for the same.
 // Kept to these so the default suite's share stays small on 2 cores.
 //
 // Declared work per tet: the bytes a force evaluation must move, per tet:
@@ -25,6 +32,7 @@
 // row would need if it moved only what it must. No flop count: P's cost
 // depends on the model and its SVD.
 #include <ek/fvm.h>
+#include <ek/hessian.h>
 #include <ek/mesh.h>
 #include <math.h>
 #include <stdio.h>
@@ -182,6 +190,85 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
   return ek_bench_run(b, &row);
 }
 
+typedef struct {
+  fvm_mesh_case *mc;
+  ek_fvm_hessian *h;
+  int f32, gradient;
+  ek_tet_state *R;
+  ek_bench *b;
+  int failed;
+} hess_ctx;
+
+static void run_hessian(void *p) {
+  hess_ctx *c = p;
+  int rc = c->gradient ? ek_fvm_hessian_gradient_f64(c->h, c->mc->x64, c->R, c->mc->f64, NULL, 1)
+           : c->f32    ? ek_fvm_hessian_apply_f32(c->h, c->mc->x32, c->mc->f32)
+                       : ek_fvm_hessian_apply_f64(c->h, c->mc->x64, c->mc->f64);
+  if (rc < 0 && !c->failed) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "fvm: ek_fvm_hessian returned %d", rc);
+  }
+}
+
+// One Hessian row (product or caching gradient pass) of a model at ~1e5
+// tets, thread buffers; its baseline is the force row of the same model.
+static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient, int threads) {
+  fvm_mesh_case *mc = &sizes[1];
+  size_t ntets = (size_t)6 * mc->n[0] * mc->n[1] * mc->n[2];
+  char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
+  const char *prec = f32 ? "f32" : "f64";
+  snprintf(name, sizeof name, "hessian/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
+           gradient ? "gradient" : "apply", ek_isa_name(isa), prec, ntets, threads);
+  snprintf(base, sizeof base, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
+           ek_scatter_name(EK_SCATTER_THREAD_BUFFERS), ek_isa_name(isa), prec, ntets, threads);
+  if (!ek_bench_wants(b, name))
+    return 0;
+  static hess_ctx ctx;
+  if (!ek_bench_listing(b)) {
+    if (mesh_setup(b, mc))
+      return -1;
+    ek_fvm_hessian_destroy(ctx.h);
+    memset(&ctx, 0, sizeof ctx);
+    ek_fvm_hessian_opts o = {
+        .scatter = EK_SCATTER_THREAD_BUFFERS, .isa = isa, .precision = f32 ? 32 : 64};
+    ctx.h = ek_fvm_hessian_create(ek_mesh_elements(mc->mesh), &models[model].mat, &o);
+    ctx.mc = mc;
+    ctx.f32 = f32;
+    ctx.gradient = gradient;
+    ctx.b = b;
+    ctx.R = models[model].mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R64 : NULL;
+    // The products need a cache: one gradient pass at the deformed state.
+    if (!ctx.h ||
+        ek_fvm_hessian_gradient_f64(ctx.h, mc->x64, ctx.R, mc->f64, NULL, 1) < 0) {
+      ek_bench_fail(b, "fvm: ek_fvm_hessian: %s", ek_last_error());
+      return -1;
+    }
+  }
+  snprintf(knobs, sizeof knobs, "model=%s;op=%s;scatter=thread_buffers;tets=%zu;cache_planes=%d",
+           models[model].name, gradient ? "gradient" : "apply", ntets,
+           ctx.h ? ek_fvm_hessian_cache_planes(ctx.h) : 0);
+  double r = f32 ? 4 : 8;
+  double verts_per_tet =
+      (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) / (double)ntets;
+  int planes = ctx.h ? ek_fvm_hessian_cache_planes(ctx.h) : 0;
+  // The element block, the cache (read by a product, written by the
+  // gradient pass) and each vertex's value read and written once.
+  ek_bench_row row = {.name = name,
+                      .family = "fvm",
+                      .isa = isa,
+                      .precision = prec,
+                      .threads = threads,
+                      .knobs = knobs,
+                      .items = ntets,
+                      .flops_per_item = 0,
+                      .bytes_per_item = 4 * 4 + 10 * (gradient ? 8 : r) + planes * r +
+                                        6 * (gradient ? 8 : r) * verts_per_tet,
+                      .baseline = base,
+                      .fn = run_hessian,
+                      .ctx = &ctx};
+  return ek_bench_run(b, &row);
+}
+
 int bench_fvm(ek_bench *b) {
   ek_isa isas[EK_ISA_COUNT];
   int nisa = ek_bench_isas(b, isas);
@@ -212,6 +299,13 @@ int bench_fvm(ek_bench *b) {
     // The other ISAs.
     for (int i = 0; i < nisa - 1; i++)
       rc |= one_row(b, FIXED_COROT, EK_SCATTER_THREAD_BUFFERS, isas[i], 1, 1, counts[t], 0);
+    // The implicit loop's Hessian: products per model x precision, and
+    // the caching gradient pass.
+    for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
+      for (int f32 = 1; f32 >= 0; f32--) {
+        rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
+        rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
+      }
   }
   if (!ek_bench_listing(b))
     for (int size = 0; size < 3; size++) {

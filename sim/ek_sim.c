@@ -130,21 +130,38 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
            "(ek_fvm_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
            k++, s->svd.sweeps ? s->svd.sweeps : ek_svd3_default_sweeps_f64(),
            s->svd.exact_rsqrt < 0 ? ", approximate rsqrt" : "");
-  printf("  %d. FVM force (Teran 2003, seed 004), fused per block of %d tets "
-         "(ek_fvm_forces_ex_f%d):\n",
-         k++, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, s->precision);
+  // The implicit loop's pass is the gradient (hessian.h), which also
+  // caches each tet's eigensystem: the isotropic models take an SVD there.
+  const int implicit = s->integrator == EK_INTEGRATOR_IMPLICIT;
+  const int iso = m->model != EK_MODEL_LINEAR && m->model != EK_MODEL_COROTATED_LINEAR;
+  if (implicit)
+    printf("  %d. gradient + element eigensystems, fused per block of %d tets "
+           "(ek_fvm_hessian_gradient_f64, once per Newton iteration and line-search trial):\n",
+           k++, EK_LANES_F64);
+  else
+    printf("  %d. FVM force (Teran 2003, seed 004), fused per block of %d tets "
+           "(ek_fvm_forces_ex_f%d):\n",
+           k++, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, s->precision);
   printf("       gather x of 4 corners -> F = Ds Dm^-1 -> ");
-  if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD)
+  const int prec = implicit ? 64 : s->precision;
+  if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD || (implicit && iso))
     printf("SVD3 (%d sweeps, %s rsqrt) -> ",
-           s->svd.sweeps
-               ? s->svd.sweeps
-               : (s->precision == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
-           (s->svd.exact_rsqrt   ? s->svd.exact_rsqrt > 0
-            : s->precision == 32 ? ek_svd3_default_exact_rsqrt_f32()
-                                 : ek_svd3_default_exact_rsqrt_f64())
+           s->svd.sweeps ? s->svd.sweeps
+                         : (prec == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
+           (s->svd.exact_rsqrt ? s->svd.exact_rsqrt > 0
+            : prec == 32       ? ek_svd3_default_exact_rsqrt_f32()
+                               : ek_svd3_default_exact_rsqrt_f64())
                ? "exact"
                : "approximate");
-  printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
+  if (implicit) {
+    printf("P(F), psi, %s -> G = V0 P Dm^-T -> scatter\n",
+           iso ? "U,V-frame eigensystem projected to PSD (30 planes per tet, cached in the "
+                 "product's precision)"
+               : m->model == EK_MODEL_COROTATED_LINEAR ? "R^n cached for the products"
+                                                       : "(constant Hessian: nothing cached)");
+  } else {
+    printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
+  }
   printf("       %s: %s\n", s->model_name, need_text(need));
   ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : s->scatter;
   static const char *why[] = {
@@ -184,6 +201,38 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
            out, s->output_every);
   else
     printf("output     none\n");
+}
+
+// The implicit loop's summary: time per phase, iterations, convergence,
+// and the cost per tet of a Hessian product next to a gradient pass.
+static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
+  const double n = (double)done;
+  const double vals[] = {tm->gradient,   tm->matvec,      tm->preconditioner,
+                         tm->cg_vectors, tm->line_search, tm->integration + tm->polar_refresh};
+  const char *names[] = {"gradient+eigensystems", "Hessian products", "preconditioner",
+                         "CG vectors", "line search", "integration"};
+  double total = 0;
+  for (int i = 0; i < 6; i++)
+    total += vals[i];
+  printf("per step   %.4f ms:", 1e3 * total / n);
+  for (int i = 0; i < 6; i++)
+    printf("%s %s %.4f ms (%.0f%%)", i ? "," : "", names[i], 1e3 * vals[i] / n,
+           100 * vals[i] / total);
+  printf("\n");
+  printf("newton     %.2f iterations per step, %.1f CG iterations per Newton iteration, %ld "
+         "line-search backtracks; residual last %.3g, worst %.3g; %ld of %ld steps stopped "
+         "above newton_tol\n",
+         (double)tm->newton_iterations / n,
+         tm->newton_iterations ? (double)tm->cg_iterations / (double)tm->newton_iterations : 0.0,
+         tm->backtracks, tm->last_residual, tm->worst_residual, tm->unconverged_steps, done);
+  printf("per tet    Hessian product %.2f ns (%ld products), gradient+eigensystems pass %.2f ns "
+         "(%ld passes)",
+         tm->matvecs ? 1e9 * tm->matvec / ((double)tm->matvecs * (double)nt) : NAN, tm->matvecs,
+         1e9 * tm->gradient / ((double)tm->gradient_passes * (double)nt), tm->gradient_passes);
+  if (tm->phase_timed_steps > 0 && tm->eigensystems > 0)
+    printf("; caching the eigensystems costs %.0f%% of a pass (phase-timed steps)",
+           100 * tm->eigensystems / tm->gradient * (double)done / (double)tm->phase_timed_steps);
+  printf("\n");
 }
 
 int main(int argc, char **argv) {
@@ -366,7 +415,16 @@ int main(int argc, char **argv) {
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;
   ek_sim_energy(sim, &e1);
   printf("steps      %ld in %.3f s (setup %.3f s, output %.3f s)\n", done, wall, t_setup, t_output);
-  if (done > 0) {
+  if (done > 0 && tm->gradient_passes > 0) {
+    print_implicit_times(tm, done, nt);
+    if (nstep_s > 0) {
+      double median, p95;
+      median_p95(step_s, nstep_s, &median, &p95);
+      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
+             "steps not phase-timed)\n",
+             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
+    }
+  } else if (done > 0) {
     double force_ms = fused > 0 ? 1e3 * tm->forces / (double)fused : NAN;
     double integ_ms = 1e3 * tm->integration / (double)done;
     double polar_ms = 1e3 * tm->polar_refresh / (double)done;

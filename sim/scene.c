@@ -561,9 +561,9 @@ static int parse_loads(parse_ctx *c, const cJSON *root, ek_scene *s) {
   return 0;
 }
 
-// "integrator": {"type": NAME}, optional (default explicit). The type comes
-// first: the keys an integrator takes besides it depend on which one it is
-// (explicit takes none).
+// "integrator": {"type": NAME, ...}, optional (default explicit). The type
+// comes first: the keys an integrator takes besides it depend on which one
+// it is (explicit takes none; implicit: ek_scene_implicit).
 static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
   const cJSON *integ = cJSON_GetObjectItemCaseSensitive(root, "integrator");
   if (!integ)
@@ -589,7 +589,33 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
     return bad(c, "integrator.type", node, "unknown integrator (known: %s)", list);
   }
   s->integrator = (ek_integrator_type)found;
-  return check_keys(c, integ, "integrator", (const char *const[]){"type", NULL});
+  if (s->integrator != EK_INTEGRATOR_IMPLICIT)
+    return check_keys(c, integ, "integrator", (const char *const[]){"type", NULL});
+  ek_scene_implicit *im = &s->implicit;
+  const char *pc = NULL;
+  if ((rc = check_keys(c, integ, "integrator",
+                       (const char *const[]){"type", "newton_tol", "max_newton", "cg_tol",
+                                             "max_cg", "preconditioner", NULL})) ||
+      (rc = get_number(c, integ, "integrator", "newton_tol", 0, &im->newton_tol, &node)))
+    return rc;
+  if (!(im->newton_tol > 0))
+    return bad(c, "integrator.newton_tol", node, "must be > 0");
+  if ((rc = get_number(c, integ, "integrator", "cg_tol", 0, &im->cg_tol, &node)))
+    return rc;
+  if (!(im->cg_tol > 0 && im->cg_tol < 1))
+    return bad(c, "integrator.cg_tol", node, "must be in (0, 1)");
+  if ((rc = get_count(c, integ, "integrator", "max_newton", 0, 1, 100000, &im->max_newton)) ||
+      (rc = get_count(c, integ, "integrator", "max_cg", 0, 1, 1000000, &im->max_cg)) ||
+      (rc = get_string(c, integ, "integrator", "preconditioner", 0, &pc, &node)))
+    return rc;
+  if (pc && strcmp(pc, "jacobi") == 0)
+    im->preconditioner = EK_PRECOND_JACOBI;
+  else if (pc && strcmp(pc, "block_jacobi") == 0)
+    im->preconditioner = EK_PRECOND_BLOCK_JACOBI;
+  else if (pc)
+    return bad(c, "integrator.preconditioner", node,
+               "unknown preconditioner (known: jacobi, block_jacobi)");
+  return 0;
 }
 
 // ---------------------------------------------------------------- entry
@@ -602,6 +628,11 @@ static void scene_defaults(ek_scene *s) {
   s->scatter = EK_SCATTER_AUTO;
   s->svd.isa = EK_ISA_AUTO;
   s->integrator = EK_INTEGRATOR_EXPLICIT;
+  s->implicit = (ek_scene_implicit){.newton_tol = 1e-6,
+                                    .max_newton = 50,
+                                    .cg_tol = 1e-4,
+                                    .max_cg = 1000,
+                                    .preconditioner = EK_PRECOND_BLOCK_JACOBI};
   s->young = NAN;
   s->poisson = NAN;
   s->output_every = 1;

@@ -18,6 +18,7 @@
 
 const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT] = {
     [EK_INTEGRATOR_EXPLICIT] = &sim_integrator_explicit,
+    [EK_INTEGRATOR_IMPLICIT] = &sim_integrator_implicit,
 };
 
 const char *ek_scene_integrator_name(ek_integrator_type type) {

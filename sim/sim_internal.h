@@ -41,6 +41,7 @@ typedef struct {
 } sim_integrator;
 
 extern const sim_integrator sim_integrator_explicit;
+extern const sim_integrator sim_integrator_implicit;
 // Indexed by ek_integrator_type.
 extern const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT];
 

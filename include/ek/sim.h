@@ -14,6 +14,14 @@
 //   explicit  symplectic Euler with the FVM force of fvm.h (Teran et al.
 //             2003, seed 004) and mass-proportional damping c:
 //               v += dt M^-1 (f(x) + M g - c M v);  x += dt v
+//   implicit  backward Euler solved by Newton's method with a line search
+//             on the incremental potential, each Newton system by
+//             matrix-free preconditioned CG on the projected element
+//             Hessians (hessian.h); see ek_scene_implicit. The gradient is
+//             double; the Hessian products run in the scene's precision.
+//             Pinned and prescribed vertices take their position at
+//             t_{n+1} before the solve; the ground is applied after it,
+//             as in the explicit loop.
 // Positions and velocities are kept in double; the force kernel runs in the
 // scene's precision (f32 converts x to float once per force evaluation).
 // Corotated linear refreshes R^n per tet from the positions at the start of
@@ -40,7 +48,10 @@
 //   ground        {"height": z}
 //   damping       c >= 0, 1/s (default 0)
 //   dt*, steps*   seconds, count
-//   integrator    {"type": "explicit"} (default: explicit)
+//   integrator    {"type": "explicit"} (default) or {"type": "implicit",
+//                 "newton_tol", "max_newton", "cg_tol", "max_cg",
+//                 "preconditioner": "jacobi" | "block_jacobi"}
+//                 (ek_scene_implicit: meanings and defaults)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
 //
@@ -109,8 +120,42 @@ extern "C" {
 // Time integrators, the scene's "integrator": {"type": NAME}.
 typedef enum {
   EK_INTEGRATOR_EXPLICIT = 0, // "explicit": symplectic Euler (sim/explicit.c)
+  EK_INTEGRATOR_IMPLICIT,     // "implicit": backward Euler by Newton + PCG (sim/implicit.c)
   EK_INTEGRATOR_COUNT
 } ek_integrator_type;
+
+// Preconditioners of the implicit loop's conjugate gradient.
+typedef enum {
+  EK_PRECOND_BLOCK_JACOBI = 0, // "block_jacobi": the inverse 3x3 vertex blocks
+  EK_PRECOND_JACOBI,           // "jacobi": the inverse diagonal
+} ek_preconditioner;
+
+// The implicit integrator's knobs, the scene's "integrator": {"type":
+// "implicit", ...} (defaults in brackets). Each step minimises
+//   Phi(x) = 1/(2 dt^2) |x - x~|_M^2 + E(x) - x.M g + c/(2 dt) |x - x_n|_M^2,
+//   x~ = x_n + dt v_n, over the free vertices (backward Euler as an
+//   optimisation problem: Martin et al. 2011; Gast et al. 2015), then
+//   v_{n+1} = (x_{n+1} - x_n) / dt.
+// newton_tol [1e-6]: Newton stops when the residual
+//     r = dt^2 sqrt(sum_free |grad_i Phi|^2 / m_i / sum_free m_i) / L
+//   is at most newton_tol, L the rest mesh's bounding-box diagonal. r is
+//   the mass-weighted RMS of dt^2 M^-1 grad Phi relative to the body's
+//   size; as the Hessian is at least M / dt^2, it bounds the mass-weighted
+//   RMS of the remaining Newton step (the position error) from above.
+// max_newton [50]: iterations per step; a step that stops above
+//   newton_tol is counted and reported (ek_sim_times.unconverged_steps,
+//   worst_residual), not hidden; its state is still used.
+// cg_tol [1e-4]: CG stops when |r_k|_{M^-1} <= cg_tol |grad Phi|_{M^-1}.
+// max_cg [1000]: CG iterations per Newton iteration (the last iterate is
+//   used: with x_0 = 0 every PCG iterate is a descent direction).
+// preconditioner ["block_jacobi"]: or "jacobi".
+typedef struct {
+  double newton_tol;
+  long max_newton;
+  double cg_tol;
+  long max_cg;
+  ek_preconditioner preconditioner;
+} ek_scene_implicit;
 
 typedef enum {
   EK_BC_PIN,     // held at the initial position
@@ -164,6 +209,7 @@ typedef struct {
   double dt;
   long steps;
   ek_integrator_type integrator;
+  ek_scene_implicit implicit; // integrator.type "implicit" only
   // Output ("" = none): frames every output_every steps (and the first).
   char output_file[EK_SCENE_PATH_MAX];
   long output_every;
@@ -201,12 +247,27 @@ typedef struct ek_sim ek_sim;
 // `forces` is the fused kernel's time otherwise. `integration` covers the
 // velocity/position update, boundary conditions and ground; `polar_refresh`
 // corotated linear's R^n.
+//
+// The implicit integrator's phases: `gradient` its fused energy + gradient
+// + eigensystem passes (one per line-search trial; an accepted trial's
+// pass is the next Newton iteration's gradient), of which `eigensystems`
+// is the part that caches the Hessian (measured in phase-timed steps by a
+// pass without it, 0 otherwise); `matvec` the Hessian products (with the
+// mass term and, for f32, the conversions); `preconditioner` the diagonal
+// blocks, their inverses and their application; `cg_vectors` CG's other
+// vector work; `line_search` the trial points and objective sums.
 typedef struct {
   double deformation_gradient, svd_polar, pk1, scatter; // phase-timed steps only
   double forces;                                        // fused force kernel (all steps)
   double polar_refresh;                                 // corotated linear R^n
   double integration;
   long steps, phase_timed_steps;
+  // Implicit integrator (0 otherwise).
+  double gradient, eigensystems, matvec, preconditioner, cg_vectors, line_search;
+  long newton_iterations, cg_iterations, gradient_passes, matvecs, backtracks;
+  long unconverged_steps; // stopped above newton_tol (max_newton or a stalled line search)
+  double worst_residual;  // the largest final Newton residual of a step
+  double last_residual;   // the last step's final residual
 } ek_sim_times;
 
 typedef struct {

@@ -1,0 +1,493 @@
+// The implicit integrator: backward Euler as the minimisation of the
+// incremental potential (Martin et al. 2011, "Example-based elastic
+// materials"; Gast et al. 2015, "Optimization integrator for large time
+// steps"), solved by Newton's method with a backtracking line search,
+// each Newton system by matrix-free preconditioned conjugate gradients on
+// the projected element Hessians (include/ek/hessian.h), as in Kim &
+// Eberle's HOBAK (Newton + PCG on clamped Hessians). ek_scene_implicit
+// (sim.h) states the objective, the residual and the knobs.
+//
+// One step:
+//   1. free vertices start at x_n + dt v_n + dt^2 g (x_n if an element is
+//      outside the model's domain there); pinned and prescribed vertices
+//      sit at their position at t_{n+1} throughout;
+//   2. Newton: grad Phi and the element eigensystems in one pass; stop if
+//      the residual is at most newton_tol; else solve
+//        (M (1 + c dt) / dt^2 + K) dx = -grad Phi
+//      over the free vertices by PCG (K: projected to PSD, so the system
+//      is SPD), then halve alpha from 1 until the Armijo condition
+//      Phi(x + alpha dx) <= Phi(x) + 1e-4 alpha grad.dx holds. A trial
+//      point with an element outside the model's domain has Phi = +inf and
+//      is never accepted. Near convergence Phi's change falls below its
+//      rounding; a trial whose Phi is within that rounding of Phi(x) is
+//      accepted when the residual decreases (its gradient comes with the
+//      same pass);
+//   3. v_{n+1} = (x_{n+1} - x_n) / dt; then the ground as in the explicit
+//      loop.
+// Every sum (objective, dot products) runs over fixed chunks in a fixed
+// order and every pass is deterministic (hessian.h), so a step has the
+// same bits at any thread count.
+#include <ek/hessian.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_internal.h"
+
+// Vector work below this many degrees of freedom runs on one thread (about
+// 1 ns per entry and pass; see EXPLICIT_PARALLEL_GRAIN).
+#define IMPLICIT_PARALLEL_DOFS 60000
+// Fixed chunks of the reductions: the same bits at any thread count.
+#define CHUNK 2048
+#define ARMIJO_C1 1e-4
+#define MAX_BACKTRACKS 40
+
+typedef struct {
+  ek_fvm_hessian *H;
+  ek_tet_state *R64; // corotated linear in an f32 scene: R^n in double for the gradient
+  size_t n3, nchunks;
+  int par, f32, block;
+  double body_size;
+  double *is_free; // per dof: 1 free, 0 held (a held vertex, or one with no mass)
+  double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
+  double *pre; // nverts x 6: the preconditioner's blocks
+  float *p32, *q32;
+} implicit_data;
+
+static void data_free(implicit_data *d) {
+  if (!d)
+    return;
+  ek_fvm_hessian_destroy(d->H);
+  ek_tet_state_destroy(d->R64);
+  double *arrays[] = {d->is_free, d->x, d->xt, d->g, d->gt, d->xtil, d->dx,
+                      d->r,       d->z, d->p,  d->q, d->pre, d->parts};
+  for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
+    free(arrays[i]);
+  free(d->p32);
+  free(d->q32);
+  free(d);
+}
+
+static void implicit_destroy(void *data) { data_free(data); }
+
+static int implicit_create(ek_sim *s, void **data) {
+  *data = NULL;
+  implicit_data *d = calloc(1, sizeof *d);
+  if (!d)
+    return sim_fail(s, "out of memory");
+  const ek_scene *sc = &s->scene;
+  d->n3 = 3 * s->nv;
+  d->nchunks = (d->n3 + CHUNK - 1) / CHUNK;
+  d->par = d->n3 > IMPLICIT_PARALLEL_DOFS;
+  d->f32 = sc->precision == 32;
+  d->block = sc->implicit.preconditioner == EK_PRECOND_BLOCK_JACOBI;
+  ek_fvm_hessian_opts o = {.scatter = sc->scatter,
+                           .isa = sc->svd.isa,
+                           .svd_sweeps = sc->svd.sweeps,
+                           .svd_exact_rsqrt = sc->svd.exact_rsqrt,
+                           .precision = sc->precision};
+  d->H = ek_fvm_hessian_create(ek_mesh_elements(s->mesh), &s->mat, &o);
+  if (!d->H) {
+    data_free(d);
+    return sim_fail(s, "%s", ek_last_error());
+  }
+  if (s->mat.model == EK_MODEL_COROTATED_LINEAR && d->f32 &&
+      !(d->R64 = ek_tet_state_create(ek_mesh_elements(s->mesh), 9, 1))) {
+    data_free(d);
+    return sim_fail(s, "%s", ek_last_error());
+  }
+  double **arrays[] = {&d->is_free, &d->x, &d->xt, &d->g, &d->gt, &d->xtil,
+                       &d->dx,      &d->r, &d->z,  &d->p, &d->q};
+  int ok = 1;
+  for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
+    ok &= (*arrays[i] = calloc(d->n3, sizeof(double))) != NULL;
+  ok &= (d->pre = calloc(2 * d->n3, sizeof(double))) != NULL; // 6 per vertex
+  ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
+  if (d->f32)
+    ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
+  if (!ok) {
+    data_free(d);
+    return sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3);
+  }
+  const double *X = ek_mesh_rest_positions(s->mesh);
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t i = 0; i < s->nv; i++)
+    for (int k = 0; k < 3; k++) {
+      lo[k] = fmin(lo[k], X[3 * i + k]);
+      hi[k] = fmax(hi[k], X[3 * i + k]);
+    }
+  d->body_size = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  *data = d;
+  return 0;
+}
+
+// ---- Reductions and vector work (fixed chunks) ----
+
+static double sum_parts(const implicit_data *d) {
+  double s = 0;
+  for (size_t c = 0; c < d->nchunks; c++)
+    s += d->parts[c];
+  return s;
+}
+
+#define CHUNK_LOOP(d, ...)                                                                         \
+  _Pragma("omp parallel for schedule(static) if ((d)->par)") for (size_t c_ = 0;                  \
+                                                                   c_ < (d)->nchunks; c_++) {      \
+    size_t lo_ = c_ * CHUNK, hi_ = lo_ + CHUNK < (d)->n3 ? lo_ + CHUNK : (d)->n3;                  \
+    double acc_ = 0;                                                                               \
+    for (size_t i = lo_; i < hi_; i++) {                                                           \
+      __VA_ARGS__                                                                                  \
+    }                                                                                              \
+    (d)->parts[c_] = acc_;                                                                         \
+  }
+
+// a.b over the free dofs (held dofs of a and b are 0 in every use).
+static double dot(implicit_data *d, const double *a, const double *b) {
+  CHUNK_LOOP(d, acc_ += a[i] * b[i];)
+  return sum_parts(d);
+}
+
+// g^T M^-1 g over the free dofs.
+static double norm2_minv(implicit_data *d, const ek_sim *s, const double *g) {
+  const double *im = s->inv_mass;
+  CHUNK_LOOP(d, acc_ += d->is_free[i] * g[i] * g[i] * im[i / 3];)
+  return sum_parts(d);
+}
+
+// Newton's residual of a gradient (ek_scene_implicit.newton_tol).
+static double residual(implicit_data *d, const ek_sim *s, const double *g, double free_mass) {
+  double dt = s->scene.dt;
+  return dt * dt * sqrt(norm2_minv(d, s, g) / free_mass) / d->body_size;
+}
+
+// Phi(x) and grad Phi (into gr) from one gradient pass; +inf outside the
+// model's domain. Caches the eigensystems for the products at x.
+static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, double *phi) {
+  const ek_scene *sc = &s->scene;
+  const double dt = sc->dt, c = sc->damping, *g = sc->gravity;
+  const ek_tet_state *R = s->mat.model != EK_MODEL_COROTATED_LINEAR ? NULL
+                          : d->R64                                  ? d->R64
+                                                                    : s->R_state;
+  double E, t0 = sim_now();
+  if (s->time_phases) {
+    // The pass without the cache, to split off what caching costs.
+    int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 0);
+    if (rc < 0)
+      return sim_fail(s, "gradient: %s", ek_last_error());
+    double t1 = sim_now();
+    s->times.eigensystems -= t1 - t0;
+    t0 = t1;
+  }
+  int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 1);
+  double t1 = sim_now();
+  if (s->time_phases)
+    s->times.eigensystems += t1 - t0;
+  s->times.gradient += t1 - t0;
+  s->times.gradient_passes++;
+  if (rc < 0)
+    return sim_fail(s, "gradient: %s", ek_last_error());
+  // Inertia, gravity and damping of the free vertices, and their gradient.
+  const double a = 1 / (dt * dt), b = c / dt;
+  const double *xn = s->x, *xtil = d->xtil, *m = s->mass;
+  CHUNK_LOOP(
+      d, if (d->is_free[i] != 0) {
+        const int k = (int)(i % 3);
+        const double mi = m[i / 3], u = x[i] - xtil[i], w = x[i] - xn[i];
+        acc_ += mi * (0.5 * a * u * u - g[k] * x[i] + 0.5 * b * w * w);
+        gr[i] += mi * (a * u - g[k] + b * w);
+      } else gr[i] = 0;)
+  *phi = isfinite(E) ? E + sum_parts(d) : INFINITY;
+  s->times.line_search += sim_now() - t1;
+  return 0;
+}
+
+// The preconditioner at the current eigensystems: inverse diagonal or
+// inverse 3x3 vertex blocks of M (1 + c dt) / dt^2 + K, 0 at held dofs.
+// blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
+// the inverse diagonal's 3 out).
+static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
+  int rc = ek_fvm_hessian_diagonal_f64(d->H, blocks);
+  if (rc < 0)
+    return sim_fail(s, "diagonal blocks: %s", ek_last_error());
+  const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
+  long nv = (long)s->nv;
+#pragma omp parallel for schedule(static) if (d->par)
+  for (long v = 0; v < nv; v++) {
+    double *B = blocks + 6 * v, m = am * s->mass[v];
+    if (d->is_free[3 * v] == 0) {
+      for (int k = 0; k < 6; k++)
+        B[k] = 0;
+      continue;
+    }
+    double a00 = B[0] + m, a01 = B[1], a02 = B[2], a11 = B[3] + m, a12 = B[4], a22 = B[5] + m;
+    if (!d->block) {
+      B[0] = 1 / a00, B[1] = 1 / a11, B[2] = 1 / a22;
+      continue;
+    }
+    // Symmetric inverse by cofactors (the block is SPD: K's blocks are PSD).
+    double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+    double det = a00 * c00 + a01 * c01 + a02 * c02;
+    B[0] = c00 / det;
+    B[1] = c01 / det;
+    B[2] = c02 / det;
+    B[3] = (a00 * a22 - a02 * a02) / det;
+    B[4] = (a01 * a02 - a00 * a12) / det;
+    B[5] = (a00 * a11 - a01 * a01) / det;
+  }
+  return 0;
+}
+
+// z = P^-1 r; returns r.z.
+static double precondition(implicit_data *d, const double *blocks, const double *r, double *z) {
+  const int block = d->block;
+  CHUNK_LOOP(
+      d, const size_t v = i / 3; const int k = (int)(i % 3); const double *B = blocks + 6 * v;
+      double zi; if (!block) zi = B[k] * r[i]; else {
+        const double *rv = r + 3 * v;
+        zi = k == 0   ? B[0] * rv[0] + B[1] * rv[1] + B[2] * rv[2]
+             : k == 1 ? B[1] * rv[0] + B[3] * rv[1] + B[4] * rv[2]
+                      : B[2] * rv[0] + B[4] * rv[1] + B[5] * rv[2];
+      } z[i] = zi;
+      acc_ += r[i] * zi;)
+  return sum_parts(d);
+}
+
+// q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones);
+// returns p.q.
+static int system_product(ek_sim *s, implicit_data *d, const double *p, double *q, double *pq) {
+  double t0 = sim_now();
+  int rc;
+  if (d->f32) {
+    for (size_t i = 0; i < d->n3; i++)
+      d->p32[i] = (float)p[i];
+    rc = ek_fvm_hessian_apply_f32(d->H, d->p32, d->q32);
+  } else {
+    rc = ek_fvm_hessian_apply_f64(d->H, p, q);
+  }
+  if (rc < 0)
+    return sim_fail(s, "Hessian product: %s", ek_last_error());
+  const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
+  const double *m = s->mass;
+  const float *q32 = d->q32;
+  const int f32 = d->f32;
+  CHUNK_LOOP(d, const double k = f32 ? (double)q32[i] : q[i];
+             q[i] = d->is_free[i] * (am * m[i / 3] * p[i] + k); acc_ += p[i] * q[i];)
+  *pq = sum_parts(d);
+  s->times.matvec += sim_now() - t0;
+  s->times.matvecs++;
+  return 0;
+}
+
+// PCG for A dx = -g over the free dofs, from dx = 0.
+static int solve(ek_sim *s, implicit_data *d, const double *blocks) {
+  const ek_scene_implicit *im = &s->scene.implicit;
+  double t0 = sim_now();
+  double *dx = d->dx, *r = d->r, *z = d->z, *p = d->p, *q = d->q;
+  const double *g = d->g;
+  for (size_t i = 0; i < d->n3; i++) {
+    dx[i] = 0;
+    r[i] = -g[i];
+  }
+  const double r0 = sqrt(norm2_minv(d, s, r)), stop = im->cg_tol * r0;
+  s->times.cg_vectors += sim_now() - t0;
+  t0 = sim_now();
+  double rz = precondition(d, blocks, r, z);
+  memcpy(p, z, d->n3 * sizeof(double));
+  s->times.preconditioner += sim_now() - t0;
+  for (long k = 0; k < im->max_cg && r0 > 0; k++) {
+    double pq = 0;
+    int rc = system_product(s, d, p, q, &pq);
+    if (rc)
+      return rc;
+    if (!(pq > 0))
+      break; // p = 0 to rounding: nothing left to solve
+    t0 = sim_now();
+    const double alpha = rz / pq, *im_ = s->inv_mass;
+    CHUNK_LOOP(d, dx[i] += alpha * p[i]; r[i] -= alpha * q[i];
+               acc_ += d->is_free[i] * r[i] * r[i] * im_[i / 3];)
+    double rn = sqrt(sum_parts(d));
+    s->times.cg_vectors += sim_now() - t0;
+    s->times.cg_iterations++;
+    if (rn <= stop)
+      break;
+    t0 = sim_now();
+    double rz_new = precondition(d, blocks, r, z);
+    double t1 = sim_now();
+    s->times.preconditioner += t1 - t0;
+    const double beta = rz_new / rz;
+    rz = rz_new;
+#pragma omp parallel for schedule(static) if (d->par)
+    for (size_t i = 0; i < d->n3; i++)
+      p[i] = z[i] + beta * p[i];
+    s->times.cg_vectors += sim_now() - t1;
+  }
+  return 0;
+}
+
+static int implicit_step(ek_sim *s, void *data) {
+  implicit_data *d = data;
+  const ek_scene *sc = &s->scene;
+  const double dt = sc->dt, t_next = s->t + dt;
+  const double *g = sc->gravity;
+  double *x = d->x;
+  double free_mass = 0;
+  if (d->R64 && ek_tet_state_set_f64(d->R64, s->R) < 0)
+    return sim_fail(s, "%s", ek_last_error());
+
+  // 1. Held vertices at t_{n+1}; free ones start at x_n + dt v_n + dt^2 g.
+  double t0 = sim_now();
+  for (size_t i = 0; i < s->nv; i++) {
+    const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
+    double vdummy[3];
+    int is_free = !bc && s->inv_mass[i] > 0;
+    for (int k = 0; k < 3; k++) {
+      d->is_free[3 * i + k] = is_free;
+      d->xtil[3 * i + k] = s->x[3 * i + k] + dt * s->v[3 * i + k];
+      x[3 * i + k] = is_free ? d->xtil[3 * i + k] + dt * dt * g[k] : s->x[3 * i + k];
+    }
+    if (bc)
+      sim_bc_state(bc, s->x0 + 3 * i, t_next, x + 3 * i, vdummy);
+    if (is_free)
+      free_mass += s->mass[i];
+  }
+  s->times.line_search += sim_now() - t0;
+  double phi;
+  int rc = objective(s, d, x, d->g, &phi);
+  if (rc)
+    return rc;
+  if (!isfinite(phi)) {
+    for (size_t i = 0; i < d->n3; i++)
+      if (d->is_free[i] != 0)
+        x[i] = s->x[i];
+    if ((rc = objective(s, d, x, d->g, &phi)))
+      return rc;
+    if (!isfinite(phi)) {
+      // Even x_n with the held vertices moved leaves the domain: the
+      // force check names the inverted tets.
+      if ((rc = sim_forces(s, x)) || (rc = sim_check_forces(s, x)))
+        return rc;
+      return sim_fail(s, "step %ld: the objective is not finite at the start point", s->n);
+    }
+  }
+
+  // 2. Newton.
+  double res = free_mass > 0 ? residual(d, s, d->g, free_mass) : 0;
+  long it = 0;
+  int stalled = 0;
+  double *blocks = d->pre;
+  while (res > sc->implicit.newton_tol && it < sc->implicit.max_newton && free_mass > 0) {
+    t0 = sim_now();
+    if ((rc = build_preconditioner(s, d, blocks)))
+      return rc;
+    s->times.preconditioner += sim_now() - t0;
+    if ((rc = solve(s, d, blocks)))
+      return rc;
+    it++;
+    // Line search on Phi along dx.
+    t0 = sim_now();
+    const double slope = dot(d, d->g, d->dx);
+    double alpha = 1, phi_t = INFINITY, res_t = INFINITY;
+    int accepted = 0;
+    s->times.line_search += sim_now() - t0;
+    for (int bt = 0; bt < MAX_BACKTRACKS; bt++) {
+      t0 = sim_now();
+#pragma omp parallel for schedule(static) if (d->par)
+      for (size_t i = 0; i < d->n3; i++)
+        d->xt[i] = x[i] + alpha * d->dx[i];
+      s->times.line_search += sim_now() - t0;
+      if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
+        return rc;
+      if (isfinite(phi_t)) {
+        if (phi_t <= phi + ARMIJO_C1 * alpha * slope) {
+          accepted = 1;
+        } else if (phi_t - phi <= 1e-14 * fabs(phi) + 1e-300) {
+          // Within Phi's rounding: accept if the residual decreases.
+          res_t = residual(d, s, d->gt, free_mass);
+          accepted = res_t < res;
+        }
+      }
+      if (accepted)
+        break;
+      alpha *= 0.5;
+      s->times.backtracks++;
+    }
+    if (!accepted) {
+      stalled = 1;
+      // The eigensystems now belong to the last trial; the state stays at
+      // x (its gradient is in d->g).
+      break;
+    }
+    double *tmp = x;
+    x = d->xt;
+    d->xt = tmp;
+    d->x = x;
+    tmp = d->g;
+    d->g = d->gt;
+    d->gt = tmp;
+    phi = phi_t;
+    res = res_t < INFINITY ? res_t : residual(d, s, d->g, free_mass);
+  }
+  s->times.newton_iterations += it;
+  s->times.last_residual = res;
+  if (res > s->times.worst_residual)
+    s->times.worst_residual = res;
+  if (res > sc->implicit.newton_tol) {
+    s->times.unconverged_steps++;
+    if (s->times.unconverged_steps == 1)
+      fprintf(stderr,
+              "ek-sim: warning: %s: step %ld: Newton stopped at residual %.3g > newton_tol %g "
+              "after %ld iterations (%s); counted in the summary\n",
+              sc->path, s->n, res, sc->implicit.newton_tol, it,
+              stalled ? "the line search found no decrease" : "max_newton");
+  }
+
+  // 3. Velocities, held vertices' velocities, the ground.
+  t0 = sim_now();
+  for (size_t i = 0; i < s->nv; i++) {
+    const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
+    double *xn = s->x_next + 3 * i, *vn = s->v_next + 3 * i;
+    if (bc) {
+      sim_bc_state(bc, s->x0 + 3 * i, t_next, xn, vn);
+      continue;
+    }
+    for (int k = 0; k < 3; k++) {
+      if (s->inv_mass[i] > 0) {
+        xn[k] = x[3 * i + k];
+        vn[k] = (xn[k] - s->x[3 * i + k]) / dt;
+      } else { // no mass, no tet: moves on as in the explicit loop
+        vn[k] = s->v[3 * i + k];
+        xn[k] = s->x[3 * i + k] + dt * vn[k];
+      }
+    }
+    sim_ground_contact(s, xn, vn);
+  }
+  s->times.integration += sim_now() - t0;
+  return 0;
+}
+
+static int implicit_explain(const ek_scene *s, FILE *out, int number) {
+  const ek_scene_implicit *im = &s->implicit;
+  fprintf(out,
+          "  %d. backward Euler: minimise 1/(2 dt^2)|x - x~|_M^2 + E(x) - x.Mg + c/(2 dt)|x - "
+          "x_n|_M^2 by Newton (newton_tol %g, max_newton %ld)\n",
+          number, im->newton_tol, im->max_newton);
+  fprintf(out,
+          "       per Newton iteration: gradient + element eigensystems (one pass, double); "
+          "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
+          "projected element Hessians in %s; backtracking line search (Armijo)\n",
+          im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol,
+          im->max_cg, s->precision == 32 ? "f32" : "f64");
+  fprintf(out, "       v = (x_{n+1} - x_n) / dt; the ground after the solve\n");
+  return number + 1;
+}
+
+const sim_integrator sim_integrator_implicit = {
+    .name = "implicit",
+    .description = "backward Euler by Newton + matrix-free PCG on the projected element "
+                   "Hessians (hessian.h): stable at any dt, damps high frequencies",
+    .explain = implicit_explain,
+    .create = implicit_create,
+    .destroy = implicit_destroy,
+    .step = implicit_step,
+};
