@@ -238,8 +238,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
     ctx.b = b;
     ctx.R = models[model].mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R64 : NULL;
     // The products need a cache: one gradient pass at the deformed state.
-    if (!ctx.h ||
-        ek_fvm_hessian_gradient_f64(ctx.h, mc->x64, ctx.R, mc->f64, NULL, 1) < 0) {
+    if (!ctx.h || ek_fvm_hessian_gradient_f64(ctx.h, mc->x64, ctx.R, mc->f64, NULL, 1) < 0) {
       ek_bench_fail(b, "fvm: ek_fvm_hessian: %s", ek_last_error());
       return -1;
     }

@@ -146,8 +146,9 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   const int prec = implicit ? 64 : s->precision;
   if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD || (implicit && iso))
     printf("SVD3 (%d sweeps, %s rsqrt) -> ",
-           s->svd.sweeps ? s->svd.sweeps
-                         : (prec == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
+           s->svd.sweeps
+               ? s->svd.sweeps
+               : (prec == 32 ? ek_svd3_default_sweeps_f32() : ek_svd3_default_sweeps_f64()),
            (s->svd.exact_rsqrt ? s->svd.exact_rsqrt > 0
             : prec == 32       ? ek_svd3_default_exact_rsqrt_f32()
                                : ek_svd3_default_exact_rsqrt_f64())
@@ -157,8 +158,8 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
     printf("P(F), psi, %s -> G = V0 P Dm^-T -> scatter\n",
            iso ? "U,V-frame eigensystem projected to PSD (30 planes per tet, cached in the "
                  "product's precision)"
-               : m->model == EK_MODEL_COROTATED_LINEAR ? "R^n cached for the products"
-                                                       : "(constant Hessian: nothing cached)");
+           : m->model == EK_MODEL_COROTATED_LINEAR ? "R^n cached for the products"
+                                                   : "(constant Hessian: nothing cached)");
   } else {
     printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
   }
@@ -209,8 +210,9 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
   const double n = (double)done;
   const double vals[] = {tm->gradient,   tm->matvec,      tm->preconditioner,
                          tm->cg_vectors, tm->line_search, tm->integration + tm->polar_refresh};
-  const char *names[] = {"gradient+eigensystems", "Hessian products", "preconditioner",
-                         "CG vectors", "line search", "integration"};
+  const char *names[] = {"gradient+eigensystems", "Hessian products",
+                         "preconditioner",        "CG vectors",
+                         "line search",           "integration"};
   double total = 0;
   for (int i = 0; i < 6; i++)
     total += vals[i];

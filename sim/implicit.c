@@ -36,7 +36,7 @@
 
 // Vector work below this many degrees of freedom runs on one thread (about
 // 1 ns per entry and pass; see EXPLICIT_PARALLEL_GRAIN).
-#define IMPLICIT_PARALLEL_DOFS 60000
+#define IMPLICIT_PARALLEL_DOFS 30000
 // Fixed chunks of the reductions: the same bits at any thread count.
 #define CHUNK 2048
 #define ARMIJO_C1 1e-4
@@ -47,6 +47,7 @@ typedef struct {
   ek_tet_state *R64; // corotated linear in an f32 scene: R^n in double for the gradient
   size_t n3, nchunks;
   int par, f32, block;
+  int residual_merit; // clamped models: the line search on the residual (sim.h)
   double body_size;
   double *is_free; // per dof: 1 free, 0 held (a held vertex, or one with no mass)
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
@@ -59,7 +60,7 @@ static void data_free(implicit_data *d) {
     return;
   ek_fvm_hessian_destroy(d->H);
   ek_tet_state_destroy(d->R64);
-  double *arrays[] = {d->is_free, d->x, d->xt, d->g, d->gt, d->xtil, d->dx,
+  double *arrays[] = {d->is_free, d->x, d->xt, d->g, d->gt,  d->xtil, d->dx,
                       d->r,       d->z, d->p,  d->q, d->pre, d->parts};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
     free(arrays[i]);
@@ -81,10 +82,12 @@ static int implicit_create(ek_sim *s, void **data) {
   d->par = d->n3 > IMPLICIT_PARALLEL_DOFS;
   d->f32 = sc->precision == 32;
   d->block = sc->implicit.preconditioner == EK_PRECOND_BLOCK_JACOBI;
+  d->residual_merit = ek_model_need(s->mat.model, s->mat.clamp) == EK_NEEDS_SVD;
   ek_fvm_hessian_opts o = {.scatter = sc->scatter,
                            .isa = sc->svd.isa,
                            .svd_sweeps = sc->svd.sweeps,
                            .svd_exact_rsqrt = sc->svd.exact_rsqrt,
+                           .projection = sc->implicit.projection,
                            .precision = sc->precision};
   d->H = ek_fvm_hessian_create(ek_mesh_elements(s->mesh), &s->mat, &o);
   if (!d->H) {
@@ -132,8 +135,8 @@ static double sum_parts(const implicit_data *d) {
 }
 
 #define CHUNK_LOOP(d, ...)                                                                         \
-  _Pragma("omp parallel for schedule(static) if ((d)->par)") for (size_t c_ = 0;                  \
-                                                                   c_ < (d)->nchunks; c_++) {      \
+  _Pragma("omp parallel for schedule(static) if ((d)->par)") for (size_t c_ = 0;                   \
+                                                                  c_ < (d)->nchunks; c_++) {       \
     size_t lo_ = c_ * CHUNK, hi_ = lo_ + CHUNK < (d)->n3 ? lo_ + CHUNK : (d)->n3;                  \
     double acc_ = 0;                                                                               \
     for (size_t i = lo_; i < hi_; i++) {                                                           \
@@ -279,8 +282,9 @@ static int system_product(ek_sim *s, implicit_data *d, const double *p, double *
   return 0;
 }
 
-// PCG for A dx = -g over the free dofs, from dx = 0.
-static int solve(ek_sim *s, implicit_data *d, const double *blocks) {
+// PCG for A dx = -g over the free dofs, from dx = 0; *iters and *rel: its
+// iterations and final |r|_{M^-1} / |g|_{M^-1}.
+static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters, double *rel) {
   const ek_scene_implicit *im = &s->scene.implicit;
   double t0 = sim_now();
   double *dx = d->dx, *r = d->r, *z = d->z, *p = d->p, *q = d->q;
@@ -290,6 +294,8 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks) {
     r[i] = -g[i];
   }
   const double r0 = sqrt(norm2_minv(d, s, r)), stop = im->cg_tol * r0;
+  *iters = 0;
+  *rel = r0 > 0 ? 1 : 0;
   s->times.cg_vectors += sim_now() - t0;
   t0 = sim_now();
   double rz = precondition(d, blocks, r, z);
@@ -309,6 +315,8 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks) {
     double rn = sqrt(sum_parts(d));
     s->times.cg_vectors += sim_now() - t0;
     s->times.cg_iterations++;
+    ++*iters;
+    *rel = rn / r0;
     if (rn <= stop)
       break;
     t0 = sim_now();
@@ -373,6 +381,9 @@ static int implicit_step(ek_sim *s, void *data) {
 
   // 2. Newton.
   double res = free_mass > 0 ? residual(d, s, d->g, free_mass) : 0;
+  memset(&s->newton, 0, sizeof s->newton);
+  s->newton.residual[0] = res;
+  s->newton.phi[0] = phi;
   long it = 0;
   int stalled = 0;
   double *blocks = d->pre;
@@ -381,8 +392,14 @@ static int implicit_step(ek_sim *s, void *data) {
     if ((rc = build_preconditioner(s, d, blocks)))
       return rc;
     s->times.preconditioner += sim_now() - t0;
-    if ((rc = solve(s, d, blocks)))
+    long cg_its;
+    double cg_rel;
+    if ((rc = solve(s, d, blocks, &cg_its, &cg_rel)))
       return rc;
+    if (it < EK_SIM_NEWTON_TRACE) {
+      s->newton.cg_iterations[it] = cg_its;
+      s->newton.cg_relative[it] = cg_rel;
+    }
     it++;
     // Line search on Phi along dx.
     t0 = sim_now();
@@ -398,7 +415,10 @@ static int implicit_step(ek_sim *s, void *data) {
       s->times.line_search += sim_now() - t0;
       if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
         return rc;
-      if (isfinite(phi_t)) {
+      if (isfinite(phi_t) && d->residual_merit) {
+        res_t = residual(d, s, d->gt, free_mass);
+        accepted = res_t <= (1 - ARMIJO_C1 * alpha) * res;
+      } else if (isfinite(phi_t)) {
         if (phi_t <= phi + ARMIJO_C1 * alpha * slope) {
           accepted = 1;
         } else if (phi_t - phi <= 1e-14 * fabs(phi) + 1e-300) {
@@ -427,6 +447,12 @@ static int implicit_step(ek_sim *s, void *data) {
     d->gt = tmp;
     phi = phi_t;
     res = res_t < INFINITY ? res_t : residual(d, s, d->g, free_mass);
+    if (it <= EK_SIM_NEWTON_TRACE) {
+      s->newton.alpha[it - 1] = alpha;
+      s->newton.residual[it] = res;
+      s->newton.phi[it] = phi;
+      s->newton.iterations = (int)it;
+    }
   }
   s->times.newton_iterations += it;
   s->times.last_residual = res;

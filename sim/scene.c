@@ -594,8 +594,8 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
   ek_scene_implicit *im = &s->implicit;
   const char *pc = NULL;
   if ((rc = check_keys(c, integ, "integrator",
-                       (const char *const[]){"type", "newton_tol", "max_newton", "cg_tol",
-                                             "max_cg", "preconditioner", NULL})) ||
+                       (const char *const[]){"type", "newton_tol", "max_newton", "cg_tol", "max_cg",
+                                             "preconditioner", "projection", NULL})) ||
       (rc = get_number(c, integ, "integrator", "newton_tol", 0, &im->newton_tol, &node)))
     return rc;
   if (!(im->newton_tol > 0))
@@ -615,6 +615,15 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
   else if (pc)
     return bad(c, "integrator.preconditioner", node,
                "unknown preconditioner (known: jacobi, block_jacobi)");
+  const char *pr = NULL;
+  if ((rc = get_string(c, integ, "integrator", "projection", 0, &pr, &node)))
+    return rc;
+  if (pr && strcmp(pr, "clamp") == 0)
+    im->projection = EK_PROJECT_CLAMP;
+  else if (pr && strcmp(pr, "abs") == 0)
+    im->projection = EK_PROJECT_ABS;
+  else if (pr)
+    return bad(c, "integrator.projection", node, "unknown projection (known: clamp, abs)");
   return 0;
 }
 

@@ -451,6 +451,7 @@ int ek_sim_step(ek_sim *s) {
 
 void ek_sim_time_phases(ek_sim *s, int on) { s->time_phases = on; }
 const ek_sim_times *ek_sim_timings(const ek_sim *s) { return &s->times; }
+const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *s) { return &s->newton; }
 double ek_sim_time(const ek_sim *s) { return s->t; }
 long ek_sim_steps_done(const ek_sim *s) { return s->n; }
 const double *ek_sim_positions(const ek_sim *s) { return s->x; }

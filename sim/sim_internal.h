@@ -69,6 +69,7 @@ struct ek_sim {
   double cfl_dt, h_min, wave_speed;
   double elastic_rest; // E(X): not 0 for every model (stable neo-Hookean)
   ek_sim_times times;
+  ek_sim_newton_trace newton; // filled by the implicit integrator
   const sim_integrator *integrator;
   void *integrator_data;
   char error[512];

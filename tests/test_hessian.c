@@ -1,13 +1,13 @@
 // Invariants of the gradient and Hessian kernels (include/ek/hessian.h):
 //   1. every model x available ISA x product precision x scatter strategy x
-//      projection: the gradient equals minus the reference force and the
+//      projection (none, clamp, abs): the gradient equals minus the reference force and the
 //      energy the reference energy (EK_FVM_TOL_F64); the product K p
 //      equals the reference (the material reference's 9x9 Hessian,
 //      projected by LAPACK when asked) within EK_HESSIAN_TOL_F32/_F64, on
 //      jittered, renumbered meshes with tails;
 //   2. unprojected, K p equals the central difference of the gradient
 //      (every model), EK_HESSIAN_FD_TOL;
-//   3. projected, K is symmetric (q.Kp = p.Kq) and PSD (p.Kp >= 0) on
+//   3. projected (clamp and abs), K is symmetric (q.Kp = p.Kq) and PSD (p.Kp >= 0) on
 //      random directions;
 //   4. the diagonal blocks equal the vertex blocks of K read off products
 //      with unit vectors;
@@ -53,9 +53,8 @@ typedef struct {
 } setup;
 
 static ek_fvm_hessian *make(const setup *s, const ek_material *mat, ek_isa isa, ek_scatter sc,
-                            int prec, int unprojected) {
-  ek_fvm_hessian_opts o = {
-      .scatter = sc, .isa = isa, .precision = prec, .unprojected = unprojected};
+                            int prec, ek_projection pr) {
+  ek_fvm_hessian_opts o = {.scatter = sc, .isa = isa, .precision = prec, .projection = pr};
   ek_fvm_hessian *h = ek_fvm_hessian_create(s->el, mat, &o);
   if (!h) {
     printf("ek_fvm_hessian_create: %s\nFAIL\n", ek_last_error());
@@ -107,15 +106,18 @@ static void check_model(const test_model *tm, const test_mesh *t, const setup *s
   }
   for (size_t i = 0; i < n3; i++)
     p[i] = 0.1 * (2 * ek_rng_uniform(rng) - 1); // a cell's size
-  double worst_g = 0, worst_E = 0, worst[2][2] = {{0}};
+  double worst_g = 0, worst_E = 0, worst[2][3] = {{0}};
   int cases = 0;
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
     if (!ek_isa_available((ek_isa)isa))
       continue;
     for (int si = 0; si < NSTRAT; si++)
       for (int prec = 32; prec <= 64; prec += 32)
-        for (int proj = 0; proj < 2; proj++) {
-          ek_fvm_hessian *h = make(s, &tm->mat, (ek_isa)isa, strategies[si], prec, !proj);
+        for (int proj = 0; proj < 3; proj++) { // the reference's: 0 none, 1 clamp, 2 abs
+          ek_fvm_hessian *h = make(s, &tm->mat, (ek_isa)isa, strategies[si], prec,
+                                   proj == 0   ? EK_PROJECT_NONE
+                                   : proj == 1 ? EK_PROJECT_CLAMP
+                                               : EK_PROJECT_ABS);
           if (!h)
             continue;
           double E;
@@ -131,7 +133,9 @@ static void check_model(const test_model *tm, const test_mesh *t, const setup *s
           char label[160];
           snprintf(label, sizeof label, "%-17s %-6s f%d %-14s %s", tm->name,
                    ek_isa_name((ek_isa)isa), prec, ek_scatter_name(strategies[si]),
-                   proj ? "projected" : "exact");
+                   proj == 0   ? "exact"
+                   : proj == 1 ? "clamp"
+                               : "abs");
           if (rc != 0) {
             printf("%s: rc %d (%s)\nFAIL\n", label, rc, ek_last_error());
             failures++;
@@ -160,9 +164,11 @@ static void check_model(const test_model *tm, const test_mesh *t, const setup *s
   snprintf(label, sizeof label, "%-17s energy = ref", tm->name);
   failures += ek_check_report(label, worst_E, EK_FVM_TOL_F64);
   for (int prec = 0; prec < 2; prec++)
-    for (int proj = 0; proj < 2; proj++) {
+    for (int proj = 0; proj < 3; proj++) {
       snprintf(label, sizeof label, "%-17s K p f%d %s", tm->name, prec ? 64 : 32,
-               proj ? "projected" : "exact");
+               proj == 0   ? "exact"
+               : proj == 1 ? "clamp"
+                           : "abs");
       failures +=
           ek_check_report(label, worst[prec][proj], prec ? EK_HESSIAN_TOL_F64 : EK_HESSIAN_TOL_F32);
     }
@@ -187,7 +193,7 @@ static void check_fd_sym(const test_model *tm, const test_mesh *t, const setup *
   ek_material_ref mref = test_ref_material(&tm->mat);
   for (size_t i = 0; i < n3; i++)
     p[i] = 2 * ek_rng_uniform(rng) - 1;
-  ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, 1);
+  ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, EK_PROJECT_NONE);
   const double step = 1e-6 * 0.1;
   ek_fvm_hessian_gradient_f64(h, x, s->R_state, gp, NULL, 1);
   ek_fvm_hessian_apply_f64(h, p, y);
@@ -206,26 +212,28 @@ static void check_fd_sym(const test_model *tm, const test_mesh *t, const setup *
   failures += ek_check_report(label, test_force_error(n3, y, gp, sc, &wi), EK_HESSIAN_FD_TOL);
   ek_fvm_hessian_destroy(h);
 
-  h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, 0);
-  ek_fvm_hessian_gradient_f64(h, x, s->R_state, gp, NULL, 1);
   double sym = 0, psd = 0;
-  for (int r = 0; r < 8; r++) {
-    for (size_t i = 0; i < n3; i++) {
-      p[i] = 2 * ek_rng_uniform(rng) - 1;
-      q[i] = 2 * ek_rng_uniform(rng) - 1;
+  for (int pr = EK_PROJECT_CLAMP; pr <= EK_PROJECT_ABS; pr++) {
+    h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, 64, (ek_projection)pr);
+    ek_fvm_hessian_gradient_f64(h, x, s->R_state, gp, NULL, 1);
+    for (int r = 0; r < 8; r++) {
+      for (size_t i = 0; i < n3; i++) {
+        p[i] = 2 * ek_rng_uniform(rng) - 1;
+        q[i] = 2 * ek_rng_uniform(rng) - 1;
+      }
+      ek_fvm_hessian_apply_f64(h, p, y);
+      ek_fvm_hessian_apply_f64(h, q, yq);
+      double ny = sqrt(dot(n3, y, y)), np = sqrt(dot(n3, p, p)), nq = sqrt(dot(n3, q, q));
+      double nyq = sqrt(dot(n3, yq, yq));
+      sym = fmax(sym, fabs(dot(n3, q, y) - dot(n3, p, yq)) / fmax(nq * ny, np * nyq));
+      psd = fmax(psd, fmax(0, -dot(n3, p, y)) / (np * ny));
     }
-    ek_fvm_hessian_apply_f64(h, p, y);
-    ek_fvm_hessian_apply_f64(h, q, yq);
-    double ny = sqrt(dot(n3, y, y)), np = sqrt(dot(n3, p, p)), nq = sqrt(dot(n3, q, q));
-    double nyq = sqrt(dot(n3, yq, yq));
-    sym = fmax(sym, fabs(dot(n3, q, y) - dot(n3, p, yq)) / fmax(nq * ny, np * nyq));
-    psd = fmax(psd, fmax(0, -dot(n3, p, y)) / (np * ny));
+    ek_fvm_hessian_destroy(h);
   }
-  snprintf(label, sizeof label, "%-17s projected K symmetric (q.Kp - p.Kq)", tm->name);
+  snprintf(label, sizeof label, "%-17s clamp/abs K symmetric (q.Kp - p.Kq)", tm->name);
   failures += ek_check_report(label, sym, EK_HESSIAN_SYM_TOL);
-  snprintf(label, sizeof label, "%-17s projected K PSD (-p.Kp)", tm->name);
+  snprintf(label, sizeof label, "%-17s clamp/abs K PSD (-p.Kp)", tm->name);
   failures += ek_check_report(label, psd, EK_HESSIAN_SYM_TOL);
-  ek_fvm_hessian_destroy(h);
   free(p);
   free(q);
   free(y);
@@ -245,7 +253,7 @@ static void check_diagonal(const test_model *tm, const test_mesh *t, const setup
   double *B = malloc(nv * 6 * sizeof(double)), *g = malloc(n3 * sizeof(double));
   static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
   for (int prec = 32; prec <= 64; prec += 32) {
-    ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, prec, 0);
+    ek_fvm_hessian *h = make(s, &tm->mat, EK_ISA_AUTO, EK_SCATTER_AUTO, prec, EK_PROJECT_CLAMP);
     ek_fvm_hessian_gradient_f64(h, x, s->R_state, g, NULL, 1);
     int rc = ek_fvm_hessian_diagonal_f64(h, B);
     double err = rc == 0 ? 0 : INFINITY, scale = 0;

@@ -7,7 +7,7 @@
 //            flipped, fvm.h);
 //   K p:     per tet dF = dDs(p) Dm^-1, dP = dP(F; dF), V0 dP Dm^-T
 //            scattered the same way; K = sum_e of the element Hessians,
-//            each projected to positive semi-definite unless unprojected.
+//            each projected to positive semi-definite (ek_projection).
 // The gradient pass caches per tet what the products need, in the
 // product's precision and the AoSoA layout of the element blocks: the
 // U, V-frame eigensystem of the isotropic models (U, V, the 3x3 block
@@ -46,18 +46,34 @@ typedef struct ek_fvm_hessian ek_fvm_hessian;
 
 // Options; zero means default.
 //   scatter, isa, svd_sweeps, svd_exact_rsqrt: as in ek_fvm_opts.
-//   unprojected: 1 = the exact element Hessians (indefinite in general:
-//     for checks against finite differences), 0 = each projected to PSD
-//     (what Newton needs: a descent direction, CG on an SPD system).
+//   projection: how each element Hessian is made positive semi-definite
+//     (what Newton needs: a descent direction, CG on an SPD system), in
+//     its eigensystem (the U, V frame's 3x3 block and flip/twist pairs):
+//     CLAMP negative eigenvalues to 0 (the default; Teran et al. 2005),
+//     ABS replaces them by their absolute value (Chen et al. 2024,
+//     "Stabler neo-Hookean simulation: absolute eigenvalue filtering for
+//     projected Newton": far fewer Newton iterations under compression),
+//     NONE keeps the exact, indefinite Hessian (for checks against finite
+//     differences). Linear and corotated linear are PSD already.
 //   precision: 32 or 64 (0 = 64): the precision of the cached eigensystems
 //     and of ek_fvm_hessian_apply_*. The gradient is computed in double
 //     either way.
+typedef enum {
+  EK_PROJECT_CLAMP = 0,
+  EK_PROJECT_ABS,
+  EK_PROJECT_NONE,
+  EK_PROJECT_COUNT
+} ek_projection;
+
+// "clamp", "abs", "none"; "invalid" for others.
+const char *ek_projection_name(ek_projection p);
+
 typedef struct {
   ek_scatter scatter;
   ek_isa isa;
   int svd_sweeps;
   int svd_exact_rsqrt;
-  int unprojected;
+  ek_projection projection;
   int precision;
 } ek_fvm_hessian_opts;
 

@@ -50,7 +50,8 @@
 //   dt*, steps*   seconds, count
 //   integrator    {"type": "explicit"} (default) or {"type": "implicit",
 //                 "newton_tol", "max_newton", "cg_tol", "max_cg",
-//                 "preconditioner": "jacobi" | "block_jacobi"}
+//                 "preconditioner": "jacobi" | "block_jacobi",
+//                 "projection": "clamp" | "abs"}
 //                 (ek_scene_implicit: meanings and defaults)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
@@ -69,6 +70,7 @@
 
 #include "core.h"
 #include "fvm.h"
+#include "hessian.h"
 #include "material.h"
 #include "mesh.h"
 #include "svd3.h"
@@ -149,12 +151,22 @@ typedef enum {
 // max_cg [1000]: CG iterations per Newton iteration (the last iterate is
 //   used: with x_0 = 0 every PCG iterate is a descent direction).
 // preconditioner ["block_jacobi"]: or "jacobi".
+// projection ["clamp"]: how element Hessians are made PSD (hessian.h,
+//   ek_projection): "clamp" (negative eigenvalues to 0) or "abs" (to their
+//   absolute value, Chen et al. 2024).
+// Line search: on Phi (Armijo) for every model without a clamp. A clamped
+// model's stress (Irving et al. 2004: P = U diag(g(sigma_hat)) V^T) is not
+// the gradient of an energy where sigma is clamped, so there Phi and its
+// "gradient" disagree and an Armijo test on Phi can fail for every alpha;
+// for clamp > 0 the line search asks instead that the residual decrease,
+// r(x + alpha dx) <= (1 - 1e-4 alpha) r(x).
 typedef struct {
   double newton_tol;
   long max_newton;
   double cg_tol;
   long max_cg;
   ek_preconditioner preconditioner;
+  ek_projection projection;
 } ek_scene_implicit;
 
 typedef enum {
@@ -274,6 +286,19 @@ typedef struct {
   double kinetic, elastic, potential; // potential: gravity, -sum m g.x
 } ek_sim_energies;
 
+// The implicit integrator's last step, iteration by iteration (tests and
+// diagnostics): residual[k] and phi[k] at the k-th Newton iterate (k = 0 the
+// start point, up to `iterations`), and for iteration k (0-based) its CG
+// iterations, CG's final |r|_{M^-1} / |grad Phi|_{M^-1}, and the accepted
+// alpha. Only the first EK_SIM_NEWTON_TRACE iterations are kept.
+#define EK_SIM_NEWTON_TRACE 64
+typedef struct {
+  int iterations;
+  double residual[EK_SIM_NEWTON_TRACE + 1], phi[EK_SIM_NEWTON_TRACE + 1];
+  long cg_iterations[EK_SIM_NEWTON_TRACE];
+  double cg_relative[EK_SIM_NEWTON_TRACE], alpha[EK_SIM_NEWTON_TRACE];
+} ek_sim_newton_trace;
+
 // Build the simulation of a scene on a mesh (the caller keeps the mesh alive
 // and destroys it after the sim). NULL with err on failure.
 ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
@@ -295,6 +320,8 @@ long ek_sim_steps_done(const ek_sim *sim);
 const double *ek_sim_positions(const ek_sim *sim); // nverts x 3, caller order
 const double *ek_sim_velocities(const ek_sim *sim);
 const double *ek_sim_masses(const ek_sim *sim); // nverts
+// The last implicit step's Newton history (all zero for other integrators).
+const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *sim);
 // Kinetic, elastic and gravity potential energy of the current state. The
 // elastic energy is measured from the rest shape, E(x) - E(X)
 // (ek_fvm_energy_ex_f64; corotated linear with the current R^n), as some

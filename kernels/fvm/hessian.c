@@ -115,6 +115,11 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
 // Precision-free entry points and the gradient, built once (in the f64
 // instance).
 
+const char *ek_projection_name(ek_projection p) {
+  static const char *const names[EK_PROJECT_COUNT] = {"clamp", "abs", "none"};
+  return (unsigned)p < EK_PROJECT_COUNT ? names[p] : "invalid";
+}
+
 ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
                                       const ek_fvm_hessian_opts *opts) {
   static const char *fn = "ek_fvm_hessian_create";
@@ -130,6 +135,10 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
     return NULL;
   if ((unsigned)o.scatter >= EK_SCATTER_COUNT) {
     ek_set_error("%s: scatter strategy %d is not a valid ek_scatter", fn, (int)o.scatter);
+    return NULL;
+  }
+  if ((unsigned)o.projection >= EK_PROJECT_COUNT) {
+    ek_set_error("%s: projection %d is not a valid ek_projection", fn, (int)o.projection);
     return NULL;
   }
   if (o.precision != 0 && o.precision != 32 && o.precision != 64) {
@@ -156,7 +165,8 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
   h->isa = isa;
   h->kt = kt;
   h->svd = knobs;
-  h->project = !o.unprojected;
+  // mat_frame_prepare's project: 0 exact, 1 clamp, 2 mirror.
+  h->project = o.projection == EK_PROJECT_NONE ? 0 : o.projection == EK_PROJECT_ABS ? 2 : 1;
   h->precision = o.precision ? o.precision : 64;
   h->planes = mat->model == EK_MODEL_LINEAR             ? 0
               : mat->model == EK_MODEL_COROTATED_LINEAR ? 9

@@ -67,10 +67,10 @@ struct ek_fvm_hessian {
   ek_isa isa;         // resolved
   const ek_kernel_table *kt;
   ek_svd3_knobs svd; // the gradient pass's (double)
-  int project;
-  int precision; // 32 or 64: the cache's and the products'
-  int planes;    // cache planes per tet
-  void *cache;   // nslots * planes values, or NULL (no planes)
+  int project;       // mat_frame_prepare's: 0 exact, 1 clamp, 2 mirror
+  int precision;     // 32 or 64: the cache's and the products'
+  int planes;        // cache planes per tet
+  void *cache;       // nslots * planes values, or NULL (no planes)
   size_t cache_bytes;
   double *energy; // nslots
   int cached;     // a caching gradient pass ran

@@ -106,12 +106,15 @@ static inline void mat_udvt(const vreal U[9], const vreal d[3], const vreal V[9]
   }
 }
 
-// Projection of the symmetric 3x3 A to PSD (negative eigenvalues -> 0).
+// Projection of the symmetric 3x3 A to PSD: negative eigenvalues -> 0, or,
+// with mirror != 0, -> their absolute value (Chen et al. 2024, "Stabler
+// neo-Hookean simulation: absolute eigenvalue filtering for projected
+// Newton").
 // Lanes that are positive definite (Sylvester: leading minors > 0) keep A
 // as is; the others go through cyclic Jacobi (Golub & Van Loan,
 // Matrix Computations, sec. 8.5; the rotation written without division by a_pq
 // so a zero off-diagonal gives the identity), then A = Q max(L, 0) Q^T.
-static inline void mat_project_psd3(vreal A[3][3]) {
+static inline void mat_project_psd3(vreal A[3][3], int mirror) {
   vreal zero = vzero(), one = vset(1);
   vreal m1 = A[0][0];
   vreal m2 = vsub(vmul(A[0][0], A[1][1]), vmul(A[0][1], A[0][1]));
@@ -151,7 +154,9 @@ static inline void mat_project_psd3(vreal A[3][3]) {
         Q[i][q] = vmla(s, qp, vmul(c, qq));
       }
     }
-  vreal lam[3] = {vmax(zero, a[0][0]), vmax(zero, a[1][1]), vmax(zero, a[2][2])};
+  vreal lam[3];
+  for (int i = 0; i < 3; i++)
+    lam[i] = mirror ? vabs(a[i][i]) : vmax(zero, a[i][i]);
   for (int i = 0; i < 3; i++)
     for (int j = i; j < 3; j++) {
       vreal h = vmla(vmul(Q[i][0], lam[0]), Q[j][0],
@@ -169,6 +174,8 @@ typedef struct {
   vreal h[3], q[3]; // per pair: (flip + twist)/2, (flip - twist)/2
 } mat_frame;
 
+// project: 0 exact, 1 negative eigenvalues clamped to 0, 2 negative
+// eigenvalues mirrored (their absolute value; mat_project_psd3).
 static inline void mat_frame_prepare(mat_frame *fr, const mat_sigma_terms *t, int project) {
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
@@ -176,7 +183,10 @@ static inline void mat_frame_prepare(mat_frame *fr, const mat_sigma_terms *t, in
   vreal half = vset((real)0.5);
   for (int p = 0; p < 3; p++) {
     vreal fl = t->flip[p], tw = t->twist[p];
-    if (project) {
+    if (project == 2) {
+      fl = vabs(fl);
+      tw = vabs(tw);
+    } else if (project) {
       // max(0, x): x86 max returns its second operand for NaN, so a NaN
       // (outside the domain) stays NaN.
       fl = vmax(vzero(), fl);
@@ -186,7 +196,7 @@ static inline void mat_frame_prepare(mat_frame *fr, const mat_sigma_terms *t, in
     fr->q[p] = vmul(half, vsub(fl, tw));
   }
   if (project)
-    mat_project_psd3(fr->A);
+    mat_project_psd3(fr->A, project == 2);
 }
 
 static inline void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[9]) {

@@ -33,7 +33,7 @@ double ek_fvm_tet_F_ref(const double *X, const double *x, const int32_t tet[4], 
                         double Dm_inv[9]);
 
 // y = K p, K = d(grad E)/dx = -df/dx at x, each element's 9x9 Hessian in F
-// projected to PSD when project != 0 (ek_hessian_ref): per tet dF =
+// projected to PSD when project != 0 (ek_hessian_ref's 1 clamp, 2 abs): per tet dF =
 // [p1-p0, p2-p0, p3-p0] Dm^-1, dP = H : dF, V0 dP Dm^-T to corners 1..3 and
 // minus their sum to corner 0 (reference/fvm/hessian_ref.c). yscale (may
 // be NULL): per component, the sum of the contributions' absolute values.

@@ -148,7 +148,8 @@ void ek_hessian_ref(const ek_material_ref *m, const double F[9], const double R[
     finite &= isfinite(H[k]) != 0;
   if (!finite)
     return; // NaN in, NaN out: nothing to project
-  // Symmetrise (H is symmetric up to rounding), eigendecompose, clamp, rebuild.
+  // Symmetrise (H is symmetric up to rounding), eigendecompose, clamp (or
+  // mirror) the negative eigenvalues, rebuild.
   double A[81], w[9], work[9 * 34];
   for (int a = 0; a < 9; a++)
     for (int b = 0; b < 9; b++)
@@ -166,7 +167,7 @@ void ek_hessian_ref(const ek_material_ref *m, const double F[9], const double R[
     for (int b = 0; b < 9; b++) {
       double s = 0;
       for (int k = 0; k < 9; k++)
-        s += fmax(w[k], 0.0) * A[9 * k + a] * A[9 * k + b];
+        s += (project == 2 ? fabs(w[k]) : fmax(w[k], 0.0)) * A[9 * k + a] * A[9 * k + b];
       H[9 * a + b] = s;
     }
 }

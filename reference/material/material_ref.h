@@ -24,7 +24,8 @@ void ek_pk1_ref(const ek_material_ref *m, const double F[9], const double R[9], 
 void ek_pk1_diff_ref(const ek_material_ref *m, const double F[9], const double R[9],
                      const double dF[9], double dP[9], int project);
 // H[a*9 + b] = d P_a / d F_b, a = 3 i + j; projected when project != 0:
-// LAPACK dsyev, negative eigenvalues set to zero, reassembled.
+// LAPACK dsyev, negative eigenvalues set to zero (project 1) or to their
+// absolute value (project 2: Chen et al. 2024), reassembled.
 void ek_hessian_ref(const ek_material_ref *m, const double F[9], const double R[9], double H[81],
                     int project);
 

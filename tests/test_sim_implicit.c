@@ -1,0 +1,366 @@
+// Invariants of the implicit integrator (sim/implicit.c; contract in
+// include/ek/sim.h, ek_scene_implicit):
+//   1. Newton on a small problem: the objective decreases at every
+//      accepted iterate, CG reaches cg_tol in every iteration, and near the
+//      solution the residual falls quadratically (orders and ratios
+//      r_{k+1} / r_k^2 printed); with f32 products the step still converges
+//      (iterations and final residual printed);
+//   2. small dt: the implicit and the explicit trajectories approach each
+//      other at first order (halving dt halves their distance);
+//   3. undamped, gravity-free, unpinned: backward Euler never gains energy
+//      (per step, to rounding) and keeps momentum (to the Newton
+//      tolerance);
+//   4. the cantilever at dt = 1/30 reaches its static deflection within
+//      EK_SIM_CANTILEVER_TOL of Euler-Bernoulli;
+//   5. the crushed cube (fixed corotated + clamp, and neo-Hookean without
+//      clamp) stays finite and recovers its volume within
+//      EK_SIM_VOLUME_TOL;
+//   6. 1 and 2 threads give the same bits (a mesh above every grain).
+#include <ek/sim.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int failures = 0;
+static char scenes_dir[1024];
+
+static void report(const char *what, double err, double budget, const char *detail) {
+  double ratio = err / budget;
+  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
+  printf("%-50s err %.3e  budget %.1e  %s  %s\n", what, err, budget, v, detail);
+  if (!(ratio <= 1.0))
+    failures++;
+}
+
+static void check(const char *what, int ok, const char *detail) {
+  printf("%-50s %s  %s\n", what, ok ? "PASS" : "FAIL", detail);
+  if (!ok)
+    failures++;
+}
+
+typedef struct {
+  ek_scene scene;
+  ek_mesh *mesh;
+  ek_sim *sim;
+} run;
+
+static int start(run *r, const char *json_or_name, int is_file) {
+  char err[1024], path[1200];
+  memset(r, 0, sizeof *r);
+  int rc;
+  if (is_file) {
+    snprintf(path, sizeof path, "%s/%s.json", scenes_dir, json_or_name);
+    rc = ek_scene_load(path, &r->scene, err, sizeof err);
+  } else {
+    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene, err, sizeof err);
+  }
+  r->scene.output_file[0] = '\0';
+  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
+    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
+  if (!r->sim) {
+    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", err);
+    failures++;
+    ek_mesh_destroy(r->mesh);
+    return -1;
+  }
+  return 0;
+}
+
+static void finish(run *r) {
+  ek_sim_destroy(r->sim);
+  ek_mesh_destroy(r->mesh);
+}
+
+// A 0.1 m cube of stable neo-Hookean, stretched and moving, no gravity, no
+// pins: the small problem of 1-3.
+static void small_scene(char *json, size_t n, const char *integrator, double dt, int prec) {
+  snprintf(json, n,
+           "{\"mesh\": {\"box\": [4, 4, 4], \"size\": [0.1, 0.1, 0.1]},"
+           " \"initial\": {\"scale\": [1.15, 0.95, 1.05], \"velocity\": [0.3, -0.2, 0.1]},"
+           " \"material\": {\"model\": \"stable_neo_hookean\", \"E\": 1e5, \"nu\": 0.3,"
+           " \"density\": 1000}, \"precision\": \"f%d\", \"dt\": %.17g, \"steps\": 1,"
+           " \"integrator\": %s}",
+           prec, dt, integrator);
+}
+
+// 1.
+static void newton_test(int prec) {
+  char json[2048];
+  small_scene(json, sizeof json,
+              prec == 64 ? "{\"type\": \"implicit\", \"newton_tol\": 1e-12, \"cg_tol\": 1e-12, "
+                           "\"max_cg\": 10000, \"max_newton\": 30}"
+                         : "{\"type\": \"implicit\", \"newton_tol\": 1e-10, \"cg_tol\": 1e-6, "
+                           "\"max_cg\": 10000, \"max_newton\": 30}",
+              1.0 / 30, prec);
+  run r;
+  if (start(&r, json, 0))
+    return;
+  int rc = ek_sim_step(r.sim);
+  const ek_sim_newton_trace *t = ek_sim_last_newton(r.sim);
+  const ek_scene_implicit *im = &r.scene.implicit;
+  printf("Newton, f%d products: %d iterations\n", prec, t->iterations);
+  int decrease = rc == 0, cg_ok = 1;
+  double best_order = 0;
+  for (int k = 0; k <= t->iterations; k++) {
+    printf("  k %2d  residual %.3e  phi %.17g", k, t->residual[k], t->phi[k]);
+    if (k < t->iterations)
+      printf("  CG %ld its to %.2e  alpha %g", t->cg_iterations[k], t->cg_relative[k], t->alpha[k]);
+    if (k >= 1 && k < t->iterations && t->residual[k] > 0)
+      printf("  r_{k+1}/r_k^2 %.3g", t->residual[k + 1] / (t->residual[k] * t->residual[k]));
+    if (k >= 2 && t->residual[k - 1] < 1e-2 && t->residual[k] > 1e-12) {
+      // Order from three successive residuals above the rounding floor.
+      double p =
+          log(t->residual[k] / t->residual[k - 1]) / log(t->residual[k - 1] / t->residual[k - 2]);
+      printf("  order %.2f", p);
+      best_order = fmax(best_order, p);
+    }
+    printf("\n");
+    if (k > 0)
+      decrease &= t->phi[k] <= t->phi[k - 1] + 1e-14 * fabs(t->phi[k - 1]);
+    if (k < t->iterations)
+      cg_ok &= t->cg_relative[k] <= im->cg_tol || t->cg_iterations[k] == im->max_cg;
+  }
+  char what[96], detail[160];
+  snprintf(what, sizeof what, "f%d: objective decreases at every iterate", prec);
+  check(what, decrease, "");
+  snprintf(what, sizeof what, "f%d: CG reaches cg_tol in every iteration", prec);
+  snprintf(detail, sizeof detail, "cg_tol %g", im->cg_tol);
+  check(what, cg_ok, detail);
+  double final = t->residual[t->iterations];
+  snprintf(what, sizeof what, "f%d: converged to newton_tol", prec);
+  snprintf(detail, sizeof detail, "final residual %.3g, newton_tol %g, %d iterations", final,
+           im->newton_tol, t->iterations);
+  check(what, rc == 0 && final <= im->newton_tol, detail);
+  if (prec == 64) {
+    // Newton's order is 2 near the solution; 1.7 leaves room for the
+    // inexact CG solve (cg_tol 1e-12) and rounding in the last iterate.
+    snprintf(detail, sizeof detail, "best order %.2f over the iterates below 1e-2", best_order);
+    check("f64: quadratic convergence (order >= 1.7)", best_order >= 1.7, detail);
+  }
+  finish(&r);
+}
+
+// 2. Distance between the implicit and explicit trajectories after the same
+// time, relative to the body size, at dt and dt/2.
+static double trajectory_gap(double dt, double T) {
+  char json[2048];
+  run a, b;
+  small_scene(json, sizeof json,
+              "{\"type\": \"implicit\", \"newton_tol\": 1e-12, \"cg_tol\": 1e-10, \"max_cg\": "
+              "10000}",
+              dt, 64);
+  if (start(&a, json, 0))
+    return NAN;
+  small_scene(json, sizeof json, "{\"type\": \"explicit\"}", dt, 64);
+  if (start(&b, json, 0)) {
+    finish(&a);
+    return NAN;
+  }
+  long n = lround(T / dt);
+  int rc = 0;
+  for (long i = 0; i < n && rc == 0; i++)
+    rc = ek_sim_step(a.sim) | ek_sim_step(b.sim);
+  size_t nv = ek_mesh_nverts(a.mesh);
+  const double *xa = ek_sim_positions(a.sim), *xb = ek_sim_positions(b.sim);
+  double gap = 0;
+  for (size_t i = 0; i < nv; i++) {
+    double d = 0;
+    for (int k = 0; k < 3; k++)
+      d += (xa[3 * i + k] - xb[3 * i + k]) * (xa[3 * i + k] - xb[3 * i + k]);
+    gap = fmax(gap, sqrt(d));
+  }
+  finish(&a);
+  finish(&b);
+  return rc ? NAN : gap / (0.1 * sqrt(3.0));
+}
+
+static void small_dt_test(void) {
+  char json[2048];
+  run r;
+  small_scene(json, sizeof json, "{\"type\": \"explicit\"}", 1e-5, 64);
+  if (start(&r, json, 0))
+    return;
+  double cfl = ek_sim_cfl_dt(r.sim);
+  finish(&r);
+  double T = 10 * cfl;
+  double g1 = trajectory_gap(0.02 * cfl, T), g2 = trajectory_gap(0.01 * cfl, T);
+  char detail[200];
+  snprintf(detail, sizeof detail,
+           "after %.3g s: gap %.3e at dt = 0.02 CFL, %.3e at 0.01 CFL, ratio %.2f (first order: 2)",
+           T, g1, g2, g1 / g2);
+  // Both methods are first order: the gap halves with dt (1.6..2.5 allows
+  // the second-order terms at these steps).
+  check("implicit -> explicit at first order as dt -> 0", g1 / g2 >= 1.6 && g1 / g2 <= 2.5, detail);
+}
+
+// 3.
+static void energy_momentum_test(void) {
+  char json[2048];
+  run r;
+  small_scene(json, sizeof json,
+              "{\"type\": \"implicit\", \"newton_tol\": 1e-12, \"cg_tol\": 1e-10, \"max_cg\": "
+              "10000}",
+              1.0 / 100, 64);
+  if (start(&r, json, 0))
+    return;
+  size_t nv = ek_mesh_nverts(r.mesh);
+  const double *m = ek_sim_masses(r.sim);
+  ek_sim_energies e;
+  ek_sim_energy(r.sim, &e);
+  double E0 = e.kinetic + e.elastic + e.potential, E = E0, worst_gain = 0;
+  double p0[3], p[3], scale = 0;
+  ek_sim_momentum(r.sim, p0);
+  const double *v = ek_sim_velocities(r.sim);
+  for (size_t i = 0; i < nv; i++)
+    scale += m[i] *
+             sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+  int rc = 0;
+  double worst_dp = 0;
+  for (int n = 0; n < 100 && rc == 0; n++) {
+    rc = ek_sim_step(r.sim);
+    ek_sim_energy(r.sim, &e);
+    double En = e.kinetic + e.elastic + e.potential;
+    worst_gain = fmax(worst_gain, (En - E) / E0);
+    E = En;
+    ek_sim_momentum(r.sim, p);
+    worst_dp =
+        fmax(worst_dp, sqrt((p[0] - p0[0]) * (p[0] - p0[0]) + (p[1] - p0[1]) * (p[1] - p0[1]) +
+                            (p[2] - p0[2]) * (p[2] - p0[2])) /
+                           scale);
+  }
+  char detail[200];
+  snprintf(detail, sizeof detail, "100 steps at dt = 0.01 s: energy %.4g -> %.4g J (%s)", E0, E,
+           rc ? ek_sim_last_error(r.sim) : "ok");
+  // Per step, E_{n+1} <= E_n up to the rounding of the energy sums and the
+  // Newton tolerance (1e-12 of the body size): 1e-10 of E0.
+  report("undamped backward Euler never gains energy", rc ? INFINITY : worst_gain, 1e-10, detail);
+  // sum m dv = -dt sum grad E + dt sum (residual): internal forces sum to
+  // zero, the residual is below newton_tol.
+  snprintf(detail, sizeof detail, "largest |p - p0| / sum m|v0| over 100 steps");
+  report("momentum kept (no gravity, no pins)", rc ? INFINITY : worst_dp, 1e-8, detail);
+  finish(&r);
+}
+
+// 4.
+static void cantilever_test(void) {
+  run r;
+  if (start(&r, "cantilever_implicit", 1))
+    return;
+  size_t nv = ek_mesh_nverts(r.mesh);
+  const double *X = ek_mesh_rest_positions(r.mesh);
+  const ek_scene *s = &r.scene;
+  double L = s->box_size[0], b = s->box_size[1], h = s->box_size[2];
+  int rc = 0;
+  for (long n = 0; n < s->steps && rc == 0; ++n)
+    rc = ek_sim_step(r.sim);
+  const double *x = ek_sim_positions(r.sim);
+  double sum = 0;
+  int count = 0;
+  for (size_t i = 0; i < nv; ++i)
+    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
+      sum += x[3 * i + 2] - X[3 * i + 2];
+      count++;
+    }
+  double tip = -sum / count;
+  // Euler-Bernoulli, uniform load q = rho g A: delta = q L^4 / (8 E I).
+  double q = s->density * fabs(s->gravity[2]) * b * h, I = b * h * h * h / 12.0;
+  double delta_eb = q * L * L * L * L / (8.0 * s->young * I);
+  char detail[256];
+  snprintf(detail, sizeof detail, "tip %.6e m after %g s at dt %.4g, Euler-Bernoulli %.6e m", tip,
+           s->dt * (double)s->steps, s->dt, delta_eb);
+  report("implicit cantilever vs Euler-Bernoulli", rc ? INFINITY : fabs(tip - delta_eb) / delta_eb,
+         EK_SIM_CANTILEVER_TOL, detail);
+  finish(&r);
+}
+
+// 5.
+static void crush_test(const char *name) {
+  run r;
+  if (start(&r, name, 1))
+    return;
+  double V0 = ek_sim_volume(r.sim), Vmin = V0;
+  int rc = 0;
+  for (long n = 0; n < r.scene.steps && rc == 0; ++n) {
+    rc = ek_sim_step(r.sim);
+    Vmin = fmin(Vmin, ek_sim_volume(r.sim));
+  }
+  size_t n3 = 3 * ek_mesh_nverts(r.mesh);
+  const double *x = ek_sim_positions(r.sim);
+  int finite = 1;
+  for (size_t i = 0; i < n3; i++)
+    finite &= isfinite(x[i]) != 0;
+  double V = ek_sim_volume(r.sim);
+  const ek_sim_times *t = ek_sim_timings(r.sim);
+  char what[96], detail[256];
+  snprintf(detail, sizeof detail,
+           "smallest V %.3g V0, final V %.6g V0, %ld of %ld steps stopped above newton_tol "
+           "(worst residual %.2g)%s",
+           Vmin / V0, V / V0, t->unconverged_steps, t->steps, t->worst_residual,
+           rc ? ek_sim_last_error(r.sim) : "");
+  snprintf(what, sizeof what, "%s: finite, recovers its volume", name);
+  report(what, rc || !finite ? INFINITY : fabs(V - V0) / V0, EK_SIM_VOLUME_TOL, detail);
+  finish(&r);
+}
+
+// 6.
+static void threads_test(void) {
+  const char *json =
+      "{\"mesh\": {\"box\": [48, 16, 12], \"size\": [1.2, 0.4, 0.3]},"
+      " \"material\": {\"model\": \"stable_neo_hookean\", \"E\": 1e6, \"nu\": 0.4, \"density\": "
+      "1000},"
+      " \"precision\": \"f32\", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 0],"
+      " \"max\": [0, 0.4, 0.3]}}], \"gravity\": [0, 0, -9.81], \"dt\": 0.0333333333333,"
+      " \"steps\": 2, \"integrator\": {\"type\": \"implicit\", \"cg_tol\": 1e-3}}";
+  double *x1 = NULL;
+  long mismatches = 0;
+  size_t n3 = 0, nt = 0;
+  int ok = 1;
+  for (int threads = 1; threads <= 2; threads++) {
+    omp_set_num_threads(threads);
+    run r;
+    if (start(&r, json, 0))
+      return;
+    n3 = 3 * ek_mesh_nverts(r.mesh);
+    nt = ek_mesh_ntets(r.mesh);
+    for (int n = 0; n < 2; n++)
+      ok &= ek_sim_step(r.sim) == 0;
+    const double *x = ek_sim_positions(r.sim);
+    if (threads == 1) {
+      x1 = malloc(n3 * sizeof(double));
+      memcpy(x1, x, n3 * sizeof(double));
+    } else {
+      for (size_t i = 0; i < n3; i++)
+        mismatches += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
+    }
+    finish(&r);
+  }
+  omp_set_num_threads(2);
+  char detail[200];
+  snprintf(detail, sizeof detail,
+           "%zu tets, %zu dofs, 2 steps, f32 products: %ld coordinates differ", nt, n3, mismatches);
+  check("same bits at 1 and 2 threads", ok && mismatches == 0, detail);
+  free(x1);
+}
+
+int main(int argc, char **argv) {
+  snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
+  char *slash = strrchr(scenes_dir, '/');
+  if (slash)
+    snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
+  for (int i = 1; i < argc; ++i)
+    if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
+      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[++i]);
+  printf("test_sim_implicit (scenes from %s)\n", scenes_dir);
+  newton_test(64);
+  newton_test(32);
+  small_dt_test();
+  energy_momentum_test();
+  threads_test();
+  crush_test("crush_implicit");
+  crush_test("crush_nh_implicit");
+  cantilever_test();
+  printf("%s\n", failures ? "FAILED" : "ALL PASSED");
+  return failures ? 1 : 0;
+}
