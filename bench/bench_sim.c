@@ -1,14 +1,24 @@
-// ek-bench family "sim": the explicit loop (sim/explicit.c) on every shipped
-// scene, per step: FVM force (fused kernel), R^n refresh where the model
-// needs it, integration, boundary conditions and ground; no frame output.
+// ek-bench family "sim": the explicit loop (sim/explicit.c) and the implicit
+// loop (sim/implicit.c) on the shipped scenes, per step, no frame output:
+// explicit: FVM force (fused kernel), R^n refresh where the model needs it,
+// integration, boundary conditions and ground; implicit: Newton + PCG.
 //
 // Rows: sim/<scene>/<model>/<isa>/<prec>/tets:<N>/threads:<T>; one call is
-// STEPS_PER_CALL steps, so the per-item time is the time per step. The
+// STEPS_PER_CALL steps (1 for the implicit scenes), so the per-item time
+// is the time per step. The
 // simulation keeps running across calls (a scene has no end; its step count
 // is only the default length of a run). After each row the split by phase
 // (deformation gradient, SVD/polar, P, scatter from the FVM kernel's
 // phase-timed passes; integration; R^n refresh) is measured on PHASE_STEPS
-// more steps and recorded as a note, in ms per step.
+// more steps and recorded as a note, in ms per step. After an implicit row
+// the note gives Newton and CG iterations per step, the time by phase, and
+// ns per tet of one Hessian product next to one FVM force evaluation of
+// the same mesh, precision and state (median of FORCE_CALLS calls).
+//
+// sim/cantilever_1s/...: not a timed row but one run of each loop over 1 s
+// of simulated time on the cantilever (explicit at the scene's CFL-bound
+// dt, implicit at 1/30 s), printed side by side as a note with the final
+// tip positions' difference (one run each: a cost, not a median).
 #include <ek/sim.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,17 +26,21 @@
 
 #include "bench.h"
 
-enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20 };
+#include <ek/fvm.h>
+#include <math.h>
+#include <omp.h>
+
+enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20, FORCE_CALLS = 21 };
 
 typedef struct {
   ek_sim *sim;
   ek_bench *b;
-  int failed;
+  int failed, steps;
 } sim_ctx;
 
 static void run_steps(void *p) {
   sim_ctx *c = p;
-  for (int i = 0; i < STEPS_PER_CALL && !c->failed; ++i) {
+  for (int i = 0; i < c->steps && !c->failed; ++i) {
     int rc = ek_sim_step(c->sim);
     if (rc != 0) {
       c->failed = 1;
@@ -48,8 +62,147 @@ static void scene_path(const char *name, char *out, size_t outlen) {
   snprintf(out, outlen, "%s/../scenes/%s.json", dir, name);
 }
 
+static double now(void) { return omp_get_wtime(); }
+
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return x < y ? -1 : x > y;
+}
+
+// ns per tet of one FVM force evaluation of the sim's mesh, precision and
+// current state (median of FORCE_CALLS).
+static double force_ns_per_tet(const ek_scene *scene, const ek_mesh *mesh, const ek_sim *sim) {
+  size_t n3 = 3 * ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
+  const double *x = ek_sim_positions(sim);
+  double *f = malloc(n3 * sizeof(double)), *R = malloc(nt * 9 * sizeof(double));
+  float *xf = malloc(n3 * sizeof(float)), *ff = malloc(n3 * sizeof(float));
+  double t[FORCE_CALLS], med = NAN;
+  if (f && R && xf && ff) {
+    for (size_t i = 0; i < n3; i++)
+      xf[i] = (float)x[i];
+    for (size_t e = 0; e < nt; e++)
+      for (int k = 0; k < 9; k++)
+        R[e * 9 + k] = k % 4 == 0;
+    ek_fvm_opts o = {.scatter = scene->scatter,
+                     .isa = scene->svd.isa,
+                     .svd_sweeps = scene->svd.sweeps,
+                     .svd_exact_rsqrt = scene->svd.exact_rsqrt,
+                     .R = R};
+    int ok = 1;
+    for (int i = 0; i < FORCE_CALLS && ok; i++) {
+      double t0 = now();
+      ok = (scene->precision == 32 ? ek_fvm_forces_ex_f32(mesh, &scene->material, xf, ff, &o)
+                                   : ek_fvm_forces_ex_f64(mesh, &scene->material, x, f, &o)) == 0;
+      t[i] = now() - t0;
+    }
+    if (ok) {
+      qsort(t, FORCE_CALLS, sizeof t[0], cmp_double);
+      med = 1e9 * t[FORCE_CALLS / 2] / (double)nt;
+    }
+  }
+  free(f);
+  free(R);
+  free(xf);
+  free(ff);
+  return med;
+}
+
+// After an implicit row: iterations, phases, product vs force per tet.
+static void implicit_note(ek_bench *b, const char *name, const ek_scene *scene, const ek_mesh *mesh,
+                          const ek_sim *sim) {
+  const ek_sim_times *t = ek_sim_timings(sim);
+  double n = (double)t->steps, nt = (double)ek_mesh_ntets(mesh);
+  if (n <= 0)
+    return;
+  double product = t->matvecs ? 1e9 * t->matvec / ((double)t->matvecs * nt) : NAN;
+  double force = force_ns_per_tet(scene, mesh, sim);
+  ek_bench_note(b,
+                "%s: %.2f Newton iterations per step, %.1f CG iterations per Newton iteration, "
+                "%ld of %ld steps stopped above newton_tol; ms per step: gradient+eigensystems "
+                "%.3f, Hessian products %.3f, preconditioner %.3f, CG vectors %.3f, line search "
+                "%.3f; one Hessian product %.2f ns/tet vs one force evaluation %.2f ns/tet "
+                "(%.2fx)",
+                name, (double)t->newton_iterations / n,
+                t->newton_iterations ? (double)t->cg_iterations / (double)t->newton_iterations : 0,
+                t->unconverged_steps, t->steps, 1e3 * t->gradient / n, 1e3 * t->matvec / n,
+                1e3 * t->preconditioner / n, 1e3 * t->cg_vectors / n, 1e3 * t->line_search / n,
+                product, force, product / force);
+}
+
+// Mean z displacement of the cantilever's free end face (x = L).
+static double tip(const ek_sim *sim, const ek_mesh *mesh, double L) {
+  const double *X = ek_mesh_rest_positions(mesh), *x = ek_sim_positions(sim);
+  double sum = 0;
+  int count = 0;
+  for (size_t i = 0; i < ek_mesh_nverts(mesh); i++)
+    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
+      sum += x[3 * i + 2] - X[3 * i + 2];
+      count++;
+    }
+  return count ? sum / count : NAN;
+}
+
+// 1 s of the cantilever, explicit vs implicit (see the top comment).
+static int cantilever_1s(ek_bench *b, int threads) {
+  static const char *names[2] = {"cantilever", "cantilever_implicit"};
+  char name[EK_BENCH_NAME_MAX];
+  snprintf(name, sizeof name, "sim/cantilever_1s/explicit_vs_implicit/threads:%d", threads);
+  if (!ek_bench_wants(b, name))
+    return 0;
+  if (ek_bench_listing(b)) {
+    ek_bench_note(b, "%s: one run of each loop (not a timed row)", name);
+    return 0;
+  }
+  double seconds[2] = {NAN, NAN}, tips[2] = {NAN, NAN}, dts[2] = {NAN, NAN};
+  long steps[2] = {0, 0};
+  omp_set_num_threads(threads);
+  for (int k = 0; k < 2; k++) {
+    char path[1200], err[1024];
+    ek_scene scene;
+    scene_path(names[k], path, sizeof path);
+    ek_mesh *mesh = NULL;
+    ek_sim *sim = NULL;
+    if (ek_scene_load(path, &scene, err, sizeof err) != 0 ||
+        !(mesh = ek_scene_mesh(&scene, err, sizeof err)) ||
+        !(sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
+      ek_bench_fail(b, "sim: %s: %s", names[k], err);
+      ek_mesh_destroy(mesh);
+      return -1;
+    }
+    dts[k] = scene.dt;
+    steps[k] = lround(1.0 / scene.dt);
+    double t0 = now();
+    int rc = 0;
+    for (long i = 0; i < steps[k] && rc == 0; i++)
+      rc = ek_sim_step(sim);
+    seconds[k] = now() - t0;
+    tips[k] = tip(sim, mesh, scene.box_size[0]);
+    if (rc)
+      ek_bench_fail(b, "sim: %s: %s", names[k], ek_sim_last_error(sim));
+    ek_sim_destroy(sim);
+    ek_mesh_destroy(mesh);
+    if (rc)
+      return -1;
+  }
+  ek_bench_note(b,
+                "%s: 1 s of simulated time: explicit dt %.3g (%ld steps) %.3f s, implicit dt %.4g "
+                "(%ld steps) %.3f s, explicit / implicit %.2fx; tip z displacement explicit "
+                "%.6e m, implicit %.6e m, difference %.3g of the explicit one",
+                name, dts[0], steps[0], seconds[0], dts[1], steps[1], seconds[1],
+                seconds[0] / seconds[1], tips[0], tips[1], fabs(tips[1] - tips[0]) / fabs(tips[0]));
+  return 0;
+}
+
 int bench_sim(ek_bench *b) {
-  static const char *scenes[] = {"cantilever", "twist", "drop", "crush"};
+  static const char *scenes[] = {"cantilever",
+                                 "twist",
+                                 "drop",
+                                 "crush",
+                                 "cantilever_implicit",
+                                 "twist_implicit",
+                                 "stiff_bar_implicit",
+                                 "crush_implicit",
+                                 "crush_nh_implicit"};
   int counts[EK_BENCH_MAX_THREAD_COUNTS];
   int ncounts = ek_bench_thread_counts(b, counts);
   int rc = 0;
@@ -80,7 +233,8 @@ int bench_sim(ek_bench *b) {
                scene.model_name, ek_isa_name(isa), prec, tets, counts[t]);
       if (!ek_bench_wants(b, name))
         continue;
-      sim_ctx ctx = {NULL, b, 0};
+      const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT;
+      sim_ctx ctx = {NULL, b, 0, implicit ? 1 : STEPS_PER_CALL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
           ek_bench_fail(b, "sim: %s: %s", scenes[k], err);
@@ -93,20 +247,23 @@ int bench_sim(ek_bench *b) {
           continue;
         }
       }
-      snprintf(knobs, sizeof knobs, "scene=%s;model=%s;steps_per_call=%d;dt=%g", scenes[k],
-               scene.model_name, STEPS_PER_CALL, scene.dt);
+      snprintf(knobs, sizeof knobs, "scene=%s;model=%s;integrator=%s;steps_per_call=%d;dt=%g",
+               scenes[k], scene.model_name, ek_scene_integrator_name(scene.integrator), ctx.steps,
+               scene.dt);
       ek_bench_row row = {.name = name,
                           .family = "sim",
                           .isa = isa,
                           .precision = prec,
                           .threads = counts[t],
                           .knobs = knobs,
-                          .items = STEPS_PER_CALL,
+                          .items = (size_t)ctx.steps,
                           .fn = run_steps,
                           .ctx = &ctx};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
-      if (ctx.sim && !ctx.failed) {
+      if (ctx.sim && !ctx.failed && implicit) {
+        implicit_note(b, name, &scene, mesh, ctx.sim);
+      } else if (ctx.sim && !ctx.failed) {
         // The split, on a few more steps of the same run (same threads:
         // the harness set them for the row).
         ek_sim_times before = *ek_sim_timings(ctx.sim);
@@ -131,5 +288,7 @@ int bench_sim(ek_bench *b) {
     }
     ek_mesh_destroy(mesh);
   }
+  if (cantilever_1s(b, counts[ncounts - 1]) < 0)
+    rc = -1;
   return rc;
 }
