@@ -182,6 +182,26 @@ static const bad_case bad_cases[] = {
     {"unknown integrator key",
      "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"explicit\", \"substeps\": 2}}",
      {"integrator.substeps = 2", "unknown key"}},
+    {"explicit with an implicit key",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"explicit\", \"cg_tol\": 0.1}}",
+     {"integrator.cg_tol = 0.1", "unknown key"}},
+    {"implicit cg_tol 1.5",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"implicit\", \"cg_tol\": 1.5}}",
+     {"integrator.cg_tol = 1.5", "(0, 1)"}},
+    {"implicit newton_tol 0",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"implicit\", \"newton_tol\": 0}}",
+     {"integrator.newton_tol = 0", "> 0"}},
+    {"implicit max_cg 2.5",
+     "{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"implicit\", \"max_cg\": 2.5}}",
+     {"integrator.max_cg = 2.5", "whole number"}},
+    {"unknown preconditioner",
+     "{" MESH ", " MAT ", " TAIL
+     ", \"integrator\": {\"type\": \"implicit\", \"preconditioner\": \"ilu\"}}",
+     {"integrator.preconditioner = \"ilu\"", "jacobi, block_jacobi"}},
+    {"unknown projection",
+     "{" MESH ", " MAT ", " TAIL
+     ", \"integrator\": {\"type\": \"implicit\", \"projection\": \"flip\"}}",
+     {"integrator.projection = \"flip\"", "clamp, abs"}},
     {"invalid JSON (line 2)", "{" MESH ",\n  " MAT " " TAIL "}", {"test.json:2:", "invalid JSON"}},
     {"not an object", "[1, 2, 3]", {"(top level) = [1,2,3]", "object"}},
 };
@@ -216,8 +236,17 @@ int main(int argc, char **argv) {
   static ek_scene s;
 
   // 1. Shipped scenes parse, with the values their files state.
-  const char *shipped[] = {"cantilever", "twist", "drop", "crush"};
-  for (int i = 0; i < 4; ++i) {
+  const char *shipped[] = {"cantilever",
+                           "twist",
+                           "drop",
+                           "crush",
+                           "cantilever_implicit",
+                           "twist_implicit",
+                           "stiff_bar_implicit",
+                           "crush_implicit",
+                           "crush_nh_implicit",
+                           "bracket"};
+  for (int i = 0; i < (int)(sizeof shipped / sizeof shipped[0]); ++i) {
     snprintf(path, sizeof path, "%s/%s.json", scenes_dir, shipped[i]);
     int rc = ek_scene_load(path, &s, err, sizeof err);
     snprintf(detail, sizeof detail, "%s", rc ? err : "");
@@ -230,6 +259,31 @@ int main(int argc, char **argv) {
   if (ek_scene_load(path, &s, err, sizeof err) == 0)
     verdict("integrator defaults to explicit", s.integrator == EK_INTEGRATOR_EXPLICIT,
             ek_scene_integrator_name(s.integrator));
+  // The implicit integrator's defaults (sim.h, ek_scene_implicit) and keys.
+  snprintf(path, sizeof path, "%s/cantilever_implicit.json", scenes_dir);
+  if (ek_scene_load(path, &s, err, sizeof err) == 0) {
+    const ek_scene_implicit *im = &s.implicit;
+    verdict("implicit defaults",
+            s.integrator == EK_INTEGRATOR_IMPLICIT && close_to(im->newton_tol, 1e-6) &&
+                im->max_newton == 50 && close_to(im->cg_tol, 1e-4) && im->max_cg == 1000 &&
+                im->preconditioner == EK_PRECOND_BLOCK_JACOBI && im->projection == EK_PROJECT_CLAMP,
+            ek_scene_integrator_name(s.integrator));
+  }
+  {
+    const char *json =
+        "{\"mesh\": {\"box\": [1, 1, 1], \"size\": [1, 1, 1]}, \"material\": {\"model\": "
+        "\"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, \"dt\": 0.01, \"steps\": 1,"
+        " \"integrator\": {\"type\": \"implicit\", \"newton_tol\": 1e-8, \"max_newton\": 7,"
+        " \"cg_tol\": 0.01, \"max_cg\": 99, \"preconditioner\": \"jacobi\", \"projection\": "
+        "\"abs\"}}";
+    int rc = ek_scene_parse(json, "implicit.json", ".", &s, err, sizeof err);
+    const ek_scene_implicit *im = &s.implicit;
+    verdict("implicit keys read",
+            rc == 0 && close_to(im->newton_tol, 1e-8) && im->max_newton == 7 &&
+                close_to(im->cg_tol, 0.01) && im->max_cg == 99 &&
+                im->preconditioner == EK_PRECOND_JACOBI && im->projection == EK_PROJECT_ABS,
+            rc ? err : "");
+  }
   snprintf(path, sizeof path, "%s/cantilever.json", scenes_dir);
   if (ek_scene_load(path, &s, err, sizeof err) == 0) {
     // E = 1e8, nu = 0: mu = E / 2, lambda = 0.
