@@ -156,7 +156,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
                : "approximate");
   if (implicit) {
     printf("P(F), psi, %s -> G = V0 P Dm^-T -> scatter\n",
-           iso ? "U,V-frame eigensystem projected to PSD (30 planes per tet, cached in the "
+           iso ? "U,V-frame eigensystem projected to PSD (20 planes per tet, cached in the "
                  "product's precision)"
            : m->model == EK_MODEL_COROTATED_LINEAR ? "R^n cached for the products"
                                                    : "(constant Hessian: nothing cached)");

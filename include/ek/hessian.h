@@ -10,9 +10,10 @@
 //            each projected to positive semi-definite (ek_projection).
 // The gradient pass caches per tet what the products need, in the
 // product's precision and the AoSoA layout of the element blocks: the
-// U, V-frame eigensystem of the isotropic models (U, V, the 3x3 block
-// over the singular values and the flip/twist pairs: Teran et al. 2005;
-// Smith et al. 2019), R for corotated linear, nothing for linear. A
+// U, V-frame eigensystem of the isotropic models (U and V as unit
+// quaternions, the 3x3 block over the singular values and the flip/twist
+// pairs: Teran et al. 2005; Smith et al. 2019; 20 planes), R for
+// corotated linear (9), nothing for linear. A
 // product is then one fused pass (gather p, dF, dP from the cache, scatter)
 // with no SVD and no assembled matrix.
 //
@@ -103,7 +104,7 @@ int ek_fvm_hessian_apply_f64(const ek_fvm_hessian *h, const double *p, double *y
 // Jacobi and block-Jacobi preconditioners of CG.
 int ek_fvm_hessian_diagonal_f64(const ek_fvm_hessian *h, double *blocks);
 
-// The cache's size in bytes and planes per tet (30 for the isotropic
+// The cache's size in bytes and planes per tet (20 for the isotropic
 // models' eigensystem, 9 for corotated linear's R, 0 for linear).
 size_t ek_fvm_hessian_cache_bytes(const ek_fvm_hessian *h);
 int ek_fvm_hessian_cache_planes(const ek_fvm_hessian *h);

@@ -36,18 +36,41 @@ static inline const real *cache_block(const hess_args *a, size_t b) {
   return a->cache + b * (size_t)a->planes * L;
 }
 
+// U and V are rotations (det +1, svd3.h), cached as unit quaternions
+// (w, x, y, z): 8 planes instead of 18, so a product reads 20 planes per
+// tet, not 30 (the products are bound by the cache's bytes).
+static inline void quat_to_matrix(const vreal q[4], vreal M[9]) {
+  vreal two = vset(2), one = vset(1);
+  vreal w = q[0], x = q[1], y = q[2], z = q[3];
+  vreal xx = vmul(x, x), yy = vmul(y, y), zz = vmul(z, z);
+  vreal xy = vmul(x, y), xz = vmul(x, z), yz = vmul(y, z);
+  vreal wx = vmul(w, x), wy = vmul(w, y), wz = vmul(w, z);
+  M[0] = vsub(one, vmul(two, vadd(yy, zz)));
+  M[1] = vmul(two, vsub(xy, wz));
+  M[2] = vmul(two, vadd(xz, wy));
+  M[3] = vmul(two, vadd(xy, wz));
+  M[4] = vsub(one, vmul(two, vadd(xx, zz)));
+  M[5] = vmul(two, vsub(yz, wx));
+  M[6] = vmul(two, vsub(xz, wy));
+  M[7] = vmul(two, vadd(yz, wx));
+  M[8] = vsub(one, vmul(two, vadd(xx, yy)));
+}
+
 // The cached frame of the EK_W lanes at offset o of a block's cache.
 static inline void load_frame(const real *c, int o, mat_frame *fr) {
   static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
-  for (int k = 0; k < 9; k++) {
-    fr->U[k] = vload(c + k * L + o);
-    fr->V[k] = vload(c + (9 + k) * L + o);
+  vreal qu[4], qv[4];
+  for (int k = 0; k < 4; k++) {
+    qu[k] = vload(c + k * L + o);
+    qv[k] = vload(c + (4 + k) * L + o);
   }
+  quat_to_matrix(qu, fr->U);
+  quat_to_matrix(qv, fr->V);
   for (int k = 0; k < 6; k++)
-    fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (18 + k) * L + o);
+    fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (8 + k) * L + o);
   for (int p = 0; p < 3; p++) {
-    fr->h[p] = vload(c + (24 + p) * L + o);
-    fr->q[p] = vload(c + (27 + p) * L + o);
+    fr->h[p] = vload(c + (14 + p) * L + o);
+    fr->q[p] = vload(c + (17 + p) * L + o);
   }
 }
 
@@ -182,17 +205,48 @@ static inline void cache_store(const hess_args *a, size_t b, int o, int k, vreal
   }
 }
 
+// Unit quaternion of a rotation M (Shepperd 1978, "Quaternion from
+// rotation matrix": the largest of 4w^2, 4x^2, 4y^2, 4z^2 is the pivot, so
+// no division by a small number), normalised.
+static inline void matrix_to_quat(const vreal M[9], vreal q[4]) {
+  vreal one = vset(1);
+  vreal t[4] = {vadd(one, vadd(M[0], vadd(M[4], M[8]))), vadd(one, vsub(M[0], vadd(M[4], M[8]))),
+                vadd(one, vsub(M[4], vadd(M[0], M[8]))), vadd(one, vsub(M[8], vadd(M[0], M[4])))};
+  // Off-diagonal sums and differences: 4 w x, 4 w y, 4 w z, 4 x y, 4 x z, 4 y z.
+  vreal wx = vsub(M[7], M[5]), wy = vsub(M[2], M[6]), wz = vsub(M[3], M[1]);
+  vreal xy = vadd(M[1], M[3]), xz = vadd(M[2], M[6]), yz = vadd(M[5], M[7]);
+  vmask m1 = vmand(vgt(t[1], t[0]), vmand(vge(t[1], t[2]), vge(t[1], t[3])));
+  vmask m2 = vmand(vmnot(m1), vmand(vgt(t[2], t[0]), vge(t[2], t[3])));
+  vmask m3 = vmand(vmnot(vmor(m1, m2)), vgt(t[3], t[0]));
+  // Pivot p: 4 p^2 = t_p; the others are (their 4 p c term) / (4 p).
+  vreal tp = vsel(m1, t[1], vsel(m2, t[2], vsel(m3, t[3], t[0])));
+  vreal r = vsqrt(tp), inv = vdiv(vset((real)0.5), r); // p = r / 2, 1 / (4 p) = 0.5 / r
+  vreal half = vmul(vset((real)0.5), r);               // the pivot component
+  vreal w = vsel(m1, vmul(wx, inv), vsel(m2, vmul(wy, inv), vsel(m3, vmul(wz, inv), half)));
+  vreal x = vsel(m1, half, vsel(m2, vmul(xy, inv), vsel(m3, vmul(xz, inv), vmul(wx, inv))));
+  vreal y = vsel(m1, vmul(xy, inv), vsel(m2, half, vsel(m3, vmul(yz, inv), vmul(wy, inv))));
+  vreal z = vsel(m1, vmul(xz, inv), vsel(m2, vmul(yz, inv), vsel(m3, half, vmul(wz, inv))));
+  vreal n = vrsqrt(vmla(w, w, vmla(x, x, vmla(y, y, vmul(z, z)))));
+  q[0] = vmul(w, n);
+  q[1] = vmul(x, n);
+  q[2] = vmul(y, n);
+  q[3] = vmul(z, n);
+}
+
 static inline void store_frame(const hess_args *a, size_t b, int o, const mat_frame *fr) {
   static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
-  for (int k = 0; k < 9; k++) {
-    cache_store(a, b, o, k, fr->U[k]);
-    cache_store(a, b, o, 9 + k, fr->V[k]);
+  vreal qu[4], qv[4];
+  matrix_to_quat(fr->U, qu);
+  matrix_to_quat(fr->V, qv);
+  for (int k = 0; k < 4; k++) {
+    cache_store(a, b, o, k, qu[k]);
+    cache_store(a, b, o, 4 + k, qv[k]);
   }
   for (int k = 0; k < 6; k++)
-    cache_store(a, b, o, 18 + k, fr->A[ai[k]][aj[k]]);
+    cache_store(a, b, o, 8 + k, fr->A[ai[k]][aj[k]]);
   for (int p = 0; p < 3; p++) {
-    cache_store(a, b, o, 24 + p, fr->h[p]);
-    cache_store(a, b, o, 27 + p, fr->q[p]);
+    cache_store(a, b, o, 14 + p, fr->h[p]);
+    cache_store(a, b, o, 17 + p, fr->q[p]);
   }
 }
 

@@ -18,10 +18,10 @@
 // cache[(b * planes + k) * LANES + l] in the cache's precision (LANES 16
 // for float, 8 for double; both orders have the same slots, so the f64
 // gradient kernel can write a float cache by slot). Isotropic models:
-// HESS_FRAME_PLANES planes, U (0-8), V (9-17), the symmetric 3x3 block A
-// (18-23: A00 A01 A02 A11 A12 A22), h (24-26), q (27-29) of mat_frame
-// (kernels/material/material_math.h); corotated linear: R (9 planes);
-// linear: none.
+// HESS_FRAME_PLANES planes, U and V as unit quaternions w x y z (0-3, 4-7),
+// the symmetric 3x3 block A (8-13: A00 A01 A02 A11 A12 A22), h (14-16), q
+// (17-19) of mat_frame (kernels/material/material_math.h); corotated
+// linear: R (9 planes); linear: none.
 #ifndef EK_FVM_HESSIAN_KERNEL_H
 #define EK_FVM_HESSIAN_KERNEL_H
 
@@ -32,7 +32,7 @@
 #include "../kernels.h"
 
 enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG };
-#define HESS_FRAME_PLANES 30
+#define HESS_FRAME_PLANES 20
 
 #define EK_HESS_ARGS(T, NAME)                                                                      \
   struct NAME {                                                                                    \
