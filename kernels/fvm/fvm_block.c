@@ -85,16 +85,10 @@ EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, const fvm_args *
       }
       if (sigma) {
         // Step 3a: the SVD of both vectors side by side, then P from it.
-        vreal U[2][9], S[2][3], V[2][9], scale[2];
-        if (nv == 2)
-          svd3_core_n(2, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
-        else
-          svd3_core_n(1, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
-        for (int j = 0; j < nv; j++) {
-          for (int i = 0; i < 3; i++)
-            S[j][i] = vmul(S[j][i], scale[j]);
+        vreal U[2][9], S[2][3], V[2][9];
+        svd3_core_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
+        for (int j = 0; j < nv; j++)
           material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
-        }
       } else {
         // Step 3b: P in F (R read for corotated linear only).
         for (int j = 0; j < nv; j++) {

@@ -38,24 +38,8 @@ static inline const real *cache_block(const hess_args *a, size_t b) {
 
 // U and V are rotations (det +1, svd3.h), cached as unit quaternions
 // (w, x, y, z): 8 planes instead of 18, so a product reads 20 planes per
-// tet, not 30 (the products are bound by the cache's bytes).
-static inline void quat_to_matrix(const vreal q[4], vreal M[9]) {
-  vreal two = vset(2), one = vset(1);
-  vreal w = q[0], x = q[1], y = q[2], z = q[3];
-  vreal xx = vmul(x, x), yy = vmul(y, y), zz = vmul(z, z);
-  vreal xy = vmul(x, y), xz = vmul(x, z), yz = vmul(y, z);
-  vreal wx = vmul(w, x), wy = vmul(w, y), wz = vmul(w, z);
-  M[0] = vsub(one, vmul(two, vadd(yy, zz)));
-  M[1] = vmul(two, vsub(xy, wz));
-  M[2] = vmul(two, vadd(xz, wy));
-  M[3] = vmul(two, vadd(xy, wz));
-  M[4] = vsub(one, vmul(two, vadd(xx, zz)));
-  M[5] = vmul(two, vsub(yz, wx));
-  M[6] = vmul(two, vsub(xz, wy));
-  M[7] = vmul(two, vadd(yz, wx));
-  M[8] = vsub(one, vmul(two, vadd(xx, yy)));
-}
-
+// tet, not 30 (the products are bound by the cache's bytes); the SVD's own
+// quaternion-to-matrix step rebuilds them.
 // The cached frame of the EK_W lanes at offset o of a block's cache.
 static inline void load_frame(const real *c, int o, mat_frame *fr) {
   static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
@@ -64,8 +48,8 @@ static inline void load_frame(const real *c, int o, mat_frame *fr) {
     qu[k] = vload(c + k * L + o);
     qv[k] = vload(c + (4 + k) * L + o);
   }
-  quat_to_matrix(qu, fr->U);
-  quat_to_matrix(qv, fr->V);
+  svd3_quat_to_matrix(qu, fr->U, 1);
+  svd3_quat_to_matrix(qv, fr->V, 1);
   for (int k = 0; k < 6; k++)
     fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (8 + k) * L + o);
   for (int p = 0; p < 3; p++) {
@@ -289,14 +273,9 @@ EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, si
       if (iso && (sigma || cache)) {
         // The SVD of both vectors side by side; P and psi from it or in F
         // (as the force kernel would), the frame from it.
-        vreal U[2][9], S[2][3], V[2][9], scale[2];
-        if (nv == 2)
-          svd3_core_n(2, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
-        else
-          svd3_core_n(1, (const vreal(*)[9])F, U, S, V, scale, mp.svd.sweeps, mp.svd.refine, exact);
+        vreal U[2][9], S[2][3], V[2][9];
+        svd3_core_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
         for (int j = 0; j < nv; j++) {
-          for (int i = 0; i < 3; i++)
-            S[j][i] = vmul(S[j][i], scale[j]);
           if (sigma) {
             material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
             psi[j] = material_psi_svd(&mp, S[j]);

@@ -290,6 +290,21 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
     svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
 }
 
+// One or two vectors (nv) of matrices side by side, S scaled back: the
+// kernels that fuse an SVD into a per-element pass (the force, the
+// Hessian's gradient pass) run their vectors in pairs through this.
+EK_INLINE void svd3_core_pair(int nv, const vreal A[2][9], vreal U[2][9], vreal S[2][3],
+                              vreal V[2][9], int sweeps, int refine, int exact) {
+  vreal scale[2];
+  if (nv == 2)
+    svd3_core_n(2, A, U, S, V, scale, sweeps, refine, exact);
+  else
+    svd3_core_n(1, A, U, S, V, scale, sweeps, refine, exact);
+  for (int j = 0; j < nv; j++)
+    for (int i = 0; i < 3; i++)
+      S[j][i] = vmul(S[j][i], scale[j]);
+}
+
 // The SVD of one vector of matrices with the given knobs.
 EK_INLINE void svd3_core(const vreal A[9], vreal U[9], vreal S[3], vreal V[9],
                          const ek_svd3_knobs *k) {
