@@ -37,8 +37,9 @@
 // Vector work below this many degrees of freedom runs on one thread (about
 // 1 ns per entry and pass; see EXPLICIT_PARALLEL_GRAIN).
 #define IMPLICIT_PARALLEL_DOFS 30000
-// Fixed chunks of the reductions: the same bits at any thread count.
-#define CHUNK 2048
+// Fixed chunks of the reductions (a multiple of 3 dofs, a vertex, and of
+// the 4 partial sums below): the same bits at any thread count.
+#define CHUNK 3072
 #define ARMIJO_C1 1e-4
 #define MAX_BACKTRACKS 40
 
@@ -50,6 +51,8 @@ typedef struct {
   int residual_merit; // clamped models: the line search on the residual (sim.h)
   double body_size;
   double *is_free; // per dof: 1 free, 0 held (a held vertex, or one with no mass)
+  double *minv;    // per dof: is_free / m, the M^-1 norm's weight
+  double *mdiag;   // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
   double *pre; // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
@@ -60,8 +63,8 @@ static void data_free(implicit_data *d) {
     return;
   ek_fvm_hessian_destroy(d->H);
   ek_tet_state_destroy(d->R64);
-  double *arrays[] = {d->is_free, d->x, d->xt, d->g, d->gt,  d->xtil, d->dx,
-                      d->r,       d->z, d->p,  d->q, d->pre, d->parts};
+  double *arrays[] = {d->is_free, d->minv, d->mdiag, d->x, d->xt, d->g,   d->gt,   d->xtil,
+                      d->dx,      d->r,    d->z,     d->p, d->q,  d->pre, d->parts};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
     free(arrays[i]);
   free(d->p32);
@@ -99,8 +102,8 @@ static int implicit_create(ek_sim *s, void **data) {
     data_free(d);
     return sim_fail(s, "%s", ek_last_error());
   }
-  double **arrays[] = {&d->is_free, &d->x, &d->xt, &d->g, &d->gt, &d->xtil,
-                       &d->dx,      &d->r, &d->z,  &d->p, &d->q};
+  double **arrays[] = {&d->is_free, &d->minv, &d->mdiag, &d->x, &d->xt, &d->g, &d->gt,
+                       &d->xtil,    &d->dx,   &d->r,     &d->z, &d->p,  &d->q};
   int ok = 1;
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
     ok &= (*arrays[i] = calloc(d->n3, sizeof(double))) != NULL;
@@ -134,34 +137,37 @@ static double sum_parts(const implicit_data *d) {
   return s;
 }
 
+// The body runs for each dof i of each chunk and adds its term to
+// acc_[i & 3]: four independent partial sums (a single one would chain
+// every addition's latency), combined in a fixed order.
 #define CHUNK_LOOP(d, ...)                                                                         \
   _Pragma("omp parallel for schedule(static) if ((d)->par)") for (size_t c_ = 0;                   \
                                                                   c_ < (d)->nchunks; c_++) {       \
     size_t lo_ = c_ * CHUNK, hi_ = lo_ + CHUNK < (d)->n3 ? lo_ + CHUNK : (d)->n3;                  \
-    double acc_ = 0;                                                                               \
+    double acc_[4] = {0, 0, 0, 0};                                                                 \
     for (size_t i = lo_; i < hi_; i++) {                                                           \
       __VA_ARGS__                                                                                  \
     }                                                                                              \
-    (d)->parts[c_] = acc_;                                                                         \
+    (d)->parts[c_] = (acc_[0] + acc_[1]) + (acc_[2] + acc_[3]);                                    \
   }
 
 // a.b over the free dofs (held dofs of a and b are 0 in every use).
 static double dot(implicit_data *d, const double *a, const double *b) {
-  CHUNK_LOOP(d, acc_ += a[i] * b[i];)
+  CHUNK_LOOP(d, acc_[i & 3] += a[i] * b[i];)
   return sum_parts(d);
 }
 
 // g^T M^-1 g over the free dofs.
-static double norm2_minv(implicit_data *d, const ek_sim *s, const double *g) {
-  const double *im = s->inv_mass;
-  CHUNK_LOOP(d, acc_ += d->is_free[i] * g[i] * g[i] * im[i / 3];)
+static double norm2_minv(implicit_data *d, const double *g) {
+  const double *w = d->minv;
+  CHUNK_LOOP(d, acc_[i & 3] += w[i] * g[i] * g[i];)
   return sum_parts(d);
 }
 
 // Newton's residual of a gradient (ek_scene_implicit.newton_tol).
 static double residual(implicit_data *d, const ek_sim *s, const double *g, double free_mass) {
   double dt = s->scene.dt;
-  return dt * dt * sqrt(norm2_minv(d, s, g) / free_mass) / d->body_size;
+  return dt * dt * sqrt(norm2_minv(d, g) / free_mass) / d->body_size;
 }
 
 // Phi(x) and grad Phi (into gr) from one gradient pass; +inf outside the
@@ -197,7 +203,7 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
       d, if (d->is_free[i] != 0) {
         const int k = (int)(i % 3);
         const double mi = m[i / 3], u = x[i] - xtil[i], w = x[i] - xn[i];
-        acc_ += mi * (0.5 * a * u * u - g[k] * x[i] + 0.5 * b * w * w);
+        acc_[i & 3] += mi * (0.5 * a * u * u - g[k] * x[i] + 0.5 * b * w * w);
         gr[i] += mi * (a * u - g[k] + b * w);
       } else gr[i] = 0;)
   *phi = isfinite(E) ? E + sum_parts(d) : INFINITY;
@@ -241,18 +247,29 @@ static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
   return 0;
 }
 
-// z = P^-1 r; returns r.z.
+// z = P^-1 r; returns r.z (vertex by vertex, chunks of CHUNK / 3).
 static double precondition(implicit_data *d, const double *blocks, const double *r, double *z) {
   const int block = d->block;
-  CHUNK_LOOP(
-      d, const size_t v = i / 3; const int k = (int)(i % 3); const double *B = blocks + 6 * v;
-      double zi; if (!block) zi = B[k] * r[i]; else {
-        const double *rv = r + 3 * v;
-        zi = k == 0   ? B[0] * rv[0] + B[1] * rv[1] + B[2] * rv[2]
-             : k == 1 ? B[1] * rv[0] + B[3] * rv[1] + B[4] * rv[2]
-                      : B[2] * rv[0] + B[4] * rv[1] + B[5] * rv[2];
-      } z[i] = zi;
-      acc_ += r[i] * zi;)
+#pragma omp parallel for schedule(static) if (d->par)
+  for (size_t c = 0; c < d->nchunks; c++) {
+    size_t lo = c * CHUNK / 3, hi = (c + 1) * CHUNK < d->n3 ? (c + 1) * CHUNK / 3 : d->n3 / 3;
+    double acc = 0;
+    for (size_t v = lo; v < hi; v++) {
+      const double *B = blocks + 6 * v, *rv = r + 3 * v;
+      double *zv = z + 3 * v;
+      if (block) {
+        zv[0] = B[0] * rv[0] + B[1] * rv[1] + B[2] * rv[2];
+        zv[1] = B[1] * rv[0] + B[3] * rv[1] + B[4] * rv[2];
+        zv[2] = B[2] * rv[0] + B[4] * rv[1] + B[5] * rv[2];
+      } else {
+        zv[0] = B[0] * rv[0];
+        zv[1] = B[1] * rv[1];
+        zv[2] = B[2] * rv[2];
+      }
+      acc += rv[0] * zv[0] + rv[1] * zv[1] + rv[2] * zv[2];
+    }
+    d->parts[c] = acc;
+  }
   return sum_parts(d);
 }
 
@@ -270,12 +287,13 @@ static int system_product(ek_sim *s, implicit_data *d, const double *p, double *
   }
   if (rc < 0)
     return sim_fail(s, "Hessian product: %s", ek_last_error());
-  const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
-  const double *m = s->mass;
+  const double *w = d->is_free, *md = d->mdiag;
   const float *q32 = d->q32;
-  const int f32 = d->f32;
-  CHUNK_LOOP(d, const double k = f32 ? (double)q32[i] : q[i];
-             q[i] = d->is_free[i] * (am * m[i / 3] * p[i] + k); acc_ += p[i] * q[i];)
+  if (d->f32) {
+    CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * (double)q32[i]; acc_[i & 3] += p[i] * q[i];)
+  } else {
+    CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * q[i]; acc_[i & 3] += p[i] * q[i];)
+  }
   *pq = sum_parts(d);
   s->times.matvec += sim_now() - t0;
   s->times.matvecs++;
@@ -293,7 +311,7 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
     dx[i] = 0;
     r[i] = -g[i];
   }
-  const double r0 = sqrt(norm2_minv(d, s, r)), stop = im->cg_tol * r0;
+  const double r0 = sqrt(norm2_minv(d, r)), stop = im->cg_tol * r0;
   *iters = 0;
   *rel = r0 > 0 ? 1 : 0;
   s->times.cg_vectors += sim_now() - t0;
@@ -309,9 +327,8 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
     if (!(pq > 0))
       break; // p = 0 to rounding: nothing left to solve
     t0 = sim_now();
-    const double alpha = rz / pq, *im_ = s->inv_mass;
-    CHUNK_LOOP(d, dx[i] += alpha * p[i]; r[i] -= alpha * q[i];
-               acc_ += d->is_free[i] * r[i] * r[i] * im_[i / 3];)
+    const double alpha = rz / pq, *w = d->minv;
+    CHUNK_LOOP(d, dx[i] += alpha * p[i]; r[i] -= alpha * q[i]; acc_[i & 3] += w[i] * r[i] * r[i];)
     double rn = sqrt(sum_parts(d));
     s->times.cg_vectors += sim_now() - t0;
     s->times.cg_iterations++;
@@ -349,8 +366,11 @@ static int implicit_step(ek_sim *s, void *data) {
     const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
     double vdummy[3];
     int is_free = !bc && s->inv_mass[i] > 0;
+    const double am = (1 + sc->damping * dt) / (dt * dt);
     for (int k = 0; k < 3; k++) {
       d->is_free[3 * i + k] = is_free;
+      d->minv[3 * i + k] = is_free ? s->inv_mass[i] : 0;
+      d->mdiag[3 * i + k] = is_free ? am * s->mass[i] : 0;
       d->xtil[3 * i + k] = s->x[3 * i + k] + dt * s->v[3 * i + k];
       x[3 * i + k] = is_free ? d->xtil[3 * i + k] + dt * dt * g[k] : s->x[3 * i + k];
     }
