@@ -21,6 +21,9 @@
 static const ek_verify_family families[] = {
     {"svd3", verify_svd3, "3x3 SVD and polar decomposition vs LAPACK dgesvd"},
     {"material", verify_material, "psi, P, dP, Hessian per model vs the double reference"},
+    {"fvm", verify_fvm,
+     "FVM force per scatter strategy, gradient and Hessian products per projection vs the "
+     "double references"},
 };
 
 struct ek_verify_ctx {

@@ -54,6 +54,6 @@ void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) __attribute__((for
 // Families (one per verify_<family>.c).
 int verify_svd3(ek_verify_ctx *ctx);
 int verify_material(ek_verify_ctx *ctx);
-int verify_material(ek_verify_ctx *ctx);
+int verify_fvm(ek_verify_ctx *ctx);
 
 #endif
