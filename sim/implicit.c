@@ -49,10 +49,9 @@ typedef struct {
   size_t n3, nchunks;
   int par, f32, block;
   int residual_merit; // clamped models: the line search on the residual (sim.h)
-  double body_size;
-  double *is_free; // per dof: 1 free, 0 held (a held vertex, or one with no mass)
-  double *minv;    // per dof: is_free / m, the M^-1 norm's weight
-  double *mdiag;   // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
+  double *is_free;    // per dof: 1 free, 0 held (a held vertex, or one with no mass)
+  double *minv;       // per dof: is_free / m, the M^-1 norm's weight
+  double *mdiag;      // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
   double *pre; // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
@@ -115,15 +114,6 @@ static int implicit_create(ek_sim *s, void **data) {
     data_free(d);
     return sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3);
   }
-  const double *X = ek_mesh_rest_positions(s->mesh);
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t i = 0; i < s->nv; i++)
-    for (int k = 0; k < 3; k++) {
-      lo[k] = fmin(lo[k], X[3 * i + k]);
-      hi[k] = fmax(hi[k], X[3 * i + k]);
-    }
-  d->body_size = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
   *data = d;
   return 0;
 }
@@ -167,7 +157,7 @@ static double norm2_minv(implicit_data *d, const double *g) {
 // Newton's residual of a gradient (ek_scene_implicit.newton_tol).
 static double residual(implicit_data *d, const ek_sim *s, const double *g, double free_mass) {
   double dt = s->scene.dt;
-  return dt * dt * sqrt(norm2_minv(d, g) / free_mass) / d->body_size;
+  return dt * dt * sqrt(norm2_minv(d, g) / free_mass) / s->body_size;
 }
 
 // Phi(x) and grad Phi (into gr) from one gradient pass; +inf outside the
@@ -362,11 +352,11 @@ static int implicit_step(ek_sim *s, void *data) {
 
   // 1. Held vertices at t_{n+1}; free ones start at x_n + dt v_n + dt^2 g.
   double t0 = sim_now();
+  const double am = (1 + sc->damping * dt) / (dt * dt);
   for (size_t i = 0; i < s->nv; i++) {
     const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
     double vdummy[3];
     int is_free = !bc && s->inv_mass[i] > 0;
-    const double am = (1 + sc->damping * dt) / (dt * dt);
     for (int k = 0; k < 3; k++) {
       d->is_free[3 * i + k] = is_free;
       d->minv[3 * i + k] = is_free ? s->inv_mass[i] : 0;
@@ -428,6 +418,7 @@ static int implicit_step(ek_sim *s, void *data) {
     int accepted = 0;
     s->times.line_search += sim_now() - t0;
     for (int bt = 0; bt < MAX_BACKTRACKS; bt++) {
+      res_t = INFINITY; // computed below only when a test needs it
       t0 = sim_now();
 #pragma omp parallel for schedule(static) if (d->par)
       for (size_t i = 0; i < d->n3; i++)

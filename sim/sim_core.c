@@ -249,6 +249,7 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     }
   double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  s->body_size = diag;
   for (size_t i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
       double c = 0.5 * (lo[k] + hi[k]);
