@@ -41,6 +41,12 @@
 //   psi = Psi_model(F_hat) + P:(F - F_hat): the energy extended to first
 //        order past the clamp, so it is finite, continuous, and equal to
 //        Psi_model(F) wherever no singular value is clamped.
+//        Where a singular value is clamped, P is not the gradient of this
+//        psi (nor of any energy) when the model couples its singular
+//        values (P_hat_i depends on the other sigma_hat_j: fixed
+//        corotated's J term, neo-Hookean's log J): a solver that needs an
+//        energy consistent with P must not rely on psi there (the implicit
+//        loop's line search uses the residual for clamped models).
 // So with clamp > 0 neo-Hookean is finite for every finite F (inverted and
 // flat elements get finite, restoring forces) and the return value is 0.
 //
