@@ -41,7 +41,7 @@ static inline const real *cache_block(const hess_args *a, size_t b) {
 // tet, not 30 (the products are bound by the cache's bytes); the SVD's own
 // quaternion-to-matrix step rebuilds them.
 // The cached frame of the EK_W lanes at offset o of a block's cache.
-static inline void load_frame(const real *c, int o, mat_frame *fr) {
+EK_INLINE void load_frame(const real *c, int o, mat_frame *fr) {
   static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
   vreal qu[4], qv[4];
   for (int k = 0; k < 4; k++) {
@@ -58,7 +58,7 @@ static inline void load_frame(const real *c, int o, mat_frame *fr) {
   }
 }
 
-static void apply_or_diag_scatter(const hess_args *a, size_t b, const real *hb, int ncomp) {
+static void scatter_block(const hess_args *a, size_t b, const real *hb, int ncomp) {
   tet_scatter_block(a->idx + b * 4 * L, hb, ncomp, a->out);
 }
 
@@ -89,7 +89,7 @@ EK_INLINE void apply_blocks(ek_model model, const hess_args *a, size_t b0, size_
       tet_corner_values(dP, dmi, vload(a->v0 + b * L + o), o, dst);
     }
     if (!a->corner)
-      apply_or_diag_scatter(a, b, hb, 3);
+      scatter_block(a, b, hb, 3);
   }
 }
 
@@ -166,7 +166,7 @@ EK_INLINE void diag_blocks(ek_model model, const hess_args *a, size_t b0, size_t
       }
     }
     if (!a->corner)
-      apply_or_diag_scatter(a, b, hb, 6);
+      scatter_block(a, b, hb, 6);
   }
 }
 
@@ -312,7 +312,7 @@ EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, si
     }
     if (!a->corner)
       for (int g = 0; g < nb; g++)
-        apply_or_diag_scatter(a, b + (size_t)g, hb[g], 3);
+        scatter_block(a, b + (size_t)g, hb[g], 3);
   }
 }
 

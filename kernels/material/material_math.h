@@ -199,7 +199,7 @@ static inline void mat_frame_prepare(mat_frame *fr, const mat_sigma_terms *t, in
     mat_project_psd3(fr->A, project == 2);
 }
 
-static inline void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[9]) {
+EK_INLINE void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[9]) {
   vreal T[9], D[9], Y[9];
   vm3_mul_tn(fr->U, dF, T);
   vm3_mul(T, fr->V, D);
