@@ -150,7 +150,9 @@ static int cantilever_1s(ek_bench *b, int threads) {
   if (!ek_bench_wants(b, name))
     return 0;
   if (ek_bench_listing(b)) {
-    ek_bench_note(b, "%s: one run of each loop (not a timed row)", name);
+    ek_bench_note(
+        b, "%s: one run of each loop (not a timed row: it runs when a timed row is selected too)",
+        name);
     return 0;
   }
   double seconds[2] = {NAN, NAN}, tips[2] = {NAN, NAN}, dts[2] = {NAN, NAN};
