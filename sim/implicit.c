@@ -180,8 +180,10 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
   }
   int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 1);
   double t1 = sim_now();
-  if (s->time_phases)
+  if (s->time_phases) {
     s->times.eigensystems += t1 - t0;
+    s->times.gradient_timed += t1 - t0;
+  }
   s->times.gradient += t1 - t0;
   s->times.gradient_passes++;
   if (rc < 0)

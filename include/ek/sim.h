@@ -264,7 +264,8 @@ typedef struct ek_sim ek_sim;
 // + eigensystem passes (one per line-search trial; an accepted trial's
 // pass is the next Newton iteration's gradient), of which `eigensystems`
 // is the part that caches the Hessian (measured in phase-timed steps by a
-// pass without it, 0 otherwise); `matvec` the Hessian products (with the
+// pass without it, 0 otherwise; `gradient_timed` is the caching passes'
+// time in those steps); `matvec` the Hessian products (with the
 // mass term and, for f32, the conversions); `preconditioner` the diagonal
 // blocks, their inverses and their application; `cg_vectors` CG's other
 // vector work; `line_search` the trial points and objective sums.
@@ -275,7 +276,7 @@ typedef struct {
   double integration;
   long steps, phase_timed_steps;
   // Implicit integrator (0 otherwise).
-  double gradient, eigensystems, matvec, preconditioner, cg_vectors, line_search;
+  double gradient, eigensystems, gradient_timed, matvec, preconditioner, cg_vectors, line_search;
   long newton_iterations, cg_iterations, gradient_passes, matvecs, backtracks;
   long unconverged_steps; // stopped above newton_tol (max_newton or a stalled line search)
   double worst_residual;  // the largest final Newton residual of a step
