@@ -13,8 +13,8 @@
 // D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
 // positions, dF for a displacement. Padding lanes (index -1) get `pad`
 // (the identity for F, zero for dF) so every model stays finite there.
-EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block,
-                                int o, real pad, vreal D[9]) {
+EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block, int o,
+                            real pad, vreal D[9]) {
   const int32_t *idx = idx_block + o;
   vreal x0[3], xc[3], Ds[9], Dmi[9];
   vmask is_pad = vgather_points(x, idx, x0);
@@ -39,7 +39,7 @@ EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real 
 // 2003 sec. 4) and s = V0 for the energy's gradient or its differential;
 // corner 0 gets -(h1 + h2 + h3). Written to hb[(c*3 + i)*L + o].
 EK_INLINE void tet_corner_values(const vreal P[9], const real *dmi_block, vreal s, int o,
-                                     real *hb) {
+                                 real *hb) {
   vreal Dmi[9];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dmi_block + k * EK_LANES + o);
