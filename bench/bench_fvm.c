@@ -55,6 +55,15 @@ typedef struct {
 // ~1e4, 1e5, 1e6 tets.
 static fvm_mesh_case sizes[3] = {{.n = {12, 12, 12}}, {.n = {26, 26, 25}}, {.n = {55, 55, 55}}};
 
+// Tets of a case (6 per box cell) and vertices per tet (for the bytes a
+// row must move).
+static size_t case_tets(const fvm_mesh_case *mc) {
+  return (size_t)6 * mc->n[0] * mc->n[1] * mc->n[2];
+}
+static double case_verts_per_tet(const fvm_mesh_case *mc) {
+  return (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) / (double)case_tets(mc);
+}
+
 typedef struct {
   fvm_mesh_case *mc;
   ek_material mat;
@@ -147,7 +156,7 @@ static const ek_scatter scatters[] = {EK_SCATTER_ATOMIC, EK_SCATTER_COLORED,
 static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, int size, int threads,
                    int with_baseline) {
   fvm_mesh_case *mc = &sizes[size];
-  size_t ntets = (size_t)6 * mc->n[0] * mc->n[1] * mc->n[2];
+  size_t ntets = case_tets(mc);
   char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
   const char *prec = f32 ? "f32" : "f64";
   snprintf(name, sizeof name, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
@@ -173,8 +182,7 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
   snprintf(knobs, sizeof knobs, "model=%s;scatter=%s;tets=%zu;ncolors=%d", models[model].name,
            ek_scatter_name(s), ntets, mc->mesh ? ek_mesh_ncolors(mc->mesh) : 0);
   double real_bytes = f32 ? 4 : 8;
-  double verts_per_tet =
-      (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) / (double)ntets;
+  double verts_per_tet = case_verts_per_tet(mc);
   ek_bench_row row = {.name = name,
                       .family = "fvm",
                       .isa = isa,
@@ -199,6 +207,9 @@ typedef struct {
   int failed;
 } hess_ctx;
 
+// The Hessian rows' state (one row at a time; freed with the meshes).
+static hess_ctx hess_row_ctx;
+
 static void run_hessian(void *p) {
   hess_ctx *c = p;
   int rc = c->gradient ? ek_fvm_hessian_gradient_f64(c->h, c->mc->x64, c->R, c->mc->f64, NULL, 1)
@@ -214,7 +225,7 @@ static void run_hessian(void *p) {
 // tets, thread buffers; its baseline is the force row of the same model.
 static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient, int threads) {
   fvm_mesh_case *mc = &sizes[1];
-  size_t ntets = (size_t)6 * mc->n[0] * mc->n[1] * mc->n[2];
+  size_t ntets = case_tets(mc);
   char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
   const char *prec = f32 ? "f32" : "f64";
   snprintf(name, sizeof name, "hessian/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
@@ -223,33 +234,32 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
            ek_scatter_name(EK_SCATTER_THREAD_BUFFERS), ek_isa_name(isa), prec, ntets, threads);
   if (!ek_bench_wants(b, name))
     return 0;
-  static hess_ctx ctx;
+  hess_ctx *const c = &hess_row_ctx;
   if (!ek_bench_listing(b)) {
     if (mesh_setup(b, mc))
       return -1;
-    ek_fvm_hessian_destroy(ctx.h);
-    memset(&ctx, 0, sizeof ctx);
+    ek_fvm_hessian_destroy(c->h);
+    memset(c, 0, sizeof *c);
     ek_fvm_hessian_opts o = {
         .scatter = EK_SCATTER_THREAD_BUFFERS, .isa = isa, .precision = f32 ? 32 : 64};
-    ctx.h = ek_fvm_hessian_create(ek_mesh_elements(mc->mesh), &models[model].mat, &o);
-    ctx.mc = mc;
-    ctx.f32 = f32;
-    ctx.gradient = gradient;
-    ctx.b = b;
-    ctx.R = models[model].mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R64 : NULL;
+    c->h = ek_fvm_hessian_create(ek_mesh_elements(mc->mesh), &models[model].mat, &o);
+    c->mc = mc;
+    c->f32 = f32;
+    c->gradient = gradient;
+    c->b = b;
+    c->R = models[model].mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R64 : NULL;
     // The products need a cache: one gradient pass at the deformed state.
-    if (!ctx.h || ek_fvm_hessian_gradient_f64(ctx.h, mc->x64, ctx.R, mc->f64, NULL, 1) < 0) {
+    if (!c->h || ek_fvm_hessian_gradient_f64(c->h, mc->x64, c->R, mc->f64, NULL, 1) < 0) {
       ek_bench_fail(b, "fvm: ek_fvm_hessian: %s", ek_last_error());
       return -1;
     }
   }
   snprintf(knobs, sizeof knobs, "model=%s;op=%s;scatter=thread_buffers;tets=%zu;cache_planes=%d",
            models[model].name, gradient ? "gradient" : "apply", ntets,
-           ctx.h ? ek_fvm_hessian_cache_planes(ctx.h) : 0);
+           c->h ? ek_fvm_hessian_cache_planes(c->h) : 0);
   double r = f32 ? 4 : 8;
-  double verts_per_tet =
-      (double)((size_t)(mc->n[0] + 1) * (mc->n[1] + 1) * (mc->n[2] + 1)) / (double)ntets;
-  int planes = ctx.h ? ek_fvm_hessian_cache_planes(ctx.h) : 0;
+  double verts_per_tet = case_verts_per_tet(mc);
+  int planes = c->h ? ek_fvm_hessian_cache_planes(c->h) : 0;
   // The element block, the cache (read by a product, written by the
   // gradient pass) and each vertex's value read and written once.
   ek_bench_row row = {.name = name,
@@ -264,7 +274,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
                                         6 * (gradient ? 8 : r) * verts_per_tet,
                       .baseline = base,
                       .fn = run_hessian,
-                      .ctx = &ctx};
+                      .ctx = c};
   return ek_bench_run(b, &row);
 }
 
@@ -305,6 +315,10 @@ int bench_fvm(ek_bench *b) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
       }
+  }
+  if (!ek_bench_listing(b)) {
+    ek_fvm_hessian_destroy(hess_row_ctx.h);
+    hess_row_ctx.h = NULL;
   }
   if (!ek_bench_listing(b))
     for (int size = 0; size < 3; size++) {
