@@ -265,14 +265,24 @@ static double precondition(implicit_data *d, const double *blocks, const double 
   return sum_parts(d);
 }
 
+// p = z + beta p (p = z for beta 0, the first direction), and its float
+// copy for f32 products, in one pass.
+static void set_direction(implicit_data *d, const double *z, double beta, double *p) {
+  float *p32 = d->f32 ? d->p32 : NULL;
+#pragma omp parallel for schedule(static) if (d->par)
+  for (size_t i = 0; i < d->n3; i++) {
+    p[i] = beta == 0 ? z[i] : z[i] + beta * p[i];
+    if (p32)
+      p32[i] = (float)p[i];
+  }
+}
+
 // q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones);
-// returns p.q.
+// returns p.q. For f32 products, d->p32 holds p (set_direction).
 static int system_product(ek_sim *s, implicit_data *d, const double *p, double *q, double *pq) {
   double t0 = sim_now();
   int rc;
-  if (d->f32) {
-    for (size_t i = 0; i < d->n3; i++)
-      d->p32[i] = (float)p[i];
+  if (d->f32) { // p32 = p, written where p is (set_direction)
     rc = ek_fvm_hessian_apply_f32(d->H, d->p32, d->q32);
   } else {
     rc = ek_fvm_hessian_apply_f64(d->H, p, q);
@@ -309,7 +319,7 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
   s->times.cg_vectors += sim_now() - t0;
   t0 = sim_now();
   double rz = precondition(d, blocks, r, z);
-  memcpy(p, z, d->n3 * sizeof(double));
+  set_direction(d, z, 0, p);
   s->times.preconditioner += sim_now() - t0;
   for (long k = 0; k < im->max_cg && r0 > 0; k++) {
     double pq = 0;
@@ -334,9 +344,7 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
     s->times.preconditioner += t1 - t0;
     const double beta = rz_new / rz;
     rz = rz_new;
-#pragma omp parallel for schedule(static) if (d->par)
-    for (size_t i = 0; i < d->n3; i++)
-      p[i] = z[i] + beta * p[i];
+    set_direction(d, z, beta, p);
     s->times.cg_vectors += sim_now() - t1;
   }
   return 0;
