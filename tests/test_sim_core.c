@@ -16,24 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int failures = 0;
-
-static void report(const char *what, double err, double budget, const char *detail) {
-  double ratio = err / budget;
-  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
-  printf("%-52s err %.3e  budget %.1e  err/budget %.3f  %s  %s\n", what, err, budget, ratio, v,
-         detail);
-  if (!(ratio <= 1.0))
-    failures++;
-}
-
-static void check(const char *what, int ok, const char *detail) {
-  printf("%-52s %s  %s\n", what, ok ? "PASS" : "FAIL", detail);
-  if (!ok)
-    failures++;
-}
-
-static char scenes_dir[1024];
+#include "test_sim_common.h"
 
 // Psi(F) per tet of positions x, not shifted: what the field held before it
 // was measured from the rest shape. Corotated linear is evaluated with
@@ -144,15 +127,12 @@ static void integrator_test(void) {
 
 int main(int argc, char **argv) {
   unsigned long long seed = 1;
-  snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
-  char *slash = strrchr(scenes_dir, '/');
-  if (slash)
-    snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
+  scenes_dir_init(argc, argv);
   for (int i = 1; i < argc; ++i) {
     if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
       seed = strtoull(argv[++i], NULL, 10);
     else if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
-      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[++i]);
+      ++i; // scenes_dir_init
   }
   // Deterministic (shipped scene, no random inputs); the seed is accepted
   // and printed for uniformity with the other tests.

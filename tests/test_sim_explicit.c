@@ -30,30 +30,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int failures = 0;
-
-static void report(const char *what, double err, double budget, const char *detail) {
-  double ratio = err / budget;
-  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
-  printf("%-46s err %.3e  budget %.1e  err/budget %.3f  %s  %s\n", what, err, budget, ratio, v,
-         detail);
-  if (!(ratio <= 1.0))
-    failures++;
-}
-
-static void check(const char *what, int ok, const char *detail) {
-  printf("%-46s %s  %s\n", what, ok ? "PASS" : "FAIL", detail);
-  if (!ok)
-    failures++;
-}
+#include "test_sim_common.h"
 
 static unsigned long long rng_state;
 static double uniform(double lo, double hi) {
   rng_state = rng_state * 6364136223846793005ull + 1442695040888963407ull;
   return lo + (hi - lo) * (double)(rng_state >> 11) / 9007199254740992.0;
 }
-
-static char scenes_dir[1024];
 
 static int load_scene(const char *name, ek_scene *s) {
   char path[1200], err[1024];
@@ -319,15 +302,12 @@ static void threads_test(void) {
 
 int main(int argc, char **argv) {
   unsigned long long seed = 1;
-  snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
-  char *slash = strrchr(scenes_dir, '/');
-  if (slash)
-    snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
+  scenes_dir_init(argc, argv);
   for (int i = 1; i < argc; ++i) {
     if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
       seed = strtoull(argv[++i], NULL, 10);
     else if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
-      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[++i]);
+      ++i; // scenes_dir_init
   }
   printf("test_sim_explicit --seed %llu (scenes from %s)\n", seed, scenes_dir);
   rng_state = seed;

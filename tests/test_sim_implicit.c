@@ -23,22 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int failures = 0;
-static char scenes_dir[1024];
-
-static void report(const char *what, double err, double budget, const char *detail) {
-  double ratio = err / budget;
-  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
-  printf("%-50s err %.3e  budget %.1e  %s  %s\n", what, err, budget, v, detail);
-  if (!(ratio <= 1.0))
-    failures++;
-}
-
-static void check(const char *what, int ok, const char *detail) {
-  printf("%-50s %s  %s\n", what, ok ? "PASS" : "FAIL", detail);
-  if (!ok)
-    failures++;
-}
+#include "test_sim_common.h"
 
 typedef struct {
   ek_scene scene;
@@ -345,13 +330,7 @@ static void threads_test(void) {
 }
 
 int main(int argc, char **argv) {
-  snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
-  char *slash = strrchr(scenes_dir, '/');
-  if (slash)
-    snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
-  for (int i = 1; i < argc; ++i)
-    if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
-      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[++i]);
+  scenes_dir_init(argc, argv);
   printf("test_sim_implicit (scenes from %s)\n", scenes_dir);
   newton_test(64);
   newton_test(32);
