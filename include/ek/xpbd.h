@@ -1,0 +1,161 @@
+// XPBD with the Hookean constraint of seed 001 (Macklin, Mueller,
+// Chentanez 2016, "XPBD: position-based simulation of compliant
+// constrained dynamics"), vectorised over AoSoA constraint blocks.
+//
+// The constraint (seed 001): per element j, with the StVK energy density
+// W(F) = mu e:e + lambda/2 tr(e)^2, e = (F^T F - I)/2 (the "Hookean" energy
+// of the seed; ek's stvk model) and Young's modulus E,
+//   C_j = sqrt(2 W(F_j) / E),  alpha_j = 1 / (V_j E),
+// so that C_j^2 / (2 alpha_j) = V_j W(F_j): the constraint energy is the
+// elastic energy the implicit loop minimises with StVK.
+//   grad_i C_j = (1 / (E C_j)) dW/dF : dF/dx_i,  dW/dF = P = F S,
+// S = 2 mu e + lambda tr(e) I: the first Piola-Kirchhoff stress. (The seed
+// writes S F, which differs from F S unless F and S commute; F S is the
+// derivative, checked by finite differences in tests/test_xpbd.c.)
+//
+// Elements: every element's F is linear in its members' positions,
+//   F = sum_{k>=1} (x_k - x_0) b_k^T,
+// so grad_k C = P b_k / (E C) for k >= 1 and grad_0 C = -sum_{k>=1} grad_k C
+// (the gradients sum to zero: the momentum of the members is kept).
+//   tets:     members the 4 corners, b_k row k of Dm^-1 (F = Ds Dm^-1,
+//             Teran et al. 2003; seed 004), V_j the rest volume;
+//   clusters: shape matching (seed 001; Mueller et al. 2005): one cluster
+//             per vertex j, its members j (member 0) and the vertices that
+//             share a tet with it (ascending), F = (sum_k m_k r_k rbar_k^T)
+//             Q^-1, Q = sum_k m_k rbar_k rbar_k^T, r and rbar relative to
+//             the current and rest centres of mass; the centre-of-mass
+//             terms cancel (sum_k m_k rbar_k = 0), so b_k = m_k Q^-1 rbar_k
+//             (the seed's dF/dx_k = m_k Q^-T rbar_k). V_j is the vertex's
+//             share of the mesh volume (a quarter of each incident tet's),
+//             so the V_j sum to the mesh volume. A cluster whose Q is
+//             singular (members coplanar, or massless) is refused at
+//             creation, naming the vertex.
+//
+// The projection (Macklin 2016 eqs. 18, 17): per constraint,
+//   dlambda_j = (-C_j - alpha~_j lambda_j) / (sum_i w_i |grad_i C_j|^2
+//               + alpha~_j),  alpha~_j = alpha_j / h^2,
+//   lambda_j += dlambda_j,  x_i += w_i grad_i C_j dlambda_j,
+// w_i = 1 / m_i (0 pins a vertex), h the substep. At rest C_j = 0 and
+// grad C_j is 0/0: a constraint with C_j <= EK_XPBD_C_MIN_F32 / _F64 (its
+// strain is at the rounding level of F in that precision) is skipped, its
+// lambda and members untouched.
+//
+// Solvers:
+//   GAUSS_SEIDEL: constraints of one colour share no vertex, so a colour's
+//     constraints are projected together (one AoSoA block at a time, and
+//     by threads in parallel); colours run in sequence. Tets use the
+//     element layer's coloured order (elements.h: chunk colours, chunks,
+//     tet colours); clusters are coloured greedily here.
+//   JACOBI: every constraint from the same positions; the corrections of a
+//     vertex are summed in a fixed order (constraint order), then applied.
+//     Averaging (Macklin et al. 2014, "Unified particle physics") in its
+//     consistent form: vertex i's mass counts n_i times in every
+//     dlambda's denominator (n_i the constraints on vertex i), i.e.
+//     sum_i n_i w_i |grad_i C_j|^2: each correction is about 1/n_i of the
+//     Gauss-Seidel one, and the multipliers move with the positions, so
+//     the fixed point is Gauss-Seidel's and the linearised iteration
+//     converges (J W J^T <= its diagonal scaled by n).
+// Both give the same bits for any thread count.
+//
+// Precision: the f32 functions iterate on float positions (each update is
+// rounded to float: a few ulp of |x| per substep); the f64 ones on double.
+// Constraint data (b_k, V_j) is computed in double and rounded once.
+#ifndef EK_XPBD_H
+#define EK_XPBD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core.h"
+#include "elements.h"
+#include "material.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// Below this C the constraint is skipped (see above): f32 F has absolute
+// rounding ~1e-7, f64 ~1e-16, and C is of the order of the strain.
+#define EK_XPBD_C_MIN_F32 1e-6
+#define EK_XPBD_C_MIN_F64 1e-12
+
+// Error budgets of the kernels against the double reference
+// (reference/xpbd/xpbd_ref.c; tests/test_xpbd.c): positions after
+// iterations, max_i |x_i - x_ref,i| / the mesh's bounding-box diagonal.
+#define EK_XPBD_TOL_F32 1e-5
+#define EK_XPBD_TOL_F64 1e-12
+
+typedef enum { EK_XPBD_GAUSS_SEIDEL = 0, EK_XPBD_JACOBI, EK_XPBD_SOLVER_COUNT } ek_xpbd_solver;
+typedef enum { EK_XPBD_TETS = 0, EK_XPBD_CLUSTERS, EK_XPBD_ELEMENTS_COUNT } ek_xpbd_elements;
+
+// "gauss_seidel", "jacobi"; "tets", "clusters"; "invalid" for others.
+const char *ek_xpbd_solver_name(ek_xpbd_solver s);
+const char *ek_xpbd_elements_name(ek_xpbd_elements e);
+
+// Options; zero means default (tets, Gauss-Seidel, best ISA, f64).
+typedef struct {
+  ek_xpbd_elements elements;
+  ek_xpbd_solver solver;
+  ek_isa isa;
+  int precision; // 32 or 64 (0 = 64)
+} ek_xpbd_opts;
+
+typedef struct ek_xpbd ek_xpbd;
+
+// Constraints over the element layer's mesh. mat: the StVK model
+// (EK_MODEL_STVK; mu, lambda), young: E > 0 (the constraint's scale and
+// compliance). mass: nverts masses m_i >= 0, read for clusters (the shape
+// matching weights; may be NULL for tets). NULL with ek_last_error on a
+// bad argument, a singular cluster or no memory. Keeps a pointer to el.
+ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
+                        const double *mass, const ek_xpbd_opts *opts);
+void ek_xpbd_destroy(ek_xpbd *xp);
+
+// Constraints (tets, or vertices for clusters), colours, and the largest
+// cluster (4 for tets).
+size_t ek_xpbd_count(const ek_xpbd *xp);
+int ek_xpbd_ncolors(const ek_xpbd *xp);
+int ek_xpbd_max_members(const ek_xpbd *xp);
+// Constraint j's members (caller vertex indices, member 0 first) and
+// b_1..b_{K-1} (3 each, double), K returned; members/b may be NULL to ask
+// for K only. For tests and the reference.
+int ek_xpbd_members(const ek_xpbd *xp, size_t j, int32_t *members, double *b);
+// The order in which Gauss-Seidel projects the constraints (ek_xpbd_count
+// ids). Constraints of one colour share no vertex, so projecting them in
+// this order one at a time gives what the kernel gives.
+int ek_xpbd_order(const ek_xpbd *xp, int32_t *order);
+
+// Inverse masses w_i (nverts; 0 = pinned) for the iterations that follow;
+// may change between substeps (boundary conditions released, damping).
+int ek_xpbd_set_weights(ek_xpbd *xp, const double *w);
+// Start a substep of length h > 0: lambda = 0, alpha~_j = 1 / (V_j E h^2).
+int ek_xpbd_begin(ek_xpbd *xp, double h);
+// `iterations` sweeps of the solver over every constraint, x (nverts x 3)
+// updated in place; the precision must be the opts'.
+int ek_xpbd_iterate_f32(ek_xpbd *xp, float *x, int iterations);
+int ek_xpbd_iterate_f64(ek_xpbd *xp, double *x, int iterations);
+// The primal correction (the variant that keeps XPBD's dropped primal
+// residual g = M (x - x~) - grad C^T lambda, Macklin 2016 eq. 8): x_i =
+// x~_i + w_i sum_j grad_i C_j(x) lambda_j, which makes g = 0 at the current
+// gradients; run before each sweep, the iteration's fixed point is backward
+// Euler's. x_pred: x~ (nverts x 3).
+int ek_xpbd_primal_f32(ek_xpbd *xp, const float *x_pred, float *x);
+int ek_xpbd_primal_f64(ek_xpbd *xp, const double *x_pred, double *x);
+// max_j |C_j(x) + alpha~_j lambda_j| over the constraints not skipped (the
+// dual residual after the iterations so far), and optionally max_j C_j.
+int ek_xpbd_residual_f32(const ek_xpbd *xp, const float *x, double *residual, double *cmax);
+int ek_xpbd_residual_f64(const ek_xpbd *xp, const double *x, double *residual, double *cmax);
+// The multipliers (ek_xpbd_count, constraint order) in double.
+int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda);
+
+// Phase split of one sweep at x (x and lambda untouched): seconds[0] the
+// elements' deformation gradients alone, seconds[1] the same plus the
+// constraint evaluation (W, P, grad C, dlambda), seconds[2] a whole sweep
+// on a copy of x (adds the projection: the position updates).
+int ek_xpbd_profile_f32(ek_xpbd *xp, const float *x, double seconds[3]);
+int ek_xpbd_profile_f64(ek_xpbd *xp, const double *x, double seconds[3]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
