@@ -31,13 +31,16 @@ static double now(void) {
 static void usage(FILE *out) {
   fprintf(out,
           "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
-          "[--force] [--explain]\n"
+          "[--force] [--explain] [--residuals]\n"
           "  --steps N     override the scene's step count\n"
           "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
           "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
           "  --no-output   write no frames (overrides the scene's output.file)\n"
           "  --force       overwrite existing output files\n"
           "  --explain     print the pipeline the scene runs, run nothing\n"
+          "  --residuals   XPBD: print each step's constraint residual (max |C + alpha~ "
+          "lambda|\n"
+          "                after the last sweep) and its largest C\n"
           "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
           "pinned, one per core); values the user set are kept. Meshes below a few\n"
           "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
@@ -87,6 +90,39 @@ static const char *need_text(ek_model_needs need) {
   return "?";
 }
 
+// The loads, boundary conditions and output of --explain.
+static void explain_tail(const ek_scene *s, long steps, const char *out) {
+  printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
+         s->gravity[0], s->gravity[1], s->gravity[2], s->damping, s->dt, steps,
+         s->dt * (double)steps);
+  for (int b = 0; b < s->nbc; ++b) {
+    const ek_scene_bc *c = &s->bc[b];
+    printf("       boundary[%d] %s on [%g %g %g]..[%g %g %g]", b,
+           c->kind == EK_BC_PIN     ? "pin"
+           : c->kind == EK_BC_TWIST ? "twist"
+                                    : "stretch",
+           c->box_min[0], c->box_min[1], c->box_min[2], c->box_max[0], c->box_max[1],
+           c->box_max[2]);
+    if (c->kind == EK_BC_TWIST)
+      printf(", %g rad/s about (%g, %g, %g) through (%g, %g, %g)", c->rate, c->axis[0], c->axis[1],
+             c->axis[2], c->center[0], c->center[1], c->center[2]);
+    if (c->kind == EK_BC_STRETCH)
+      printf(", velocity (%g, %g, %g)", c->velocity[0], c->velocity[1], c->velocity[2]);
+    if (isfinite(c->until))
+      printf(", until t = %g then %s", c->until, c->release ? "released" : "held");
+    printf("\n");
+  }
+  if (s->has_ground)
+    printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
+           s->ground_height);
+  if (out && out[0])
+    printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
+           "energy density from the rest shape (one extra double pass per frame)\n",
+           out, s->output_every);
+  else
+    printf("output     none\n");
+}
+
 static void explain(const ek_scene *s, long steps, const char *out, int threads) {
   const ek_material *m = &s->material;
   printf("scene      %s\n", s->path);
@@ -134,6 +170,12 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   // caches each tet's eigensystem: the isotropic models take an SVD there.
   const int implicit = s->integrator == EK_INTEGRATOR_IMPLICIT;
   const int iso = m->model != EK_MODEL_LINEAR && m->model != EK_MODEL_COROTATED_LINEAR;
+  if (s->integrator == EK_INTEGRATOR_XPBD) {
+    // XPBD runs its own constraint kernel (xpbd.h), not the force.
+    ek_scene_integrator_explain(s, stdout, k);
+    explain_tail(s, steps, out);
+    return;
+  }
   if (implicit)
     printf("  %d. gradient + element eigensystems, fused per block of %d tets "
            "(ek_fvm_hessian_gradient_f64, once per Newton iteration and line-search trial):\n",
@@ -173,35 +215,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   printf("       scatter %s%s: %s\n", ek_scatter_name(sc),
          s->scatter == EK_SCATTER_AUTO ? " (auto)" : "", why[sc]);
   ek_scene_integrator_explain(s, stdout, k);
-  printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
-         s->gravity[0], s->gravity[1], s->gravity[2], s->damping, s->dt, steps,
-         s->dt * (double)steps);
-  for (int b = 0; b < s->nbc; ++b) {
-    const ek_scene_bc *c = &s->bc[b];
-    printf("       boundary[%d] %s on [%g %g %g]..[%g %g %g]", b,
-           c->kind == EK_BC_PIN     ? "pin"
-           : c->kind == EK_BC_TWIST ? "twist"
-                                    : "stretch",
-           c->box_min[0], c->box_min[1], c->box_min[2], c->box_max[0], c->box_max[1],
-           c->box_max[2]);
-    if (c->kind == EK_BC_TWIST)
-      printf(", %g rad/s about (%g, %g, %g) through (%g, %g, %g)", c->rate, c->axis[0], c->axis[1],
-             c->axis[2], c->center[0], c->center[1], c->center[2]);
-    if (c->kind == EK_BC_STRETCH)
-      printf(", velocity (%g, %g, %g)", c->velocity[0], c->velocity[1], c->velocity[2]);
-    if (isfinite(c->until))
-      printf(", until t = %g then %s", c->until, c->release ? "released" : "held");
-    printf("\n");
-  }
-  if (s->has_ground)
-    printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
-           s->ground_height);
-  if (out && out[0])
-    printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
-           "energy density from the rest shape (one extra double pass per frame)\n",
-           out, s->output_every);
-  else
-    printf("output     none\n");
+  explain_tail(s, steps, out);
 }
 
 // The implicit loop's summary: time per phase, iterations, convergence,
@@ -238,11 +252,40 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
   printf("\n");
 }
 
+// The XPBD loop's summary: time per step, sweeps, the per-sweep phase
+// split (phase-timed steps), and the constraint residual over the steps.
+static void print_xpbd_times(const ek_sim_times *tm, long done, size_t ncons, double *res,
+                             size_t nres) {
+  const double n = (double)done, total = tm->xpbd_solve + tm->integration;
+  printf("per step   %.4f ms: solver sweeps %.4f ms (%.0f%%), prediction + velocities %.4f ms; "
+         "%.1f sweeps per step, %.2f ns per constraint and sweep\n",
+         1e3 * total / n, 1e3 * tm->xpbd_solve / n, 100 * tm->xpbd_solve / total,
+         1e3 * tm->integration / n, (double)tm->xpbd_sweeps / n,
+         1e9 * tm->xpbd_solve / ((double)tm->xpbd_sweeps * (double)ncons));
+  if (tm->xpbd_profiles > 0) {
+    const double p = (double)tm->xpbd_profiles,
+                 sum = tm->xpbd_sweep_F + tm->xpbd_sweep_eval + tm->xpbd_sweep_project;
+    printf("sweep split (separate passes once per phase-timed step, %ld steps): deformation "
+           "gradients %.4f ms (%.0f%%), constraint evaluation %.4f ms (%.0f%%), projection "
+           "%.4f ms (%.0f%%)\n",
+           tm->xpbd_profiles, 1e3 * tm->xpbd_sweep_F / p, 100 * tm->xpbd_sweep_F / sum,
+           1e3 * tm->xpbd_sweep_eval / p, 100 * tm->xpbd_sweep_eval / sum,
+           1e3 * tm->xpbd_sweep_project / p, 100 * tm->xpbd_sweep_project / sum);
+  }
+  if (nres > 0) {
+    double median, p95;
+    median_p95(res, nres, &median, &p95);
+    printf("residual   max |C + alpha~ lambda| after the last sweep: last step %.3g (largest C "
+           "%.3g), median %.3g, p95 %.3g, worst %.3g over %zu steps\n",
+           tm->xpbd_last_residual, tm->xpbd_last_cmax, median, p95, tm->xpbd_worst_residual, nres);
+  }
+}
+
 int main(int argc, char **argv) {
   omp_env_defaults("ek-sim", argv);
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
-  int force = 0, do_explain = 0, no_output = 0;
+  int force = 0, do_explain = 0, no_output = 0, residuals = 0;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     if (strcmp(a, "--steps") == 0) {
@@ -263,6 +306,8 @@ int main(int argc, char **argv) {
       force = 1;
     } else if (strcmp(a, "--explain") == 0) {
       do_explain = 1;
+    } else if (strcmp(a, "--residuals") == 0) {
+      residuals = 1;
     } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
       usage(stdout);
       return 0;
@@ -324,8 +369,11 @@ int main(int argc, char **argv) {
   // Wall time of each step that ran the fused force kernel (one in ten runs
   // the phases as separate passes, for the split): their median and p95.
   double *step_s = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
-  size_t nstep_s = 0;
-  if (!step_s) {
+  size_t nstep_s = 0, nres = 0;
+  const int xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
+  double *res = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
+  if (!step_s || !res) {
+    free(res);
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
     ek_mesh_destroy(mesh);
@@ -343,6 +391,7 @@ int main(int argc, char **argv) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
       free(step_s);
+      free(res);
       ek_sim_destroy(sim);
       ek_mesh_destroy(mesh);
       return 1;
@@ -387,6 +436,13 @@ int main(int argc, char **argv) {
     }
     if (!phase_timed)
       step_s[nstep_s++] = t_step;
+    if (xpbd) {
+      const ek_sim_times *tm = ek_sim_timings(sim);
+      res[nres++] = tm->xpbd_last_residual;
+      if (residuals)
+        printf("step %ld t %.6g residual %.6g cmax %.6g\n", n + 1, ek_sim_time(sim),
+               tm->xpbd_last_residual, tm->xpbd_last_cmax);
+    }
     double t = now();
     if (t - t_last_progress > 0.5 || n + 1 == steps) {
       t_last_progress = t;
@@ -418,7 +474,16 @@ int main(int argc, char **argv) {
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;
   ek_sim_energy(sim, &e1);
   printf("steps      %ld in %.3f s (setup %.3f s, output %.3f s)\n", done, wall, t_setup, t_output);
-  if (done > 0 && tm->gradient_passes > 0) {
+  if (done > 0 && xpbd) {
+    print_xpbd_times(tm, done, ek_sim_xpbd_constraints(sim), res, nres);
+    if (nstep_s > 0) {
+      double median, p95;
+      median_p95(step_s, nstep_s, &median, &p95);
+      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
+             "steps not phase-timed)\n",
+             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
+    }
+  } else if (done > 0 && tm->gradient_passes > 0) {
     print_implicit_times(tm, done, nt);
     if (nstep_s > 0) {
       double median, p95;
@@ -470,6 +535,7 @@ int main(int argc, char **argv) {
   free(smin);
   free(psi);
   free(step_s);
+  free(res);
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
   return rc;

@@ -673,7 +673,7 @@ static void scene_defaults(ek_scene *s) {
                                     .cg_tol = 1e-4,
                                     .max_cg = 1000,
                                     .preconditioner = EK_PRECOND_BLOCK_JACOBI};
-  s->xpbd = (ek_scene_xpbd){.iterations = 10, .substeps = 1};
+  s->xpbd = (ek_scene_xpbd){.iterations = 5, .substeps = 20};
   s->young = NAN;
   s->poisson = NAN;
   s->output_every = 1;

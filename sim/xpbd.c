@@ -9,8 +9,9 @@
 // mass scaled by 1 + c h and x~ moved), so at c = 0 this is the seed's
 // x~ = x + h v + h^2 g and both loops minimise the same objective.
 // Positions stay double between substeps; the sweeps run in the scene's
-// precision (f32: on a float copy of x~, the result added back to x~ as
-// the float displacement, so the state is not rounded to float).
+// precision on displacements from x~ (float x~ as the base for f32), so
+// the updates round to the displacements' size and the state is
+// x~ + displacement in double.
 #include "sim_internal.h"
 
 #include <math.h>
@@ -21,7 +22,8 @@ typedef struct {
   ek_xpbd *xp;
   double young;
   double *xs, *vs, *xp_pred, *w; // substep start, prediction, weights
-  float *xf, *xf_pred;           // f32 sweeps
+  double *dx;                    // f64 sweeps: displacements from x~
+  float *xf, *xf_pred;           // f32 sweeps: displacements, float x~
 } xpbd_data;
 
 static void xpbd_destroy(void *data) {
@@ -33,6 +35,7 @@ static void xpbd_destroy(void *data) {
   free(d->vs);
   free(d->xp_pred);
   free(d->w);
+  free(d->dx);
   free(d->xf);
   free(d->xf_pred);
   free(d);
@@ -63,7 +66,8 @@ static int xpbd_create(ek_sim *s, void **data) {
   d->vs = malloc(n3 * sizeof(double));
   d->xp_pred = malloc(n3 * sizeof(double));
   d->w = malloc(s->nv * sizeof(double));
-  int ok = d->xs && d->vs && d->xp_pred && d->w;
+  d->dx = malloc(n3 * sizeof(double));
+  int ok = d->xs && d->vs && d->xp_pred && d->w && d->dx;
   if (s->scene.precision == 32) {
     d->xf = malloc(n3 * sizeof(float));
     d->xf_pred = malloc(n3 * sizeof(float));
@@ -138,32 +142,34 @@ static int xpbd_step(ek_sim *s, void *data) {
     }
     if ((rc = ek_xpbd_set_weights(d->xp, d->w)) == 0)
       rc = ek_xpbd_begin(d->xp, h);
-    if (f32)
+    if (f32) {
       for (size_t i = 0; i < n3; i++)
-        d->xf[i] = d->xf_pred[i] = (float)d->xp_pred[i];
-    else
-      memcpy(s->x_next, d->xp_pred, n3 * sizeof(double));
+        d->xf_pred[i] = (float)d->xp_pred[i];
+      memset(d->xf, 0, n3 * sizeof(float));
+    } else {
+      memset(d->dx, 0, n3 * sizeof(double));
+    }
     s->times.integration += sim_now() - t0;
     t0 = sim_now();
     if (rc == 0)
-      rc = f32 ? ek_xpbd_iterate_f32(d->xp, d->xf, (int)N)
-               : ek_xpbd_iterate_f64(d->xp, s->x_next, (int)N);
+      rc = f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, (int)N)
+               : ek_xpbd_iterate_f64(d->xp, d->xp_pred, d->dx, (int)N);
     s->times.xpbd_solve += sim_now() - t0;
     s->times.xpbd_sweeps += N;
     if (rc)
       break;
     if (sub == K - 1) {
       double r = NAN, cm = NAN;
-      rc = f32 ? ek_xpbd_residual_f32(d->xp, d->xf, &r, &cm)
-               : ek_xpbd_residual_f64(d->xp, s->x_next, &r, &cm);
+      rc = f32 ? ek_xpbd_residual_f32(d->xp, d->xf_pred, d->xf, &r, &cm)
+               : ek_xpbd_residual_f64(d->xp, d->xp_pred, d->dx, &r, &cm);
       s->times.xpbd_last_residual = r;
       s->times.xpbd_last_cmax = cm;
       if (!(r <= s->times.xpbd_worst_residual))
         s->times.xpbd_worst_residual = r;
       if (s->time_phases && rc == 0) {
         double sec[3];
-        rc = f32 ? ek_xpbd_profile_f32(d->xp, d->xf, sec)
-                 : ek_xpbd_profile_f64(d->xp, s->x_next, sec);
+        rc = f32 ? ek_xpbd_profile_f32(d->xp, d->xf_pred, d->xf, sec)
+                 : ek_xpbd_profile_f64(d->xp, d->xp_pred, d->dx, sec);
         s->times.xpbd_sweep_F += sec[0];
         s->times.xpbd_sweep_eval += sec[1] - sec[0];
         s->times.xpbd_sweep_project += sec[2] - sec[1];
@@ -174,9 +180,8 @@ static int xpbd_step(ek_sim *s, void *data) {
     t0 = sim_now();
     for (size_t i = 0; i < nv; i++) {
       double *x = s->x_next + 3 * i, *v = d->vs + 3 * i, *xs = d->xs + 3 * i;
-      if (f32)
-        for (int j = 0; j < 3; j++)
-          x[j] = d->xp_pred[3 * i + j] + (double)(d->xf[3 * i + j] - d->xf_pred[3 * i + j]);
+      for (int j = 0; j < 3; j++)
+        x[j] = d->xp_pred[3 * i + j] + (f32 ? (double)d->xf[3 * i + j] : d->dx[3 * i + j]);
       const ek_scene_bc *bc = sim_bc_at(s, i, t1);
       if (bc) {
         sim_bc_state(bc, s->x0 + 3 * i, t1, x, v);
@@ -201,6 +206,12 @@ static int xpbd_step(ek_sim *s, void *data) {
   memcpy(s->x_next, d->xs, n3 * sizeof(double));
   memcpy(s->v_next, d->vs, n3 * sizeof(double));
   return 0;
+}
+
+size_t ek_sim_xpbd_constraints(const ek_sim *s) {
+  return s && s->integrator == &sim_integrator_xpbd && s->integrator_data
+             ? ek_xpbd_count(((const xpbd_data *)s->integrator_data)->xp)
+             : 0;
 }
 
 const sim_integrator sim_integrator_xpbd = {

@@ -69,8 +69,9 @@
 // setting tried, clamped multipliers included; so no such variant is
 // offered. tests/test_sim_xpbd.c measures the gap against the implicit loop.
 //
-// Precision: the f32 functions iterate on float positions (each update is
-// rounded to float: a few ulp of |x| per substep); the f64 ones on double.
+// Precision: the f32 functions iterate in float, the f64 ones in double;
+// with a base (ek_xpbd_iterate_*) the updates round to the displacements'
+// size, which is how the XPBD loop calls them (sim/xpbd.c).
 // Constraint data (b_k, V_j) is computed in double and rounded once.
 #ifndef EK_XPBD_H
 #define EK_XPBD_H
@@ -143,13 +144,20 @@ int ek_xpbd_set_weights(ek_xpbd *xp, const double *w);
 // Start a substep of length h > 0: lambda = 0, alpha~_j = 1 / (V_j E h^2).
 int ek_xpbd_begin(ek_xpbd *xp, double h);
 // `iterations` sweeps of the solver over every constraint, x (nverts x 3)
-// updated in place; the precision must be the opts'.
-int ek_xpbd_iterate_f32(ek_xpbd *xp, float *x, int iterations);
-int ek_xpbd_iterate_f64(ek_xpbd *xp, double *x, int iterations);
+// updated in place; the precision must be the opts'. x_base NULL: x holds
+// the positions. Otherwise the positions are x_base + x and x holds
+// displacements from x_base (e.g. x~): the updates then round to the
+// displacements' size, not the coordinates' (f32: a body 100 m from the
+// origin would otherwise move in steps of 4e-6 m).
+int ek_xpbd_iterate_f32(ek_xpbd *xp, const float *x_base, float *x, int iterations);
+int ek_xpbd_iterate_f64(ek_xpbd *xp, const double *x_base, double *x, int iterations);
 // max_j |C_j(x) + alpha~_j lambda_j| over the constraints not skipped (the
 // dual residual after the iterations so far), and optionally max_j C_j.
-int ek_xpbd_residual_f32(const ek_xpbd *xp, const float *x, double *residual, double *cmax);
-int ek_xpbd_residual_f64(const ek_xpbd *xp, const double *x, double *residual, double *cmax);
+// Positions x_base + x as above.
+int ek_xpbd_residual_f32(const ek_xpbd *xp, const float *x_base, const float *x, double *residual,
+                         double *cmax);
+int ek_xpbd_residual_f64(const ek_xpbd *xp, const double *x_base, const double *x, double *residual,
+                         double *cmax);
 // The multipliers (ek_xpbd_count, constraint order) in double.
 int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda);
 
@@ -157,8 +165,8 @@ int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda);
 // elements' deformation gradients alone, seconds[1] the same plus the
 // constraint evaluation (W, P, grad C, dlambda), seconds[2] a whole sweep
 // on a copy of x (adds the projection: the position updates).
-int ek_xpbd_profile_f32(ek_xpbd *xp, const float *x, double seconds[3]);
-int ek_xpbd_profile_f64(ek_xpbd *xp, const double *x, double seconds[3]);
+int ek_xpbd_profile_f32(ek_xpbd *xp, const float *x_base, const float *x, double seconds[3]);
+int ek_xpbd_profile_f64(ek_xpbd *xp, const double *x_base, const double *x, double seconds[3]);
 
 #ifdef __cplusplus
 }

@@ -39,7 +39,7 @@ static int parallel_for(const ek_xpbd *xp) {
   return xp->ncons >= XPBD_PARALLEL_MIN && omp_get_max_threads() > 1;
 }
 
-static xpbd_args args_for(const ek_xpbd *xp, int op, real *x) {
+static xpbd_args args_for(const ek_xpbd *xp, int op, const real *xb, real *x) {
   xpbd_args a = {.op = op,
                  .tets = xp->elements == EK_XPBD_TETS,
                  .nmem = xp->nmem,
@@ -54,6 +54,7 @@ static xpbd_args args_for(const ek_xpbd *xp, int op, real *x) {
                  .h2 = (real)(xp->h * xp->h),
                  .c_min = (real)C_MIN,
                  .x = x,
+                 .xb = xb,
                  .w = xp->w,
                  .wd = xp->wd,
                  .corr = NULL,
@@ -113,9 +114,9 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
 }
 
 // `iterations` sweeps; the parallel region spans them all (one wake-up).
-static void sweeps(const ek_xpbd *xp, real *x, int iterations) {
+static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
   const int jacobi = xp->solver == EK_XPBD_JACOBI;
-  xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, x);
+  xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, xb, x);
   if (jacobi)
     a.corr = xp->corr;
 #pragma omp parallel if (parallel_for(xp))
@@ -135,7 +136,7 @@ static void sweeps(const ek_xpbd *xp, real *x, int iterations) {
   }
 }
 
-int EK_P(xpbd_iterate)(ek_xpbd *xp, real *x, int iterations) {
+int EK_P(xpbd_iterate)(ek_xpbd *xp, const real *x_base, real *x, int iterations) {
   int rc = check(xp, "ek_xpbd_iterate", x, 1);
   if (rc < 0)
     return rc;
@@ -143,15 +144,16 @@ int EK_P(xpbd_iterate)(ek_xpbd *xp, real *x, int iterations) {
     ek_set_error("ek_xpbd_iterate: iterations = %d: must be >= 0", iterations);
     return EK_EINVAL;
   }
-  sweeps(xp, x, iterations);
+  sweeps(xp, x_base, x, iterations);
   return EK_OK;
 }
 
-int EK_P(xpbd_residual)(const ek_xpbd *xp, const real *x, double *residual, double *cmax) {
+int EK_P(xpbd_residual)(const ek_xpbd *xp, const real *x_base, const real *x, double *residual,
+                        double *cmax) {
   int rc = check(xp, "ek_xpbd_residual", x, 1);
   if (rc < 0)
     return rc;
-  xpbd_args a = args_for(xp, XPBD_RESIDUAL, (real *)x);
+  xpbd_args a = args_for(xp, XPBD_RESIDUAL, x_base, (real *)x);
 #pragma omp parallel if (parallel_for(xp))
   all_blocks(xp, &a);
   // Maxima do not depend on the order; a NaN anywhere is kept.
@@ -175,7 +177,7 @@ int EK_P(xpbd_residual)(const ek_xpbd *xp, const real *x, double *residual, doub
 
 static double now(void) { return omp_get_wtime(); }
 
-int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x, double seconds[3]) {
+int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x_base, const real *x, double seconds[3]) {
   int rc = check(xp, "ek_xpbd_profile", x, 1);
   if (rc < 0)
     return rc;
@@ -194,14 +196,14 @@ int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x, double seconds[3]) {
   memcpy(saved, xp->lambda_planes, nl * sizeof(real));
   static const int ops[2] = {XPBD_F_ONLY, XPBD_EVAL};
   for (int k = 0; k < 2; k++) {
-    xpbd_args a = args_for(xp, ops[k], copy);
+    xpbd_args a = args_for(xp, ops[k], x_base, copy);
     double t0 = now();
 #pragma omp parallel if (parallel_for(xp))
     all_blocks(xp, &a);
     seconds[k] = now() - t0;
   }
   double t0 = now();
-  sweeps(xp, copy, 1);
+  sweeps(xp, x_base, copy, 1);
   seconds[2] = now() - t0;
   memcpy(xp->lambda_planes, saved, nl * sizeof(real));
   free(copy);

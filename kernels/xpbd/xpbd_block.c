@@ -43,6 +43,18 @@ static void scatter_block(const xpbd_args *a, const int32_t *idx, int K, const r
   }
 }
 
+// Member positions: x, or xb + x (displacements from a base).
+EK_INLINE vmask gather_member(const xpbd_args *a, const int32_t *idx, vreal p[3]) {
+  const vmask pad = vgather_points(a->x, idx, p);
+  if (a->xb) {
+    vreal q[3];
+    vgather_points(a->xb, idx, q);
+    for (int i = 0; i < 3; i++)
+      p[i] = vadd(q[i], p[i]);
+  }
+  return pad;
+}
+
 EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[XPBD_MAX_MEMBERS * 3 * L];
   _Alignas(64) real sl[L];
@@ -59,12 +71,12 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
       // F from the members' offsets to member 0 (differences first: no
       // cancellation of large coordinates).
       vreal x0[3], F[9];
-      const vmask pad = vgather_points(a->x, idx + o, x0);
+      const vmask pad = gather_member(a, idx + o, x0);
       for (int i = 0; i < 9; i++)
         F[i] = zero;
       for (int k = 1; k < K; k++) {
         vreal xk[3], bk[3];
-        vgather_points(a->x, idx + k * L + o, xk);
+        gather_member(a, idx + k * L + o, xk);
         for (int j = 0; j < 3; j++)
           bk[j] = vload(bv + (k * 3 + j) * L + o);
         for (int i = 0; i < 3; i++) {

@@ -48,7 +48,8 @@ enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_EVAL };
     const T *stiff;                                                                                \
     T *lambda;                                                                                     \
     T mu, lam, inv_young, h2, c_min;                                                               \
-    T *x;        /* positions */                                                                   \
+    T *x;        /* positions, or displacements from xb */                                         \
+    const T *xb; /* base positions, or NULL */                                                     \
     const T *w;  /* inverse masses (nverts) */                                                     \
     const T *wd; /* the denominator's: w (Gauss-Seidel) or n w (Jacobi) */                         \
     T *corr;     /* Jacobi */                                                                      \
