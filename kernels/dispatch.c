@@ -21,7 +21,9 @@
   ek_fvm_F_block_f32_fn ek_fvm_F_block_##t##_f32;                                                  \
   ek_fvm_F_block_f64_fn ek_fvm_F_block_##t##_f64;                                                  \
   ek_hessian_block_f32_fn ek_hessian_block_##t##_f32;                                              \
-  ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;
+  ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;                                              \
+  ek_xpbd_block_f32_fn ek_xpbd_block_##t##_f32;                                                    \
+  ek_xpbd_block_f64_fn ek_xpbd_block_##t##_f64;
 #define EK_ROW(t, isa_, w32, w64)                                                                  \
   {                                                                                                \
     .isa = isa_, .lanes_f32 = w32, .lanes_f64 = w64, .svd3_block_f32 = ek_svd3_block_##t##_f32,    \
@@ -30,7 +32,8 @@
     .material_block_f64 = ek_material_block_##t##_f64, .fvm_block_f32 = ek_fvm_block_##t##_f32,    \
     .fvm_block_f64 = ek_fvm_block_##t##_f64, .fvm_F_block_f32 = ek_fvm_F_block_##t##_f32,          \
     .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \
-    .hessian_block_f64 = ek_hessian_block_##t##_f64                                                \
+    .hessian_block_f64 = ek_hessian_block_##t##_f64, .xpbd_block_f32 = ek_xpbd_block_##t##_f32,    \
+    .xpbd_block_f64 = ek_xpbd_block_##t##_f64                                                      \
   }
 
 EK_DECLARE_TARGET(scalar)

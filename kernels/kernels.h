@@ -66,6 +66,13 @@ typedef struct ek_hess_args_f64 ek_hess_args_f64;
 typedef void ek_hessian_block_f32_fn(const ek_hess_args_f32 *a, size_t b0, size_t b1);
 typedef void ek_hessian_block_f64_fn(const ek_hess_args_f64 *a, size_t b0, size_t b1);
 
+// xpbd_block: XPBD constraint blocks [b0, b1) (contract in
+// kernels/xpbd/xpbd_kernel.h).
+typedef struct ek_xpbd_args_f32 ek_xpbd_args_f32;
+typedef struct ek_xpbd_args_f64 ek_xpbd_args_f64;
+typedef void ek_xpbd_block_f32_fn(const ek_xpbd_args_f32 *a, size_t b0, size_t b1);
+typedef void ek_xpbd_block_f64_fn(const ek_xpbd_args_f64 *a, size_t b0, size_t b1);
+
 typedef struct {
   ek_isa isa;
   int lanes_f32, lanes_f64; // EK_W of the target
@@ -81,6 +88,8 @@ typedef struct {
   ek_fvm_F_block_f64_fn *fvm_F_block_f64;
   ek_hessian_block_f32_fn *hessian_block_f32;
   ek_hessian_block_f64_fn *hessian_block_f64;
+  ek_xpbd_block_f32_fn *xpbd_block_f32;
+  ek_xpbd_block_f64_fn *xpbd_block_f64;
 } ek_kernel_table;
 
 // Table of a resolved target (see ek_isa_resolve), NULL if not available.

@@ -107,8 +107,8 @@ typedef struct ek_xpbd ek_xpbd;
 // compliance). mass: nverts masses m_i >= 0, read for clusters (the shape
 // matching weights; may be NULL for tets). NULL with ek_last_error on a
 // bad argument, a singular cluster or no memory. Keeps a pointer to el.
-ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
-                        const double *mass, const ek_xpbd_opts *opts);
+ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young, const double *mass,
+                        const ek_xpbd_opts *opts);
 void ek_xpbd_destroy(ek_xpbd *xp);
 
 // Constraints (tets, or vertices for clusters), colours, and the largest

@@ -38,6 +38,7 @@ void ek_tets_destroy(ek_tets *el) {
   if (!el)
     return;
   free(el->tets);
+  free(el->X);
   free(el->V0);
   free(el->Dm_inv);
   blocks_free(&el->morton);
@@ -388,12 +389,14 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   el->tets = malloc(ntets * 4 * sizeof(int32_t));
   el->V0 = malloc(ntets * sizeof(double));
   el->Dm_inv = malloc(ntets * 9 * sizeof(double));
+  el->X = malloc(nverts * 3 * sizeof(double));
   const size_t W = EK_LANES_F32;
   el->morton.nslots = (ntets + W - 1) / W * W;
   el->morton.slot_tet = malloc(el->morton.nslots * sizeof(int32_t));
-  if (!el->tets || !el->V0 || !el->Dm_inv || !el->morton.slot_tet)
+  if (!el->tets || !el->V0 || !el->Dm_inv || !el->X || !el->morton.slot_tet)
     goto oom;
   memcpy(el->tets, tets, ntets * 4 * sizeof(int32_t));
+  memcpy(el->X, X, nverts * 3 * sizeof(double));
   for (size_t t = 0; t < ntets; t++) {
     double six_v = rest_frame(X, el->tets + t * 4, el->Dm_inv + t * 9);
     if (!(six_v > 0) || !isfinite(six_v)) {

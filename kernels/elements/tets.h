@@ -31,6 +31,7 @@ struct ek_tets {
   int32_t *tets;  // ntets x 4
   double *V0;     // ntets
   double *Dm_inv; // ntets x 9
+  double *X;      // nverts x 3 rest positions (shape-matching clusters)
 
   ek_tet_blocks morton;
   // The coloured order (elements.h). Phase p runs chunks [phase_chunk[p],

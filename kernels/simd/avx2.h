@@ -145,6 +145,19 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   return _mm256_castsi256_pd(mant);
 }
 #endif
+// vgather(x, idx): lane l = x[idx[l]], EK_W int32 indices; a lane with
+// idx < 0 (padding) reads x[0].
+#if defined(EK_REAL_F32)
+static inline vreal vgather(const real *x, const int32_t *idx) {
+  __m256i i = _mm256_max_epi32(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
+  return _mm256_i32gather_ps(x, i, 4);
+}
+#else
+static inline vreal vgather(const real *x, const int32_t *idx) {
+  __m128i i = _mm_max_epi32(_mm_loadu_si128((const __m128i *)idx), _mm_setzero_si128());
+  return _mm256_i32gather_pd(x, i, 8);
+}
+#endif
 // vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
 // n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
 // point 0 and is set in the returned mask. Indices below 2^31 / 3.

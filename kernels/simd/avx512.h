@@ -120,6 +120,19 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   return _mm512_castsi512_pd(mant);
 }
 #endif
+// vgather(x, idx): lane l = x[idx[l]], EK_W int32 indices; a lane with
+// idx < 0 (padding) reads x[0].
+#if defined(EK_REAL_F32)
+static inline vreal vgather(const real *x, const int32_t *idx) {
+  __m512i i = _mm512_max_epi32(_mm512_loadu_si512(idx), _mm512_setzero_si512());
+  return _mm512_i32gather_ps(i, x, 4);
+}
+#else
+static inline vreal vgather(const real *x, const int32_t *idx) {
+  __m256i i = _mm256_max_epi32(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
+  return _mm512_i32gather_pd(i, x, 8);
+}
+#endif
 // vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
 // n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
 // point 0 and is set in the returned mask. Indices below 2^31 / 3.

@@ -66,6 +66,8 @@ static inline vreal vmant_exp(vreal x, vreal *e) {
   *e = (real)(k - 1);
   return m + m;
 }
+// vgather(x, idx): x[idx], x[0] for idx < 0 (padding).
+static inline vreal vgather(const real *x, const int32_t *idx) { return x[*idx < 0 ? 0 : *idx]; }
 // vgather_points(x, idx, p): p[k] lane l = x[3 idx[l] + k] (x: points,
 // n x 3), EK_W int32 indices from idx; a lane with idx < 0 (padding) reads
 // point 0 and is set in the returned mask. Indices below 2^31 / 3.

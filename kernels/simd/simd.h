@@ -19,6 +19,7 @@
 //   vmant_exp(x, &e) = m with x = m 2^e, m in [1, 2) (positive normal x)
 //   vgather_points(x, idx, p) = the 3 coordinates of points x[idx[l]]
 //                 (n x 3 array, int32 indices); mask: lanes with idx < 0
+//   vgather(x, idx) = x[idx[l]] per lane (x[0] where idx < 0)
 //
 // EK_SYM(name) names a kernel for this build: ek_<name>_<isa>_<prec>.
 #ifndef EK_SIMD_H

@@ -1,0 +1,868 @@
+// Driver of ek_xpbd (include/ek/xpbd.h): constraint blocks for tets (from
+// the element layer's coloured order) and for shape-matching clusters
+// (built and coloured here), the Gauss-Seidel and Jacobi sweeps, the
+// primal correction, the residual and the profile. Built once per
+// precision: the sweeps of each precision here; creation and the
+// precision-free functions in the f64 instance.
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <ek/xpbd.h>
+
+#include "../elements/tets.h"
+#include "../kernels.h"
+#include "../real.h"
+#include "xpbd_kernel.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_xpbd_args_f32 xpbd_args;
+#define KERNEL(t) ((t)->xpbd_block_f32)
+#define PRECISION 32
+#define C_MIN EK_XPBD_C_MIN_F32
+#else
+typedef struct ek_xpbd_args_f64 xpbd_args;
+#define KERNEL(t) ((t)->xpbd_block_f64)
+#define PRECISION 64
+#define C_MIN EK_XPBD_C_MIN_F64
+#endif
+
+// Below this many constraints a sweep runs on the calling thread: the same
+// grain as the force without an SVD (fvm.h), which costs about as much per
+// element.
+#define XPBD_PARALLEL_MIN 4096
+// Jacobi and the one-pass operations split the blocks into fixed ranges.
+#define XPBD_RANGE 32
+
+static int parallel_for(const ek_xpbd *xp) {
+  return xp->ncons >= XPBD_PARALLEL_MIN && omp_get_max_threads() > 1;
+}
+
+static xpbd_args args_for(const ek_xpbd *xp, int op, real *x) {
+  xpbd_args a = {.op = op,
+                 .tets = xp->elements == EK_XPBD_TETS,
+                 .nmem = xp->nmem,
+                 .moff = xp->moff,
+                 .idx = xp->idx,
+                 .bv = xp->bv,
+                 .stiff = xp->stiff,
+                 .lambda = xp->lambda_planes,
+                 .mu = (real)xp->mu,
+                 .lam = (real)xp->lambda,
+                 .inv_young = (real)(1.0 / xp->young),
+                 .h2 = (real)(xp->h * xp->h),
+                 .c_min = (real)C_MIN,
+                 .x = x,
+                 .w = xp->w,
+                 .wd = xp->wd,
+                 .corr = NULL,
+                 .sink = xp->sink};
+  return a;
+}
+
+static int check(const ek_xpbd *xp, const char *fn, const void *x, int need_begin) {
+  if (!xp || !x) {
+    ek_set_error("%s: NULL argument", fn);
+    return EK_EINVAL;
+  }
+  if (xp->precision != PRECISION) {
+    ek_set_error("%s: these constraints are in f%d (ek_xpbd_opts.precision); call the f%d function",
+                 fn, xp->precision, xp->precision);
+    return EK_EINVAL;
+  }
+  if (need_begin && !(xp->h > 0)) {
+    ek_set_error("%s: no substep: call ek_xpbd_begin first", fn);
+    return EK_EINVAL;
+  }
+  if (need_begin && !xp->weights_set) {
+    ek_set_error("%s: no inverse masses: call ek_xpbd_set_weights first", fn);
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+// One pass of `op` over every block, fixed ranges split among threads
+// (called inside a parallel region or not).
+static void all_blocks(const ek_xpbd *xp, const xpbd_args *a) {
+  const long nr = (long)((xp->nblocks + XPBD_RANGE - 1) / XPBD_RANGE);
+#pragma omp for schedule(static)
+  for (long r = 0; r < nr; r++) {
+    size_t b0 = (size_t)r * XPBD_RANGE, b1 = b0 + XPBD_RANGE;
+    KERNEL(xp->kt)(a, b0, b1 < xp->nblocks ? b1 : xp->nblocks);
+  }
+}
+
+// x_v = base_v + w_v * (sum of v's corr entries, in entry order); base
+// NULL: x_v += w_v * sum.
+static void gather_corrections(const ek_xpbd *xp, const real *base, real *x) {
+  const real *corr = xp->corr, *w = xp->w;
+  const size_t L = (size_t)xp->lanes;
+  const long nv = (long)xp->nverts;
+#pragma omp for schedule(static)
+  for (long v = 0; v < nv; v++) {
+    const size_t e0 = xp->vert_start[v], e1 = xp->vert_start[v + 1];
+    if (e0 == e1 || w[v] == 0) {
+      if (base)
+        for (int d = 0; d < 3; d++)
+          x[3 * v + d] = base[3 * v + d];
+      continue;
+    }
+    real s[3] = {0, 0, 0};
+    for (size_t e = e0; e < e1; e++)
+      for (int d = 0; d < 3; d++)
+        s[d] += corr[xp->vert_entries[e] + (size_t)d * L];
+    for (int d = 0; d < 3; d++)
+      x[3 * v + d] = (base ? base[3 * v + d] : x[3 * v + d]) + w[v] * s[d];
+  }
+}
+
+// `iterations` sweeps; the parallel region spans them all (one wake-up).
+static void sweeps(const ek_xpbd *xp, real *x, int iterations) {
+  const int jacobi = xp->solver == EK_XPBD_JACOBI;
+  xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, x);
+  if (jacobi)
+    a.corr = xp->corr;
+#pragma omp parallel if (parallel_for(xp))
+  for (int it = 0; it < iterations; it++) {
+    if (jacobi) {
+      all_blocks(xp, &a);
+      gather_corrections(xp, NULL, x);
+      continue;
+    }
+    // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
+    for (size_t p = 0; p < xp->nphases; p++) {
+      const long t0 = (long)xp->phase_task[p], t1 = (long)xp->phase_task[p + 1];
+#pragma omp for schedule(static)
+      for (long t = t0; t < t1; t++)
+        KERNEL(xp->kt)(&a, xp->task_block[t], xp->task_block[t + 1]);
+    }
+  }
+}
+
+int EK_P(xpbd_iterate)(ek_xpbd *xp, real *x, int iterations) {
+  int rc = check(xp, "ek_xpbd_iterate", x, 1);
+  if (rc < 0)
+    return rc;
+  if (iterations < 0) {
+    ek_set_error("ek_xpbd_iterate: iterations = %d: must be >= 0", iterations);
+    return EK_EINVAL;
+  }
+  sweeps(xp, x, iterations);
+  return EK_OK;
+}
+
+int EK_P(xpbd_primal)(ek_xpbd *xp, const real *x_pred, real *x) {
+  int rc = check(xp, "ek_xpbd_primal", x, 1);
+  if (rc < 0)
+    return rc;
+  if (!x_pred) {
+    ek_set_error("ek_xpbd_primal: NULL argument");
+    return EK_EINVAL;
+  }
+  xpbd_args a = args_for(xp, XPBD_PRIMAL, x);
+  a.corr = xp->corr;
+#pragma omp parallel if (parallel_for(xp))
+  {
+    all_blocks(xp, &a);
+    gather_corrections(xp, x_pred, x);
+  }
+  return EK_OK;
+}
+
+int EK_P(xpbd_residual)(const ek_xpbd *xp, const real *x, double *residual, double *cmax) {
+  int rc = check(xp, "ek_xpbd_residual", x, 1);
+  if (rc < 0)
+    return rc;
+  xpbd_args a = args_for(xp, XPBD_RESIDUAL, (real *)x);
+#pragma omp parallel if (parallel_for(xp))
+  all_blocks(xp, &a);
+  // Maxima do not depend on the order; a NaN anywhere is kept.
+  const real *s = xp->sink;
+  const size_t L = (size_t)xp->lanes;
+  double r = 0, c = 0;
+  for (size_t b = 0; b < xp->nblocks; b++)
+    for (size_t l = 0; l < L; l++) {
+      double rv = s[(b * 2) * L + l], cv = s[(b * 2 + 1) * L + l];
+      if (!(rv <= r))
+        r = rv;
+      if (!(cv <= c))
+        c = cv;
+    }
+  if (residual)
+    *residual = r;
+  if (cmax)
+    *cmax = c;
+  return EK_OK;
+}
+
+static double now(void) { return omp_get_wtime(); }
+
+int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x, double seconds[3]) {
+  int rc = check(xp, "ek_xpbd_profile", x, 1);
+  if (rc < 0)
+    return rc;
+  if (!seconds) {
+    ek_set_error("ek_xpbd_profile: NULL argument");
+    return EK_EINVAL;
+  }
+  const size_t nx = 3 * xp->nverts, nl = xp->nblocks * (size_t)xp->lanes;
+  real *copy = malloc((nx + nl) * sizeof(real));
+  if (!copy) {
+    ek_set_error("ek_xpbd_profile: out of memory");
+    return EK_ENOMEM;
+  }
+  real *saved = copy + nx;
+  memcpy(copy, x, nx * sizeof(real));
+  memcpy(saved, xp->lambda_planes, nl * sizeof(real));
+  static const int ops[2] = {XPBD_F_ONLY, XPBD_EVAL};
+  for (int k = 0; k < 2; k++) {
+    xpbd_args a = args_for(xp, ops[k], copy);
+    double t0 = now();
+#pragma omp parallel if (parallel_for(xp))
+    all_blocks(xp, &a);
+    seconds[k] = now() - t0;
+  }
+  double t0 = now();
+  sweeps(xp, copy, 1);
+  seconds[2] = now() - t0;
+  memcpy(xp->lambda_planes, saved, nl * sizeof(real));
+  free(copy);
+  return EK_OK;
+}
+
+#if defined(EK_REAL_F64)
+// Precision-free entry points, built once (in the f64 instance).
+
+const char *ek_xpbd_solver_name(ek_xpbd_solver s) {
+  return s == EK_XPBD_GAUSS_SEIDEL ? "gauss_seidel" : s == EK_XPBD_JACOBI ? "jacobi" : "invalid";
+}
+const char *ek_xpbd_elements_name(ek_xpbd_elements e) {
+  return e == EK_XPBD_TETS ? "tets" : e == EK_XPBD_CLUSTERS ? "clusters" : "invalid";
+}
+
+void ek_xpbd_destroy(ek_xpbd *xp) {
+  if (!xp)
+    return;
+  free(xp->nmem);
+  free(xp->moff);
+  free(xp->idx);
+  free(xp->cid);
+  free(xp->con_slot);
+  free(xp->bv64);
+  ek_free(xp->bv);
+  ek_free(xp->stiff);
+  ek_free(xp->lambda_planes);
+  free(xp->w);
+  free(xp->wd);
+  ek_free(xp->corr);
+  ek_free(xp->sink);
+  free(xp->phase_task);
+  free(xp->task_block);
+  free(xp->vert_start);
+  free(xp->vert_entries);
+  free(xp);
+}
+
+// Blocks of nblocks x L lanes whose member counts are set: the member
+// planes and the per-lane arrays, zeroed (idx, cid -1).
+static int alloc_blocks(ek_xpbd *xp, double **stiff64) {
+  const size_t L = (size_t)xp->lanes;
+  xp->moff = malloc((xp->nblocks + 1) * sizeof(size_t));
+  if (!xp->moff)
+    return EK_ENOMEM;
+  size_t np = 0;
+  for (size_t b = 0; b < xp->nblocks; b++) {
+    xp->moff[b] = np;
+    np += (size_t)xp->nmem[b];
+  }
+  xp->moff[xp->nblocks] = np;
+  xp->nplanes = np;
+  xp->idx = malloc(np * L * sizeof(int32_t));
+  xp->bv64 = calloc(np * 3 * L, sizeof(double));
+  xp->cid = malloc(xp->nblocks * L * sizeof(int32_t));
+  xp->con_slot = malloc((xp->ncons ? xp->ncons : 1) * sizeof(int32_t));
+  *stiff64 = calloc(xp->nblocks * L, sizeof(double));
+  if (!xp->idx || !xp->bv64 || !xp->cid || !xp->con_slot || !*stiff64)
+    return EK_ENOMEM;
+  for (size_t i = 0; i < np * L; i++)
+    xp->idx[i] = -1;
+  for (size_t i = 0; i < xp->nblocks * L; i++)
+    xp->cid[i] = -1;
+  for (size_t j = 0; j < xp->ncons; j++)
+    xp->con_slot[j] = -1;
+  return EK_OK;
+}
+
+// Tets: the element layer's coloured order, one block per L slots; phase =
+// chunk colour, task = chunk (its tet colours in order).
+static int build_tets(ek_xpbd *xp, double **stiff64) {
+  const ek_tets *el = xp->el;
+  const ek_tet_blocks *bl = &el->colored;
+  const size_t L = (size_t)xp->lanes;
+  xp->ncons = el->ntets;
+  xp->nblocks = bl->nslots / L;
+  xp->ncolors = el->ncolors;
+  xp->max_members = 4;
+  xp->nmem = malloc(xp->nblocks * sizeof(int32_t));
+  if (!xp->nmem)
+    return EK_ENOMEM;
+  for (size_t b = 0; b < xp->nblocks; b++)
+    xp->nmem[b] = 4;
+  int rc = alloc_blocks(xp, stiff64);
+  if (rc < 0)
+    return rc;
+  for (size_t s = 0; s < bl->nslots; s++) {
+    const int32_t t = bl->slot_tet[s];
+    if (t < 0)
+      continue;
+    const size_t b = s / L, l = s % L, m0 = xp->moff[b];
+    xp->cid[s] = t;
+    xp->con_slot[t] = (int32_t)s;
+    (*stiff64)[s] = el->V0[t] * xp->young;
+    for (int k = 0; k < 4; k++)
+      xp->idx[(m0 + (size_t)k) * L + l] = el->tets[4 * (size_t)t + (size_t)k];
+    // F = Ds Dm^-1 = sum_k (x_k - x_0) (row k-1 of Dm^-1)^T.
+    for (int k = 1; k < 4; k++)
+      for (int d = 0; d < 3; d++)
+        xp->bv64[((m0 + (size_t)k) * 3 + (size_t)d) * L + l] =
+            el->Dm_inv[9 * (size_t)t + (size_t)(k - 1) * 3 + (size_t)d];
+  }
+  xp->nphases = (size_t)el->nphases;
+  xp->ntasks = el->nchunks;
+  xp->phase_task = malloc((xp->nphases + 1) * sizeof(size_t));
+  xp->task_block = malloc((xp->ntasks + 1) * sizeof(size_t));
+  if (!xp->phase_task || !xp->task_block)
+    return EK_ENOMEM;
+  for (size_t p = 0; p <= xp->nphases; p++)
+    xp->phase_task[p] = el->phase_chunk[p];
+  for (size_t k = 0; k <= xp->ntasks; k++)
+    xp->task_block[k] = el->chunk_slot[k] / L;
+  return EK_OK;
+}
+
+static int cmp_i32(const void *a, const void *b) {
+  int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
+  return (x > y) - (x < y);
+}
+
+// One-rings: ring[rs[v] .. rs[v+1]) = v, then the vertices sharing a tet
+// with v, ascending. Vertices in no tet get an empty ring.
+static int build_rings(const ek_tets *el, size_t **rs_out, int32_t **ring_out) {
+  const size_t nv = el->nverts, nt = el->ntets;
+  size_t *rs = calloc(nv + 1, sizeof(size_t));
+  size_t *ts = calloc(nv + 1, sizeof(size_t));
+  int32_t *vt = malloc(4 * nt * sizeof(int32_t));
+  int32_t *tmp = NULL, *ring = NULL;
+  int rc = EK_ENOMEM;
+  if (!rs || !ts || !vt)
+    goto done;
+  // Incident tets per vertex (CSR).
+  for (size_t i = 0; i < 4 * nt; i++)
+    ts[el->tets[i] + 1]++;
+  for (size_t v = 0; v < nv; v++)
+    ts[v + 1] += ts[v];
+  size_t maxdeg = 0;
+  {
+    size_t *next = malloc(nv * sizeof(size_t));
+    if (!next)
+      goto done;
+    memcpy(next, ts, nv * sizeof(size_t));
+    for (size_t t = 0; t < nt; t++)
+      for (int c = 0; c < 4; c++)
+        vt[next[el->tets[4 * t + (size_t)c]]++] = (int32_t)t;
+    free(next);
+  }
+  for (size_t v = 0; v < nv; v++)
+    if (ts[v + 1] - ts[v] > maxdeg)
+      maxdeg = ts[v + 1] - ts[v];
+  tmp = malloc((4 * maxdeg + 1) * sizeof(int32_t));
+  size_t cap = 16 * nv + 16, n = 0;
+  ring = malloc(cap * sizeof(int32_t));
+  if (!tmp || !ring)
+    goto done;
+  for (size_t v = 0; v < nv; v++) {
+    rs[v] = n;
+    size_t m = 0;
+    for (size_t e = ts[v]; e < ts[v + 1]; e++)
+      for (int c = 0; c < 4; c++) {
+        int32_t u = el->tets[4 * (size_t)vt[e] + (size_t)c];
+        if ((size_t)u != v)
+          tmp[m++] = u;
+      }
+    if (ts[v] == ts[v + 1])
+      continue;
+    qsort(tmp, m, sizeof(int32_t), cmp_i32);
+    if (n + m + 1 > cap) {
+      cap = 2 * (n + m + 1);
+      int32_t *r2 = realloc(ring, cap * sizeof(int32_t));
+      if (!r2)
+        goto done;
+      ring = r2;
+    }
+    ring[n++] = (int32_t)v;
+    for (size_t i = 0; i < m; i++)
+      if (i == 0 || tmp[i] != tmp[i - 1])
+        ring[n++] = tmp[i];
+  }
+  rs[nv] = n;
+  rc = EK_OK;
+done:
+  free(ts);
+  free(vt);
+  free(tmp);
+  if (rc == EK_OK) {
+    *rs_out = rs;
+    *ring_out = ring;
+  } else {
+    free(rs);
+    free(ring);
+  }
+  return rc;
+}
+
+// 3x3 inverse of a symmetric positive definite Q (adjugate / det).
+static void inv3(const double Q[9], double det, double Qi[9]) {
+  Qi[0] = (Q[4] * Q[8] - Q[5] * Q[7]) / det;
+  Qi[1] = (Q[2] * Q[7] - Q[1] * Q[8]) / det;
+  Qi[2] = (Q[1] * Q[5] - Q[2] * Q[4]) / det;
+  Qi[3] = (Q[5] * Q[6] - Q[3] * Q[8]) / det;
+  Qi[4] = (Q[0] * Q[8] - Q[2] * Q[6]) / det;
+  Qi[5] = (Q[2] * Q[3] - Q[0] * Q[5]) / det;
+  Qi[6] = (Q[3] * Q[7] - Q[4] * Q[6]) / det;
+  Qi[7] = (Q[1] * Q[6] - Q[0] * Q[7]) / det;
+  Qi[8] = (Q[0] * Q[4] - Q[1] * Q[3]) / det;
+}
+
+typedef struct {
+  int32_t color, size, v;
+} cluster_key;
+
+static int cmp_cluster(const void *a, const void *b) {
+  const cluster_key *x = a, *y = b;
+  if (x->color != y->color)
+    return (x->color > y->color) - (x->color < y->color);
+  if (x->size != y->size)
+    return (x->size < y->size) - (x->size > y->size); // larger first
+  return (x->v > y->v) - (x->v < y->v);
+}
+
+// Clusters: one per vertex in a tet (its one-ring, seed 001's shape
+// matching), coloured greedily (clusters sharing a vertex get different
+// colours), each colour sorted by size and packed into blocks; phase =
+// colour, task = block.
+static int build_clusters(ek_xpbd *xp, const double *mass, double **stiff64) {
+  static const char *fn = "ek_xpbd_create";
+  const ek_tets *el = xp->el;
+  const size_t nv = el->nverts, L = (size_t)xp->lanes;
+  size_t *rs = NULL;
+  int32_t *ring = NULL, *color = NULL, *mark = NULL;
+  cluster_key *keys = NULL;
+  double *vol = NULL, *bc = NULL;
+  int rc = build_rings(el, &rs, &ring);
+  if (rc < 0)
+    return rc;
+  rc = EK_ENOMEM;
+  xp->ncons = nv;
+  color = malloc(nv * sizeof(int32_t));
+  vol = calloc(nv, sizeof(double));
+  bc = malloc(3 * (rs[nv] ? rs[nv] : 1) * sizeof(double)); // b per ring entry
+  keys = malloc(nv * sizeof(cluster_key));
+  if (!color || !vol || !bc || !keys)
+    goto done;
+  // Volume shares: a quarter of each tet to each corner's cluster.
+  for (size_t t = 0; t < el->ntets; t++)
+    for (int c = 0; c < 4; c++)
+      vol[el->tets[4 * t + (size_t)c]] += 0.25 * el->V0[t];
+  // Shape matching per cluster (seed 001): Q = sum m rbar rbar^T, b_k =
+  // m_k Q^-1 rbar_k, rbar relative to the rest centre of mass.
+  const double *X = el->X;
+  xp->max_members = 0;
+  for (size_t v = 0; v < nv; v++) {
+    const size_t r0 = rs[v], r1 = rs[v + 1];
+    if (r0 == r1)
+      continue;
+    if (r1 - r0 > XPBD_MAX_MEMBERS) {
+      ek_set_error("%s: the cluster of vertex %zu has %zu members, more than %d", fn, v, r1 - r0,
+                   XPBD_MAX_MEMBERS);
+      rc = EK_EINVAL;
+      goto done;
+    }
+    if ((int)(r1 - r0) > xp->max_members)
+      xp->max_members = (int)(r1 - r0);
+    double msum = 0, cm[3] = {0, 0, 0};
+    for (size_t e = r0; e < r1; e++) {
+      const double m = mass[ring[e]];
+      msum += m;
+      for (int d = 0; d < 3; d++)
+        cm[d] += m * X[3 * (size_t)ring[e] + (size_t)d];
+    }
+    double Q[9] = {0};
+    if (msum > 0)
+      for (size_t e = r0; e < r1; e++) {
+        double rb[3], m = mass[ring[e]];
+        for (int d = 0; d < 3; d++)
+          rb[d] = X[3 * (size_t)ring[e] + (size_t)d] - cm[d] / msum;
+        for (int i = 0; i < 3; i++)
+          for (int j = 0; j < 3; j++)
+            Q[3 * i + j] += m * rb[i] * rb[j];
+      }
+    const double det = Q[0] * (Q[4] * Q[8] - Q[5] * Q[7]) - Q[1] * (Q[3] * Q[8] - Q[5] * Q[6]) +
+                       Q[2] * (Q[3] * Q[7] - Q[4] * Q[6]);
+    const double tr = Q[0] + Q[4] + Q[8];
+    // Singular (coplanar or massless members): det Q tiny against the
+    // cube of its mean eigenvalue.
+    if (!(msum > 0) || !(det > 1e-12 * tr * tr * tr / 27)) {
+      ek_set_error("%s: the cluster of vertex %zu (%zu members, total mass %g) has a singular "
+                   "Q = sum m rbar rbar^T (det %g, trace %g): its members are coplanar or "
+                   "massless",
+                   fn, v, r1 - r0, msum, det, tr);
+      rc = EK_EINVAL;
+      goto done;
+    }
+    double Qi[9];
+    inv3(Q, det, Qi);
+    for (size_t e = r0; e < r1; e++) {
+      double rb[3], m = mass[ring[e]];
+      for (int d = 0; d < 3; d++)
+        rb[d] = X[3 * (size_t)ring[e] + (size_t)d] - cm[d] / msum;
+      for (int i = 0; i < 3; i++)
+        bc[3 * e + (size_t)i] =
+            m * (Qi[3 * i] * rb[0] + Qi[3 * i + 1] * rb[1] + Qi[3 * i + 2] * rb[2]);
+    }
+  }
+  // Greedy colouring: the clusters sharing a vertex with v's are those of
+  // its members' rings.
+  mark = malloc((nv + 1) * sizeof(int32_t));
+  if (!mark)
+    goto done;
+  for (size_t i = 0; i <= nv; i++)
+    mark[i] = -1;
+  xp->ncolors = 0;
+  for (size_t v = 0; v < nv; v++) {
+    color[v] = -1;
+    if (rs[v] == rs[v + 1])
+      continue;
+    for (size_t e = rs[v]; e < rs[v + 1]; e++) {
+      const int32_t u = ring[e];
+      for (size_t f = rs[u]; f < rs[u + 1]; f++)
+        if (color[ring[f]] >= 0 && (size_t)ring[f] < v)
+          mark[color[ring[f]]] = (int32_t)v;
+    }
+    int32_t c = 0;
+    while (mark[c] == (int32_t)v)
+      c++;
+    color[v] = c;
+    if (c + 1 > xp->ncolors)
+      xp->ncolors = c + 1;
+  }
+  size_t nk = 0;
+  for (size_t v = 0; v < nv; v++)
+    if (color[v] >= 0)
+      keys[nk++] = (cluster_key){color[v], (int32_t)(rs[v + 1] - rs[v]), (int32_t)v};
+  qsort(keys, nk, sizeof *keys, cmp_cluster);
+  // Blocks: each colour's clusters, L at a time.
+  size_t nb = 0;
+  for (size_t i = 0; i < nk;) {
+    size_t j = i;
+    while (j < nk && j - i < L && keys[j].color == keys[i].color)
+      j++;
+    nb++;
+    i = j;
+  }
+  xp->nblocks = nb;
+  xp->nphases = (size_t)xp->ncolors;
+  xp->ntasks = nb;
+  xp->nmem = malloc((nb ? nb : 1) * sizeof(int32_t));
+  xp->phase_task = calloc(xp->nphases + 1, sizeof(size_t));
+  xp->task_block = malloc((nb + 1) * sizeof(size_t));
+  int32_t *block_start = malloc((nb + 1) * sizeof(int32_t));
+  if (!xp->nmem || !xp->phase_task || !xp->task_block || !block_start) {
+    free(block_start);
+    goto done;
+  }
+  nb = 0;
+  for (size_t i = 0; i < nk;) {
+    size_t j = i;
+    while (j < nk && j - i < L && keys[j].color == keys[i].color)
+      j++;
+    block_start[nb] = (int32_t)i;
+    xp->nmem[nb] = keys[i].size; // sorted by size: the first is the largest
+    xp->phase_task[keys[i].color + 1] = nb + 1;
+    nb++;
+    i = j;
+  }
+  block_start[nb] = (int32_t)nk;
+  for (size_t p = 1; p <= xp->nphases; p++)
+    if (xp->phase_task[p] < xp->phase_task[p - 1])
+      xp->phase_task[p] = xp->phase_task[p - 1];
+  for (size_t b = 0; b <= nb; b++)
+    xp->task_block[b] = b;
+  if ((rc = alloc_blocks(xp, stiff64)) < 0) {
+    free(block_start);
+    goto done;
+  }
+  for (size_t b = 0; b < nb; b++)
+    for (int32_t i = block_start[b]; i < block_start[b + 1]; i++) {
+      const size_t l = (size_t)(i - block_start[b]), m0 = xp->moff[b];
+      const int32_t v = keys[i].v;
+      xp->cid[b * L + l] = v;
+      xp->con_slot[v] = (int32_t)(b * L + l);
+      (*stiff64)[b * L + l] = vol[v] * xp->young;
+      for (size_t e = rs[v]; e < rs[v + 1]; e++) {
+        const size_t k = e - rs[v];
+        xp->idx[(m0 + k) * L + l] = ring[e];
+        if (k > 0)
+          for (int d = 0; d < 3; d++)
+            xp->bv64[((m0 + k) * 3 + (size_t)d) * L + l] = bc[3 * e + (size_t)d];
+      }
+    }
+  free(block_start);
+  rc = EK_OK;
+done:
+  free(rs);
+  free(ring);
+  free(color);
+  free(mark);
+  free(keys);
+  free(vol);
+  free(bc);
+  return rc;
+}
+
+// Vertex -> its correction entries (Jacobi, primal), in block order.
+static int build_incidence(ek_xpbd *xp) {
+  const size_t L = (size_t)xp->lanes, nv = xp->nverts;
+  xp->vert_start = calloc(nv + 1, sizeof(size_t));
+  if (!xp->vert_start)
+    return EK_ENOMEM;
+  for (size_t p = 0; p < xp->nplanes; p++)
+    for (size_t l = 0; l < L; l++)
+      if (xp->idx[p * L + l] >= 0)
+        xp->vert_start[xp->idx[p * L + l] + 1]++;
+  for (size_t v = 0; v < nv; v++)
+    xp->vert_start[v + 1] += xp->vert_start[v];
+  size_t *next = malloc((nv ? nv : 1) * sizeof(size_t));
+  xp->vert_entries = malloc((xp->vert_start[nv] ? xp->vert_start[nv] : 1) * sizeof(size_t));
+  if (!next || !xp->vert_entries) {
+    free(next);
+    return EK_ENOMEM;
+  }
+  memcpy(next, xp->vert_start, nv * sizeof(size_t));
+  for (size_t p = 0; p < xp->nplanes; p++)
+    for (size_t l = 0; l < L; l++) {
+      const int32_t v = xp->idx[p * L + l];
+      if (v >= 0)
+        xp->vert_entries[next[v]++] = p * 3 * L + l;
+    }
+  free(next);
+  return EK_OK;
+}
+
+// Planes in the precision of the sweeps.
+static void *planes_of(const double *src, size_t n, int precision) {
+  void *p = ek_alloc((n ? n : 1) * (precision == 32 ? sizeof(float) : sizeof(double)));
+  if (!p)
+    return NULL;
+  for (size_t i = 0; i < n; i++) {
+    if (precision == 32)
+      ((float *)p)[i] = (float)src[i];
+    else
+      ((double *)p)[i] = src[i];
+  }
+  return p;
+}
+
+ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young, const double *mass,
+                        const ek_xpbd_opts *opts) {
+  static const char *fn = "ek_xpbd_create";
+  ek_xpbd_opts o = {0};
+  if (opts)
+    o = *opts;
+  if (!el || !mat) {
+    ek_set_error("%s: NULL argument (elements %p, material %p)", fn, (const void *)el,
+                 (const void *)mat);
+    return NULL;
+  }
+  if (mat->model != EK_MODEL_STVK) {
+    ek_set_error("%s: model %s: the Hookean constraint of seed 001 is StVK's energy: use "
+                 "EK_MODEL_STVK",
+                 fn, ek_model_name(mat->model));
+    return NULL;
+  }
+  if (ek_material_check(mat) < 0)
+    return NULL;
+  if (!(young > 0) || !isfinite(young)) {
+    ek_set_error("%s: Young's modulus %g: must be finite and > 0", fn, young);
+    return NULL;
+  }
+  if ((unsigned)o.elements >= EK_XPBD_ELEMENTS_COUNT ||
+      (unsigned)o.solver >= EK_XPBD_SOLVER_COUNT) {
+    ek_set_error("%s: elements %d / solver %d: not a valid ek_xpbd_elements / ek_xpbd_solver", fn,
+                 (int)o.elements, (int)o.solver);
+    return NULL;
+  }
+  if (o.precision != 0 && o.precision != 32 && o.precision != 64) {
+    ek_set_error("%s: precision %d: must be 32 or 64 (0 = 64)", fn, o.precision);
+    return NULL;
+  }
+  if (o.elements == EK_XPBD_CLUSTERS) {
+    if (!mass) {
+      ek_set_error("%s: clusters need the vertex masses (shape matching weights)", fn);
+      return NULL;
+    }
+    for (size_t v = 0; v < el->nverts; v++)
+      if (!(mass[v] >= 0) || !isfinite(mass[v])) {
+        ek_set_error("%s: mass[%zu] = %g: must be finite and >= 0", fn, v, mass[v]);
+        return NULL;
+      }
+  }
+  ek_isa isa;
+  if (ek_isa_resolve(o.isa, &isa) < 0)
+    return NULL;
+  const ek_kernel_table *kt = ek_kernels_for(isa);
+  if (!kt)
+    return NULL;
+  ek_xpbd *xp = calloc(1, sizeof *xp);
+  if (!xp) {
+    ek_set_error("%s: out of memory", fn);
+    return NULL;
+  }
+  xp->el = el;
+  xp->elements = o.elements;
+  xp->solver = o.solver;
+  xp->isa = isa;
+  xp->kt = kt;
+  xp->precision = o.precision ? o.precision : 64;
+  xp->lanes = xp->precision == 32 ? EK_LANES_F32 : EK_LANES_F64;
+  xp->mu = mat->mu;
+  xp->lambda = mat->lambda;
+  xp->young = young;
+  xp->nverts = el->nverts;
+  double *stiff64 = NULL;
+  int rc =
+      o.elements == EK_XPBD_TETS ? build_tets(xp, &stiff64) : build_clusters(xp, mass, &stiff64);
+  if (rc == EK_OK)
+    rc = build_incidence(xp);
+  const size_t nl = xp->nblocks * (size_t)xp->lanes;
+  if (rc == EK_OK) {
+    xp->bv = planes_of(xp->bv64, xp->nplanes * 3 * (size_t)xp->lanes, xp->precision);
+    xp->stiff = planes_of(stiff64, nl, xp->precision);
+    const size_t rb = xp->precision == 32 ? sizeof(float) : sizeof(double);
+    xp->lambda_planes = ek_alloc((nl ? nl : 1) * rb);
+    xp->corr = ek_alloc((xp->nplanes * 3 * (size_t)xp->lanes + 1) * rb);
+    xp->sink = ek_alloc((2 * nl + 1) * rb);
+    xp->w = calloc(xp->nverts + 1, rb);
+    xp->wd = calloc(xp->nverts + 1, rb);
+    if (!xp->bv || !xp->stiff || !xp->lambda_planes || !xp->corr || !xp->sink || !xp->w || !xp->wd)
+      rc = EK_ENOMEM;
+    else
+      memset(xp->lambda_planes, 0, nl * rb);
+  }
+  free(stiff64);
+  if (rc < 0) {
+    if (rc == EK_ENOMEM)
+      ek_set_error("%s: out of memory for %zu constraints", fn, xp->ncons);
+    ek_xpbd_destroy(xp);
+    return NULL;
+  }
+  return xp;
+}
+
+size_t ek_xpbd_count(const ek_xpbd *xp) { return xp ? xp->ncons : 0; }
+int ek_xpbd_ncolors(const ek_xpbd *xp) { return xp ? xp->ncolors : 0; }
+int ek_xpbd_max_members(const ek_xpbd *xp) { return xp ? xp->max_members : 0; }
+
+int ek_xpbd_members(const ek_xpbd *xp, size_t j, int32_t *members, double *b) {
+  if (!xp || j >= xp->ncons) {
+    ek_set_error("ek_xpbd_members: constraint %zu: out of range", j);
+    return EK_EINVAL;
+  }
+  if (xp->con_slot[j] < 0)
+    return 0; // a vertex in no tet has no cluster
+  const size_t L = (size_t)xp->lanes, s = (size_t)xp->con_slot[j], bk = s / L, l = s % L;
+  int K = 0;
+  for (int k = 0; k < xp->nmem[bk]; k++) {
+    const size_t p = xp->moff[bk] + (size_t)k;
+    if (xp->idx[p * L + l] < 0)
+      break;
+    if (members)
+      members[k] = xp->idx[p * L + l];
+    if (b && k > 0)
+      for (int d = 0; d < 3; d++)
+        b[3 * (k - 1) + d] = xp->bv64[(p * 3 + (size_t)d) * L + l];
+    K++;
+  }
+  return K;
+}
+
+int ek_xpbd_order(const ek_xpbd *xp, int32_t *order) {
+  if (!xp || !order) {
+    ek_set_error("ek_xpbd_order: NULL argument");
+    return EK_EINVAL;
+  }
+  const size_t L = (size_t)xp->lanes;
+  size_t n = 0;
+  for (size_t t = 0; t < xp->ntasks; t++)
+    for (size_t b = xp->task_block[t]; b < xp->task_block[t + 1]; b++)
+      for (size_t l = 0; l < L; l++)
+        if (xp->cid[b * L + l] >= 0)
+          order[n++] = xp->cid[b * L + l];
+  return (int)n;
+}
+
+int ek_xpbd_set_weights(ek_xpbd *xp, const double *w) {
+  if (!xp || !w) {
+    ek_set_error("ek_xpbd_set_weights: NULL argument");
+    return EK_EINVAL;
+  }
+  for (size_t v = 0; v < xp->nverts; v++)
+    if (!(w[v] >= 0) || !isfinite(w[v])) {
+      ek_set_error("ek_xpbd_set_weights: w[%zu] = %g: must be finite and >= 0", v, w[v]);
+      return EK_EINVAL;
+    }
+  const int jacobi = xp->solver == EK_XPBD_JACOBI;
+  for (size_t v = 0; v < xp->nverts; v++) {
+    // Jacobi's denominator counts each vertex once per constraint on it.
+    const double wd = jacobi ? w[v] * (double)(xp->vert_start[v + 1] - xp->vert_start[v]) : w[v];
+    if (xp->precision == 32) {
+      ((float *)xp->w)[v] = (float)w[v];
+      ((float *)xp->wd)[v] = (float)wd;
+    } else {
+      ((double *)xp->w)[v] = w[v];
+      ((double *)xp->wd)[v] = wd;
+    }
+  }
+  xp->weights_set = 1;
+  return EK_OK;
+}
+
+int ek_xpbd_begin(ek_xpbd *xp, double h) {
+  if (!xp) {
+    ek_set_error("ek_xpbd_begin: NULL argument");
+    return EK_EINVAL;
+  }
+  if (!(h > 0) || !isfinite(h)) {
+    ek_set_error("ek_xpbd_begin: substep h = %g: must be finite and > 0", h);
+    return EK_EINVAL;
+  }
+  xp->h = h;
+  const size_t nl = xp->nblocks * (size_t)xp->lanes;
+  memset(xp->lambda_planes, 0, nl * (xp->precision == 32 ? sizeof(float) : sizeof(double)));
+  return EK_OK;
+}
+
+int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda) {
+  if (!xp || !lambda) {
+    ek_set_error("ek_xpbd_lambda: NULL argument");
+    return EK_EINVAL;
+  }
+  for (size_t j = 0; j < xp->ncons; j++) {
+    const int32_t s = xp->con_slot[j];
+    lambda[j] = s < 0                 ? 0.0
+                : xp->precision == 32 ? ((const float *)xp->lambda_planes)[s]
+                                      : ((const double *)xp->lambda_planes)[s];
+  }
+  return EK_OK;
+}
+#endif

@@ -1,0 +1,174 @@
+// XPBD block kernel: the Hookean constraint of seed 001 (include/ek/xpbd.h)
+// on AoSoA constraint blocks (layout in xpbd_kernel.h), written once against
+// the vector API and built per (ISA x precision). Per constraint:
+//   F = sum_{k>=1} (x_k - x_0) b_k^T         (Teran 2003 / seed 001)
+//   W = mu e:e + lambda/2 tr(e)^2, P = F S    (StVK, kernels/material/stvk.h)
+//   C = sqrt(2 W / E), g_k = P b_k / E, g_0 = -sum g_k, grad_k C = g_k / C
+//   dlambda = -(C k + lambda) / (k sum_k wd_k |g_k|^2 / C^2 + 1), k = V E h^2
+// (Macklin et al. 2016 eq. 18 multiplied through by k = 1 / alpha~, so a
+// padding lane, k = 0, gives dlambda = -lambda = 0 with no infinity), and
+// the correction x_k += w_k g_k dlambda / C. The loop is instantiated per
+// operation and for tets (4 members, a compile-time constant) apart from
+// clusters (nmem[b] members).
+#include "../simd/simd.h"
+
+#include "../material/stvk.h"
+#include "xpbd_kernel.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_xpbd_args_f32 xpbd_args;
+#else
+typedef struct ek_xpbd_args_f64 xpbd_args;
+#endif
+
+#define L EK_LANES
+
+// Gauss-Seidel: add w_v * hb (member k, lane l) into x; lanes with s == 0
+// (skipped or padding) are left alone, so a constraint at rest writes
+// nothing.
+static void scatter_block(const xpbd_args *a, const int32_t *idx, int K, const real *hb,
+                          const real *s) {
+  for (int l = 0; l < L; l++) {
+    if (s[l] == 0)
+      continue;
+    for (int k = 0; k < K; k++) {
+      const int32_t v = idx[k * L + l];
+      if (v < 0)
+        continue;
+      const real wv = a->w[v];
+      real *xv = a->x + 3 * (size_t)v;
+      for (int d = 0; d < 3; d++)
+        xv[d] += wv * hb[(k * 3 + d) * L + l];
+    }
+  }
+}
+
+EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[XPBD_MAX_MEMBERS * 3 * L];
+  _Alignas(64) real sl[L];
+  const vreal inv_young = vset(a->inv_young), h2 = vset(a->h2), c_min = vset(a->c_min);
+  const vreal zero = vzero(), one = vset(1), two = vset(2), half_lam = vset((real)0.5 * a->lam),
+              mu = vset(a->mu);
+  for (size_t b = b0; b < b1; b++) {
+    const int K = tets ? 4 : a->nmem[b];
+    const size_t m0 = tets ? 4 * b : a->moff[b];
+    const int32_t *idx = a->idx + m0 * L;
+    const real *bv = a->bv + m0 * 3 * L;
+    real *corr = a->corr ? a->corr + m0 * 3 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      // F from the members' offsets to member 0 (differences first: no
+      // cancellation of large coordinates).
+      vreal x0[3], F[9];
+      const vmask pad = vgather_points(a->x, idx + o, x0);
+      for (int i = 0; i < 9; i++)
+        F[i] = zero;
+      for (int k = 1; k < K; k++) {
+        vreal xk[3], bk[3];
+        vgather_points(a->x, idx + k * L + o, xk);
+        for (int j = 0; j < 3; j++)
+          bk[j] = vload(bv + (k * 3 + j) * L + o);
+        for (int i = 0; i < 3; i++) {
+          const vreal d = vsub(xk[i], x0[i]);
+          for (int j = 0; j < 3; j++)
+            F[3 * i + j] = vfma(d, bk[j], F[3 * i + j]);
+        }
+      }
+      if (op == XPBD_F_ONLY) {
+        vreal t = F[0];
+        for (int i = 1; i < 9; i++)
+          t = vadd(t, F[i]);
+        vstore(a->sink + b * L + o, t);
+        continue;
+      }
+      // W and P = F S (S = 2 mu e + lambda tr(e) I, e the Green strain).
+      vreal E[9], S[9], P[9];
+      stvk_green(F, E);
+      stvk_second_pk(a->mu, a->lam, E, S);
+      vm3_mul(F, S, P);
+      const vreal tr = vadd(E[0], vadd(E[4], E[8]));
+      const vreal W = vmla(mu, vm3_ddot(E, E), vmul(half_lam, vmul(tr, tr)));
+      const vreal C = vsqrt(vmax(vmul(two, vmul(W, inv_young)), zero));
+      const vmask active = vmand(vgt(C, c_min), vmnot(pad));
+      const vreal lam_j = vload(a->lambda + b * L + o);
+      const vreal kh2 = vmul(vload(a->stiff + b * L + o), h2);
+      if (op == XPBD_RESIDUAL) {
+        // |C + alpha~ lambda| = |C + lambda / k|; k > 0 on active lanes.
+        const vreal r = vabs(vadd(C, vdiv(lam_j, vsel(active, kh2, one))));
+        vstore(a->sink + (b * 2) * L + o, vsel(active, r, zero));
+        vstore(a->sink + (b * 2 + 1) * L + o, vsel(active, C, zero));
+        continue;
+      }
+      // g_k = P b_k / E (k >= 1), g_0 = -sum: written to corr (Jacobi,
+      // primal) or hb (Gauss-Seidel) and scaled in place below.
+      vreal g0[3] = {zero, zero, zero}, dsum = zero;
+      for (int k = 1; k < K; k++) {
+        vreal bk[3];
+        for (int j = 0; j < 3; j++)
+          bk[j] = vload(bv + (k * 3 + j) * L + o);
+        vreal n2 = zero;
+        for (int i = 0; i < 3; i++) {
+          vreal g = vmul(P[3 * i], bk[0]);
+          g = vfma(P[3 * i + 1], bk[1], g);
+          g = vfma(P[3 * i + 2], bk[2], g);
+          g = vmul(g, inv_young);
+          g0[i] = vsub(g0[i], g);
+          n2 = vfma(g, g, n2);
+          vstore(corr + (k * 3 + i) * L + o, g);
+        }
+        dsum = vfma(vgather(a->wd, idx + k * L + o), n2, dsum);
+      }
+      vreal n2 = zero;
+      for (int i = 0; i < 3; i++) {
+        n2 = vfma(g0[i], g0[i], n2);
+        vstore(corr + i * L + o, g0[i]);
+      }
+      dsum = vfma(vgather(a->wd, idx + o), n2, dsum);
+      const vreal inv_c = vdiv(one, vsel(active, C, one));
+      const vreal num = vneg(vfma(C, kh2, lam_j));
+      const vreal den = vfma(vmul(kh2, dsum), vmul(inv_c, inv_c), one);
+      const vreal dl = vsel(active, vdiv(num, den), zero);
+      if (op == XPBD_EVAL) {
+        vstore(a->sink + b * L + o, dl);
+        continue;
+      }
+      // Scale of the member values: grad_k C lambda (primal) or grad_k C
+      // dlambda (the correction before its w_k).
+      vreal s;
+      if (op == XPBD_PRIMAL) {
+        s = vsel(active, vmul(lam_j, inv_c), zero);
+      } else {
+        vstore(a->lambda + b * L + o, vadd(lam_j, dl));
+        s = vmul(dl, inv_c);
+      }
+      vstore(sl + o, s);
+      for (int k = 0; k < K; k++)
+        for (int i = 0; i < 3; i++) {
+          real *c = corr + (k * 3 + i) * L + o;
+          vstore(c, vmul(vload(c), s));
+        }
+    }
+    if (op == XPBD_GS)
+      scatter_block(a, idx, K, hb, sl);
+  }
+}
+
+#define XPBD_CASE(OP)                                                                              \
+  case OP:                                                                                         \
+    if (a->tets)                                                                                   \
+      xpbd_blocks(1, OP, a, b0, b1);                                                               \
+    else                                                                                           \
+      xpbd_blocks(0, OP, a, b0, b1);                                                               \
+    break;
+
+void EK_SYM(xpbd_block)(const xpbd_args *a, size_t b0, size_t b1) {
+  switch (a->op) {
+    XPBD_CASE(XPBD_GS)
+    XPBD_CASE(XPBD_JACOBI)
+    XPBD_CASE(XPBD_PRIMAL)
+    XPBD_CASE(XPBD_RESIDUAL)
+    XPBD_CASE(XPBD_F_ONLY)
+    XPBD_CASE(XPBD_EVAL)
+  default:
+    break;
+  }
+}

@@ -1,0 +1,93 @@
+// Internal: the XPBD constraint blocks, the arguments of the block kernel
+// (kernels/xpbd/xpbd_block.c) and the state behind ek_xpbd (include/ek/
+// xpbd.h), shared by the kernel and its driver (kernels/xpbd/xpbd.c).
+//
+// Constraint blocks (AoSoA, LANES = 16 for f32, 8 for f64): block b holds
+// LANES constraints with up to nmem[b] members each; its member planes
+// start at plane moff[b]:
+//   idx[(moff[b] + k) * L + l]           member k's vertex (-1: none)
+//   bv[((moff[b] + k) * 3 + d) * L + l]  b_k (k >= 1; member 0's unused)
+//   stiff[b * L + l]                     V_j E (0: padding lane)
+//   lambda[b * L + l]                    the multiplier
+// A padding lane has every idx -1; a cluster smaller than nmem[b] has
+// idx -1 and b = 0 for its missing members.
+#ifndef EK_XPBD_KERNEL_H
+#define EK_XPBD_KERNEL_H
+
+#include <ek/xpbd.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../kernels.h"
+
+// What one kernel call does for blocks [b0, b1):
+//   XPBD_GS       project every constraint, x updated in place (the
+//                 blocks' constraints share no vertex);
+//   XPBD_JACOBI   dlambda with the n_i-weighted denominator, lambda
+//                 updated, the position corrections w_k grad_k C dlambda
+//                 written to corr (member-plane layout, 3 per member);
+//   XPBD_PRIMAL   grad_k C lambda written to corr;
+//   XPBD_RESIDUAL |C + lambda / (V E h^2)| and C to sink[(b*2 + 0/1)*L + l]
+//                 (0 for skipped constraints);
+//   XPBD_F_ONLY   the deformation gradients alone (a sum of F to sink);
+//   XPBD_EVAL     F, W, P, grad C and dlambda, dlambda to sink; nothing
+//                 else written.
+enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_PRIMAL, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_EVAL };
+
+// Clusters larger than this are refused (a vertex with more than 127
+// neighbours).
+#define XPBD_MAX_MEMBERS 128
+
+#define EK_XPBD_ARGS(T, NAME)                                                                      \
+  struct NAME {                                                                                    \
+    int op;                                                                                        \
+    int tets; /* every block has 4 members: the compile-time path */                               \
+    const int32_t *nmem;                                                                           \
+    const size_t *moff;                                                                            \
+    const int32_t *idx;                                                                            \
+    const T *bv;                                                                                   \
+    const T *stiff;                                                                                \
+    T *lambda;                                                                                     \
+    T mu, lam, inv_young, h2, c_min;                                                               \
+    T *x;        /* positions */                                                                   \
+    const T *w;  /* inverse masses (nverts) */                                                     \
+    const T *wd; /* the denominator's: w (Gauss-Seidel) or n w (Jacobi) */                         \
+    T *corr;     /* Jacobi, primal */                                                              \
+    T *sink;     /* residual, profile */                                                           \
+  }
+EK_XPBD_ARGS(float, ek_xpbd_args_f32);
+EK_XPBD_ARGS(double, ek_xpbd_args_f64);
+
+// Behind ek_xpbd. Blocks in one precision (opts.precision): the *_f32 or
+// *_f64 planes; bv64 always (ek_xpbd_members).
+struct ek_xpbd {
+  const ek_tets *el;
+  ek_xpbd_elements elements;
+  ek_xpbd_solver solver;
+  ek_isa isa;
+  const ek_kernel_table *kt;
+  int precision, lanes;
+  double mu, lambda, young, h;
+  size_t nverts, ncons, nblocks, nplanes; // nplanes: member planes
+  int ncolors, max_members;
+  int32_t *nmem;
+  size_t *moff;
+  int32_t *idx;
+  int32_t *cid;      // nblocks * L: constraint id per lane, -1 padding
+  int32_t *con_slot; // ncons: block * L + lane of each constraint
+  double *bv64;
+  void *bv, *stiff, *lambda_planes, *w, *wd, *corr, *sink;
+  // Schedule: phase p runs tasks [phase_task[p], phase_task[p+1]) in
+  // parallel; task t is blocks [task_block[t], task_block[t+1]) in order.
+  size_t nphases, ntasks;
+  size_t *phase_task, *task_block;
+  // Jacobi and primal: vertex v's corrections are corr entries
+  // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
+  // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
+  // vert_start[v+1] - vert_start[v].
+  size_t *vert_start;
+  size_t *vert_entries;
+  int weights_set;
+};
+
+#endif
