@@ -561,6 +561,35 @@ static int parse_loads(parse_ctx *c, const cJSON *root, ek_scene *s) {
   return 0;
 }
 
+// XPBD's keys (ek_scene_xpbd).
+static int parse_xpbd(parse_ctx *c, const cJSON *integ, ek_scene_xpbd *x) {
+  const char *solver = NULL, *elements = NULL;
+  const cJSON *node = NULL;
+  int rc;
+  if ((rc = check_keys(
+           c, integ, "integrator",
+           (const char *const[]){"type", "iterations", "substeps", "solver", "elements", NULL})) ||
+      (rc = get_count(c, integ, "integrator", "iterations", 0, 1, 100000, &x->iterations)) ||
+      (rc = get_count(c, integ, "integrator", "substeps", 0, 1, 100000, &x->substeps)) ||
+      (rc = get_string(c, integ, "integrator", "solver", 0, &solver, &node)))
+    return rc;
+  if (solver && strcmp(solver, "gauss_seidel") == 0)
+    x->solver = EK_XPBD_GAUSS_SEIDEL;
+  else if (solver && strcmp(solver, "jacobi") == 0)
+    x->solver = EK_XPBD_JACOBI;
+  else if (solver)
+    return bad(c, "integrator.solver", node, "unknown solver (known: gauss_seidel, jacobi)");
+  if ((rc = get_string(c, integ, "integrator", "elements", 0, &elements, &node)))
+    return rc;
+  if (elements && strcmp(elements, "tets") == 0)
+    x->elements = EK_XPBD_TETS;
+  else if (elements && strcmp(elements, "clusters") == 0)
+    x->elements = EK_XPBD_CLUSTERS;
+  else if (elements)
+    return bad(c, "integrator.elements", node, "unknown elements (known: tets, clusters)");
+  return 0;
+}
+
 // "integrator": {"type": NAME, ...}, optional (default explicit). The type
 // comes first: the keys an integrator takes besides it depend on which one
 // it is (explicit takes none; implicit: ek_scene_implicit).
@@ -589,6 +618,8 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
     return bad(c, "integrator.type", node, "unknown integrator (known: %s)", list);
   }
   s->integrator = (ek_integrator_type)found;
+  if (s->integrator == EK_INTEGRATOR_XPBD)
+    return parse_xpbd(c, integ, &s->xpbd);
   if (s->integrator != EK_INTEGRATOR_IMPLICIT)
     return check_keys(c, integ, "integrator", (const char *const[]){"type", NULL});
   ek_scene_implicit *im = &s->implicit;
@@ -642,6 +673,7 @@ static void scene_defaults(ek_scene *s) {
                                     .cg_tol = 1e-4,
                                     .max_cg = 1000,
                                     .preconditioner = EK_PRECOND_BLOCK_JACOBI};
+  s->xpbd = (ek_scene_xpbd){.iterations = 10, .substeps = 1};
   s->young = NAN;
   s->poisson = NAN;
   s->output_every = 1;

@@ -19,6 +19,7 @@
 const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT] = {
     [EK_INTEGRATOR_EXPLICIT] = &sim_integrator_explicit,
     [EK_INTEGRATOR_IMPLICIT] = &sim_integrator_implicit,
+    [EK_INTEGRATOR_XPBD] = &sim_integrator_xpbd,
 };
 
 const char *ek_scene_integrator_name(ek_integrator_type type) {

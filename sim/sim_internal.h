@@ -42,6 +42,7 @@ typedef struct {
 
 extern const sim_integrator sim_integrator_explicit;
 extern const sim_integrator sim_integrator_implicit;
+extern const sim_integrator sim_integrator_xpbd;
 // Indexed by ek_integrator_type.
 extern const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT];
 

@@ -22,6 +22,10 @@
 //             Pinned and prescribed vertices take their position at
 //             t_{n+1} before the solve; the ground is applied after it,
 //             as in the explicit loop.
+//   xpbd      XPBD (xpbd.h: the Hookean constraint of seed 001 on tets or
+//             shape-matching clusters) in K substeps of h = dt / K, each
+//             N solver sweeps from lambda = 0; see ek_scene_xpbd. Model
+//             stvk (the seed's energy) only.
 // Positions and velocities are kept in double; the force kernel runs in the
 // scene's precision (f32 converts x to float once per force evaluation).
 // Corotated linear refreshes R^n per tet from the positions at the start of
@@ -52,7 +56,10 @@
 //                 "newton_tol", "max_newton", "cg_tol", "max_cg",
 //                 "preconditioner": "jacobi" | "block_jacobi",
 //                 "projection": "clamp" | "abs"}
-//                 (ek_scene_implicit: meanings and defaults)
+//                 (ek_scene_implicit: meanings and defaults) or
+//                 {"type": "xpbd", "iterations", "substeps", "solver":
+//                 "gauss_seidel" | "jacobi", "elements": "tets" |
+//                 "clusters"} (ek_scene_xpbd)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
 //
@@ -74,6 +81,7 @@
 #include "material.h"
 #include "mesh.h"
 #include "svd3.h"
+#include "xpbd.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -123,6 +131,7 @@ extern "C" {
 typedef enum {
   EK_INTEGRATOR_EXPLICIT = 0, // "explicit": symplectic Euler (sim/explicit.c)
   EK_INTEGRATOR_IMPLICIT,     // "implicit": backward Euler by Newton + PCG (sim/implicit.c)
+  EK_INTEGRATOR_XPBD,         // "xpbd": XPBD, seed 001's constraint (sim/xpbd.c)
   EK_INTEGRATOR_COUNT
 } ek_integrator_type;
 
@@ -168,6 +177,29 @@ typedef struct {
   ek_preconditioner preconditioner;
   ek_projection projection;
 } ek_scene_implicit;
+
+// The XPBD integrator's knobs, the scene's "integrator": {"type": "xpbd",
+// ...} (defaults in brackets). Per substep of h = dt / substeps
+// (Macklin et al. 2016, alg. 1; Macklin et al. 2019, "Small steps"):
+//   x~ = x + h (v + h g) / (1 + c h), w_i = 1 / (m_i (1 + c h))
+// (pinned and prescribed vertices: their position at the substep's end,
+// w = 0), lambda = 0, `iterations` sweeps of the solver from x = x~, then
+// v = (x - x_start) / h and the ground as in the other loops. With damping
+// c = 0 this is the seed's x~ = x + h v + h^2 g; with c > 0 it is the
+// incremental potential of the implicit loop (ek_scene_implicit) with M
+// scaled by (1 + c h) and x~ moved, so both loops solve the same problem.
+// iterations [10]: solver sweeps per substep (1..100000).
+// substeps [1]: substeps per step (1..100000).
+// solver ["gauss_seidel"]: or "jacobi" (xpbd.h).
+// elements ["tets"]: or "clusters" (one-ring shape matching, xpbd.h).
+// XPBD drops the primal residual g = M (x - x~) - grad C^T lambda
+// (Macklin 2016 eq. 8, the g = 0 approximation), so even fully iterated it
+// lands near, not on, backward Euler; xpbd.h says why no variant keeps it.
+typedef struct {
+  long iterations, substeps;
+  ek_xpbd_solver solver;
+  ek_xpbd_elements elements;
+} ek_scene_xpbd;
 
 typedef enum {
   EK_BC_PIN,     // held at the initial position
@@ -222,6 +254,7 @@ typedef struct {
   long steps;
   ek_integrator_type integrator;
   ek_scene_implicit implicit; // integrator.type "implicit" only
+  ek_scene_xpbd xpbd;         // integrator.type "xpbd" only
   // Output ("" = none): frames every output_every steps (and the first).
   char output_file[EK_SCENE_PATH_MAX];
   long output_every;
@@ -281,6 +314,16 @@ typedef struct {
   long unconverged_steps; // stopped above newton_tol (max_newton or a stalled line search)
   double worst_residual;  // the largest final Newton residual of a step
   double last_residual;   // the last step's final residual
+  // XPBD integrator (0 otherwise): `xpbd_solve` the solver sweeps; per sweep, measured once per
+  // phase-timed step at the step's end (ek_xpbd_profile_*), summed over
+  // xpbd_profiles: the deformation gradients (tet F or cluster F), the
+  // constraint evaluation (W, P, grad C, dlambda) and the projection (the
+  // position updates). The residual max_j |C_j + alpha~_j lambda_j| after
+  // the last sweep of a step: the last step's, the worst step's.
+  double xpbd_solve;
+  double xpbd_sweep_F, xpbd_sweep_eval, xpbd_sweep_project;
+  long xpbd_sweeps, xpbd_profiles;
+  double xpbd_last_residual, xpbd_worst_residual, xpbd_last_cmax;
 } ek_sim_times;
 
 typedef struct {

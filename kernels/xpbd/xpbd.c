@@ -1,7 +1,7 @@
 // Driver of ek_xpbd (include/ek/xpbd.h): constraint blocks for tets (from
 // the element layer's coloured order) and for shape-matching clusters
 // (built and coloured here), the Gauss-Seidel and Jacobi sweeps, the
-// primal correction, the residual and the profile. Built once per
+// residual and the profile. Built once per
 // precision: the sweeps of each precision here; creation and the
 // precision-free functions in the f64 instance.
 #include <math.h>
@@ -93,27 +93,22 @@ static void all_blocks(const ek_xpbd *xp, const xpbd_args *a) {
   }
 }
 
-// x_v = base_v + w_v * (sum of v's corr entries, in entry order); base
-// NULL: x_v += w_v * sum.
-static void gather_corrections(const ek_xpbd *xp, const real *base, real *x) {
+// x_v += w_v * (sum of v's corr entries, in entry order).
+static void gather_corrections(const ek_xpbd *xp, real *x) {
   const real *corr = xp->corr, *w = xp->w;
   const size_t L = (size_t)xp->lanes;
   const long nv = (long)xp->nverts;
 #pragma omp for schedule(static)
   for (long v = 0; v < nv; v++) {
     const size_t e0 = xp->vert_start[v], e1 = xp->vert_start[v + 1];
-    if (e0 == e1 || w[v] == 0) {
-      if (base)
-        for (int d = 0; d < 3; d++)
-          x[3 * v + d] = base[3 * v + d];
+    if (e0 == e1 || w[v] == 0)
       continue;
-    }
     real s[3] = {0, 0, 0};
     for (size_t e = e0; e < e1; e++)
       for (int d = 0; d < 3; d++)
         s[d] += corr[xp->vert_entries[e] + (size_t)d * L];
     for (int d = 0; d < 3; d++)
-      x[3 * v + d] = (base ? base[3 * v + d] : x[3 * v + d]) + w[v] * s[d];
+      x[3 * v + d] += w[v] * s[d];
   }
 }
 
@@ -127,7 +122,7 @@ static void sweeps(const ek_xpbd *xp, real *x, int iterations) {
   for (int it = 0; it < iterations; it++) {
     if (jacobi) {
       all_blocks(xp, &a);
-      gather_corrections(xp, NULL, x);
+      gather_corrections(xp, x);
       continue;
     }
     // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
@@ -149,24 +144,6 @@ int EK_P(xpbd_iterate)(ek_xpbd *xp, real *x, int iterations) {
     return EK_EINVAL;
   }
   sweeps(xp, x, iterations);
-  return EK_OK;
-}
-
-int EK_P(xpbd_primal)(ek_xpbd *xp, const real *x_pred, real *x) {
-  int rc = check(xp, "ek_xpbd_primal", x, 1);
-  if (rc < 0)
-    return rc;
-  if (!x_pred) {
-    ek_set_error("ek_xpbd_primal: NULL argument");
-    return EK_EINVAL;
-  }
-  xpbd_args a = args_for(xp, XPBD_PRIMAL, x);
-  a.corr = xp->corr;
-#pragma omp parallel if (parallel_for(xp))
-  {
-    all_blocks(xp, &a);
-    gather_corrections(xp, x_pred, x);
-  }
   return EK_OK;
 }
 
@@ -630,7 +607,7 @@ done:
   return rc;
 }
 
-// Vertex -> its correction entries (Jacobi, primal), in block order.
+// Vertex -> its correction entries (Jacobi), in block order.
 static int build_incidence(ek_xpbd *xp) {
   const size_t L = (size_t)xp->lanes, nv = xp->nverts;
   xp->vert_start = calloc(nv + 1, sizeof(size_t));

@@ -98,8 +98,8 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
         vstore(a->sink + (b * 2 + 1) * L + o, vsel(active, C, zero));
         continue;
       }
-      // g_k = P b_k / E (k >= 1), g_0 = -sum: written to corr (Jacobi,
-      // primal) or hb (Gauss-Seidel) and scaled in place below.
+      // g_k = P b_k / E (k >= 1), g_0 = -sum: written to corr (Jacobi) or
+      // hb (Gauss-Seidel) and scaled in place below.
       vreal g0[3] = {zero, zero, zero}, dsum = zero;
       for (int k = 1; k < K; k++) {
         vreal bk[3];
@@ -131,15 +131,9 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
         vstore(a->sink + b * L + o, dl);
         continue;
       }
-      // Scale of the member values: grad_k C lambda (primal) or grad_k C
-      // dlambda (the correction before its w_k).
-      vreal s;
-      if (op == XPBD_PRIMAL) {
-        s = vsel(active, vmul(lam_j, inv_c), zero);
-      } else {
-        vstore(a->lambda + b * L + o, vadd(lam_j, dl));
-        s = vmul(dl, inv_c);
-      }
+      // The correction before its w_k: grad_k C dlambda = g_k dlambda / C.
+      vstore(a->lambda + b * L + o, vadd(lam_j, dl));
+      const vreal s = vmul(dl, inv_c);
       vstore(sl + o, s);
       for (int k = 0; k < K; k++)
         for (int i = 0; i < 3; i++) {
@@ -164,7 +158,6 @@ void EK_SYM(xpbd_block)(const xpbd_args *a, size_t b0, size_t b1) {
   switch (a->op) {
     XPBD_CASE(XPBD_GS)
     XPBD_CASE(XPBD_JACOBI)
-    XPBD_CASE(XPBD_PRIMAL)
     XPBD_CASE(XPBD_RESIDUAL)
     XPBD_CASE(XPBD_F_ONLY)
     XPBD_CASE(XPBD_EVAL)

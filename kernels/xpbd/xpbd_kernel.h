@@ -26,13 +26,12 @@
 //   XPBD_JACOBI   dlambda with the n_i-weighted denominator, lambda
 //                 updated, the position corrections w_k grad_k C dlambda
 //                 written to corr (member-plane layout, 3 per member);
-//   XPBD_PRIMAL   grad_k C lambda written to corr;
 //   XPBD_RESIDUAL |C + lambda / (V E h^2)| and C to sink[(b*2 + 0/1)*L + l]
 //                 (0 for skipped constraints);
 //   XPBD_F_ONLY   the deformation gradients alone (a sum of F to sink);
 //   XPBD_EVAL     F, W, P, grad C and dlambda, dlambda to sink; nothing
 //                 else written.
-enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_PRIMAL, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_EVAL };
+enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_EVAL };
 
 // Clusters larger than this are refused (a vertex with more than 127
 // neighbours).
@@ -52,7 +51,7 @@ enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_PRIMAL, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_E
     T *x;        /* positions */                                                                   \
     const T *w;  /* inverse masses (nverts) */                                                     \
     const T *wd; /* the denominator's: w (Gauss-Seidel) or n w (Jacobi) */                         \
-    T *corr;     /* Jacobi, primal */                                                              \
+    T *corr;     /* Jacobi */                                                                      \
     T *sink;     /* residual, profile */                                                           \
   }
 EK_XPBD_ARGS(float, ek_xpbd_args_f32);
@@ -81,7 +80,7 @@ struct ek_xpbd {
   // parallel; task t is blocks [task_block[t], task_block[t+1]) in order.
   size_t nphases, ntasks;
   size_t *phase_task, *task_block;
-  // Jacobi and primal: vertex v's corrections are corr entries
+  // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
   // vert_start[v+1] - vert_start[v].
