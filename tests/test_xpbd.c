@@ -10,8 +10,7 @@
 //      and nothing NaN (every ISA x precision x solver x elements);
 //   d. the library against the reference, every ISA x precision x solver
 //      x elements: positions after a few sweeps (EK_XPBD_TOL_F32/_F64),
-//      multipliers, residuals, the primal correction, and the constraint
-//      data (members, b);
+//      multipliers, residuals, and the constraint data (members, b);
 //   e. the same bits at 1 and 2 threads, above the parallel threshold;
 //   f. a free body without gravity keeps its momentum;
 //   g. bad arguments are refused with a message; ISAs the CPU lacks are
@@ -192,22 +191,6 @@ static int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iteratio
   for (size_t i = 0; i < n3; i++)
     x[i] = xf[i];
   free(xf);
-  return rc;
-}
-
-static int lib_primal(ek_xpbd *xp, int prec, size_t n3, const double *x_pred, double *x) {
-  if (prec == 64)
-    return ek_xpbd_primal_f64(xp, x_pred, x);
-  float *xf = calloc(n3, sizeof(float)), *pf = calloc(n3, sizeof(float));
-  for (size_t i = 0; i < n3; i++) {
-    xf[i] = (float)x[i];
-    pf[i] = (float)x_pred[i];
-  }
-  int rc = ek_xpbd_primal_f32(xp, pf, xf);
-  for (size_t i = 0; i < n3; i++)
-    x[i] = xf[i];
-  free(xf);
-  free(pf);
   return rc;
 }
 
@@ -571,15 +554,12 @@ static void deform_half(ek_rng *rng, const scene *sc, double *x) {
 static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
   size_t nv = sc->t.nverts, n3 = nv * 3;
   double *xs = malloc(n3 * sizeof(double)), *x = malloc(n3 * sizeof(double));
-  double *xr = malloc(n3 * sizeof(double)), *xp_pred = malloc(n3 * sizeof(double));
-  double *xl = malloc(n3 * sizeof(double)), *xq = malloc(n3 * sizeof(double));
+  double *xr = malloc(n3 * sizeof(double));
   const char *start = half ? "half at rest" : "deformed";
   if (half)
     deform_half(rng, sc, xs);
   else
     deform(rng, sc, 0.1, xs);
-  for (size_t i = 0; i < n3; i++) // x~: the start moved by up to a tenth of a cell
-    xp_pred[i] = xs[i] + 0.01 * (2 * ek_rng_uniform(rng) - 1);
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
     if (!ek_isa_available((ek_isa)isa) && !half)
       printf("d. skipped %s: not available on this CPU/build\n", ek_isa_name((ek_isa)isa));
@@ -597,7 +577,7 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
            ek_xpbd_elements_name((ek_xpbd_elements)e), skipped, s->n);
     double *lr = malloc(s->n * sizeof(double)), *ll = malloc(s->n * sizeof(double));
     for (int prec = 32; prec <= 64; prec += 32) {
-      double worst[6] = {0}; // x, lambda, residual, residual at x, primal, b
+      double worst[5] = {0}; // x, lambda, residual, residual at x, b
       int cases = 0;
       double tol = tol_of(prec), cmin = cmin_of(prec);
       for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
@@ -625,9 +605,6 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
           rc = rc ? rc : ek_xpbd_lambda(xp, ll);
           double res = NAN, cmax = NAN, res_at = NAN;
           rc = rc ? rc : lib_residual(xp, prec, n3, x, &res, &cmax);
-          // The primal correction at the library's own state.
-          memcpy(xl, x, n3 * sizeof(double));
-          rc = rc ? rc : lib_primal(xp, prec, n3, xp_pred, xl);
           if (rc != 0) {
             printf("%s: rc %d (%s)\nFAIL\n", label, rc, ek_last_error());
             failures++;
@@ -641,52 +618,39 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
           double cmax_ref;
           double res_ref = ek_xpbd_ref_residual(s, &ref_mat, SUBSTEP, cmin, xr, lr, &cmax_ref);
           res_at = ek_xpbd_ref_residual(s, &ref_mat, SUBSTEP, cmin, x, ll, NULL);
-          memcpy(xq, x, n3 * sizeof(double));
-          double *pp = malloc(n3 * sizeof(double));
-          memcpy(pp, xp_pred, n3 * sizeof(double));
-          round_to(prec, n3, pp); // the f32 primal reads x~ in float
-          ek_xpbd_ref_primal(s, &ref_mat, sc->w, cmin, pp, ll, xq);
-          free(pp);
           double G = grad_scale(s, xr, cmin), dl = 0;
           for (size_t j = 0; j < s->n; j++) {
             double d = fabs(ll[j] - lr[j]) / (s->V[j] * YOUNG * SUBSTEP * SUBSTEP);
             if (!(d <= dl))
               dl = d;
           }
-          double m[6] = {max_abs_diff(n3, x, xr) / sc->diag,
-                         dl / (G * sc->diag),
+          double m[5] = {max_abs_diff(n3, x, xr) / sc->diag, dl / (G * sc->diag),
                          fmax(fabs(res - res_ref), fabs(cmax - cmax_ref)) / (G * sc->diag),
-                         fabs(res - res_at) / (G * sc->diag),
-                         max_abs_diff(n3, xl, xq) / sc->diag,
-                         eb};
+                         fabs(res - res_at) / (G * sc->diag), eb};
           if (isnan(res) || isnan(cmax))
             m[2] = NAN;
           int bad = 0;
-          for (int k = 0; k < 6; k++) {
-            double budget = k == 5 ? EK_XPBD_B_TOL : tol;
+          for (int k = 0; k < 5; k++) {
+            double budget = k == 4 ? EK_XPBD_B_TOL : tol;
             bad |= !(m[k] <= budget);
             if (!(m[k] <= worst[k]))
               worst[k] = m[k];
           }
-          printf("%s x %.2e lambda %.2e res %.2e (%.3g vs ref %.3g) res@x %.2e primal %.2e "
-                 "b %.2e %s\n",
-                 label, m[0], m[1], m[2], res, res_ref, m[3], m[4], m[5], bad ? "FAIL" : "ok");
+          printf("%s x %.2e lambda %.2e res %.2e (%.3g vs ref %.3g) res@x %.2e b %.2e %s\n", label,
+                 m[0], m[1], m[2], res, res_ref, m[3], m[4], bad ? "FAIL" : "ok");
           cases++;
           free(order);
           ek_xpbd_destroy(xp);
         }
       }
-      static const char *what[6] = {"positions / diag",
-                                    "alpha~ lambda / (G diag)",
-                                    "residual, max C (trajectory) / (G diag)",
-                                    "residual at the library's state / (G diag)",
-                                    "primal correction / diag",
-                                    "b_k (members equal)"};
-      for (int k = 0; k < 6; k++) {
+      static const char *what[5] = {
+          "positions / diag", "alpha~ lambda / (G diag)", "residual, max C (trajectory) / (G diag)",
+          "residual at the library's state / (G diag)", "b_k (members equal)"};
+      for (int k = 0; k < 5; k++) {
         char label[200];
         snprintf(label, sizeof label, "d. %s, %s f%d %s (%d cases)", start,
                  ek_xpbd_elements_name((ek_xpbd_elements)e), prec, what[k], cases);
-        failures += ek_check_report(label, worst[k], k == 5 ? EK_XPBD_B_TOL : tol);
+        failures += ek_check_report(label, worst[k], k == 4 ? EK_XPBD_B_TOL : tol);
       }
     }
     free(lr);
@@ -695,9 +659,6 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
   free(xs);
   free(x);
   free(xr);
-  free(xp_pred);
-  free(xl);
-  free(xq);
 }
 
 // ---- e: 1 and 2 threads ----
@@ -710,16 +671,13 @@ static void check_threads(ek_rng *rng) {
   for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++) {
     const scene *sc = &big[e];
     size_t n3 = sc->t.nverts * 3, n = sc->set[e].n;
-    double *xs = malloc(n3 * sizeof(double)), *pred = malloc(n3 * sizeof(double));
-    double *x[2], *xpr[2], *lam[2], res[2][2];
+    double *xs = malloc(n3 * sizeof(double));
+    double *x[2], *lam[2], res[2][2];
     for (int r = 0; r < 2; r++) {
       x[r] = malloc(n3 * sizeof(double));
-      xpr[r] = malloc(n3 * sizeof(double));
       lam[r] = malloc(n * sizeof(double));
     }
     deform(rng, sc, 0.1, xs);
-    for (size_t i = 0; i < n3; i++)
-      pred[i] = xs[i] + 0.01 * (2 * ek_rng_uniform(rng) - 1);
     for (int prec = 32; prec <= 64; prec += 32)
       for (int solver = 0; solver < EK_XPBD_SOLVER_COUNT; solver++) {
         int ok = 1;
@@ -737,16 +695,13 @@ static void check_threads(ek_rng *rng) {
           rc = rc ? rc : lib_iterate(xp, prec, n3, x[r], SWEEPS);
           rc = rc ? rc : ek_xpbd_lambda(xp, lam[r]);
           rc = rc ? rc : lib_residual(xp, prec, n3, x[r], &res[r][0], &res[r][1]);
-          memcpy(xpr[r], x[r], n3 * sizeof(double));
-          rc = rc ? rc : lib_primal(xp, prec, n3, pred, xpr[r]);
           ok &= rc == 0;
           ek_xpbd_destroy(xp);
         }
         omp_set_num_threads(2);
         ok = ok && memcmp(x[0], x[1], n3 * sizeof(double)) == 0 &&
              memcmp(lam[0], lam[1], n * sizeof(double)) == 0 &&
-             memcmp(res[0], res[1], sizeof res[0]) == 0 &&
-             memcmp(xpr[0], xpr[1], n3 * sizeof(double)) == 0;
+             memcmp(res[0], res[1], sizeof res[0]) == 0;
         char label[200];
         snprintf(label, sizeof label, "e. 1 and 2 threads, same bits: %s f%d %s (%zu constraints)",
                  ek_xpbd_elements_name((ek_xpbd_elements)e), prec,
@@ -755,11 +710,9 @@ static void check_threads(ek_rng *rng) {
       }
     for (int r = 0; r < 2; r++) {
       free(x[r]);
-      free(xpr[r]);
       free(lam[r]);
     }
     free(xs);
-    free(pred);
   }
   scene_free(&big[0]);
   scene_free(&big[1]);
@@ -930,12 +883,10 @@ static void check_errors(const scene *sc) {
     fail_if(ek_xpbd_begin(xp, SUBSTEP) != 0, "g. a valid h accepted");
     if (prec == 64) {
       refused(ek_xpbd_iterate_f32(xp, xf, 1) != EK_EINVAL, "f64 solver: ek_xpbd_iterate_f32");
-      refused(ek_xpbd_primal_f32(xp, xf, xf) != EK_EINVAL, "f64 solver: ek_xpbd_primal_f32");
       refused(ek_xpbd_residual_f32(xp, xf, &res, NULL) != EK_EINVAL,
               "f64 solver: ek_xpbd_residual_f32");
     } else {
       refused(ek_xpbd_iterate_f64(xp, x, 1) != EK_EINVAL, "f32 solver: ek_xpbd_iterate_f64");
-      refused(ek_xpbd_primal_f64(xp, x, x) != EK_EINVAL, "f32 solver: ek_xpbd_primal_f64");
       refused(ek_xpbd_residual_f64(xp, x, &res, NULL) != EK_EINVAL,
               "f32 solver: ek_xpbd_residual_f64");
     }
