@@ -183,11 +183,11 @@ static const int32_t *ref_members(const ek_xpbd_ref_set *s, size_t j, const doub
 // float values) ----
 static int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iterations) {
   if (prec == 64)
-    return ek_xpbd_iterate_f64(xp, x, iterations);
+    return ek_xpbd_iterate_f64(xp, NULL, x, iterations);
   float *xf = malloc(n3 * sizeof(float));
   for (size_t i = 0; i < n3; i++)
     xf[i] = (float)x[i];
-  int rc = ek_xpbd_iterate_f32(xp, xf, iterations);
+  int rc = ek_xpbd_iterate_f32(xp, NULL, xf, iterations);
   for (size_t i = 0; i < n3; i++)
     x[i] = xf[i];
   free(xf);
@@ -197,11 +197,11 @@ static int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iteratio
 static int lib_residual(const ek_xpbd *xp, int prec, size_t n3, const double *x, double *res,
                         double *cmax) {
   if (prec == 64)
-    return ek_xpbd_residual_f64(xp, x, res, cmax);
+    return ek_xpbd_residual_f64(xp, NULL, x, res, cmax);
   float *xf = malloc(n3 * sizeof(float));
   for (size_t i = 0; i < n3; i++)
     xf[i] = (float)x[i];
-  int rc = ek_xpbd_residual_f32(xp, xf, res, cmax);
+  int rc = ek_xpbd_residual_f32(xp, NULL, xf, res, cmax);
   free(xf);
   return rc;
 }
@@ -882,12 +882,12 @@ static void check_errors(const scene *sc) {
     refused(ek_xpbd_begin(xp, NAN) != EK_EINVAL, what);
     fail_if(ek_xpbd_begin(xp, SUBSTEP) != 0, "g. a valid h accepted");
     if (prec == 64) {
-      refused(ek_xpbd_iterate_f32(xp, xf, 1) != EK_EINVAL, "f64 solver: ek_xpbd_iterate_f32");
-      refused(ek_xpbd_residual_f32(xp, xf, &res, NULL) != EK_EINVAL,
+      refused(ek_xpbd_iterate_f32(xp, NULL, xf, 1) != EK_EINVAL, "f64 solver: ek_xpbd_iterate_f32");
+      refused(ek_xpbd_residual_f32(xp, NULL, xf, &res, NULL) != EK_EINVAL,
               "f64 solver: ek_xpbd_residual_f32");
     } else {
-      refused(ek_xpbd_iterate_f64(xp, x, 1) != EK_EINVAL, "f32 solver: ek_xpbd_iterate_f64");
-      refused(ek_xpbd_residual_f64(xp, x, &res, NULL) != EK_EINVAL,
+      refused(ek_xpbd_iterate_f64(xp, NULL, x, 1) != EK_EINVAL, "f32 solver: ek_xpbd_iterate_f64");
+      refused(ek_xpbd_residual_f64(xp, NULL, x, &res, NULL) != EK_EINVAL,
               "f32 solver: ek_xpbd_residual_f64");
     }
     ek_xpbd_destroy(xp);

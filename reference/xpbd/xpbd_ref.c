@@ -364,30 +364,6 @@ void ek_xpbd_ref_jacobi(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
   free(cnt);
 }
 
-void ek_xpbd_ref_primal(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
-                        double cmin, const double *x_pred, const double *lambda, double *x) {
-  double *g = malloc((size_t)max_members(s) * 3 * sizeof(double));
-  double *acc = calloc(3 * s->nverts, sizeof(double));
-  // g = M (x - x~) - grad C^T lambda = 0 (Macklin 2016 eq. 8) solved for x
-  // at the gradients of the current x.
-  for (size_t j = 0; j < s->n; j++) {
-    const int32_t *mem;
-    const double *b;
-    int K = element(s, j, &mem, &b);
-    double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, g);
-    if (!(C > cmin))
-      continue;
-    for (int k = 0; k < K; k++)
-      for (int r = 0; r < 3; r++)
-        acc[3 * mem[k] + r] += g[3 * k + r] * lambda[j];
-  }
-  for (size_t i = 0; i < s->nverts; i++)
-    for (int r = 0; r < 3; r++)
-      x[3 * i + r] = x_pred[3 * i + r] + w[i] * acc[3 * i + r];
-  free(g);
-  free(acc);
-}
-
 double ek_xpbd_ref_residual(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, double h,
                             double cmin, const double *x, const double *lambda, double *cmax) {
   double res = 0, cm = 0;

@@ -72,13 +72,6 @@ void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_materi
 // i), the corrections summed per vertex in constraint order, then added.
 void ek_xpbd_ref_jacobi(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
                         double h, double cmin, double *x, double *lambda);
-// The primal correction: x_i = x_pred_i + w_i sum_j grad_i C_j(x) lambda_j
-// over the constraints not skipped at x (x read, then overwritten): g = 0
-// in Macklin 2016 eq. 8 at the current gradients. The library no longer
-// offers this variant (xpbd.h: it diverged); kept to measure the gap
-// between XPBD's fixed point and backward Euler's.
-void ek_xpbd_ref_primal(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
-                        double cmin, const double *x_pred, const double *lambda, double *x);
 // max_j |C_j(x) + alpha~_j lambda_j| over the constraints with C_j > cmin
 // (0 if none); *cmax (may be NULL) receives max_j C_j over all of them.
 double ek_xpbd_ref_residual(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, double h,
