@@ -99,6 +99,10 @@ int ek_bench_thread_counts(const ek_bench *b, int *counts);
 int ek_bench_isas(ek_bench *b, ek_isa *isas);
 // Seed for the family's random inputs (--seed, printed and recorded).
 unsigned long long ek_bench_seed(const ek_bench *b);
+// Median ns per item of a row already timed in this run (e.g. to compare
+// two rows in a note); NAN if the row was not timed (filtered out, failed,
+// or in the listing pass).
+double ek_bench_median_ns(const ek_bench *b, const char *name);
 // Print a note (stderr) and record it with the run's metadata.
 void ek_bench_note(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 // Report a failure (kernel returned an error, setup failed): printed, and

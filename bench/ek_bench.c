@@ -111,6 +111,11 @@ int ek_bench_isas(ek_bench *b, ek_isa *isas) {
 
 unsigned long long ek_bench_seed(const ek_bench *b) { return b->seed; }
 
+double ek_bench_median_ns(const ek_bench *b, const char *name) {
+  const ek_result_row *r = name && !b->listing ? ek_results_find(&b->results, name) : NULL;
+  return r ? r->stats.median : NAN;
+}
+
 static void vnote(ek_bench *b, const char *prefix, const char *fmt, va_list ap) {
   char msg[512];
   vsnprintf(msg, sizeof msg, fmt, ap);
