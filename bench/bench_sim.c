@@ -1,11 +1,13 @@
-// ek-bench family "sim": the explicit loop (sim/explicit.c) and the implicit
-// loop (sim/implicit.c) on the shipped scenes, per step, no frame output:
-// explicit: FVM force (fused kernel), R^n refresh where the model needs it,
-// integration, boundary conditions and ground; implicit: Newton + PCG.
+// ek-bench family "sim": the explicit loop (sim/explicit.c), the implicit
+// loop (sim/implicit.c) and the XPBD loop (sim/xpbd.c) on the shipped
+// scenes, per step, no frame output: explicit: FVM force (fused kernel),
+// R^n refresh where the model needs it, integration, boundary conditions
+// and ground; implicit: Newton + PCG; XPBD: substeps x solver sweeps.
 //
 // Rows: sim/<scene>/<model>/<isa>/<prec>/tets:<N>/threads:<T>; one call is
-// STEPS_PER_CALL steps (1 for the implicit scenes), so the per-item time
-// is the time per step. The
+// STEPS_PER_CALL steps (1 for the implicit and XPBD scenes: a step is
+// already many passes over the mesh), so the per-item time is the time per
+// step. The
 // simulation keeps running across calls (a scene has no end; its step count
 // is only the default length of a run). After each row the split by phase
 // (deformation gradient, SVD/polar, P, scatter from the FVM kernel's
@@ -13,7 +15,17 @@
 // more steps and recorded as a note, in ms per step. After an implicit row
 // the note gives Newton and CG iterations per step, the time by phase, and
 // ns per tet of one Hessian product next to one FVM force evaluation of
-// the same mesh, precision and state (median of FORCE_CALLS calls).
+// the same mesh, precision and state (median of FORCE_CALLS calls). After
+// an XPBD row the note gives, on XPBD_PHASE_STEPS more phase-timed steps,
+// the sweeps per step, ms per step in the sweeps and in the rest, and one
+// sweep split into deformation gradients / constraint evaluation /
+// projection (ek_xpbd_profile_*, once per step), with the residual.
+//
+// sim/cantilever_xpbd/it:<N>/sub:<K>/threads:<T>: the cantilever_xpbd
+// scene at N sweeps per substep x K substeps per step (the cost per step of
+// each setting in XPBD_GRID; what each buys in accuracy is the table of
+// tests/test_sim_xpbd.c), followed, per thread count, by a note with the
+// per-sweep phase split from phase-timed steps of the last such row's run.
 //
 // sim/cantilever_1s/...: not a timed row but one run of each loop over 1 s
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
@@ -31,6 +43,9 @@
 #include <omp.h>
 
 enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20, FORCE_CALLS = 21 };
+// An XPBD step profiles one sweep (ek_xpbd_profile_*, three passes) and
+// costs up to 200 sweeps here: a few phase-timed steps are enough.
+enum { XPBD_PHASE_STEPS = 5 };
 
 typedef struct {
   ek_sim *sim;
@@ -129,6 +144,131 @@ static void implicit_note(ek_bench *b, const char *name, const ek_scene *scene, 
                 product, force, product / force);
 }
 
+// After an XPBD row: XPBD_PHASE_STEPS more steps of the same run with
+// phase timing on; the note gives what those steps cost and one sweep's
+// split (see the top comment). Returns 0, or -1 if a step failed.
+static int xpbd_phase_note(ek_bench *b, const char *name, ek_sim *sim, const ek_mesh *mesh) {
+  ek_sim_times before = *ek_sim_timings(sim);
+  ek_sim_time_phases(sim, 1);
+  int rc = 0;
+  for (int i = 0; i < XPBD_PHASE_STEPS && rc == 0; ++i)
+    rc = ek_sim_step(sim);
+  ek_sim_time_phases(sim, 0);
+  if (rc) {
+    ek_bench_fail(b, "sim: %s: phase-timed step failed (rc %d): %s", name, rc,
+                  ek_sim_last_error(sim));
+    return -1;
+  }
+  const ek_sim_times *t = ek_sim_timings(sim);
+  double n = (double)(t->steps - before.steps),
+         p = (double)(t->xpbd_profiles - before.xpbd_profiles);
+  double sweeps = (double)(t->xpbd_sweeps - before.xpbd_sweeps);
+  if (!(n > 0 && p > 0 && sweeps > 0))
+    return 0;
+  double F = (t->xpbd_sweep_F - before.xpbd_sweep_F) / p;
+  double eval = (t->xpbd_sweep_eval - before.xpbd_sweep_eval) / p;
+  double project = (t->xpbd_sweep_project - before.xpbd_sweep_project) / p;
+  double sum = F + eval + project, solve = t->xpbd_solve - before.xpbd_solve;
+  double ncons = (double)ek_sim_xpbd_constraints(sim);
+  ek_bench_note(b,
+                "%s: %.0f sweeps per step; ms per step: sweeps %.3f, the rest (prediction, "
+                "velocities, ground) %.3f; one sweep %.1f us in the loop (%.2f ns per "
+                "constraint, %.0f constraints, %zu tets); one profiled sweep (%.0f profiles): "
+                "F %.1f us (%.0f%%), evaluation %.1f us (%.0f%%), projection %.1f us (%.0f%%); "
+                "last residual %.3g, max C %.3g",
+                name, sweeps / n, 1e3 * solve / n, 1e3 * (t->integration - before.integration) / n,
+                1e6 * solve / sweeps, 1e9 * solve / (sweeps * ncons), ncons, ek_mesh_ntets(mesh), p,
+                1e6 * F, 100 * F / sum, 1e6 * eval, 100 * eval / sum, 1e6 * project,
+                100 * project / sum, t->xpbd_last_residual, t->xpbd_last_cmax);
+  return 0;
+}
+
+// sim/cantilever_xpbd/it:N/sub:K/threads:T (see the top comment): the
+// scene's integrator knobs replaced by each (N, K) below.
+static const struct {
+  long iterations, substeps;
+} xpbd_grid[] = {{1, 10}, {10, 1}, {5, 4}, {2, 20}, {10, 10}, {1, 50}, {4, 25}};
+
+static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
+  static const char *scene_name = "cantilever_xpbd";
+  static ek_scene scene;
+  char path[1200], err[1024];
+  ek_mesh *mesh = NULL;
+  int rc = 0, loaded = 0;
+  for (int t = 0; t < ncounts; ++t) {
+    ek_sim *last = NULL; // the last timed row's run, for the phase note
+    char last_name[EK_BENCH_NAME_MAX] = "";
+    for (size_t g = 0; g < sizeof xpbd_grid / sizeof xpbd_grid[0]; ++g) {
+      char name[EK_BENCH_NAME_MAX], knobs[256];
+      snprintf(name, sizeof name, "sim/%s/it:%ld/sub:%ld/threads:%d", scene_name,
+               xpbd_grid[g].iterations, xpbd_grid[g].substeps, counts[t]);
+      if (!ek_bench_wants(b, name))
+        continue;
+      sim_ctx ctx = {NULL, b, 0, 1};
+      if (!ek_bench_listing(b)) {
+        if (!loaded) {
+          scene_path(scene_name, path, sizeof path);
+          if (ek_scene_load(path, &scene, err, sizeof err) != 0 ||
+              !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
+            ek_bench_fail(b, "sim: %s: %s", scene_name, err);
+            ek_sim_destroy(last);
+            return -1;
+          }
+          scene.output_file[0] = '\0';
+          loaded = 1;
+        }
+        scene.xpbd.iterations = xpbd_grid[g].iterations;
+        scene.xpbd.substeps = xpbd_grid[g].substeps;
+        if (!(ctx.sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
+          ek_bench_fail(b, "sim: %s: %s", name, err);
+          rc = -1;
+          continue;
+        }
+      }
+      snprintf(knobs, sizeof knobs,
+               "scene=%s;integrator=xpbd;iterations=%ld;substeps=%ld;sweeps_per_step=%ld;"
+               "steps_per_call=1",
+               scene_name, xpbd_grid[g].iterations, xpbd_grid[g].substeps,
+               xpbd_grid[g].iterations * xpbd_grid[g].substeps);
+      ek_bench_row row = {.name = name,
+                          .family = "sim",
+                          .isa = EK_ISA_AUTO,
+                          .precision = "f32",
+                          .threads = counts[t],
+                          .knobs = knobs,
+                          .items = 1,
+                          .fn = run_steps,
+                          .ctx = &ctx};
+      if (!ek_bench_listing(b)) {
+        // The row's ISA and precision are the scene's (the name leaves
+        // them out: it is the same scene in every row).
+        ek_isa isa = EK_ISA_AUTO;
+        if (ek_isa_resolve(scene.svd.isa, &isa) == EK_OK)
+          row.isa = isa;
+        row.precision = scene.precision == 32 ? "f32" : "f64";
+      }
+      if (ek_bench_run(b, &row) != 0 || ctx.failed) {
+        rc = -1;
+        ek_sim_destroy(ctx.sim);
+        continue;
+      }
+      ek_sim_destroy(last);
+      last = ctx.sim;
+      snprintf(last_name, sizeof last_name, "%s", name);
+    }
+    // The harness set the threads for the last row; the note's steps run
+    // at the same count.
+    if (last) {
+      omp_set_num_threads(counts[t]);
+      if (xpbd_phase_note(b, last_name, last, mesh) != 0)
+        rc = -1;
+    }
+    ek_sim_destroy(last);
+  }
+  ek_mesh_destroy(mesh);
+  return rc;
+}
+
 // Mean z displacement of the cantilever's free end face (x = L).
 static double tip(const ek_sim *sim, const ek_mesh *mesh, double L) {
   const double *X = ek_mesh_rest_positions(mesh), *x = ek_sim_positions(sim);
@@ -204,7 +344,11 @@ int bench_sim(ek_bench *b) {
                                  "twist_implicit",
                                  "stiff_bar_implicit",
                                  "crush_implicit",
-                                 "crush_nh_implicit"};
+                                 "crush_nh_implicit",
+                                 "cantilever_xpbd",
+                                 "drop_xpbd",
+                                 "twist_xpbd",
+                                 "drop_clusters"};
   int counts[EK_BENCH_MAX_THREAD_COUNTS];
   int ncounts = ek_bench_thread_counts(b, counts);
   int rc = 0;
@@ -236,7 +380,8 @@ int bench_sim(ek_bench *b) {
       if (!ek_bench_wants(b, name))
         continue;
       const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT;
-      sim_ctx ctx = {NULL, b, 0, implicit ? 1 : STEPS_PER_CALL};
+      const int xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
+      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
           ek_bench_fail(b, "sim: %s: %s", scenes[k], err);
@@ -265,6 +410,9 @@ int bench_sim(ek_bench *b) {
         rc = -1;
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
+      } else if (ctx.sim && !ctx.failed && xpbd) {
+        if (xpbd_phase_note(b, name, ctx.sim, mesh) != 0)
+          rc = -1;
       } else if (ctx.sim && !ctx.failed) {
         // The split, on a few more steps of the same run (same threads:
         // the harness set them for the row).
@@ -290,6 +438,8 @@ int bench_sim(ek_bench *b) {
     }
     ek_mesh_destroy(mesh);
   }
+  if (xpbd_grid_rows(b, counts, ncounts) < 0)
+    rc = -1;
   if (cantilever_1s(b, counts[ncounts - 1]) < 0)
     rc = -1;
   return rc;
