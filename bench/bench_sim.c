@@ -142,6 +142,28 @@ static double tip(const ek_sim *sim, const ek_mesh *mesh, double L) {
   return count ? sum / count : NAN;
 }
 
+// After an XPBD row: sweeps per step, ns per constraint and sweep, the
+// sweep's phase split (one phase-timed step more) and the residual.
+static void xpbd_note(ek_bench *b, const char *name, const ek_scene *scene, ek_sim *sim) {
+  ek_sim_time_phases(sim, 1);
+  int rc = ek_sim_step(sim);
+  ek_sim_time_phases(sim, 0);
+  const ek_sim_times *t = ek_sim_timings(sim);
+  if (rc != 0 || t->xpbd_profiles == 0 || t->xpbd_sweeps == 0)
+    return;
+  const double p = (double)t->xpbd_profiles;
+  ek_bench_note(
+      b,
+      "%s: %ld substeps x %ld sweeps per step (%s, %s), %.2f ns per constraint and "
+      "sweep; one sweep split: deformation gradients %.4f ms, constraint evaluation "
+      "%.4f ms, projection %.4f ms; residual after the last sweep %.3g (largest C %.3g)",
+      name, scene->xpbd.substeps, scene->xpbd.iterations, ek_xpbd_solver_name(scene->xpbd.solver),
+      ek_xpbd_elements_name(scene->xpbd.elements),
+      1e9 * t->xpbd_solve / ((double)t->xpbd_sweeps * (double)ek_sim_xpbd_constraints(sim)),
+      1e3 * t->xpbd_sweep_F / p, 1e3 * t->xpbd_sweep_eval / p, 1e3 * t->xpbd_sweep_project / p,
+      t->xpbd_last_residual, t->xpbd_last_cmax);
+}
+
 // 1 s of the cantilever, explicit vs implicit (see the top comment).
 static int cantilever_1s(ek_bench *b, int threads) {
   static const char *names[2] = {"cantilever", "cantilever_implicit"};
@@ -204,7 +226,11 @@ int bench_sim(ek_bench *b) {
                                  "twist_implicit",
                                  "stiff_bar_implicit",
                                  "crush_implicit",
-                                 "crush_nh_implicit"};
+                                 "crush_nh_implicit",
+                                 "cantilever_xpbd",
+                                 "drop_xpbd",
+                                 "twist_xpbd",
+                                 "drop_clusters"};
   int counts[EK_BENCH_MAX_THREAD_COUNTS];
   int ncounts = ek_bench_thread_counts(b, counts);
   int rc = 0;
@@ -235,8 +261,9 @@ int bench_sim(ek_bench *b) {
                scene.model_name, ek_isa_name(isa), prec, tets, counts[t]);
       if (!ek_bench_wants(b, name))
         continue;
-      const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT;
-      sim_ctx ctx = {NULL, b, 0, implicit ? 1 : STEPS_PER_CALL};
+      const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT,
+                xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
+      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
           ek_bench_fail(b, "sim: %s: %s", scenes[k], err);
@@ -265,6 +292,8 @@ int bench_sim(ek_bench *b) {
         rc = -1;
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
+      } else if (ctx.sim && !ctx.failed && xpbd) {
+        xpbd_note(b, name, &scene, ctx.sim);
       } else if (ctx.sim && !ctx.failed) {
         // The split, on a few more steps of the same run (same threads:
         // the harness set them for the row).
