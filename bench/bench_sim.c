@@ -16,16 +16,16 @@
 // the note gives Newton and CG iterations per step, the time by phase, and
 // ns per tet of one Hessian product next to one FVM force evaluation of
 // the same mesh, precision and state (median of FORCE_CALLS calls). After
-// an XPBD row the note gives, on XPBD_PHASE_STEPS more phase-timed steps,
-// the sweeps per step, ms per step in the sweeps and in the rest, and one
-// sweep split into deformation gradients / constraint evaluation /
-// projection (ek_xpbd_profile_*, once per step), with the residual.
+// an XPBD row the note gives the sweeps per step, ns per constraint and
+// sweep, one sweep split into deformation gradients / constraint
+// evaluation / projection (ek_xpbd_profile_*, once per phase-timed step)
+// and the residual.
 //
 // sim/cantilever_xpbd/it:<N>/sub:<K>/threads:<T>: the cantilever_xpbd
 // scene at N sweeps per substep x K substeps per step (the cost per step of
-// each setting in XPBD_GRID; what each buys in accuracy is the table of
-// tests/test_sim_xpbd.c), followed, per thread count, by a note with the
-// per-sweep phase split from phase-timed steps of the last such row's run.
+// each setting in xpbd_grid; what each buys in accuracy is the table of
+// tests/test_sim_xpbd.c), followed, per thread count, by the same note
+// from XPBD_PHASE_STEPS phase-timed steps of the last such row's run.
 //
 // sim/cantilever_1s/...: not a timed row but one run of each loop over 1 s
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
@@ -43,8 +43,8 @@
 #include <omp.h>
 
 enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20, FORCE_CALLS = 21 };
-// An XPBD step profiles one sweep (ek_xpbd_profile_*, three passes) and
-// costs up to 200 sweeps here: a few phase-timed steps are enough.
+// Phase-timed steps behind the cantilever_xpbd it:N/sub:K note: a step
+// profiles one sweep (ek_xpbd_profile_*), so a few steps average a few.
 enum { XPBD_PHASE_STEPS = 5 };
 
 typedef struct {
@@ -144,43 +144,43 @@ static void implicit_note(ek_bench *b, const char *name, const ek_scene *scene, 
                 product, force, product / force);
 }
 
-// After an XPBD row: XPBD_PHASE_STEPS more steps of the same run with
-// phase timing on; the note gives what those steps cost and one sweep's
-// split (see the top comment). Returns 0, or -1 if a step failed.
-static int xpbd_phase_note(ek_bench *b, const char *name, ek_sim *sim, const ek_mesh *mesh) {
-  ek_sim_times before = *ek_sim_timings(sim);
+// Mean z displacement of the cantilever's free end face (x = L).
+static double tip(const ek_sim *sim, const ek_mesh *mesh, double L) {
+  const double *X = ek_mesh_rest_positions(mesh), *x = ek_sim_positions(sim);
+  double sum = 0;
+  int count = 0;
+  for (size_t i = 0; i < ek_mesh_nverts(mesh); i++)
+    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
+      sum += x[3 * i + 2] - X[3 * i + 2];
+      count++;
+    }
+  return count ? sum / count : NAN;
+}
+
+// After an XPBD row: sweeps per step, ns per constraint and sweep, the
+// sweep's phase split (`steps` phase-timed steps more, one profile each)
+// and the residual.
+static void xpbd_note(ek_bench *b, const char *name, const ek_scene *scene, ek_sim *sim,
+                      int steps) {
   ek_sim_time_phases(sim, 1);
   int rc = 0;
-  for (int i = 0; i < XPBD_PHASE_STEPS && rc == 0; ++i)
+  for (int i = 0; i < steps && rc == 0; ++i)
     rc = ek_sim_step(sim);
   ek_sim_time_phases(sim, 0);
-  if (rc) {
-    ek_bench_fail(b, "sim: %s: phase-timed step failed (rc %d): %s", name, rc,
-                  ek_sim_last_error(sim));
-    return -1;
-  }
   const ek_sim_times *t = ek_sim_timings(sim);
-  double n = (double)(t->steps - before.steps),
-         p = (double)(t->xpbd_profiles - before.xpbd_profiles);
-  double sweeps = (double)(t->xpbd_sweeps - before.xpbd_sweeps);
-  if (!(n > 0 && p > 0 && sweeps > 0))
-    return 0;
-  double F = (t->xpbd_sweep_F - before.xpbd_sweep_F) / p;
-  double eval = (t->xpbd_sweep_eval - before.xpbd_sweep_eval) / p;
-  double project = (t->xpbd_sweep_project - before.xpbd_sweep_project) / p;
-  double sum = F + eval + project, solve = t->xpbd_solve - before.xpbd_solve;
-  double ncons = (double)ek_sim_xpbd_constraints(sim);
-  ek_bench_note(b,
-                "%s: %.0f sweeps per step; ms per step: sweeps %.3f, the rest (prediction, "
-                "velocities, ground) %.3f; one sweep %.1f us in the loop (%.2f ns per "
-                "constraint, %.0f constraints, %zu tets); one profiled sweep (%.0f profiles): "
-                "F %.1f us (%.0f%%), evaluation %.1f us (%.0f%%), projection %.1f us (%.0f%%); "
-                "last residual %.3g, max C %.3g",
-                name, sweeps / n, 1e3 * solve / n, 1e3 * (t->integration - before.integration) / n,
-                1e6 * solve / sweeps, 1e9 * solve / (sweeps * ncons), ncons, ek_mesh_ntets(mesh), p,
-                1e6 * F, 100 * F / sum, 1e6 * eval, 100 * eval / sum, 1e6 * project,
-                100 * project / sum, t->xpbd_last_residual, t->xpbd_last_cmax);
-  return 0;
+  if (rc != 0 || t->xpbd_profiles == 0 || t->xpbd_sweeps == 0)
+    return;
+  const double p = (double)t->xpbd_profiles;
+  ek_bench_note(
+      b,
+      "%s: %ld substeps x %ld sweeps per step (%s, %s), %.2f ns per constraint and "
+      "sweep; one sweep split: deformation gradients %.4f ms, constraint evaluation "
+      "%.4f ms, projection %.4f ms; residual after the last sweep %.3g (largest C %.3g)",
+      name, scene->xpbd.substeps, scene->xpbd.iterations, ek_xpbd_solver_name(scene->xpbd.solver),
+      ek_xpbd_elements_name(scene->xpbd.elements),
+      1e9 * t->xpbd_solve / ((double)t->xpbd_sweeps * (double)ek_sim_xpbd_constraints(sim)),
+      1e3 * t->xpbd_sweep_F / p, 1e3 * t->xpbd_sweep_eval / p, 1e3 * t->xpbd_sweep_project / p,
+      t->xpbd_last_residual, t->xpbd_last_cmax);
 }
 
 // sim/cantilever_xpbd/it:N/sub:K/threads:T (see the top comment): the
@@ -198,6 +198,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
   for (int t = 0; t < ncounts; ++t) {
     ek_sim *last = NULL; // the last timed row's run, for the phase note
     char last_name[EK_BENCH_NAME_MAX] = "";
+    long last_it = 0, last_sub = 0; // the note names the last run's knobs
     for (size_t g = 0; g < sizeof xpbd_grid / sizeof xpbd_grid[0]; ++g) {
       char name[EK_BENCH_NAME_MAX], knobs[256];
       snprintf(name, sizeof name, "sim/%s/it:%ld/sub:%ld/threads:%d", scene_name,
@@ -255,31 +256,21 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
       ek_sim_destroy(last);
       last = ctx.sim;
       snprintf(last_name, sizeof last_name, "%s", name);
+      last_it = xpbd_grid[g].iterations;
+      last_sub = xpbd_grid[g].substeps;
     }
     // The harness set the threads for the last row; the note's steps run
     // at the same count.
     if (last) {
       omp_set_num_threads(counts[t]);
-      if (xpbd_phase_note(b, last_name, last, mesh) != 0)
-        rc = -1;
+      scene.xpbd.iterations = last_it;
+      scene.xpbd.substeps = last_sub;
+      xpbd_note(b, last_name, &scene, last, XPBD_PHASE_STEPS);
     }
     ek_sim_destroy(last);
   }
   ek_mesh_destroy(mesh);
   return rc;
-}
-
-// Mean z displacement of the cantilever's free end face (x = L).
-static double tip(const ek_sim *sim, const ek_mesh *mesh, double L) {
-  const double *X = ek_mesh_rest_positions(mesh), *x = ek_sim_positions(sim);
-  double sum = 0;
-  int count = 0;
-  for (size_t i = 0; i < ek_mesh_nverts(mesh); i++)
-    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
-      sum += x[3 * i + 2] - X[3 * i + 2];
-      count++;
-    }
-  return count ? sum / count : NAN;
 }
 
 // 1 s of the cantilever, explicit vs implicit (see the top comment).
@@ -379,8 +370,8 @@ int bench_sim(ek_bench *b) {
                scene.model_name, ek_isa_name(isa), prec, tets, counts[t]);
       if (!ek_bench_wants(b, name))
         continue;
-      const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT;
-      const int xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
+      const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT,
+                xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
       sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
@@ -411,8 +402,7 @@ int bench_sim(ek_bench *b) {
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
       } else if (ctx.sim && !ctx.failed && xpbd) {
-        if (xpbd_phase_note(b, name, ctx.sim, mesh) != 0)
-          rc = -1;
+        xpbd_note(b, name, &scene, ctx.sim, 1);
       } else if (ctx.sim && !ctx.failed) {
         // The split, on a few more steps of the same run (same threads:
         // the harness set them for the row).

@@ -10,4 +10,5 @@
 #include "mesh.h"
 #include "sim.h"
 #include "svd3.h"
+#include "xpbd.h"
 #endif
