@@ -1,10 +1,14 @@
 // Shared by the simulation tests (test_sim_core.c, test_sim_explicit.c,
-// test_sim_implicit.c): their pass/fail lines and the shipped scenes'
-// folder.
+// test_sim_implicit.c, test_sim_xpbd.c): their pass/fail lines, the shipped
+// scenes' folder, a scene run from text or file, and the 1 vs 2 threads
+// comparison.
 #ifndef EK_TEST_SIM_COMMON_H
 #define EK_TEST_SIM_COMMON_H
 
+#include <ek/sim.h>
+#include <omp.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 static int failures = 0;
@@ -38,6 +42,78 @@ static void scenes_dir_init(int argc, char **argv) {
   for (int i = 1; i + 1 < argc; ++i)
     if (strcmp(argv[i], "--scenes") == 0)
       snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[i + 1]);
+}
+
+// A scene (JSON text, or a shipped scene's name when is_file), its mesh and
+// its simulation, no frame output. -1 (reported as a failure) if any of
+// them is refused.
+typedef struct {
+  ek_scene scene;
+  ek_mesh *mesh;
+  ek_sim *sim;
+} run;
+
+static inline int start(run *r, const char *json_or_name, int is_file) {
+  char err[1024], path[1200];
+  memset(r, 0, sizeof *r);
+  int rc;
+  if (is_file) {
+    snprintf(path, sizeof path, "%s/%s.json", scenes_dir, json_or_name);
+    rc = ek_scene_load(path, &r->scene, err, sizeof err);
+  } else {
+    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene, err, sizeof err);
+  }
+  r->scene.output_file[0] = '\0';
+  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
+    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
+  if (!r->sim) {
+    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", err);
+    failures++;
+    ek_mesh_destroy(r->mesh);
+    return -1;
+  }
+  return 0;
+}
+
+static inline void finish(run *r) {
+  ek_sim_destroy(r->sim);
+  ek_mesh_destroy(r->mesh);
+}
+
+// `steps` steps of the scene text at 1 and at 2 threads: the coordinates
+// whose bits differ (*mismatches), the coordinate count (*n3) and the XPBD
+// constraints (*nc, 0 for other integrators). 0 if every step ran.
+static inline int thread_mismatches(const char *json, int steps, long *mismatches, size_t *n3,
+                                    size_t *nc) {
+  double *x1 = NULL;
+  int ok = 1;
+  *mismatches = 0;
+  for (int threads = 1; threads <= 2 && ok; threads++) {
+    omp_set_num_threads(threads);
+    run r;
+    if (start(&r, json, 0)) {
+      ok = 0;
+      break;
+    }
+    *n3 = 3 * ek_mesh_nverts(r.mesh);
+    *nc = ek_sim_xpbd_constraints(r.sim);
+    for (int n = 0; n < steps; n++)
+      ok &= ek_sim_step(r.sim) == 0;
+    const double *x = ek_sim_positions(r.sim);
+    if (threads == 1) {
+      x1 = malloc(*n3 * sizeof(double));
+      ok &= x1 != NULL;
+      if (x1)
+        memcpy(x1, x, *n3 * sizeof(double));
+    } else {
+      for (size_t i = 0; i < *n3; i++)
+        *mismatches += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
+    }
+    finish(&r);
+  }
+  omp_set_num_threads(2);
+  free(x1);
+  return ok ? 0 : -1;
 }
 
 #endif

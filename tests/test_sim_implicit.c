@@ -25,39 +25,6 @@
 
 #include "test_sim_common.h"
 
-typedef struct {
-  ek_scene scene;
-  ek_mesh *mesh;
-  ek_sim *sim;
-} run;
-
-static int start(run *r, const char *json_or_name, int is_file) {
-  char err[1024], path[1200];
-  memset(r, 0, sizeof *r);
-  int rc;
-  if (is_file) {
-    snprintf(path, sizeof path, "%s/%s.json", scenes_dir, json_or_name);
-    rc = ek_scene_load(path, &r->scene, err, sizeof err);
-  } else {
-    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene, err, sizeof err);
-  }
-  r->scene.output_file[0] = '\0';
-  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
-    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
-  if (!r->sim) {
-    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", err);
-    failures++;
-    ek_mesh_destroy(r->mesh);
-    return -1;
-  }
-  return 0;
-}
-
-static void finish(run *r) {
-  ek_sim_destroy(r->sim);
-  ek_mesh_destroy(r->mesh);
-}
-
 // A 0.1 m cube of stable neo-Hookean, stretched and moving, no gravity, no
 // pins: the small problem of 1-3.
 static void small_scene(char *json, size_t n, const char *integrator, double dt, int prec) {
@@ -298,35 +265,13 @@ static void threads_test(void) {
       " \"precision\": \"f32\", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 0],"
       " \"max\": [0, 0.4, 0.3]}}], \"gravity\": [0, 0, -9.81], \"dt\": 0.0333333333333,"
       " \"steps\": 2, \"integrator\": {\"type\": \"implicit\", \"cg_tol\": 1e-3}}";
-  double *x1 = NULL;
   long mismatches = 0;
-  size_t n3 = 0, nt = 0;
-  int ok = 1;
-  for (int threads = 1; threads <= 2; threads++) {
-    omp_set_num_threads(threads);
-    run r;
-    if (start(&r, json, 0))
-      return;
-    n3 = 3 * ek_mesh_nverts(r.mesh);
-    nt = ek_mesh_ntets(r.mesh);
-    for (int n = 0; n < 2; n++)
-      ok &= ek_sim_step(r.sim) == 0;
-    const double *x = ek_sim_positions(r.sim);
-    if (threads == 1) {
-      x1 = malloc(n3 * sizeof(double));
-      memcpy(x1, x, n3 * sizeof(double));
-    } else {
-      for (size_t i = 0; i < n3; i++)
-        mismatches += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
-    }
-    finish(&r);
-  }
-  omp_set_num_threads(2);
+  size_t n3 = 0, nc = 0;
+  int ok = thread_mismatches(json, 2, &mismatches, &n3, &nc) == 0;
   char detail[200];
-  snprintf(detail, sizeof detail,
-           "%zu tets, %zu dofs, 2 steps, f32 products: %ld coordinates differ", nt, n3, mismatches);
+  snprintf(detail, sizeof detail, "%zu dofs, 2 steps, f32 products: %ld coordinates differ", n3,
+           mismatches);
   check("same bits at 1 and 2 threads", ok && mismatches == 0, detail);
-  free(x1);
 }
 
 int main(int argc, char **argv) {

@@ -33,32 +33,6 @@
 // sweeps' softness (measured 8.5e-4; 10 x 1 gives 0.35, sim.h).
 #define EK_SIM_XPBD_STATIC_TOL 1e-2
 
-typedef struct {
-  ek_scene scene;
-  ek_mesh *mesh;
-  ek_sim *sim;
-} run;
-
-static int start(run *r, const char *json) {
-  char err[1024];
-  memset(r, 0, sizeof *r);
-  int rc = ek_scene_parse(json, "test.json", ".", &r->scene, err, sizeof err);
-  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
-    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
-  if (!r->sim) {
-    printf("scene: %s\nFAIL\n", err);
-    failures++;
-    ek_mesh_destroy(r->mesh);
-    return -1;
-  }
-  return 0;
-}
-
-static void finish(run *r) {
-  ek_sim_destroy(r->sim);
-  ek_mesh_destroy(r->mesh);
-}
-
 // 1.
 static void momentum_test(const char *elements, const char *solver, int prec) {
   char json[2048];
@@ -71,7 +45,7 @@ static void momentum_test(const char *elements, const char *solver, int prec) {
            "\"%s\"}}",
            prec, solver, elements);
   run r;
-  if (start(&r, json))
+  if (start(&r, json, 0))
     return;
   const size_t nv = ek_mesh_nverts(r.mesh);
   const double *m = ek_sim_masses(r.sim), *v = ek_sim_velocities(r.sim);
@@ -111,7 +85,7 @@ static void cantilever_json(char *json, size_t n, double dt, long steps, const c
 // Tip z displacement after each of `steps` steps (tip[steps]); -1 on failure.
 static int tip_trajectory(const char *json, long steps, long every, double *tip) {
   run r;
-  if (start(&r, json))
+  if (start(&r, json, 0))
     return -1;
   const size_t nv = ek_mesh_nverts(r.mesh);
   const double *X = ek_mesh_rest_positions(r.mesh);
@@ -224,7 +198,7 @@ static void hanging_bar_test(void) {
              integ[k]);
     // The bottom face (z = 0): its mean z displacement.
     run r;
-    if (start(&r, json))
+    if (start(&r, json, 0))
       return;
     int rc = 0;
     for (int n = 0; n < 90 && rc == 0; n++)
@@ -260,36 +234,14 @@ static void threads_test(const char *elements, const char *solver) {
            " \"steps\": 2, \"integrator\": {\"type\": \"xpbd\", \"substeps\": 2, \"iterations\": "
            "3, \"solver\": \"%s\", \"elements\": \"%s\"}}",
            solver, elements);
-  double *x1 = NULL;
   long mismatches = 0;
   size_t n3 = 0, nc = 0;
-  int ok = 1;
-  for (int threads = 1; threads <= 2; threads++) {
-    omp_set_num_threads(threads);
-    run r;
-    if (start(&r, json))
-      return;
-    n3 = 3 * ek_mesh_nverts(r.mesh);
-    nc = ek_sim_xpbd_constraints(r.sim);
-    for (int n = 0; n < 2; n++)
-      ok &= ek_sim_step(r.sim) == 0;
-    const double *x = ek_sim_positions(r.sim);
-    if (threads == 1) {
-      x1 = malloc(n3 * sizeof(double));
-      memcpy(x1, x, n3 * sizeof(double));
-    } else {
-      for (size_t i = 0; i < n3; i++)
-        mismatches += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
-    }
-    finish(&r);
-  }
-  omp_set_num_threads(2);
+  int ok = thread_mismatches(json, 2, &mismatches, &n3, &nc) == 0;
   char what[128], detail[200];
   snprintf(what, sizeof what, "same bits at 1 and 2 threads: %s %s", elements, solver);
   snprintf(detail, sizeof detail, "%zu constraints, 2 steps: %ld coordinates differ", nc,
            mismatches);
   check(what, ok && mismatches == 0, detail);
-  free(x1);
 }
 
 int main(int argc, char **argv) {
