@@ -252,6 +252,17 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
   printf("\n");
 }
 
+// The step-time line: median, p95 and minimum of the n steps' wall times
+// (sorted here), which steps they are in `which`.
+static void print_step_times(double *step_s, size_t n, const char *which) {
+  if (n == 0)
+    return;
+  double median, p95;
+  median_p95(step_s, n, &median, &p95); // sorted: step_s[0] is the fastest
+  printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu %s)\n",
+         1e3 * median, 1e3 * p95, 1e3 * step_s[0], n, which);
+}
+
 // The XPBD loop's summary: time per step, sweeps, the per-sweep phase
 // split (phase-timed steps), and the constraint residual over the steps.
 static void print_xpbd_times(const ek_sim_times *tm, long done, size_t ncons, double *res,
@@ -476,22 +487,10 @@ int main(int argc, char **argv) {
   printf("steps      %ld in %.3f s (setup %.3f s, output %.3f s)\n", done, wall, t_setup, t_output);
   if (done > 0 && xpbd) {
     print_xpbd_times(tm, done, ek_sim_xpbd_constraints(sim), res, nres);
-    if (nstep_s > 0) {
-      double median, p95;
-      median_p95(step_s, nstep_s, &median, &p95);
-      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
-             "steps not phase-timed)\n",
-             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
-    }
+    print_step_times(step_s, nstep_s, "steps not phase-timed");
   } else if (done > 0 && tm->gradient_passes > 0) {
     print_implicit_times(tm, done, nt);
-    if (nstep_s > 0) {
-      double median, p95;
-      median_p95(step_s, nstep_s, &median, &p95);
-      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
-             "steps not phase-timed)\n",
-             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
-    }
+    print_step_times(step_s, nstep_s, "steps not phase-timed");
   } else if (done > 0) {
     double force_ms = fused > 0 ? 1e3 * tm->forces / (double)fused : NAN;
     double integ_ms = 1e3 * tm->integration / (double)done;
@@ -502,13 +501,7 @@ int main(int argc, char **argv) {
     if (polar_ms > 0)
       printf(", R^n refresh %.4f ms", polar_ms);
     printf("\n");
-    if (nstep_s > 0) {
-      double median, p95;
-      median_p95(step_s, nstep_s, &median, &p95); // sorted: step_s[0] is the fastest
-      printf("step time  median %.4f ms, p95 %.4f ms, min %.4f ms (wall time of each of the %zu "
-             "fused-kernel steps)\n",
-             1e3 * median, 1e3 * p95, 1e3 * step_s[0], nstep_s);
-    }
+    print_step_times(step_s, nstep_s, "fused-kernel steps");
     double phase_sum = tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
     if (tm->phase_timed_steps > 0 && phase_sum > 0) {
       double p = (double)tm->phase_timed_steps;
