@@ -4,6 +4,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "material/model_ref.h"
+
 // Edge matrix [p1-p0, p2-p0, p3-p0] as columns, row-major.
 static void edge_matrix(const double *p, const int32_t t[4], double D[9]) {
   for (int c = 0; c < 3; c++)
@@ -11,30 +13,12 @@ static void edge_matrix(const double *p, const int32_t t[4], double D[9]) {
       D[r * 3 + c] = p[t[c + 1] * 3 + r] - p[t[0] * 3 + r];
 }
 
-// Inverse by cofactors: A^-1 = adj(A) / det A.
-static double inverse3(const double A[9], double Ai[9]) {
-  double c00 = A[4] * A[8] - A[5] * A[7];
-  double c01 = A[5] * A[6] - A[3] * A[8];
-  double c02 = A[3] * A[7] - A[4] * A[6];
-  double det = A[0] * c00 + A[1] * c01 + A[2] * c02;
-  Ai[0] = c00 / det;
-  Ai[3] = c01 / det;
-  Ai[6] = c02 / det;
-  Ai[1] = (A[2] * A[7] - A[1] * A[8]) / det;
-  Ai[4] = (A[0] * A[8] - A[2] * A[6]) / det;
-  Ai[7] = (A[1] * A[6] - A[0] * A[7]) / det;
-  Ai[2] = (A[1] * A[5] - A[2] * A[4]) / det;
-  Ai[5] = (A[2] * A[3] - A[0] * A[5]) / det;
-  Ai[8] = (A[0] * A[4] - A[1] * A[3]) / det;
-  return det;
-}
-
 double ek_fvm_tet_F_ref(const double *X, const double *x, const int32_t tet[4], double F[9],
                         double Dm_inv[9]) {
   double Dm[9], Ds[9];
   edge_matrix(X, tet, Dm);
   edge_matrix(x, tet, Ds);
-  double det = inverse3(Dm, Dm_inv);
+  double det = m3_inverse(Dm, Dm_inv);
   // F = Ds Dm^-1.
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++) {

@@ -1,5 +1,6 @@
-// Internal to reference/material: the per-model entry points (one file per
-// model, HOBAK's psi / PK1 / hessian split) and small 3x3 helpers. All
+// Internal to reference/: the per-model entry points (one file per model,
+// HOBAK's psi / PK1 / hessian split) and small 3x3 helpers (also used by
+// the fvm and xpbd references). All
 // matrices row-major 3x3. The clamp and the projection live in
 // material_ref.c, once for every model.
 #ifndef EK_MODEL_REF_H
@@ -48,6 +49,16 @@ static inline void m3_cof(const double A[9], double C[9]) {
   C[6] = A[1] * A[5] - A[2] * A[4];
   C[7] = A[2] * A[3] - A[0] * A[5];
   C[8] = A[0] * A[4] - A[1] * A[3];
+}
+// A^-1 = cof(A)^T / det A; returns det A.
+static inline double m3_inverse(const double A[9], double Ai[9]) {
+  double C[9];
+  m3_cof(A, C);
+  double det = A[0] * C[0] + A[1] * C[1] + A[2] * C[2];
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      Ai[3 * i + j] = C[3 * j + i] / det;
+  return det;
 }
 // d cof(A; dA): cof is quadratic, cof(A + dA) = cof A + D + cof dA with D
 // bilinear, so D = cof(A + dA) - cof(A) - cof(dA) exactly (up to rounding,

@@ -7,30 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-// Inverse by cofactors, A^-1 = adj(A) / det A; returns det A.
-static double inverse3(const double A[9], double Ai[9]) {
-  double c00 = A[4] * A[8] - A[5] * A[7];
-  double c01 = A[5] * A[6] - A[3] * A[8];
-  double c02 = A[3] * A[7] - A[4] * A[6];
-  double det = A[0] * c00 + A[1] * c01 + A[2] * c02;
-  Ai[0] = c00 / det;
-  Ai[3] = c01 / det;
-  Ai[6] = c02 / det;
-  Ai[1] = (A[2] * A[7] - A[1] * A[8]) / det;
-  Ai[4] = (A[0] * A[8] - A[2] * A[6]) / det;
-  Ai[7] = (A[1] * A[6] - A[0] * A[7]) / det;
-  Ai[2] = (A[1] * A[5] - A[2] * A[4]) / det;
-  Ai[5] = (A[2] * A[3] - A[0] * A[5]) / det;
-  Ai[8] = (A[0] * A[4] - A[1] * A[3]) / det;
-  return det;
-}
-
-// Dm = [X1-X0, X2-X0, X3-X0] (columns, row-major) of one tet.
-static void rest_edges(const double *X, const int32_t t[4], double Dm[9]) {
-  for (int c = 0; c < 3; c++)
-    for (int r = 0; r < 3; r++)
-      Dm[r * 3 + c] = X[t[c + 1] * 3 + r] - X[t[0] * 3 + r];
-}
+#include "fvm/fvm_ref.h"
+#include "material/model_ref.h"
 
 static int set_alloc(ek_xpbd_ref_set *s, size_t n, size_t nverts, size_t nmembers) {
   memset(s, 0, sizeof *s);
@@ -61,10 +39,9 @@ int ek_xpbd_ref_tets(size_t nverts, const double *X, size_t ntets, const int32_t
     return -1;
   for (size_t e = 0; e < ntets; e++) {
     const int32_t *t = tets + 4 * e;
-    double Dm[9], Di[9];
-    rest_edges(X, t, Dm);
-    double det = inverse3(Dm, Di);
-    if (!(det != 0) || !isfinite(det)) {
+    double F[9], Di[9];
+    const double V = ek_fvm_tet_F_ref(X, X, t, F, Di);
+    if (!(V > 0) || !isfinite(V)) {
       ek_xpbd_ref_free(s);
       return -1;
     }
@@ -74,7 +51,7 @@ int ek_xpbd_ref_tets(size_t nverts, const double *X, size_t ntets, const int32_t
     // F = Ds Dm^-1 = sum_k (x_k - x_0) (row k of Dm^-1) (Teran 2003 sec. 4):
     // column k of Ds times row k of Dm^-1.
     memcpy(s->b + 9 * e, Di, sizeof Di);
-    s->V[e] = det / 6;
+    s->V[e] = V;
   }
   s->start[ntets] = (int32_t)(4 * ntets);
   return 0;
@@ -176,7 +153,7 @@ int ek_xpbd_ref_clusters(size_t nverts, const double *X, size_t ntets, const int
         for (int q = 0; q < 3; q++)
           Q[3 * r + q] += mass[mem[k]] * rb[r] * rb[q];
     }
-    double det = inverse3(Q, Qi), tr3 = (Q[0] + Q[4] + Q[8]) / 3;
+    double det = m3_inverse(Q, Qi), tr3 = (Q[0] + Q[4] + Q[8]) / 3;
     if (!(det > EK_XPBD_REF_Q_SINGULAR * tr3 * tr3 * tr3)) {
       if (bad_vertex)
         *bad_vertex = v;
@@ -200,12 +177,8 @@ int ek_xpbd_ref_clusters(size_t nverts, const double *X, size_t ntets, const int
     // tet's (xpbd.h), so the V_j sum to the mesh volume.
     double V = 0;
     for (size_t q = inc_start[v]; q < inc_start[v + 1]; q++) {
-      double Dm[9];
-      rest_edges(X, tets + 4 * inc[q], Dm);
-      double det6 = Dm[0] * (Dm[4] * Dm[8] - Dm[5] * Dm[7]) -
-                    Dm[1] * (Dm[3] * Dm[8] - Dm[5] * Dm[6]) +
-                    Dm[2] * (Dm[3] * Dm[7] - Dm[4] * Dm[6]);
-      V += det6 / 6 / 4;
+      double F[9], Di[9];
+      V += ek_fvm_tet_F_ref(X, X, tets + 4 * inc[q], F, Di) / 4;
     }
     s->V[v] = V;
   }
@@ -298,6 +271,26 @@ static int element(const ek_xpbd_ref_set *s, size_t j, const int32_t **mem, cons
   return s->start[j + 1] - s->start[j];
 }
 
+// Project constraint j (C > cmin, grad_k C in g): Macklin 2016 eq. 18
+// multiplied through by k = 1 / alpha~ = V E h^2 (as the library does: no
+// 1/k to underflow for stiff constraints), vertex i weighted w_i n_i (n
+// NULL: 1); lambda_j += dlambda and eq. 17, dx_i = w_i grad_i C dlambda,
+// added into out.
+static void project(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
+                    const double *n, double h, size_t j, int K, const int32_t *mem, const double *g,
+                    double C, double *lambda, double *out) {
+  double sum = 0;
+  for (int k = 0; k < K; k++)
+    sum += (n ? n[mem[k]] : 1) * w[mem[k]] *
+           (g[3 * k] * g[3 * k] + g[3 * k + 1] * g[3 * k + 1] + g[3 * k + 2] * g[3 * k + 2]);
+  const double kk = s->V[j] * m->young * h * h;
+  const double dl = -(C * kk + lambda[j]) / (kk * sum + 1);
+  lambda[j] += dl;
+  for (int k = 0; k < K; k++)
+    for (int r = 0; r < 3; r++)
+      out[3 * mem[k] + r] += w[mem[k]] * g[3 * k + r] * dl;
+}
+
 void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
                               const double *w, double h, double cmin, size_t norder,
                               const int32_t *order, double *x, double *lambda) {
@@ -310,21 +303,8 @@ void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_materi
     const double *b;
     int K = element(s, j, &mem, &b);
     double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, g);
-    if (!(C > cmin))
-      continue; // at the rounding level of F: grad C is 0/0 (xpbd.h)
-    double sum = 0;
-    for (int k = 0; k < K; k++)
-      sum += w[mem[k]] *
-             (g[3 * k] * g[3 * k] + g[3 * k + 1] * g[3 * k + 1] + g[3 * k + 2] * g[3 * k + 2]);
-    // Macklin 2016 eq. 18 multiplied through by k = 1 / alpha~ = V E h^2
-    // (as the library does: no 1/k to underflow for stiff constraints).
-    double kk = s->V[j] * m->young * h * h;
-    double dl = -(C * kk + lambda[j]) / (kk * sum + 1);
-    lambda[j] += dl;
-    // Eq. 17: dx_i = w_i grad_i C dlambda.
-    for (int k = 0; k < K; k++)
-      for (int r = 0; r < 3; r++)
-        x[3 * mem[k] + r] += w[mem[k]] * g[3 * k + r] * dl;
+    if (C > cmin) // else at the rounding level of F: grad C is 0/0 (xpbd.h)
+      project(s, m, w, NULL, h, j, K, mem, g, C, lambda, x);
   }
   free(g);
 }
@@ -342,20 +322,10 @@ void ek_xpbd_ref_jacobi(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
     const double *b;
     int K = element(s, j, &mem, &b);
     double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, g);
-    if (!(C > cmin))
-      continue;
     // Consistent averaging (xpbd.h; Macklin et al. 2014): vertex i's
     // weight counts n_i times, so the fixed point is Gauss-Seidel's.
-    double sum = 0;
-    for (int k = 0; k < K; k++)
-      sum += cnt[mem[k]] * w[mem[k]] *
-             (g[3 * k] * g[3 * k] + g[3 * k + 1] * g[3 * k + 1] + g[3 * k + 2] * g[3 * k + 2]);
-    double kk = s->V[j] * m->young * h * h;
-    double dl = -(C * kk + lambda[j]) / (kk * sum + 1);
-    lambda[j] += dl;
-    for (int k = 0; k < K; k++)
-      for (int r = 0; r < 3; r++)
-        dx[3 * mem[k] + r] += w[mem[k]] * g[3 * k + r] * dl;
+    if (C > cmin)
+      project(s, m, w, cnt, h, j, K, mem, g, C, lambda, dx);
   }
   for (size_t i = 0; i < 3 * s->nverts; i++)
     x[i] += dx[i];
