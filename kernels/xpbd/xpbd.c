@@ -326,57 +326,38 @@ static int cmp_i32(const void *a, const void *b) {
 }
 
 // One-rings: ring[rs[v] .. rs[v+1]) = v, then the vertices sharing a tet
-// with v, ascending. Vertices in no tet get an empty ring.
+// with v, ascending. Vertices in no tet get an empty ring. The incident
+// tets come from the element layer's vertex incidence (tets.h).
 static int build_rings(const ek_tets *el, size_t **rs_out, int32_t **ring_out) {
-  const size_t nv = el->nverts, nt = el->ntets;
+  const size_t nv = el->nverts;
+  size_t maxdeg = 0, cap = 16 * nv + 16, n = 0;
+  for (size_t v = 0; v < nv; v++)
+    if ((size_t)(el->vert_start[v + 1] - el->vert_start[v]) > maxdeg)
+      maxdeg = (size_t)(el->vert_start[v + 1] - el->vert_start[v]);
   size_t *rs = calloc(nv + 1, sizeof(size_t));
-  size_t *ts = calloc(nv + 1, sizeof(size_t));
-  int32_t *vt = malloc(4 * nt * sizeof(int32_t));
-  int32_t *tmp = NULL, *ring = NULL;
-  int rc = EK_ENOMEM;
-  if (!rs || !ts || !vt)
-    goto done;
-  // Incident tets per vertex (CSR).
-  for (size_t i = 0; i < 4 * nt; i++)
-    ts[el->tets[i] + 1]++;
-  for (size_t v = 0; v < nv; v++)
-    ts[v + 1] += ts[v];
-  size_t maxdeg = 0;
-  {
-    size_t *next = malloc(nv * sizeof(size_t));
-    if (!next)
-      goto done;
-    memcpy(next, ts, nv * sizeof(size_t));
-    for (size_t t = 0; t < nt; t++)
-      for (int c = 0; c < 4; c++)
-        vt[next[el->tets[4 * t + (size_t)c]]++] = (int32_t)t;
-    free(next);
-  }
-  for (size_t v = 0; v < nv; v++)
-    if (ts[v + 1] - ts[v] > maxdeg)
-      maxdeg = ts[v + 1] - ts[v];
-  tmp = malloc((4 * maxdeg + 1) * sizeof(int32_t));
-  size_t cap = 16 * nv + 16, n = 0;
-  ring = malloc(cap * sizeof(int32_t));
-  if (!tmp || !ring)
-    goto done;
+  int32_t *tmp = malloc((3 * maxdeg + 1) * sizeof(int32_t));
+  int32_t *ring = malloc(cap * sizeof(int32_t));
+  if (!rs || !tmp || !ring)
+    goto fail;
   for (size_t v = 0; v < nv; v++) {
     rs[v] = n;
     size_t m = 0;
-    for (size_t e = ts[v]; e < ts[v + 1]; e++)
-      for (int c = 0; c < 4; c++) {
-        int32_t u = el->tets[4 * (size_t)vt[e] + (size_t)c];
-        if ((size_t)u != v)
-          tmp[m++] = u;
-      }
-    if (ts[v] == ts[v + 1])
+    for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
+      // Entry slot * 4 + corner of the Morton order; the slot's tet.
+      const int32_t slot = el->vert_entries[e] / 4;
+      const int32_t *t = el->tets + 4 * (size_t)el->morton.slot_tet[slot];
+      for (int c = 0; c < 4; c++)
+        if ((size_t)t[c] != v)
+          tmp[m++] = t[c];
+    }
+    if (m == 0)
       continue;
     qsort(tmp, m, sizeof(int32_t), cmp_i32);
     if (n + m + 1 > cap) {
       cap = 2 * (n + m + 1);
       int32_t *r2 = realloc(ring, cap * sizeof(int32_t));
       if (!r2)
-        goto done;
+        goto fail;
       ring = r2;
     }
     ring[n++] = (int32_t)v;
@@ -385,19 +366,15 @@ static int build_rings(const ek_tets *el, size_t **rs_out, int32_t **ring_out) {
         ring[n++] = tmp[i];
   }
   rs[nv] = n;
-  rc = EK_OK;
-done:
-  free(ts);
-  free(vt);
   free(tmp);
-  if (rc == EK_OK) {
-    *rs_out = rs;
-    *ring_out = ring;
-  } else {
-    free(rs);
-    free(ring);
-  }
-  return rc;
+  *rs_out = rs;
+  *ring_out = ring;
+  return EK_OK;
+fail:
+  free(rs);
+  free(tmp);
+  free(ring);
+  return EK_ENOMEM;
 }
 
 // 3x3 inverse of a symmetric positive definite Q (adjugate / det).
