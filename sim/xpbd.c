@@ -8,10 +8,11 @@
 // Damping c enters as in the implicit loop's incremental potential (the
 // mass scaled by 1 + c h and x~ moved), so at c = 0 this is the seed's
 // x~ = x + h v + h^2 g and both loops minimise the same objective.
-// Positions stay double between substeps; the sweeps run in the scene's
-// precision on displacements from x~ (float x~ as the base for f32), so
-// the updates round to the displacements' size and the state is
-// x~ + displacement in double.
+// Positions stay double between substeps. f64 sweeps run on the
+// positions; f32 sweeps on float displacements from a float x~ (the base of
+// ek_xpbd_iterate_f32), so their updates round to the displacements' size
+// and the state is x~ + displacement in double. (A double base would only
+// add a gather per member: double positions round to 1e-16 of |x|.)
 #include "sim_internal.h"
 
 #include <math.h>
@@ -22,7 +23,6 @@ typedef struct {
   ek_xpbd *xp;
   double young;
   double *xs, *vs, *xp_pred, *w; // substep start, prediction, weights
-  double *dx;                    // f64 sweeps: displacements from x~
   float *xf, *xf_pred;           // f32 sweeps: displacements, float x~
 } xpbd_data;
 
@@ -35,7 +35,6 @@ static void xpbd_destroy(void *data) {
   free(d->vs);
   free(d->xp_pred);
   free(d->w);
-  free(d->dx);
   free(d->xf);
   free(d->xf_pred);
   free(d);
@@ -66,8 +65,7 @@ static int xpbd_create(ek_sim *s, void **data) {
   d->vs = malloc(n3 * sizeof(double));
   d->xp_pred = malloc(n3 * sizeof(double));
   d->w = malloc(s->nv * sizeof(double));
-  d->dx = malloc(n3 * sizeof(double));
-  int ok = d->xs && d->vs && d->xp_pred && d->w && d->dx;
+  int ok = d->xs && d->vs && d->xp_pred && d->w;
   if (s->scene.precision == 32) {
     d->xf = malloc(n3 * sizeof(float));
     d->xf_pred = malloc(n3 * sizeof(float));
@@ -147,13 +145,13 @@ static int xpbd_step(ek_sim *s, void *data) {
         d->xf_pred[i] = (float)d->xp_pred[i];
       memset(d->xf, 0, n3 * sizeof(float));
     } else {
-      memset(d->dx, 0, n3 * sizeof(double));
+      memcpy(s->x_next, d->xp_pred, n3 * sizeof(double));
     }
     s->times.integration += sim_now() - t0;
     t0 = sim_now();
     if (rc == 0)
       rc = f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, (int)N)
-               : ek_xpbd_iterate_f64(d->xp, d->xp_pred, d->dx, (int)N);
+               : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, (int)N);
     s->times.xpbd_solve += sim_now() - t0;
     s->times.xpbd_sweeps += N;
     if (rc)
@@ -161,7 +159,7 @@ static int xpbd_step(ek_sim *s, void *data) {
     if (sub == K - 1) {
       double r = NAN, cm = NAN;
       rc = f32 ? ek_xpbd_residual_f32(d->xp, d->xf_pred, d->xf, &r, &cm)
-               : ek_xpbd_residual_f64(d->xp, d->xp_pred, d->dx, &r, &cm);
+               : ek_xpbd_residual_f64(d->xp, NULL, s->x_next, &r, &cm);
       s->times.xpbd_last_residual = r;
       s->times.xpbd_last_cmax = cm;
       if (!(r <= s->times.xpbd_worst_residual))
@@ -169,7 +167,7 @@ static int xpbd_step(ek_sim *s, void *data) {
       if (s->time_phases && rc == 0) {
         double sec[3];
         rc = f32 ? ek_xpbd_profile_f32(d->xp, d->xf_pred, d->xf, sec)
-                 : ek_xpbd_profile_f64(d->xp, d->xp_pred, d->dx, sec);
+                 : ek_xpbd_profile_f64(d->xp, NULL, s->x_next, sec);
         s->times.xpbd_sweep_F += sec[0];
         s->times.xpbd_sweep_eval += sec[1] - sec[0];
         s->times.xpbd_sweep_project += sec[2] - sec[1];
@@ -180,8 +178,9 @@ static int xpbd_step(ek_sim *s, void *data) {
     t0 = sim_now();
     for (size_t i = 0; i < nv; i++) {
       double *x = s->x_next + 3 * i, *v = d->vs + 3 * i, *xs = d->xs + 3 * i;
-      for (int j = 0; j < 3; j++)
-        x[j] = d->xp_pred[3 * i + j] + (f32 ? (double)d->xf[3 * i + j] : d->dx[3 * i + j]);
+      if (f32)
+        for (int j = 0; j < 3; j++)
+          x[j] = d->xp_pred[3 * i + j] + (double)d->xf[3 * i + j];
       const ek_scene_bc *bc = sim_bc_at(s, i, t1);
       if (bc) {
         sim_bc_state(bc, s->x0 + 3 * i, t1, x, v);

@@ -71,7 +71,7 @@
 //
 // Precision: the f32 functions iterate in float, the f64 ones in double;
 // with a base (ek_xpbd_iterate_*) the updates round to the displacements'
-// size, which is how the XPBD loop calls them (sim/xpbd.c).
+// size, which is how the XPBD loop calls the f32 ones (sim/xpbd.c).
 // Constraint data (b_k, V_j) is computed in double and rounded once.
 #ifndef EK_XPBD_H
 #define EK_XPBD_H
