@@ -24,6 +24,8 @@ static const ek_verify_family families[] = {
     {"fvm", verify_fvm,
      "FVM force per scatter strategy, gradient and Hessian products per projection vs the "
      "double references"},
+    {"xpbd", verify_xpbd,
+     "XPBD sweeps (Gauss-Seidel, Jacobi) on tets and clusters vs the double reference"},
 };
 
 struct ek_verify_ctx {

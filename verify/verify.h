@@ -55,5 +55,6 @@ void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) __attribute__((for
 int verify_svd3(ek_verify_ctx *ctx);
 int verify_material(ek_verify_ctx *ctx);
 int verify_fvm(ek_verify_ctx *ctx);
+int verify_xpbd(ek_verify_ctx *ctx);
 
 #endif
