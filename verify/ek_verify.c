@@ -63,6 +63,13 @@ void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) {
   cJSON_AddItemToArray(ctx->notes, cJSON_CreateString(msg));
 }
 
+void ek_verify_note_skipped_isas(ek_verify_ctx *ctx, const char *family) {
+  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+    if (!ek_isa_available((ek_isa)isa))
+      ek_verify_note(ctx, "%s: ISA %s skipped (not built or not supported by this CPU)", family,
+                     ek_isa_name((ek_isa)isa));
+}
+
 void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
   double ratio = r->worst / r->budget;
   ek_verdict v = ek_check_verdict(r->worst, r->budget);

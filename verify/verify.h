@@ -51,6 +51,9 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *row);
 // A note in the report (e.g. an ISA skipped because the CPU lacks it).
 void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+// One note per ISA this build or CPU cannot run, naming the family.
+void ek_verify_note_skipped_isas(ek_verify_ctx *ctx, const char *family);
+
 // Families (one per verify_<family>.c).
 int verify_svd3(ek_verify_ctx *ctx);
 int verify_material(ek_verify_ctx *ctx);

@@ -146,10 +146,7 @@ int verify_fvm(ek_verify_ctx *ctx) {
     free_case(&c);
     return -1;
   }
-  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
-    if (!ek_isa_available((ek_isa)isa))
-      ek_verify_note(ctx, "fvm: ISA %s skipped (not built or not supported by this CPU)",
-                     ek_isa_name((ek_isa)isa));
+  ek_verify_note_skipped_isas(ctx, "fvm");
   static const ek_scatter strategies[4] = {EK_SCATTER_COLORED, EK_SCATTER_THREAD_BUFFERS,
                                            EK_SCATTER_GATHER, EK_SCATTER_ATOMIC};
   static const char *const strategy_metric[4] = {"colored", "thread_buffers", "gather",

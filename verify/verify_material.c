@@ -77,10 +77,7 @@ int verify_material(ek_verify_ctx *ctx) {
                    MATERIAL_SET_MAX);
     n = MATERIAL_SET_MAX;
   }
-  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
-    if (!ek_isa_available((ek_isa)isa))
-      ek_verify_note(ctx, "material: ISA %s skipped (not built or not supported by this CPU)",
-                     ek_isa_name((ek_isa)isa));
+  ek_verify_note_skipped_isas(ctx, "material");
   double *F = ek_check_malloc(n * 9 * sizeof *F), *R = ek_check_malloc(n * 9 * sizeof *R);
   double *dF = ek_check_malloc(n * 9 * sizeof *dF);
   double *ref = ek_check_malloc(n * 81 * sizeof *ref), *out = ek_check_malloc(n * 81 * sizeof *out);

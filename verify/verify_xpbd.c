@@ -122,10 +122,7 @@ int verify_xpbd(ek_verify_ctx *ctx) {
     free_case(&c);
     return -1;
   }
-  for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
-    if (!ek_isa_available((ek_isa)isa))
-      ek_verify_note(ctx, "xpbd: ISA %s skipped (not built or not supported by this CPU)",
-                     ek_isa_name((ek_isa)isa));
+  ek_verify_note_skipped_isas(ctx, "xpbd");
   const double young = 1e5, nu = 0.3;
   const ek_material m = {EK_MODEL_STVK, young / (2 * (1 + nu)),
                          young * nu / ((1 + nu) * (1 - 2 * nu)), 0};
