@@ -98,7 +98,7 @@ const ek_kernel_table *ek_kernels_for(ek_isa isa);
 // ek_last_error set) on error.
 const ek_kernel_table *ek_kernels_resolve(ek_isa requested);
 
-// Record an error message for ek_last_error and print it to stderr.
+// Record an error message for ek_last_error (printed only with EK_VERBOSE).
 void ek_set_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 #endif

@@ -6,6 +6,7 @@
 // untouched), and force does overwrite it.
 #include <ek/sim.h>
 
+#include "cli.h"
 #include <errno.h>
 #include <hdf5.h>
 #include <math.h>
@@ -244,9 +245,7 @@ static long count_in_file(const char *path, const char *needle) {
 }
 
 int main(int argc, char **argv) {
-  for (int i = 1; i < argc; ++i)
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoull(argv[++i], NULL, 10);
+  seed = ek_cli_test_args(argc, argv, seed, NULL);
   printf("test_frames --seed %llu\n", seed);
   char dir[] = "/tmp/ek_test_frames_XXXXXX";
   if (!mkdtemp(dir)) {
