@@ -115,10 +115,11 @@ int ek_tri_deformation_aosoa_f64(size_t nblocks, const double *x, const double *
 // need the fold of a triangle against its neighbours compare normals.
 // Rank-deficient F (collinear or coincident deformed corners): R stays
 // orthonormal and finite.
-//   rank 1 (|f1 x f2|^2 below the precision's smallest normal number after
-//     F is scaled to a largest entry of 1): u2 is the unit vector
-//     perpendicular to u1 made from the coordinate axis least aligned with
-//     u1 (e_k x u1 normalised, k = argmin |u1_k|), sigma2 = 0;
+//   rank 1 (after F is scaled to a largest entry of 1: |f1 x f2|^2 below
+//     the precision's smallest normal number, or n so inaccurate that
+//     |n x u1|^2 <= |n|^2 / 2): u2 is the unit vector perpendicular to u1
+//     made from the coordinate axis least aligned with u1 (e_k x u1
+//     normalised, k = argmin |u1_k|); sigma2 = |f1 x f2| / sigma1 as ever;
 //   rank 0 (F = 0): R = [[1, 0], [0, 1], [0, 0]], Uc = 0.
 // F is scaled by its largest entry first, so 1e+-30 and subnormal inputs
 // neither overflow nor underflow in C. A F with a NaN or infinity gives NaN
@@ -214,9 +215,8 @@ int ek_tri_velocity_gradient_f64(size_t n, const double *x, const double *v, dou
                                  double *W, const ek_cloth_opts *opts);
 int ek_tri_velocity_gradient_aosoa_f32(size_t nblocks, const float *x, const float *v, float *L,
                                        float *D, float *W, const ek_cloth_opts *opts);
-int ek_tri_velocity_gradient_aosoa_f64(size_t nblocks, const double *x, const double *v,
-                                       double *L, double *D, double *W,
-                                       const ek_cloth_opts *opts);
+int ek_tri_velocity_gradient_aosoa_f64(size_t nblocks, const double *x, const double *v, double *L,
+                                       double *D, double *W, const ek_cloth_opts *opts);
 
 #ifdef __cplusplus
 }
