@@ -96,7 +96,8 @@ static void call_kabsch(void *p) {
 #pragma omp parallel for schedule(static)
     for (long s = 0; s < n; s++) {
       size_t k0 = c->offsets[s];
-      ek_kabsch_ref(c->offsets[s + 1] - k0, c->P + 3 * k0, c->Q + 3 * k0, NULL, c->R + 9 * s, NULL);
+      ek_kabsch_ref(c->offsets[s + 1] - k0, c->P + 3 * k0, c->Q + 3 * k0, NULL, 0x1p-49,
+                    c->R + 9 * s, NULL);
     }
     return;
   }

@@ -241,8 +241,8 @@ static void kabsch(uint64_t seed, ek_isa isa, int bits) {
       worst = fmax(worst, ek_kabsch_metrics_worst(&m));
       double Rr[9], sv[3] = {1, 1, 0}, cond = 1;
       size_t k0 = s.offsets[k];
-      if (exact &&
-          ek_kabsch_ref(s.offsets[k + 1] - k0, s.P + 3 * k0, s.Q + 3 * k0, NULL, Rr, sv) == 0)
+      if (exact && ek_kabsch_ref(s.offsets[k + 1] - k0, s.P + 3 * k0, s.Q + 3 * k0, NULL,
+                                 ek_kabsch_spread_eps(bits), Rr, sv) == 0)
         cond = (sv[1] + sv[2]) / sv[0];
       for (int i = 0; i < 9; i++) {
         if (exact) // the rotation the set was made with, times its condition

@@ -24,6 +24,7 @@
 #include "check.h"
 #include "check_cloth.h"
 #include "cloth/cloth_ref.h"
+#include "svd3/svd3_ref.h"
 
 enum { N = 2000 };
 
@@ -83,6 +84,13 @@ static void polar(uint64_t seed) {
     const ek_polar32_family *fam = &ek_polar32_families[f];
     if (fam->flags & EK_FAMILY_NONFINITE || !(fam->flags & EK_FAMILY_F64))
       continue;
+    if (strstr(fam->name, "subnormal")) { // outputs ~1e-310 resolve only ~5e-14 of themselves
+      printf("SKIP polar32_ref %s: outputs in the subnormal range resolve 5e-324 / 1e-310 = 5e-14 "
+             "of their size, too coarse for %g (test_cloth compares the kernels with the "
+             "reference there)\n",
+             fam->name, EK_CLOTH_REF_TOL);
+      continue;
+    }
     ek_rng rng;
     ek_rng_seed(&rng, ek_check_stream_seed(seed, fam->name));
     fam->generate(&rng, N, F);
@@ -93,22 +101,25 @@ static void polar(uint64_t seed) {
       ek_polar32_metrics met;
       ek_check_polar32(F + 6 * k, R, Uc, R, Uc, s, &met);
       worst = fmax(worst, ek_polar32_metrics_worst(&met));
-      // The seed's eigen route agrees where sigma2 / sigma1 > 1e-4 (its R
-      // loses ~eps (sigma1 / sigma2)^2: C squares the condition number).
-      if (s[1] > 1e-4 * s[0]) {
+      // The seed's eigen route agrees where sigma2 / sigma1 > 1e-4, its R
+      // weighted by (sigma2 / sigma1)^2 and Uc by sigma2 / sigma1 (C
+      // squares the condition number: lambda2 carries ~eps lambda1).
+      // Where C = F^T F is representable: sigma1^2 neither overflows nor
+      // underflows (the 1e+-300 families are the seed route's failure).
+      if (s[1] > 1e-4 * s[0] && s[0] < 1e150 && s[0] > 1e-150) {
         double R2[6], Uc2[4], s2[2], scale = s[0];
         ek_polar_eig_ref(3, F + 6 * k, R2, Uc2, s2);
         for (int i = 0; i < 6; i++)
           m[i] = fabs(R2[i] - R[i]) * (s[1] / s[0]) * (s[1] / s[0]);
         for (int i = 0; i < 4; i++)
-          m[i] = fmax(m[i], fabs(Uc2[i] - Uc[i]) / scale);
+          m[i] = fmax(m[i], fabs(Uc2[i] - Uc[i]) / scale * (s[1] / s[0]));
         worst_eig = fmax(worst_eig, max_abs(m, 6));
       }
     }
     char label[96];
     snprintf(label, sizeof label, "polar32_ref %-13s R Uc = F, R^T R = I", fam->name);
     report(label, worst, EK_CLOTH_REF_TOL);
-    snprintf(label, sizeof label, "polar_eig_ref %-13s vs dgesvd (x (s2/s1)^2)", fam->name);
+    snprintf(label, sizeof label, "polar_eig_ref %-13s vs dgesvd, weighted", fam->name);
     report(label, worst_eig, EK_CLOTH_REF_TOL);
   }
   free(F);
@@ -123,7 +134,8 @@ static void kabsch(uint64_t seed) {
     for (size_t k = 0; k < s.nsets; k++) {
       double R[9], sv[3];
       size_t k0 = s.offsets[k];
-      ek_kabsch_ref(s.offsets[k + 1] - k0, s.P + 3 * k0, s.Q + 3 * k0, NULL, R, sv);
+      ek_kabsch_ref(s.offsets[k + 1] - k0, s.P + 3 * k0, s.Q + 3 * k0, NULL,
+                    ek_kabsch_spread_eps(64), R, sv);
       worst_det = fmax(worst_det, fabs(ek_det3(R) - 1));
       if (f == 0)
         for (int i = 0; i < 9; i++)
@@ -161,7 +173,14 @@ static void velocity_gradients(uint64_t seed) {
       for (int i = 0; i < 3; i++)
         v[3 * k + i] =
             S[3 * i] * x[3 * k] + S[3 * i + 1] * x[3 * k + 1] + S[3 * i + 2] * x[3 * k + 2] + c[i];
-    double scale = max_abs(w, 3);
+    // Relative to the rate times the tet's condition |Ds| |Ds^-1|.
+    double Ds[9], Us[9], Ss[3], Vs[9];
+    for (int k = 0; k < 3; k++)
+      for (int i = 0; i < 3; i++)
+        Ds[3 * i + k] = x[3 * (k + 1) + i] - x[i];
+    ek_svd3_ref(Ds, Us, Ss, Vs);
+    double cond = Ss[0] / fabs(Ss[2]);
+    double scale = max_abs(w, 3) * cond;
     ek_tet_velgrad_ref(x, v, L);
     ek_LDW_ref(L, D, W);
     for (int i = 0; i < 9; i++)
@@ -176,8 +195,8 @@ static void velocity_gradients(uint64_t seed) {
     double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     for (int i = 0; i < 3; i++)
       n[i] /= nn;
-    // The projector's error grows as the triangle's condition (its
-    // smallest angle); skip slivers, which the kernels' families cover.
+    // The pseudo-inverse's error grows as the triangle's condition
+    // (1 / sin of its angle at x0): weighted by sin, slivers skipped.
     double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
     double l2 = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
     if (nn > 1e-2 * l1 * l2)
@@ -185,7 +204,7 @@ static void velocity_gradients(uint64_t seed) {
         for (int j = 0; j < 3; j++) {
           double SP =
               S[3 * i + j] - (S[3 * i] * n[0] + S[3 * i + 1] * n[1] + S[3 * i + 2] * n[2]) * n[j];
-          rigid_tri = fmax(rigid_tri, fabs(L[3 * i + j] - SP) / scale * 1e-2 * l1 * l2 / nn);
+          rigid_tri = fmax(rigid_tri, fabs(L[3 * i + j] - SP) / scale * nn / (l1 * l2));
         }
     // Stretch rate: v_i = r_i x_i.
     for (int k = 0; k < 4; k++)
@@ -193,7 +212,7 @@ static void velocity_gradients(uint64_t seed) {
         v[3 * k + i] = r[i] * x[3 * k + i];
     ek_tet_velgrad_ref(x, v, L);
     ek_LDW_ref(L, D, W);
-    double rs = max_abs(r, 3);
+    double rs = max_abs(r, 3) * cond;
     for (int i = 0; i < 9; i++)
       stretch_tet =
           fmax(stretch_tet, fmax(fabs(D[i] - (i % 4 == 0 ? r[i / 4] : 0)), fabs(W[i])) / rs);
@@ -214,7 +233,7 @@ static void velocity_gradients(uint64_t seed) {
                                                           : i == 4 ? r[1]
                                                                    : 0)),
                                              fabs(W[i])) /
-                                            rs * 1e-2 / sin_);
+                                            (rs / cond) * sin_);
   }
   report("tet L rigid: D = 0, W = [omega]x", rigid_tet, EK_CLOTH_REF_TOL);
   report("tri L rigid: L = [omega]x (I - n n^T)", rigid_tri, EK_CLOTH_REF_TOL);

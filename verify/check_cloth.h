@@ -49,6 +49,7 @@ double ek_polar32_metrics_worst(const ek_polar32_metrics *m);
 // no weights); rounded to float when bits == 32.
 typedef struct {
   char name[32];
+  int bits; // the precision the points were rounded to
   size_t nsets, npoints;
   size_t *offsets;
   double *P, *Q, *w;
@@ -60,6 +61,10 @@ extern const int ek_kabsch_nfamilies;
 void ek_kabsch_set_init(ek_kabsch_set *s, const char *family, uint64_t seed, size_t nsets,
                         int bits);
 void ek_kabsch_set_free(ek_kabsch_set *s);
+
+// What the kernels treat as no spread (cloth.h): 8 eps of the precision,
+// the reference's spread_eps.
+double ek_kabsch_spread_eps(int bits);
 
 // Metrics of set s's R against the LAPACK reference (cloth.h): orth, det,
 // the objective's excess over the reference's relative to its size, and

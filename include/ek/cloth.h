@@ -150,8 +150,9 @@ int ek_polar32_aosoa_f64(size_t nblocks, const double *F, double *R, double *Uc,
 // neither overflow nor underflow.
 // Degenerate sets: coplanar sets have a unique R; collinear sets (and
 // s2 + s3 = 0 in general) have a family of minimisers, R is one of them; a
-// set whose P or Q points all coincide (or with fewer than 2 points) gives
-// the identity.
+// set whose P or Q points all coincide (up to the rounding of their
+// centroid: centred points within 8 eps of its largest coordinate) or with
+// fewer than 2 points gives the identity.
 // Refused (EK_EINVAL, message naming the set or point and the value,
 // nothing written): NULL arrays with nsets > 0, offsets not non-decreasing,
 // a weight that is negative or not finite, a set whose weights sum to 0.

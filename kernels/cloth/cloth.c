@@ -20,6 +20,15 @@ typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define FN(t, name) ((t)->name##_f64)
 #endif
 
+// A Kabsch set has no spread when its centred points are within
+// SPREAD_EPS times its centroid's largest coordinate (8 eps: the rounding
+// of a weighted mean).
+#if defined(EK_REAL_F32)
+#define SPREAD_EPS (8 * 0x1p-23f)
+#else
+#define SPREAD_EPS (8 * 0x1p-52)
+#endif
+
 // Blocks per OpenMP work item and per staging chunk (the svd3 driver's
 // choice: a chunk's inputs and outputs stay in L2).
 #define CHUNK_BLOCKS 32
@@ -72,7 +81,7 @@ static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a)
         for (int k = 0; k < 3; k++)
           if (buf[2 + k])
             EK_P(aosoa_unpack)
-            (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
+        (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
       }
     }
     for (int k = 0; k < 5; k++)
@@ -378,10 +387,12 @@ static int kabsch_covariance(size_t k0, size_t k1, const real *P, const real *Q,
     for (int i = 0; i < 3; i++)
       pbar[i] += wk * P[3 * k + i], qbar[i] += wk * Q[3 * k + i];
   }
-  real sp = 0, sq = 0;
+  real sp = 0, sq = 0, cp = 0, cq = 0;
   if (k1 > k0)
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 3; i++) {
       pbar[i] /= sw, qbar[i] /= sw;
+      cp = (real)fmax(cp, fabs((double)pbar[i])), cq = (real)fmax(cq, fabs((double)qbar[i]));
+    }
   for (size_t k = k0; k < k1; k++)
     for (int i = 0; i < 3; i++) {
       real a = (real)fabs((double)(P[3 * k + i] - pbar[i]));
@@ -389,7 +400,9 @@ static int kabsch_covariance(size_t k0, size_t k1, const real *P, const real *Q,
       sp = a > sp ? a : sp, sq = b > sq ? b : sq;
     }
   real M[9] = {0};
-  int spread = sp > 0 && sq > 0;
+  // Points that coincide up to the rounding of their centroid have no
+  // spread (the centroid of equal values need not equal them exactly).
+  int spread = sp > SPREAD_EPS * cp && sq > SPREAD_EPS * cq && sp > 0 && sq > 0;
   if (spread)
     for (size_t k = k0; k < k1; k++) {
       real wk = w ? w[k] / wmax : 1, p[3], q[3];

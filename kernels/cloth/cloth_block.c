@@ -168,10 +168,12 @@ INLINE void polar32_vec(const vreal f[6], vreal R[6], vreal Uc[4]) {
     R[2 * i] = vsel(finite, vadd(vmul(u1[i], v1[0]), vmul(u2[i], v2[0])), nan);
     R[2 * i + 1] = vsel(finite, vadd(vmul(u1[i], v1[1]), vmul(u2[i], v2[1])), nan);
   }
-  vreal a1 = vmul(sigma1, s), a2 = vmul(sigma2, s);
-  vreal u00 = vadd(vmul(a1, vmul(v1[0], v1[0])), vmul(a2, vmul(v2[0], v2[0])));
-  vreal u01 = vadd(vmul(a1, vmul(v1[0], v1[1])), vmul(a2, vmul(v2[0], v2[1])));
-  vreal u11 = vadd(vmul(a1, vmul(v1[1], v1[1])), vmul(a2, vmul(v2[1], v2[1])));
+  // Uc in the scaled units, then one multiplication by s (one rounding
+  // when the output is subnormal).
+  vreal u00 = vadd(vmul(sigma1, vmul(v1[0], v1[0])), vmul(sigma2, vmul(v2[0], v2[0])));
+  vreal u01 = vadd(vmul(sigma1, vmul(v1[0], v1[1])), vmul(sigma2, vmul(v2[0], v2[1])));
+  vreal u11 = vadd(vmul(sigma1, vmul(v1[1], v1[1])), vmul(sigma2, vmul(v2[1], v2[1])));
+  u00 = vmul(u00, s), u01 = vmul(u01, s), u11 = vmul(u11, s);
   Uc[0] = vsel(finite, u00, nan);
   Uc[1] = Uc[2] = vsel(finite, u01, nan);
   Uc[3] = vsel(finite, u11, nan);

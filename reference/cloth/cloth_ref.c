@@ -70,11 +70,16 @@ int ek_polar32_ref(const double F[6], double R[6], double Uc[4], double sigma[2]
       fill_nan(R, 6), fill_nan(Uc, 4), fill_nan(sigma, 2);
       return -1;
     }
-  // Column-major 3x2 copy.
-  double a[6], S[2], U[9], VT[4], work[64];
+  // Column-major 3x2 copy, scaled by the largest entry (so 1e+-300 and
+  // subnormal F keep their precision inside dgesvd).
+  double a[6], S[2], U[9], VT[4], work[64], scale = 0;
+  for (int i = 0; i < 6; i++)
+    scale = fmax(scale, fabs(F[i]));
+  if (scale == 0)
+    scale = 1;
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 2; j++)
-      a[i + 3 * j] = F[2 * i + j];
+      a[i + 3 * j] = F[2 * i + j] / scale;
   int m = 3, n = 2, lwork = 64, info = 0;
   dgesvd_("A", "A", &m, &n, a, &m, S, U, &m, VT, &n, work, &lwork, &info);
   if (info != 0) {
@@ -88,8 +93,8 @@ int ek_polar32_ref(const double F[6], double R[6], double Uc[4], double sigma[2]
       R[2 * i + j] = U[i] * VT[2 * j] + U[i + 3] * VT[1 + 2 * j];
   for (int i = 0; i < 2; i++)
     for (int j = 0; j < 2; j++)
-      Uc[2 * i + j] = VT[2 * i] * S[0] * VT[2 * j] + VT[1 + 2 * i] * S[1] * VT[1 + 2 * j];
-  sigma[0] = S[0], sigma[1] = S[1];
+      Uc[2 * i + j] = (VT[2 * i] * S[0] * VT[2 * j] + VT[1 + 2 * i] * S[1] * VT[1 + 2 * j]) * scale;
+  sigma[0] = S[0] * scale, sigma[1] = S[1] * scale;
   return 0;
 }
 
@@ -147,8 +152,8 @@ static double det3(const double *A) {
          A[2] * (A[3] * A[7] - A[4] * A[6]);
 }
 
-int ek_kabsch_ref(size_t n, const double *P, const double *Q, const double *w, double R[9],
-                  double s[3]) {
+int ek_kabsch_ref(size_t n, const double *P, const double *Q, const double *w, double spread_eps,
+                  double R[9], double s[3]) {
   double pbar[3], qbar[3], H[9] = {0};
   centroids(n, P, Q, w, pbar, qbar);
   for (size_t k = 0; k < n; k++) {
@@ -157,10 +162,15 @@ int ek_kabsch_ref(size_t n, const double *P, const double *Q, const double *w, d
       for (int j = 0; j < 3; j++)
         H[3 * i + j] += wk * (P[3 * k + i] - pbar[i]) * (Q[3 * k + j] - qbar[j]);
   }
-  double hmax = 0;
+  double hmax = 0, sp = 0, sq = 0, cp = 0, cq = 0;
   for (int i = 0; i < 9; i++)
     hmax = fmax(hmax, fabs(H[i]));
-  if (!(hmax > 0)) {
+  for (int i = 0; i < 3; i++)
+    cp = fmax(cp, fabs(pbar[i])), cq = fmax(cq, fabs(qbar[i]));
+  for (size_t k = 0; k < n; k++)
+    for (int i = 0; i < 3; i++)
+      sp = fmax(sp, fabs(P[3 * k + i] - pbar[i])), sq = fmax(sq, fabs(Q[3 * k + i] - qbar[i]));
+  if (!(hmax > 0) || !(sp > spread_eps * cp) || !(sq > spread_eps * cq)) {
     for (int i = 0; i < 9; i++)
       R[i] = i % 4 == 0;
     if (s)

@@ -29,7 +29,8 @@ int ek_tri_rest_ref(const double X[9], double rel, double Dm_inv[4], double *are
 // F = [x1 - x0, x2 - x0] Dm_inv (3x2 row-major).
 void ek_tri_F_ref(const double x[9], const double Dm_inv[4], double F[6]);
 
-// Polar decomposition F = R Uc of a 3x2 F from dgesvd: F = U S V^T (thin),
+// Polar decomposition F = R Uc of a 3x2 F from dgesvd (on F scaled by its
+// largest entry, then scaled back): F = U S V^T (thin),
 // R = U V^T, Uc = V diag(S) V^T; sigma = S (descending, >= 0). For a rank-
 // deficient F, dgesvd's R is one of the polar factors (none is unique).
 // Returns 0, or -1 (outputs NaN) for a non-finite F or a LAPACK failure.
@@ -47,10 +48,12 @@ int ek_polar_eig_ref(int rows, const double *F, double *R, double Uc[4], double 
 // dgesvd H = U S V^T, d = sign det(V U^T), R = V diag(1, 1, d) U^T (3x3
 // row-major), minimising sum_k w_k |R (p_k - pbar) - (q_k - qbar)|^2. w may
 // be NULL (all 1). s: the signed singular values of M = H^T in ek's
-// rotation-variant convention (s3 = d sigma3), or NULL. n == 0 or no spread:
-// R = I. Returns 0, or -1 on a LAPACK failure.
-int ek_kabsch_ref(size_t n, const double *P, const double *Q, const double *w, double R[9],
-                  double s[3]);
+// rotation-variant convention (s3 = d sigma3), or NULL. n == 0 or no spread
+// (the centred points of P or of Q all within spread_eps times the largest
+// coordinate of their centroid: coincident up to its rounding): R = I.
+// Returns 0, or -1 on a LAPACK failure.
+int ek_kabsch_ref(size_t n, const double *P, const double *Q, const double *w, double spread_eps,
+                  double R[9], double s[3]);
 
 // The Kabsch objective sum_k w_k |R (p_k - pbar) - (q_k - qbar)|^2, and its
 // cancellation-free size sum_k w_k (|p_k - pbar|^2 + |q_k - qbar|^2).
