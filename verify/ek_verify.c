@@ -27,6 +27,8 @@ static const ek_verify_family families[] = {
      "double references"},
     {"xpbd", verify_xpbd,
      "XPBD sweeps (Gauss-Seidel, Jacobi) on tets and clusters vs the double reference"},
+    {"cloth", verify_cloth,
+     "polar32, Kabsch, triangle velocity gradient vs LAPACK (dgesvd) references"},
 };
 
 struct ek_verify_ctx {
