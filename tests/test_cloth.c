@@ -31,6 +31,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 #include "check_cloth.h"
 #include "cloth/cloth_ref.h"
 
@@ -510,7 +511,7 @@ static void same_bits(uint64_t seed) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_cloth: seed %llu\n", (unsigned long long)seed);
   rest(seed);
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {

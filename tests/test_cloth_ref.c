@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 #include "check_cloth.h"
 #include "cloth/cloth_ref.h"
 #include "svd3/svd3_ref.h"
@@ -333,7 +334,7 @@ static void seed_example(void) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_cloth_ref: seed %llu\n", (unsigned long long)seed);
   rest_frame(seed);
   polar(seed);
