@@ -23,6 +23,7 @@
 
 #include "cli.h"
 #include "omp_env.h"
+#include "scene_find.h"
 
 static double now(void) {
   struct timespec ts;
@@ -332,6 +333,14 @@ int main(int argc, char **argv) {
   if (out && no_output)
     return ek_cli_usage_error("ek-sim", "--out and --no-output exclude each other");
   char err[1024];
+  // SCENE is a file, or the name of a shipped scene ("drop"), found in the
+  // build or the installed tree (scene_find.h).
+  char found[EK_SCENE_PATH_MAX];
+  if (ek_scene_arg(scene_path, found, sizeof found, err, sizeof err) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return 1;
+  }
+  scene_path = found;
   static ek_scene scene;
   if (ek_scene_load(scene_path, &scene, err, sizeof err) != 0) {
     fprintf(stderr, "ek-sim: %s\n", err);
