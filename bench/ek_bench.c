@@ -323,7 +323,8 @@ static void usage(FILE *f) {
              "  -h, --help      this text\n"
              "  --version       print the version\n"
              "OMP_PROC_BIND / OMP_PLACES default to close / cores; EK_ISA is ignored for rows\n"
-             "that force an ISA.\n");
+             "that force an ISA. The sim/ rows load the shipped scenes from EK_SCENES_DIR if\n"
+             "set, else the installed or the source tree's scenes/.\n");
 }
 
 static int bad_arg(const char *opt, const char *value, const char *why) {

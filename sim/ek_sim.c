@@ -35,6 +35,8 @@ static void usage(FILE *out) {
   fprintf(out,
           "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
           "[--force] [--explain] [--residuals]\n"
+          "  SCENE         a scene file, or a shipped scene's name (e.g. drop), looked up in\n"
+          "                EK_SCENES_DIR if set, else the installed or the source tree's scenes/\n"
           "  --steps N     override the scene's step count\n"
           "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
           "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
