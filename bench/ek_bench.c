@@ -212,9 +212,8 @@ static const ek_result_row *twin_of(const ek_bench *b, const char *name, int thr
   return ek_results_find(&b->results, one);
 }
 
-// More threads should never make a row much slower than its 1-thread twin.
-static int slower_than_twin(const ek_stats *s, const ek_result_row *twin) {
-  return twin && s->median > EK_RESULTS_TWIN_SLOWER * twin->stats.median;
+static ek_twin_verdict twin_test(const ek_stats *s, const ek_result_row *twin, int cores) {
+  return twin ? ek_results_twin_test(s->median, twin->stats.median, cores) : EK_TWIN_OK;
 }
 
 int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
@@ -248,11 +247,12 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   // reported. Second passes are capped so a busy machine cannot double
   // the run.
   const ek_result_row *twin = twin_of(b, row->name, row->threads);
-  int eff = ek_machine_effective_threads(row->threads);
+  int cores = ek_machine_effective_threads(row->threads);
   int passes = 1;
   double other_median = NAN;
   int max_second_passes = b->total / 10 + 5;
-  int suspect = ek_results_stats_noisy(&t.stats) || slower_than_twin(&t.stats, twin);
+  int suspect =
+      ek_results_stats_noisy(&t.stats) || twin_test(&t.stats, twin, cores) == EK_TWIN_SLOW;
   if (suspect && b->second_passes < max_second_passes) {
     ek_timing t2;
     if (ek_time(row->fn, row->ctx, row->items, &b->timer, &t2) == 0) {
@@ -296,9 +296,10 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
     r->flags |= EK_ROW_TRIAD_DISTURBED;
   // The twin is looked up again: adding a row may have moved the rows.
   twin = twin_of(b, row->name, row->threads);
-  if (slower_than_twin(&r->stats, twin))
+  ek_twin_verdict verdict = twin_test(&r->stats, twin, cores);
+  if (verdict == EK_TWIN_SLOW)
     r->flags |= EK_ROW_TWIN;
-  if (twin && r->stats.median * EK_RESULTS_TWIN_FASTER * eff < twin->stats.median) {
+  if (verdict == EK_TWIN_FAST) {
     // Far more than `threads` times faster: the 1-thread twin, whose work
     // cannot be timed again now, was the disturbed one.
     r->flags |= EK_ROW_TWIN;

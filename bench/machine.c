@@ -136,17 +136,16 @@ int ek_machine_effective_threads(int threads) {
   return threads < cores ? threads : cores;
 }
 
-int ek_machine_peak_plausible(double peak_1, double peak_t, int threads) {
-  int eff = ek_machine_effective_threads(threads);
-  if (eff < 2 || !isfinite(peak_1) || !isfinite(peak_t))
+int ek_machine_peak_plausible(double peak_1, double peak_t, int cores) {
+  if (cores < 2 || !isfinite(peak_1) || !isfinite(peak_t))
     return 1;
   double scaling = peak_t / peak_1;
-  return scaling >= EK_MACHINE_PEAK_MIN_SCALING * eff &&
-         scaling <= EK_MACHINE_PEAK_MAX_SCALING * eff;
+  return scaling >= EK_MACHINE_PEAK_MIN_SCALING * cores &&
+         scaling <= EK_MACHINE_PEAK_MAX_SCALING * cores;
 }
 
-int ek_machine_triad_plausible(double triad_1, double triad_t, int threads) {
-  if (ek_machine_effective_threads(threads) < 2 || !isfinite(triad_1) || !isfinite(triad_t))
+int ek_machine_triad_plausible(double triad_1, double triad_t, int cores) {
+  if (cores < 2 || !isfinite(triad_1) || !isfinite(triad_t))
     return 1;
   return triad_t >= triad_1;
 }
@@ -198,6 +197,7 @@ int ek_machine_measure(ek_machine *m, const int *threads, int nthreads, double m
   for (int k = 0; k < n; k++) {
     measure_at(m, list[k], NULL, 1, min_time);
     m->attempts[list[k]] = 1;
+    m->cores[list[k]] = ek_machine_effective_threads(list[k]);
   }
   for (int k = 1; k < n; k++) {
     int t = list[k];
@@ -207,9 +207,10 @@ int ek_machine_measure(ek_machine *m, const int *threads, int nthreads, double m
       for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
         for (int p = 0; p < 2; p++)
           if (!ek_machine_peak_plausible(m->peak_measured[isa][p][1], m->peak_measured[isa][p][t],
-                                         t))
+                                         m->cores[t]))
             bad = redo[isa][p] = 1;
-      int redo_triad = !ek_machine_triad_plausible(m->triad_measured[1], m->triad_measured[t], t);
+      int redo_triad =
+          !ek_machine_triad_plausible(m->triad_measured[1], m->triad_measured[t], m->cores[t]);
       if ((!bad && !redo_triad) || m->attempts[t] >= EK_MACHINE_PROBE_ATTEMPTS)
         break;
       // A pause, so a burst of other work can pass, then both ends of
@@ -221,38 +222,43 @@ int ek_machine_measure(ek_machine *m, const int *threads, int nthreads, double m
       m->attempts[t]++;
     }
   }
-  // What the rows are compared with.
-  for (int k = 0; k < n; k++) {
-    int t = list[k];
+  ek_machine_settle(m);
+  return rc;
+}
+
+void ek_machine_settle(ek_machine *m) {
+  for (int t = 1; t <= EK_MACHINE_MAX_THREADS; t++) {
     for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
-      for (int p = 0; p < 2; p++)
+      for (int p = 0; p < 2; p++) {
         m->peak_gflops[isa][p][t] = m->peak_measured[isa][p][t];
+        m->peak_disturbed[isa][p][t] = 0;
+      }
     m->triad_gbs[t] = m->triad_measured[t];
+    m->triad_disturbed[t] = 0;
   }
-  for (int k = 1; k < n; k++) {
-    int t = list[k], eff = ek_machine_effective_threads(t);
+  for (int t = 2; t <= EK_MACHINE_MAX_THREADS; t++) {
+    int cores = m->cores[t];
     for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
       for (int p = 0; p < 2; p++) {
         double one = m->peak_measured[isa][p][1], many = m->peak_measured[isa][p][t];
-        if (ek_machine_peak_plausible(one, many, t))
+        if (ek_machine_peak_plausible(one, many, cores))
           continue;
-        if (many / one < EK_MACHINE_PEAK_MIN_SCALING * eff) {
+        if (many / one < EK_MACHINE_PEAK_MIN_SCALING * cores) {
           // The T-thread probe read low: each core's units are independent,
-          // so T x the 1-thread peak is the limit to compare with.
+          // so cores x the 1-thread peak is the limit to compare with.
           m->peak_disturbed[isa][p][t] = 1;
-          m->peak_gflops[isa][p][t] = eff * one;
+          m->peak_gflops[isa][p][t] = cores * one;
         } else {
           // The 1-thread probe read low.
           m->peak_disturbed[isa][p][1] = 1;
-          m->peak_gflops[isa][p][1] = many / eff;
+          m->peak_gflops[isa][p][1] = many / cores;
         }
       }
-    if (!ek_machine_triad_plausible(m->triad_measured[1], m->triad_measured[t], t)) {
+    if (!ek_machine_triad_plausible(m->triad_measured[1], m->triad_measured[t], cores)) {
       m->triad_disturbed[t] = 1;
       m->triad_gbs[t] = NAN;
     }
   }
-  return rc;
 }
 
 const char *ek_machine_warnings(const ek_machine *m, const int *threads, int nthreads, char *buf,
@@ -277,9 +283,8 @@ const char *ek_machine_warnings(const ek_machine *m, const int *threads, int nth
                    "use the estimate %.1f (flag peak~)\n",
                    isa_name, prec, t, m->peak_measured[isa][p][t],
                    m->peak_measured[isa][p][t] / m->peak_measured[isa][p][1],
-                   m->peak_measured[isa][p][1],
-                   EK_MACHINE_PEAK_MIN_SCALING * ek_machine_effective_threads(t), m->attempts[t], t,
-                   m->peak_gflops[isa][p][t]);
+                   m->peak_measured[isa][p][1], EK_MACHINE_PEAK_MIN_SCALING * m->cores[t],
+                   m->attempts[t], t, m->peak_gflops[isa][p][t]);
         else
           snprintf(buf + used, cap - used,
                    "WARNING: FMA probe %s %s at 1 thread read %.1f GFLOP/s, far below the "

@@ -48,6 +48,9 @@ typedef struct {
   unsigned char peak_disturbed[EK_ISA_COUNT][2][EK_MACHINE_MAX_THREADS + 1];
   unsigned char triad_disturbed[EK_MACHINE_MAX_THREADS + 1];
   int attempts[EK_MACHINE_MAX_THREADS + 1];
+  // Cores each thread count can use (ek_machine_effective_threads); 0 =
+  // not measured.
+  int cores[EK_MACHINE_MAX_THREADS + 1];
 } ek_machine;
 
 // All entries NaN.
@@ -66,10 +69,14 @@ double ek_machine_measure_triad(int threads, double array_bytes, double min_time
 // Threads the probes can expect to scale over: min(threads, OpenMP places,
 // or online CPUs without places).
 int ek_machine_effective_threads(int threads);
-// 1 if the scaling from 1 to `threads` threads is within the bounds above
-// (always 1 for threads whose effective count is 1).
-int ek_machine_peak_plausible(double peak_1, double peak_t, int threads);
-int ek_machine_triad_plausible(double triad_1, double triad_t, int threads);
+// 1 if the scaling from 1 thread to threads on `cores` cores is within the
+// bounds above (always 1 below 2 cores or for a value not measured).
+int ek_machine_peak_plausible(double peak_1, double peak_t, int cores);
+int ek_machine_triad_plausible(double triad_1, double triad_t, int cores);
+// From the readings (peak_measured, triad_measured, cores): the values the
+// rows are compared with and the disturbed marks, as described above.
+// ek_machine_measure calls it; tests call it on readings of their own.
+void ek_machine_settle(ek_machine *m);
 // Warnings about disturbed probes, one line each ("" if none); returns buf.
 const char *ek_machine_warnings(const ek_machine *m, const int *threads, int nthreads, char *buf,
                                 size_t cap);

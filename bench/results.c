@@ -312,6 +312,17 @@ int ek_results_stats_noisy(const ek_stats *s) {
   return s->min > 0 && (s->median - s->min) / s->min > EK_RESULTS_NOISY_SPREAD;
 }
 
+ek_twin_verdict ek_results_twin_test(double median_ns, double twin_median_ns, int cores) {
+  if (!(median_ns > 0) || !(twin_median_ns > 0) || !isfinite(median_ns) ||
+      !isfinite(twin_median_ns))
+    return EK_TWIN_OK;
+  if (median_ns > EK_RESULTS_TWIN_SLOWER * twin_median_ns)
+    return EK_TWIN_SLOW;
+  if (median_ns * EK_RESULTS_TWIN_FASTER * (cores > 1 ? cores : 1) < twin_median_ns)
+    return EK_TWIN_FAST;
+  return EK_TWIN_OK;
+}
+
 const char *ek_results_flags_text(unsigned flags, char *buf, size_t cap) {
   static const struct {
     unsigned bit;

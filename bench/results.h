@@ -79,6 +79,15 @@ enum {
 // EK_RESULTS_NOISY_SPREAD. A median far from the minimum is robust to what
 // the MAD misses: a few samples all slowed by the same amount.
 int ek_results_stats_noisy(const ek_stats *s);
+// The twin test of a row at T threads against the same row at 1 thread,
+// `cores` the cores T threads can use: EK_TWIN_SLOW if the row is more than
+// EK_RESULTS_TWIN_SLOWER times slower than its twin (more threads never
+// make a row that much slower unless something disturbed it), EK_TWIN_FAST
+// if it is more than EK_RESULTS_TWIN_FASTER x cores times faster (the twin
+// was the disturbed one), EK_TWIN_OK otherwise or when a median is not
+// positive and finite.
+typedef enum { EK_TWIN_OK, EK_TWIN_SLOW, EK_TWIN_FAST } ek_twin_verdict;
+ek_twin_verdict ek_results_twin_test(double median_ns, double twin_median_ns, int cores);
 // The flags as comma-separated words ("noisy,twin,peak~,triad?"), "" if none.
 const char *ek_results_flags_text(unsigned flags, char *buf, size_t cap);
 
