@@ -473,8 +473,11 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
           return bad_arg(a, v, "unknown ISA (scalar, avx2, avx512)");
         mask |= 1u << found;
       }
-      if (!mask)
-        return bad_arg(a, v, "no ISA named");
+      int runnable = 0;
+      for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++)
+        runnable |= ((mask >> i) & 1) && ek_isa_available((ek_isa)i);
+      if (!runnable) // the families need at least one ISA to time
+        return bad_arg(a, v, "none of these ISAs is built and runs on this CPU");
       b->isa_mask = mask;
     } else if (!strcmp(a, "--filter")) {
       if (b->has_filter)

@@ -3,29 +3,30 @@
 //
 // HDF5 layout (written to "<path>.tmp.<pid>", then linked into place, so a
 // file under the final name is always whole):
-//   /                       attributes: run metadata (strings and numbers)
+//   /                       attributes: run metadata (strings and numbers),
+//                           load_avg (float64[3])
 //   /benchmarks             attribute "count"; one group per row, nested by
 //                           the '/'-separated row name, e.g.
 //   /benchmarks/svd3/aosoa/avx2/f32/sweeps:4/threads:2
 //       datasets  samples_ns, samples_cpu_ns (float64[nsamples]): per-item
 //                 wall time and calling-thread CPU time of each sample
-//       attributes name, family, isa, precision, knobs, baseline (strings),
-//                 knob.<key> (one string per knob), threads, items, iters,
-//                 nsamples (integers), overhead_ns, the statistics
-//                 (median_ns ...), declared and achieved rates, fractions
-//                 and ratios (float64; NaN where not applicable)
+//       attributes name, family, isa, precision, knobs, baseline, flags
+//                 (strings), knob.<key> (one string per knob), threads,
+//                 items, iters, nsamples, passes (integers), overhead_ns,
+//                 the statistics (median_ns, min_ns ...), declared and
+//                 achieved rates, fractions and ratios, other_pass_median_ns
+//                 (float64; NaN where not applicable)
 //   /caches                 one attribute per cache level ("L1d" ...)
-// JSON: Google Benchmark's schema (see the key list above
-// ek_results_write_json), so its tools/compare.py, or bench/compare.py, can
-// compare two runs. Per row: "aggregate" entries mean, median, stddev, cv
-// and min (as Google Benchmark writes with repetitions and a "min" custom
-// statistic; iterations = calls x items, so real_time is ns per item); one
-// "iteration" entry per sample only when asked (samples = 1). ek's numbers
-// are counters (numbers) and its descriptive fields the "label" string, as
-// Google Benchmark writes user counters and labels; ek's run metadata is
-// custom context (strings). A value that does not apply is left out, never
-// null. Numbers are written with 17 significant digits (bit-exact on
-// reading back).
+// JSON: Google Benchmark's schema (the key list is in results.c), so its
+// tools/compare.py, or bench/compare.py, can compare two runs. Per row:
+// "aggregate" entries mean, median, stddev, cv and min (as Google Benchmark
+// writes them with repetitions and a "min" custom statistic; iterations =
+// calls x items, so real_time is ns per item); one "iteration" entry per
+// sample only when asked (samples = 1). ek's numbers are counters (numbers)
+// and its descriptive fields the "label" string, as Google Benchmark writes
+// user counters and labels; ek's run metadata is custom context (strings).
+// A value that does not apply is left out, never null. Numbers are written
+// with 17 significant digits (bit-exact on reading back).
 #ifndef EK_BENCH_RESULTS_H
 #define EK_BENCH_RESULTS_H
 
