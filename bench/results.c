@@ -614,12 +614,18 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
 //     string, level, size, num_sharing integers}), load_avg (array of
 //     numbers), library_version, library_build_type (strings),
 //     json_schema_version (integer 1), then custom context (strings).
-//   benchmarks[]: name, family_index, per_family_instance_index, run_name,
-//     run_type ("iteration" | "aggregate"), repetitions, repetition_index
-//     (iterations only), threads, aggregate_name, aggregate_unit ("time" |
-//     "percentage"; aggregates only), iterations (integers where named so,
-//     strings otherwise), real_time, cpu_time (floating point), time_unit
-//     ("ns"), then counters (floating point) and label (string).
+//   benchmarks[], in this order: name, family_index,
+//     per_family_instance_index, run_name, run_type ("iteration" |
+//     "aggregate"), repetitions, repetition_index (iteration entries),
+//     threads, aggregate_name, aggregate_unit ("time" | "percentage";
+//     aggregate entries), iterations, real_time, cpu_time, time_unit ("ns"),
+//     counters, label. Strings: name, run_name, run_type, aggregate_name,
+//     aggregate_unit, time_unit, label; integers: family_index,
+//     per_family_instance_index, repetitions, repetition_index, threads,
+//     iterations; floating point: real_time, cpu_time, counters.
+// compare.py reads json_schema_version, name, run_name, run_type,
+// aggregate_name, family_index, per_family_instance_index,
+// repetition_index, real_time, cpu_time, time_unit and label.
 // Doubles are written as Google Benchmark writes them: scientific notation
 // with 17 significant digits, so they read back bit-exact and as floating
 // point in every parser. Nothing is null: a value that does not apply is
