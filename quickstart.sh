@@ -13,7 +13,7 @@ case "$mode" in bench | test) ;; *)
   ;;
 esac
 
-packages="build-essential cmake git pkg-config liblapack-dev libhdf5-dev libcjson-dev"
+packages="build-essential cmake git pkg-config liblapack-dev libhdf5-dev libcjson-dev python3"
 missing=""
 for p in $packages; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"

@@ -58,6 +58,8 @@ struct ek_bench {
   unsigned long long seed;
   int list_only;
   int min_time_given;
+  int json_samples;  // --samples: per-sample entries in the JSON
+  unsigned isa_mask; // --isas: bit i set = ISA i may be timed (default all)
   // state
   int listing; // 1 during the listing pass
   int total;   // rows selected (from the listing pass)
@@ -65,6 +67,8 @@ struct ek_bench {
   int failures;
   int tty;
   int isa_notes_done;
+  int second_passes;         // rows timed a second time (capped)
+  int second_passes_skipped; // rows that wanted one past the cap
   char notes[2048];
   ek_results results;
   ek_machine machine;
@@ -97,11 +101,14 @@ static int isa_built(ek_isa isa) {
 int ek_bench_isas(ek_bench *b, ek_isa *isas) {
   int n = 0;
   for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++) {
-    if (ek_isa_available((ek_isa)i)) {
+    int selected = (b->isa_mask >> i) & 1;
+    if (ek_isa_available((ek_isa)i) && selected) {
       isas[n++] = (ek_isa)i;
       continue;
     }
-    if (!b->isa_notes_done) {
+    if (!b->isa_notes_done && !selected) {
+      ek_bench_note(b, "skipped %s: not selected (--isas)", ek_isa_name((ek_isa)i));
+    } else if (!b->isa_notes_done) {
       // Built but not runnable here, or not built at all: say which.
       int built = isa_built((ek_isa)i);
       ek_bench_note(b, "skipped %s: %s", ek_isa_name((ek_isa)i),
@@ -197,6 +204,21 @@ static int valid_row(ek_bench *b, const ek_bench_row *row) {
   return why == NULL;
 }
 
+// The same row at 1 thread, if this row runs more threads and the twin has
+// been timed already (families time thread counts in increasing order).
+static const ek_result_row *twin_of(const ek_bench *b, const char *name, int threads) {
+  const char *t = strstr(name, "/threads:");
+  if (!t || threads <= 1)
+    return NULL;
+  char one[EK_RESULTS_NAME_MAX];
+  snprintf(one, sizeof one, "%.*s/threads:1", (int)(t - name), name);
+  return ek_results_find(&b->results, one);
+}
+
+static ek_twin_verdict twin_test(const ek_stats *s, const ek_result_row *twin, int cores) {
+  return twin ? ek_results_twin_test(s->median, twin->stats.median, cores) : EK_TWIN_OK;
+}
+
 int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   if (!row || !row->name) {
     ek_bench_fail(b, "ek_bench_run: row without a name");
@@ -221,12 +243,43 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
     ek_bench_fail(b, "row '%s': timing failed", row->name);
     return -1;
   }
+  // Robustness: a noisy row, or a row far slower than its 1-thread twin
+  // (a disturbance that slowed every sample alike, which no spread
+  // statistic shows), is timed once more and the pass with the lower
+  // median kept (disturbances only add time); what stays flagged is
+  // reported. Second passes are capped so a busy machine cannot double
+  // the run.
+  const ek_result_row *twin = twin_of(b, row->name, row->threads);
+  int cores = ek_machine_effective_threads(row->threads);
+  int passes = 1;
+  double other_median = NAN;
+  int max_second_passes = b->total / 10 + 5;
+  int suspect =
+      ek_results_stats_noisy(&t.stats) || twin_test(&t.stats, twin, cores) == EK_TWIN_SLOW;
+  if (suspect && b->second_passes < max_second_passes) {
+    ek_timing t2;
+    if (ek_time(row->fn, row->ctx, row->items, &b->timer, &t2) == 0) {
+      b->second_passes++;
+      passes = 2;
+      if (t2.stats.median < t.stats.median) {
+        ek_timing drop = t;
+        t = t2;
+        t2 = drop;
+      }
+      other_median = t2.stats.median;
+      ek_timing_free(&t2);
+    }
+  } else if (suspect) {
+    b->second_passes_skipped++;
+  }
   ek_result_row *r = ek_results_add(&b->results, row->name, &t);
   ek_timing_free(&t);
   if (!r) {
     ek_bench_fail(b, "row '%s': out of memory recording the result", row->name);
     return -1;
   }
+  r->passes = passes;
+  r->other_pass_median_ns = other_median;
   int f64 = strcmp(row->precision, "f64") == 0;
   snprintf(r->family, sizeof r->family, "%s", row->family);
   snprintf(r->isa, sizeof r->isa, "%s", row->isa_label ? row->isa_label : ek_isa_name(row->isa));
@@ -238,9 +291,29 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   r->bytes_per_item = row->bytes_per_item;
   r->peak_gflops = ek_machine_peak(&b->machine, row->isa, f64, row->threads);
   r->triad_gbs = ek_machine_triad(&b->machine, row->threads);
-  fprintf(stderr, "%s[%d/%d] %s %.4g ns/item (MAD %.1f%%)%s", b->tty ? "\r\033[K" : "", b->index,
-          b->total, row->name, r->stats.median, 100 * r->stats.mad / r->stats.median,
-          b->tty ? "" : "\n");
+  if (ek_results_stats_noisy(&r->stats))
+    r->flags |= EK_ROW_NOISY;
+  if (ek_machine_peak_estimated(&b->machine, row->isa, f64, row->threads))
+    r->flags |= EK_ROW_PEAK_ESTIMATED;
+  if (ek_machine_triad_disturbed(&b->machine, row->threads))
+    r->flags |= EK_ROW_TRIAD_DISTURBED;
+  // The twin is looked up again: adding a row may have moved the rows.
+  twin = twin_of(b, row->name, row->threads);
+  ek_twin_verdict verdict = twin_test(&r->stats, twin, cores);
+  if (verdict == EK_TWIN_SLOW)
+    r->flags |= EK_ROW_TWIN;
+  if (verdict == EK_TWIN_FAST) {
+    // Far more than `threads` times faster: the 1-thread twin, whose work
+    // cannot be timed again now, was the disturbed one.
+    r->flags |= EK_ROW_TWIN;
+    ((ek_result_row *)twin)->flags |= EK_ROW_TWIN;
+  }
+  char flags[64];
+  ek_results_flags_text(r->flags, flags, sizeof flags);
+  fprintf(stderr, "%s[%d/%d] %s %.4g ns/item (min %.4g, MAD %.1f%%%s%s%s)%s",
+          b->tty ? "\r\033[K" : "", b->index, b->total, row->name, r->stats.median, r->stats.min,
+          100 * r->stats.mad / r->stats.median, passes > 1 ? ", 2 passes" : "",
+          flags[0] ? ", flags " : "", flags, b->tty ? "" : "\n");
   return 0;
 }
 
@@ -263,17 +336,22 @@ static void print_machine(const ek_bench *b) {
   for (int i = 0; i < b->nthread_counts; i++) {
     int t = b->thread_counts[i];
     printf("  %d thread%s: FMA peak GFLOP/s (f32/f64)", t, t > 1 ? "s" : "");
+    const ek_machine *m = &b->machine;
     for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
-      if (isfinite(b->machine.peak_gflops[isa][0][t]))
-        printf(" %s %.1f/%.1f", ek_isa_name((ek_isa)isa), b->machine.peak_gflops[isa][0][t],
-               b->machine.peak_gflops[isa][1][t]);
-    printf("; triad %.1f GB/s\n", b->machine.triad_gbs[t]);
+      if (isfinite(m->peak_gflops[isa][0][t]))
+        printf(" %s %.1f%s/%.1f%s", ek_isa_name((ek_isa)isa), m->peak_gflops[isa][0][t],
+               m->peak_disturbed[isa][0][t] ? "~" : "", m->peak_gflops[isa][1][t],
+               m->peak_disturbed[isa][1][t] ? "~" : "");
+    if (m->triad_disturbed[t])
+      printf("; triad disturbed (read %.1f GB/s)", m->triad_measured[t]);
+    else
+      printf("; triad %.1f GB/s", m->triad_gbs[t]);
+    printf(m->attempts[t] > 1 ? " (probes measured %d times)\n" : "\n", m->attempts[t]);
   }
+  char warnings[4096];
+  ek_machine_warnings(&b->machine, b->thread_counts, b->nthread_counts, warnings, sizeof warnings);
+  fputs(warnings, stdout);
 }
-
-// Rows whose spread is above this are flagged in the table: the median is
-// still reported, but the machine was probably busy with something else.
-#define NOISY_MAD_PERCENT 10.0
 
 static void print_table(const ek_bench *b) {
   const ek_results *r = &b->results;
@@ -282,28 +360,39 @@ static void print_table(const ek_bench *b) {
     int len = (int)strlen(r->rows[i].name);
     width = len > width ? len : width;
   }
-  printf("\n%-*s %10s %6s %10s %8s %6s %6s %8s %6s\n", width, "name", "ns/item", "MAD%", "items/s",
-         "GFLOP/s", "%peak", "%bw", "vs base", "xT/1T");
+  printf("\n%-*s %10s %10s %6s %10s %8s %6s %6s %8s %6s  %s\n", width, "name", "ns/item", "min",
+         "MAD%", "items/s", "GFLOP/s", "%peak", "%bw", "vs base", "xT/1T", "flags");
+  int flagged = 0;
   for (size_t i = 0; i < r->nrows; i++) {
     const ek_result_row *row = &r->rows[i];
-    char ns[32], mad[32], ips[32], gf[32], pk[32], bw[32], base[32], thr[32];
+    char ns[32], mn[32], mad[32], ips[32], gf[32], pk[32], bw[32], base[32], thr[32], flags[64];
     cell(ns, sizeof ns, "%.4g", row->stats.median);
-    double mad_pct = 100 * row->stats.mad / row->stats.median;
-    cell(mad, sizeof mad, mad_pct > NOISY_MAD_PERCENT ? "%.1f!" : "%.1f", mad_pct);
+    cell(mn, sizeof mn, "%.4g", row->stats.min);
+    cell(mad, sizeof mad, "%.1f", 100 * row->stats.mad / row->stats.median);
     cell(ips, sizeof ips, "%.3g", row->items_per_second);
     cell(gf, sizeof gf, "%.2f", row->gflops);
-    cell(pk, sizeof pk, "%.1f", 100 * row->peak_fraction);
+    cell(pk, sizeof pk, row->flags & EK_ROW_PEAK_ESTIMATED ? "%.1f~" : "%.1f",
+         100 * row->peak_fraction);
     cell(bw, sizeof bw, "%.1f", 100 * row->bw_fraction);
     cell(base, sizeof base, "%.2fx", row->speedup_vs_baseline);
     cell(thr, sizeof thr, "%.2fx", row->speedup_threads);
-    printf("%-*s %10s %6s %10s %8s %6s %6s %8s %6s\n", width, row->name, ns, mad, ips, gf, pk, bw,
-           base, thr);
+    ek_results_flags_text(row->flags, flags, sizeof flags);
+    flagged += flags[0] != 0;
+    printf("%-*s %10s %10s %6s %10s %8s %6s %6s %8s %6s  %s%s\n", width, row->name, ns, mn, mad,
+           ips, gf, pk, bw, base, thr, flags, row->passes > 1 ? (flags[0] ? ",2x" : "2x") : "");
   }
-  printf("ns/item: median over samples; MAD%%: median absolute deviation / median; "
-         "%%peak: GFLOP/s / FMA peak (same ISA, precision, threads); %%bw: GB/s / triad "
+  printf("ns/item: median over samples; min: least sample; MAD%%: median absolute deviation / "
+         "median; %%peak: GFLOP/s / FMA peak (same ISA, precision, threads); %%bw: GB/s / triad "
          "(same threads); vs base: baseline time / this time; xT/1T: threads:1 time / this "
-         "time; !: MAD above %g%%, a noisy row (another load on the machine?).\n",
-         NOISY_MAD_PERCENT);
+         "time. flags: noisy = median more than %g%% above min; twin = more than %gx slower "
+         "than the same row at 1 thread, or more than %gx threads faster; peak~ = %%peak "
+         "against an estimated peak (disturbed probe); triad? = disturbed triad, no %%bw; 2x = "
+         "timed twice (a noisy or twin row), the faster pass kept. %d of %zu rows flagged.\n",
+         100 * EK_RESULTS_NOISY_SPREAD, EK_RESULTS_TWIN_SLOWER, EK_RESULTS_TWIN_FASTER, flagged,
+         r->nrows);
+  if (b->second_passes_skipped)
+    printf("%d flagged rows were not timed a second time (at most %d second passes per run).\n",
+           b->second_passes_skipped, b->total / 10 + 5);
 }
 
 // ---- options -----------------------------------------------------------
@@ -319,6 +408,9 @@ static void usage(FILE *f) {
              "  --json FILE     JSON results, Google Benchmark schema (default: the .h5 name "
              "with .json)\n"
              "  --force         overwrite existing output files\n"
+             "  --samples       also write every sample to the JSON file (large)\n"
+             "  --isas LIST     only these of the available ISAs, comma-separated (e.g.\n"
+             "                  scalar,avx2: the rows of an AVX2 machine)\n"
              "  --list          print the row names and run nothing\n"
              "  -h, --help      this text\n"
              "  --version       print the version\n"
@@ -354,7 +446,7 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
     ek_cli_common("ek-bench", a, usage);
     int needs_value = !strcmp(a, "--filter") || !strcmp(a, "--threads") ||
                       !strcmp(a, "--min-time") || !strcmp(a, "--seed") || !strcmp(a, "--out") ||
-                      !strcmp(a, "--json");
+                      !strcmp(a, "--json") || !strcmp(a, "--isas");
     const char *v = NULL;
     if (needs_value) {
       if (i + 1 >= argc)
@@ -365,6 +457,30 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
       b->list_only = 1;
     } else if (!strcmp(a, "--force")) {
       o->force = 1;
+    } else if (!strcmp(a, "--samples")) {
+      b->json_samples = 1;
+    } else if (!strcmp(a, "--isas")) {
+      unsigned mask = 0;
+      char list[128];
+      if (strlen(v) >= sizeof list)
+        return bad_arg(a, v, "too long");
+      snprintf(list, sizeof list, "%s", v);
+      char *save = NULL;
+      for (char *tok = strtok_r(list, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        int found = -1;
+        for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++)
+          if (!strcmp(tok, ek_isa_name((ek_isa)i)))
+            found = i;
+        if (found < 0)
+          return bad_arg(a, v, "unknown ISA (scalar, avx2, avx512)");
+        mask |= 1u << found;
+      }
+      int runnable = 0;
+      for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++)
+        runnable |= ((mask >> i) & 1) && ek_isa_available((ek_isa)i);
+      if (!runnable) // the families need at least one ISA to time
+        return bad_arg(a, v, "none of these ISAs is built and runs on this CPU");
+      b->isa_mask = mask;
     } else if (!strcmp(a, "--filter")) {
       if (b->has_filter)
         regfree(&b->filter);
@@ -424,6 +540,7 @@ int main(int argc, char **argv) {
   b->thread_counts[1] = 2;
   b->nthread_counts = 2;
   b->seed = 1;
+  b->isa_mask = ~0u;
   b->tty = isatty(2);
   outputs o = {0};
   int rc = parse_args(b, argc, argv, &o);
@@ -564,6 +681,17 @@ int main(int argc, char **argv) {
                        "a[i] = b[i] + s*c[i], 3 double arrays, STREAM convention 24 bytes per "
                        "element (write-allocate not counted), best sample");
   ek_results_meta_number(r, "triad_array_bytes", b->machine.triad_array_bytes);
+  char warnings[4096];
+  ek_machine_warnings(&b->machine, b->thread_counts, b->nthread_counts, warnings, sizeof warnings);
+  ek_results_meta_text(r, "probe_warnings", warnings);
+  ek_results_meta_text(r, "probe_check",
+                       "FMA peak at T threads within [0.75, 1.15] x T x the 1-thread peak, triad "
+                       "at T threads >= the 1-thread triad (T up to the cores); else measured "
+                       "again, up to 4 attempts, best reading kept; a probe still outside is "
+                       "disturbed: the peak becomes T x the 1-thread peak (flag peak~), the "
+                       "triad is dropped (flag triad?)");
+  ek_results_meta_number(r, "second_passes", b->second_passes);
+  ek_results_meta_number(r, "second_passes_skipped", b->second_passes_skipped);
   for (int i = 0; i < b->nthread_counts; i++) {
     int t = b->thread_counts[i];
     char key[64];
@@ -576,6 +704,19 @@ int main(int argc, char **argv) {
         }
     snprintf(key, sizeof key, "triad_gbs.threads:%d", t);
     ek_results_meta_number(r, key, b->machine.triad_gbs[t]);
+    snprintf(key, sizeof key, "probe_attempts.threads:%d", t);
+    ek_results_meta_number(r, key, b->machine.attempts[t]);
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+      for (int p = 0; p < 2; p++)
+        if (b->machine.peak_disturbed[isa][p][t]) {
+          snprintf(key, sizeof key, "peak_measured_gflops.%s.%s.threads:%d",
+                   ek_isa_name((ek_isa)isa), p ? "f64" : "f32", t);
+          ek_results_meta_number(r, key, b->machine.peak_measured[isa][p][t]);
+        }
+    if (b->machine.triad_disturbed[t]) {
+      snprintf(key, sizeof key, "triad_measured_gbs.threads:%d", t);
+      ek_results_meta_number(r, key, b->machine.triad_measured[t]);
+    }
   }
 
   ek_results_derive(r);
@@ -583,7 +724,7 @@ int main(int argc, char **argv) {
   int werr = 0;
   if (r->nrows > 0) {
     werr |= ek_results_write_h5(r, out, o.force) != 0;
-    werr |= ek_results_write_json(r, json, o.force) != 0;
+    werr |= ek_results_write_json(r, json, o.force, b->json_samples) != 0;
     if (!werr)
       printf("wrote %s and %s (%zu rows)\n", out, json, r->nrows);
   }

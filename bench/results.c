@@ -1,6 +1,7 @@
 // Benchmark results: metadata, rows, HDF5 and JSON writers (see results.h).
 #include "results.h"
 
+#define _DEFAULT_SOURCE // getloadavg
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <hdf5.h>
@@ -188,7 +189,8 @@ void ek_results_collect_metadata(ek_results *r, const char *executable) {
     mhz = atof(buf) / 1000;
   else if (cpuinfo_field("cpu MHz", buf, sizeof buf) == 0)
     mhz = atof(buf);
-  ek_results_meta_number(r, "mhz_per_cpu", mhz);
+  // Google Benchmark writes whole MHz (an integer); 0 = unknown.
+  ek_results_meta_number(r, "mhz_per_cpu", isfinite(mhz) && mhz > 0 ? floor(mhz + 0.5) : 0);
   // Frequency scaling counts as enabled unless the governor is known to be
   // "performance" (Google Benchmark's rule); no cpufreq = not enabled.
   int scaling = 0;
@@ -197,7 +199,11 @@ void ek_results_collect_metadata(ek_results *r, const char *executable) {
   ek_results_meta_bool(r, "cpu_scaling_enabled", scaling);
   ek_results_meta_text(r, "library_build_type",
                        strcmp(EK_BUILD_TYPE, "Debug") == 0 ? "debug" : "release");
+  ek_results_meta_text(r, "library_version", "v" EK_BUILD_VERSION);
   collect_caches(r);
+  r->nload_avg = getloadavg(r->load_avg, 3);
+  if (r->nload_avg < 0)
+    r->nload_avg = 0;
 
   if (cpuinfo_field("model name", buf, sizeof buf) != 0)
     snprintf(buf, sizeof buf, "unknown");
@@ -289,6 +295,8 @@ ek_result_row *ek_results_add(ek_results *r, const char *name, const ek_timing *
   row->items_per_second = row->gflops = row->gbytes_per_second = NAN;
   row->peak_gflops = row->triad_gbs = row->peak_fraction = row->bw_fraction = NAN;
   row->speedup_vs_baseline = row->speedup_threads = NAN;
+  row->passes = 1;
+  row->other_pass_median_ns = NAN;
   r->nrows++;
   return row;
 }
@@ -298,6 +306,40 @@ const ek_result_row *ek_results_find(const ek_results *r, const char *name) {
     if (strcmp(r->rows[i].name, name) == 0)
       return &r->rows[i];
   return NULL;
+}
+
+int ek_results_stats_noisy(const ek_stats *s) {
+  return s->min > 0 && (s->median - s->min) / s->min > EK_RESULTS_NOISY_SPREAD;
+}
+
+ek_twin_verdict ek_results_twin_test(double median_ns, double twin_median_ns, int cores) {
+  if (!(median_ns > 0) || !(twin_median_ns > 0) || !isfinite(median_ns) ||
+      !isfinite(twin_median_ns))
+    return EK_TWIN_OK;
+  if (median_ns > EK_RESULTS_TWIN_SLOWER * twin_median_ns)
+    return EK_TWIN_SLOW;
+  if (median_ns * EK_RESULTS_TWIN_FASTER * (cores > 1 ? cores : 1) < twin_median_ns)
+    return EK_TWIN_FAST;
+  return EK_TWIN_OK;
+}
+
+const char *ek_results_flags_text(unsigned flags, char *buf, size_t cap) {
+  static const struct {
+    unsigned bit;
+    const char *word;
+  } words[] = {{EK_ROW_NOISY, "noisy"},
+               {EK_ROW_TWIN, "twin"},
+               {EK_ROW_PEAK_ESTIMATED, "peak~"},
+               {EK_ROW_TRIAD_DISTURBED, "triad?"}};
+  if (cap == 0)
+    return buf;
+  buf[0] = 0;
+  for (size_t i = 0; i < sizeof words / sizeof words[0]; i++)
+    if (flags & words[i].bit) {
+      size_t used = strlen(buf);
+      snprintf(buf + used, cap - used, "%s%s", used ? "," : "", words[i].word);
+    }
+  return buf;
 }
 
 void ek_results_derive(ek_results *r) {
@@ -462,6 +504,9 @@ static int write_row_h5(hid_t benchmarks, const ek_result_row *row) {
   rc |= attr_int(g, "items", (long long)row->items);
   rc |= attr_int(g, "iters", row->iters);
   rc |= attr_int(g, "nsamples", row->nsamples);
+  rc |= attr_int(g, "passes", row->passes);
+  char flags[64];
+  rc |= attr_text(g, "flags", ek_results_flags_text(row->flags, flags, sizeof flags));
   const struct {
     const char *name;
     double value;
@@ -485,6 +530,7 @@ static int write_row_h5(hid_t benchmarks, const ek_result_row *row) {
       {"bw_fraction", row->bw_fraction},
       {"speedup_vs_baseline", row->speedup_vs_baseline},
       {"speedup_threads", row->speedup_threads},
+      {"other_pass_median_ns", row->other_pass_median_ns},
   };
   for (size_t i = 0; i < sizeof numbers / sizeof numbers[0]; i++)
     rc |= attr_double(g, numbers[i].name, numbers[i].value);
@@ -513,6 +559,15 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
       rc |= attr_int(f, m->key, (long long)m->number);
     else
       rc |= attr_double(f, m->key, m->number);
+  }
+  if (r->nload_avg > 0) {
+    hsize_t dims[1] = {(hsize_t)r->nload_avg};
+    hid_t space = H5Screate_simple(1, dims, NULL);
+    hid_t attr = H5Acreate2(f, "load_avg", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT);
+    rc |= attr < 0 || H5Awrite(attr, H5T_NATIVE_DOUBLE, r->load_avg) < 0;
+    if (attr >= 0)
+      H5Aclose(attr);
+    H5Sclose(space);
   }
   hid_t caches = H5Gcreate2(f, "caches", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (caches < 0)
@@ -550,158 +605,243 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
 }
 
 // ---- JSON (Google Benchmark schema) -------------------------------------
+//
+// The keys and types Google Benchmark's JSON reporter writes (and its
+// tools/compare.py with tools/gbench/util.py reads): google/benchmark
+// src/json_reporter.cc, ReportContext and PrintRunData.
+//   context: date, host_name, executable (strings), num_cpus, mhz_per_cpu
+//     (integers), cpu_scaling_enabled (bool), caches (array of {type
+//     string, level, size, num_sharing integers}), load_avg (array of
+//     numbers), library_version, library_build_type (strings),
+//     json_schema_version (integer 1), then custom context (strings).
+//   benchmarks[], in this order: name, family_index,
+//     per_family_instance_index, run_name, run_type ("iteration" |
+//     "aggregate"), repetitions, repetition_index (iteration entries),
+//     threads, aggregate_name, aggregate_unit ("time" | "percentage";
+//     aggregate entries), iterations, real_time, cpu_time, time_unit ("ns"),
+//     counters, label. Strings: name, run_name, run_type, aggregate_name,
+//     aggregate_unit, time_unit, label; integers: family_index,
+//     per_family_instance_index, repetitions, repetition_index, threads,
+//     iterations; floating point: real_time, cpu_time, counters.
+// compare.py reads json_schema_version, name, run_name, run_type,
+// aggregate_name, family_index, per_family_instance_index,
+// repetition_index, real_time, cpu_time, time_unit and label.
+// Doubles are written as Google Benchmark writes them: scientific notation
+// with 17 significant digits, so they read back bit-exact and as floating
+// point in every parser. Nothing is null: a value that does not apply is
+// left out.
 
-// A number written with 17 significant digits, so it reads back bit-exact
-// (cJSON's own printer settles for 15 digits when they compare equal within
-// an epsilon); NaN and infinities, which JSON lacks, become null ("not
-// applicable").
-static void add_number(cJSON *o, const char *key, double v) {
+static void add_int(cJSON *o, const char *key, long long v) {
   char buf[32];
-  if (isfinite(v))
-    snprintf(buf, sizeof buf, "%.17g", v);
-  else
-    snprintf(buf, sizeof buf, "null");
+  snprintf(buf, sizeof buf, "%lld", v);
   cJSON_AddRawToObject(o, key, buf);
 }
 
-static void add_row_fields(cJSON *o, const ek_result_row *row) {
-  cJSON_AddStringToObject(o, "family", row->family);
-  cJSON_AddStringToObject(o, "isa", row->isa);
-  cJSON_AddStringToObject(o, "precision", row->precision);
-  cJSON_AddStringToObject(o, "knobs", row->knobs);
-  cJSON_AddStringToObject(o, "baseline", row->baseline);
-  add_number(o, "items_per_call", (double)row->items);
-  add_number(o, "calls_per_sample", (double)row->iters);
-  add_number(o, "timer_overhead_ns", row->overhead_ns);
-  add_number(o, "flops_per_item", row->flops_per_item);
-  add_number(o, "bytes_per_item", row->bytes_per_item);
-  add_number(o, "peak_gflops", row->peak_gflops);
-  add_number(o, "triad_gbs", row->triad_gbs);
-  add_number(o, "peak_fraction", row->peak_fraction);
-  add_number(o, "bw_fraction", row->bw_fraction);
-  add_number(o, "speedup_vs_baseline", row->speedup_vs_baseline);
-  add_number(o, "speedup_threads", row->speedup_threads);
-  char label[sizeof row->isa + sizeof row->precision + sizeof row->knobs + 4];
-  snprintf(label, sizeof label, "%s %s %s", row->isa, row->precision, row->knobs);
-  cJSON_AddStringToObject(o, "label", label);
+// A finite double; anything else (NaN = not applicable) is left out.
+static void add_double(cJSON *o, const char *key, double v) {
+  if (!isfinite(v))
+    return;
+  char buf[40];
+  snprintf(buf, sizeof buf, "%.16e", v);
+  cJSON_AddRawToObject(o, key, buf);
 }
 
-// Rates of one time per item (ns): items/s, FLOP/s, bytes/s.
-static void add_rates(cJSON *o, const ek_result_row *row, double ns) {
-  add_number(o, "items_per_second", ns > 0 ? 1e9 / ns : NAN);
-  add_number(o, "flops_per_second",
-             row->flops_per_item > 0 && ns > 0 ? row->flops_per_item * 1e9 / ns : NAN);
-  add_number(o, "bytes_per_second",
-             row->bytes_per_item > 0 && ns > 0 ? row->bytes_per_item * 1e9 / ns : NAN);
+// Context keys Google Benchmark writes itself, in its order; the others are
+// ek's and go after them as custom context (strings).
+static const char *const gbench_context_keys[] = {
+    "date",        "host_name",           "executable",      "num_cpus",
+    "mhz_per_cpu", "cpu_scaling_enabled", "library_version", "library_build_type"};
+
+static int is_gbench_context_key(const char *key) {
+  for (size_t i = 0; i < sizeof gbench_context_keys / sizeof *gbench_context_keys; i++)
+    if (!strcmp(key, gbench_context_keys[i]))
+      return 1;
+  return 0;
 }
 
-static cJSON *json_of(const ek_results *r) {
-  cJSON *root = cJSON_CreateObject();
-  cJSON *ctx = cJSON_AddObjectToObject(root, "context");
-  for (size_t i = 0; i < r->nmeta; i++) {
-    const ek_meta *m = &r->meta[i];
-    if (m->kind == EK_META_TEXT)
-      cJSON_AddStringToObject(ctx, m->key, m->text);
-    else if (m->kind == EK_META_BOOL)
-      cJSON_AddBoolToObject(ctx, m->key, m->number != 0);
+static void add_meta_value(cJSON *ctx, const ek_meta *m, int as_string) {
+  if (m->kind == EK_META_TEXT) {
+    cJSON_AddStringToObject(ctx, m->key, m->text);
+  } else if (m->kind == EK_META_BOOL) {
+    if (as_string)
+      cJSON_AddStringToObject(ctx, m->key, m->number ? "true" : "false");
     else
-      add_number(ctx, m->key, m->number);
+      cJSON_AddBoolToObject(ctx, m->key, m->number != 0);
+  } else if (as_string) {
+    char buf[40];
+    snprintf(buf, sizeof buf, "%.17g", m->number);
+    cJSON_AddStringToObject(ctx, m->key, buf);
+  } else {
+    add_int(ctx, m->key, isfinite(m->number) ? (long long)m->number : 0);
+  }
+}
+
+static void add_context(cJSON *root, const ek_results *r) {
+  cJSON *ctx = cJSON_AddObjectToObject(root, "context");
+  for (size_t k = 0; k < 6; k++) {
+    const ek_meta *m = ek_results_meta_find(r, gbench_context_keys[k]);
+    if (m)
+      add_meta_value(ctx, m, 0);
+    else if (k == 3 || k == 4) // num_cpus, mhz_per_cpu: 0 = unknown
+      add_int(ctx, gbench_context_keys[k], 0);
+    else if (k == 5)
+      cJSON_AddBoolToObject(ctx, "cpu_scaling_enabled", 0);
+    else
+      cJSON_AddStringToObject(ctx, gbench_context_keys[k], "");
   }
   cJSON *caches = cJSON_AddArrayToObject(ctx, "caches");
   for (int i = 0; i < r->ncaches; i++) {
     cJSON *c = cJSON_CreateObject();
     cJSON_AddStringToObject(c, "type", r->caches[i].type);
-    add_number(c, "level", r->caches[i].level);
-    add_number(c, "size", (double)r->caches[i].size);
-    add_number(c, "num_sharing", r->caches[i].num_sharing);
+    add_int(c, "level", r->caches[i].level);
+    add_int(c, "size", r->caches[i].size);
+    add_int(c, "num_sharing", r->caches[i].num_sharing);
     cJSON_AddItemToArray(caches, c);
   }
+  cJSON *load = cJSON_AddArrayToObject(ctx, "load_avg");
+  for (int i = 0; i < r->nload_avg; i++) {
+    char buf[40];
+    snprintf(buf, sizeof buf, "%.16e", r->load_avg[i]);
+    cJSON_AddItemToArray(load, cJSON_CreateRaw(buf));
+  }
+  for (size_t k = 6; k < 8; k++) {
+    const ek_meta *m = ek_results_meta_find(r, gbench_context_keys[k]);
+    cJSON_AddStringToObject(ctx, gbench_context_keys[k],
+                            m && m->kind == EK_META_TEXT ? m->text : "");
+  }
+  add_int(ctx, "json_schema_version", 1);
+  for (size_t i = 0; i < r->nmeta; i++)
+    if (!is_gbench_context_key(r->meta[i].key) && !cJSON_HasObjectItem(ctx, r->meta[i].key) &&
+        (r->meta[i].kind != EK_META_NUMBER || isfinite(r->meta[i].number)))
+      add_meta_value(ctx, &r->meta[i], 1);
+}
+
+// The keys every entry of a row starts with.
+static cJSON *entry(const ek_result_row *row, size_t index, const char *name, int aggregate) {
+  cJSON *o = cJSON_CreateObject();
+  cJSON_AddStringToObject(o, "name", name);
+  add_int(o, "family_index", (long long)index);
+  add_int(o, "per_family_instance_index", 0);
+  cJSON_AddStringToObject(o, "run_name", row->name);
+  cJSON_AddStringToObject(o, "run_type", aggregate ? "aggregate" : "iteration");
+  add_int(o, "repetitions", row->nsamples);
+  return o;
+}
+
+// iterations, real_time, cpu_time, time_unit: one "iteration" is one item,
+// so the times are ns per item.
+static void add_times(cJSON *o, const ek_result_row *row, double real, double cpu) {
+  add_int(o, "iterations", (long long)row->iters * (long long)row->items);
+  add_double(o, "real_time", real);
+  add_double(o, "cpu_time", cpu);
+  cJSON_AddStringToObject(o, "time_unit", "ns");
+}
+
+// Rates of one time per item (ns) as Google Benchmark's counters
+// items_per_second and bytes_per_second (SetItemsProcessed /
+// SetBytesProcessed), and ek's flops_per_second.
+static void add_rates(cJSON *o, const ek_result_row *row, double ns) {
+  if (!(ns > 0))
+    return;
+  add_double(o, "items_per_second", 1e9 / ns);
+  if (row->bytes_per_item > 0)
+    add_double(o, "bytes_per_second", row->bytes_per_item * 1e9 / ns);
+  if (row->flops_per_item > 0)
+    add_double(o, "flops_per_second", row->flops_per_item * 1e9 / ns);
+}
+
+// ek's fields of a row: numbers as counters, the rest in the label.
+static void add_row_fields(cJSON *o, const ek_result_row *row) {
+  const struct {
+    const char *key;
+    double value;
+  } counters[] = {
+      {"min_ns", row->stats.min},
+      {"max_ns", row->stats.max},
+      {"mad_ns", row->stats.mad},
+      {"items_per_call", (double)row->items},
+      {"calls_per_sample", (double)row->iters},
+      {"timer_overhead_ns", row->overhead_ns},
+      {"flops_per_item", row->flops_per_item > 0 ? row->flops_per_item : NAN},
+      {"bytes_per_item", row->bytes_per_item > 0 ? row->bytes_per_item : NAN},
+      {"peak_gflops", row->peak_gflops},
+      {"triad_gbs", row->triad_gbs},
+      {"peak_fraction", row->peak_fraction},
+      {"bw_fraction", row->bw_fraction},
+      {"speedup_vs_baseline", row->speedup_vs_baseline},
+      {"speedup_threads", row->speedup_threads},
+      {"passes", row->passes},
+      {"other_pass_median_ns", row->other_pass_median_ns},
+      {"noisy", (row->flags & EK_ROW_NOISY) != 0},
+      {"twin_suspect", (row->flags & EK_ROW_TWIN) != 0},
+      {"peak_estimated", (row->flags & EK_ROW_PEAK_ESTIMATED) != 0},
+      {"triad_disturbed", (row->flags & EK_ROW_TRIAD_DISTURBED) != 0},
+  };
+  for (size_t i = 0; i < sizeof counters / sizeof *counters; i++)
+    add_double(o, counters[i].key, counters[i].value);
+  char flags[64], label[sizeof row->family + sizeof row->isa + sizeof row->precision +
+                        sizeof row->knobs + sizeof row->baseline + 96];
+  ek_results_flags_text(row->flags, flags, sizeof flags);
+  snprintf(label, sizeof label, "%s %s %s%s%s%s%s%s%s", row->family, row->isa, row->precision,
+           row->knobs[0] ? " " : "", row->knobs, row->baseline[0] ? "; baseline " : "",
+           row->baseline, flags[0] ? "; flags " : "", flags);
+  cJSON_AddStringToObject(o, "label", label);
+}
+
+static cJSON *json_of(const ek_results *r, int samples) {
+  cJSON *root = cJSON_CreateObject();
+  add_context(root, r);
   cJSON *list = cJSON_AddArrayToObject(root, "benchmarks");
   for (size_t i = 0; i < r->nrows; i++) {
     const ek_result_row *row = &r->rows[i];
-    // One repetition per sample; an "iteration" is one item, so real_time
-    // and cpu_time are ns per item.
-    double iterations = (double)row->iters * (double)row->items;
-    for (int s = 0; s < row->nsamples; s++) {
-      cJSON *o = cJSON_CreateObject();
-      cJSON_AddStringToObject(o, "name", row->name);
-      add_number(o, "family_index", (double)i);
-      add_number(o, "per_family_instance_index", 0);
-      cJSON_AddStringToObject(o, "run_name", row->name);
-      cJSON_AddStringToObject(o, "run_type", "iteration");
-      add_number(o, "repetitions", row->nsamples);
-      add_number(o, "repetition_index", s);
-      add_number(o, "threads", row->threads);
-      add_number(o, "iterations", iterations);
-      add_number(o, "real_time", row->sample_ns[s]);
-      add_number(o, "cpu_time", row->sample_cpu_ns[s]);
-      cJSON_AddStringToObject(o, "time_unit", "ns");
-      // Per-sample rows stay lean (a run has hundreds of samples per row):
-      // ek's descriptive fields are on the aggregate rows.
-      add_number(o, "items_per_second", row->sample_ns[s] > 0 ? 1e9 / row->sample_ns[s] : NAN);
+    for (int s = 0; samples && s < row->nsamples; s++) {
+      cJSON *o = entry(row, i, row->name, 0);
+      add_int(o, "repetition_index", s);
+      add_int(o, "threads", row->threads);
+      add_times(o, row, row->sample_ns[s], row->sample_cpu_ns[s]);
+      add_rates(o, row, row->sample_ns[s]);
       cJSON_AddItemToArray(list, o);
     }
     size_t n = (size_t)row->nsamples;
+    double cpu_min = row->sample_cpu_ns[0];
+    for (size_t s = 1; s < n; s++)
+      cpu_min = row->sample_cpu_ns[s] < cpu_min ? row->sample_cpu_ns[s] : cpu_min;
+    // Google Benchmark's aggregates (mean, median, stddev, cv) and a "min"
+    // statistic (the least disturbed sample).
     const struct {
-      const char *agg;
+      const char *agg, *unit;
       double real, cpu;
     } aggs[] = {
-        {"mean", row->stats.mean, ek_mean(row->sample_cpu_ns, n)},
-        {"median", row->stats.median, ek_median(row->sample_cpu_ns, n)},
-        {"stddev", row->stats.stddev, ek_stddev(row->sample_cpu_ns, n)},
+        {"mean", "time", row->stats.mean, ek_mean(row->sample_cpu_ns, n)},
+        {"median", "time", row->stats.median, ek_median(row->sample_cpu_ns, n)},
+        {"stddev", "time", row->stats.stddev, ek_stddev(row->sample_cpu_ns, n)},
+        {"cv", "percentage", row->stats.cv, ek_cv(row->sample_cpu_ns, n)},
+        {"min", "time", row->stats.min, cpu_min},
     };
-    for (size_t a = 0; a < 3; a++) {
-      cJSON *o = cJSON_CreateObject();
+    for (size_t a = 0; a < sizeof aggs / sizeof *aggs; a++) {
+      if (!isfinite(aggs[a].real) || !isfinite(aggs[a].cpu))
+        continue; // e.g. the cv of a zero mean: no entry rather than a null
       char name[EK_RESULTS_NAME_MAX + 16];
       snprintf(name, sizeof name, "%s_%s", row->name, aggs[a].agg);
-      cJSON_AddStringToObject(o, "name", name);
-      add_number(o, "family_index", (double)i);
-      add_number(o, "per_family_instance_index", 0);
-      cJSON_AddStringToObject(o, "run_name", row->name);
-      cJSON_AddStringToObject(o, "run_type", "aggregate");
-      add_number(o, "repetitions", row->nsamples);
-      add_number(o, "threads", row->threads);
+      cJSON *o = entry(row, i, name, 1);
+      add_int(o, "threads", row->threads);
       cJSON_AddStringToObject(o, "aggregate_name", aggs[a].agg);
-      cJSON_AddStringToObject(o, "aggregate_unit", "time");
-      add_number(o, "iterations", row->nsamples);
-      add_number(o, "real_time", aggs[a].real);
-      add_number(o, "cpu_time", aggs[a].cpu);
-      cJSON_AddStringToObject(o, "time_unit", "ns");
-      if (a != 2) {
+      cJSON_AddStringToObject(o, "aggregate_unit", aggs[a].unit);
+      add_times(o, row, aggs[a].real, aggs[a].cpu);
+      if (!strcmp(aggs[a].unit, "time") && strcmp(aggs[a].agg, "stddev"))
         add_rates(o, row, aggs[a].real);
-      } else {
-        // Spread of the per-sample rates, as Google Benchmark's stddev
-        // rows carry the stddev of each counter.
-        double rate[3] = {0};
-        double *per = malloc(n * sizeof *per);
-        for (int k = 0; per && k < 3; k++) {
-          double work = k == 0 ? 1 : k == 1 ? row->flops_per_item : row->bytes_per_item;
-          for (size_t s = 0; s < n; s++)
-            per[s] = work > 0 && row->sample_ns[s] > 0 ? work * 1e9 / row->sample_ns[s] : NAN;
-          rate[k] = ek_stddev(per, n);
-        }
-        free(per);
-        add_number(o, "items_per_second", rate[0]);
-        add_number(o, "flops_per_second", rate[1]);
-        add_number(o, "bytes_per_second", rate[2]);
-      }
-      if (a == 1) {
-        add_number(o, "mad_ns", row->stats.mad);
-        add_number(o, "cv", row->stats.cv);
-        add_number(o, "min_ns", row->stats.min);
-        add_number(o, "max_ns", row->stats.max);
-      }
-      add_row_fields(o, row);
+      if (!strcmp(aggs[a].agg, "median"))
+        add_row_fields(o, row);
       cJSON_AddItemToArray(list, o);
     }
   }
   return root;
 }
 
-int ek_results_write_json(const ek_results *r, const char *path, int force) {
+int ek_results_write_json(const ek_results *r, const char *path, int force, int samples) {
   if (refuse_existing(path, force))
     return -1;
-  cJSON *root = json_of(r);
+  cJSON *root = json_of(r, samples);
   char *text = root ? cJSON_Print(root) : NULL;
   cJSON_Delete(root);
   if (!text) {

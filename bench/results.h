@@ -3,25 +3,30 @@
 //
 // HDF5 layout (written to "<path>.tmp.<pid>", then linked into place, so a
 // file under the final name is always whole):
-//   /                       attributes: run metadata (strings and numbers)
+//   /                       attributes: run metadata (strings and numbers),
+//                           load_avg (float64[3])
 //   /benchmarks             attribute "count"; one group per row, nested by
 //                           the '/'-separated row name, e.g.
 //   /benchmarks/svd3/aosoa/avx2/f32/sweeps:4/threads:2
 //       datasets  samples_ns, samples_cpu_ns (float64[nsamples]): per-item
 //                 wall time and calling-thread CPU time of each sample
-//       attributes name, family, isa, precision, knobs, baseline (strings),
-//                 knob.<key> (one string per knob), threads, items, iters,
-//                 nsamples (integers), overhead_ns, the statistics
-//                 (median_ns ...), declared and achieved rates, fractions
-//                 and ratios (float64; NaN where not applicable)
+//       attributes name, family, isa, precision, knobs, baseline, flags
+//                 (strings), knob.<key> (one string per knob), threads,
+//                 items, iters, nsamples, passes (integers), overhead_ns,
+//                 the statistics (median_ns, min_ns ...), declared and
+//                 achieved rates, fractions and ratios, other_pass_median_ns
+//                 (float64; NaN where not applicable)
 //   /caches                 one attribute per cache level ("L1d" ...)
-// JSON: Google Benchmark's schema ("context", "benchmarks"), one
-// "iteration" row per sample (iterations = calls x items, so real_time is
-// ns per item) and "aggregate" rows for mean, median and stddev, so its
-// tools/compare.py can read it; ek's own fields (family, isa, knobs,
-// rates, fractions, ratios) are extra keys on the aggregate rows. Numbers
-// are written with 17 significant digits (bit-exact on reading back); NaN
-// ("not applicable") is written as null.
+// JSON: Google Benchmark's schema (the key list is in results.c), so its
+// tools/compare.py, or bench/compare.py, can compare two runs. Per row:
+// "aggregate" entries mean, median, stddev, cv and min (as Google Benchmark
+// writes them with repetitions and a "min" custom statistic; iterations =
+// calls x items, so real_time is ns per item); one "iteration" entry per
+// sample only when asked (samples = 1). ek's numbers are counters (numbers)
+// and its descriptive fields the "label" string, as Google Benchmark writes
+// user counters and labels; ek's run metadata is custom context (strings).
+// A value that does not apply is left out, never null. Numbers are written
+// with 17 significant digits (bit-exact on reading back).
 #ifndef EK_BENCH_RESULTS_H
 #define EK_BENCH_RESULTS_H
 
@@ -52,6 +57,41 @@ typedef struct {
   int num_sharing;
 } ek_cache_info;
 
+// Row flags (ek_result_row.flags): what the robustness tests found.
+enum {
+  // Median more than EK_RESULTS_NOISY_SPREAD above the minimum: the samples
+  // disagree (another load on the machine?).
+  EK_ROW_NOISY = 1u << 0,
+  // Time far off the same row at 1 thread (more than EK_RESULTS_TWIN_SLOWER
+  // times slower, or more than EK_RESULTS_TWIN_FASTER x threads faster), also
+  // after a second pass: a disturbed run, or a real effect to check.
+  EK_ROW_TWIN = 1u << 1,
+  // The FMA probe at this row's threads stayed disturbed: %peak is against
+  // threads x the 1-thread peak (an estimate), not a measurement.
+  EK_ROW_PEAK_ESTIMATED = 1u << 2,
+  // The triad at this row's threads stayed disturbed: no %bw.
+  EK_ROW_TRIAD_DISTURBED = 1u << 3,
+};
+#define EK_RESULTS_NOISY_SPREAD 0.10
+#define EK_RESULTS_TWIN_SLOWER 2.0
+#define EK_RESULTS_TWIN_FASTER 1.5
+
+// 1 if the statistics show a noisy row: (median - min) / min above
+// EK_RESULTS_NOISY_SPREAD. A median far from the minimum is robust to what
+// the MAD misses: a few samples all slowed by the same amount.
+int ek_results_stats_noisy(const ek_stats *s);
+// The twin test of a row at T threads against the same row at 1 thread,
+// `cores` the cores T threads can use: EK_TWIN_SLOW if the row is more than
+// EK_RESULTS_TWIN_SLOWER times slower than its twin (more threads never
+// make a row that much slower unless something disturbed it), EK_TWIN_FAST
+// if it is more than EK_RESULTS_TWIN_FASTER x cores times faster (the twin
+// was the disturbed one), EK_TWIN_OK otherwise or when a median is not
+// positive and finite.
+typedef enum { EK_TWIN_OK, EK_TWIN_SLOW, EK_TWIN_FAST } ek_twin_verdict;
+ek_twin_verdict ek_results_twin_test(double median_ns, double twin_median_ns, int cores);
+// The flags as comma-separated words ("noisy,twin,peak~,triad?"), "" if none.
+const char *ek_results_flags_text(unsigned flags, char *buf, size_t cap);
+
 typedef struct {
   char name[EK_RESULTS_NAME_MAX];
   char family[32];
@@ -72,8 +112,11 @@ typedef struct {
   double peak_gflops, triad_gbs;     // machine limits used for the fractions
   double peak_fraction, bw_fraction; // achieved / limit
   char baseline[EK_RESULTS_NAME_MAX];
-  double speedup_vs_baseline; // baseline median / this median
-  double speedup_threads;     // same row at threads:1 median / this median
+  double speedup_vs_baseline;  // baseline median / this median
+  double speedup_threads;      // same row at threads:1 median / this median
+  unsigned flags;              // EK_ROW_*
+  int passes;                  // 1, or 2 when a second pass was timed
+  double other_pass_median_ns; // the median of the pass not kept; NaN if one pass
 } ek_result_row;
 
 typedef struct {
@@ -83,6 +126,8 @@ typedef struct {
   size_t nmeta, meta_cap;
   ek_cache_info caches[16];
   int ncaches;
+  double load_avg[3]; // 1, 5, 15 minutes (getloadavg)
+  int nload_avg;
 } ek_results;
 
 void ek_results_init(ek_results *r);
@@ -95,7 +140,8 @@ int ek_results_meta_bool(ek_results *r, const char *key, int value);
 const ek_meta *ek_results_meta_find(const ek_results *r, const char *key);
 
 // Everything recorded with every run: date, host_name, executable, num_cpus,
-// mhz_per_cpu, cpu_scaling_enabled, library_build_type, caches, cpu_model,
+// mhz_per_cpu, cpu_scaling_enabled, library_build_type, library_version,
+// caches, load_avg, cpu_model,
 // compiler, c_flags, kernel_flags, build_type, isas_built, isas_available,
 // git_revision, omp_proc_bind, omp_places, hdf5_version.
 void ek_results_collect_metadata(ek_results *r, const char *executable);
@@ -119,7 +165,9 @@ int ek_results_file_exists(const char *path);
 // untouched; with force it is replaced atomically. 0 on success, < 0 on
 // error (message on stderr naming the path); no partial file is left.
 int ek_results_write_h5(const ek_results *r, const char *path, int force);
-int ek_results_write_json(const ek_results *r, const char *path, int force);
+// samples = 1 adds one "iteration" entry per sample (large: a default suite
+// has ~1e5 samples); 0 writes the aggregates only.
+int ek_results_write_json(const ek_results *r, const char *path, int force, int samples);
 
 #ifdef __cplusplus
 }

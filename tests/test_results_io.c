@@ -1,12 +1,16 @@
 // Invariant: a results set written by ek_bench_core reads back unchanged.
 // HDF5 (read with the HDF5 C API): one group per row under /benchmarks
 // (nested by the '/'-separated name), sample values bit-exact, row and run
-// attributes equal to what was recorded. JSON (read with cJSON): Google
-// Benchmark's schema keys present, one iteration row per sample with
-// bit-exact real_time, aggregate rows (mean/median/stddev) equal to the
-// statistics. Writing onto an existing file without force fails and leaves
-// the old file byte-for-byte intact; with force it replaces it; no
-// temporary file is ever left behind.
+// attributes (flags and passes of the robustness tests included) equal to
+// what was recorded. JSON (read with cJSON): Google Benchmark's keys with
+// its types (integers written as integers, bool, arrays; the schema is
+// listed in bench/results.c), ek's metadata as string custom context, ek's
+// row fields as number counters and the label, no null anywhere; five
+// aggregates per row (mean, median, stddev, cv, min) equal to the
+// statistics; iteration entries (bit-exact) only when samples are asked
+// for. Writing onto an existing file without force fails and leaves the old
+// file byte-for-byte intact; with force it replaces it; no temporary file is
+// ever left behind.
 #include <cjson/cJSON.h>
 #include <dirent.h>
 #include <hdf5.h>
@@ -86,6 +90,12 @@ static int build(ek_results *r, unsigned long long seed) {
     row->triad_gbs = 20;
     if (i != 2)
       snprintf(row->baseline, sizeof row->baseline, "%s", row_names[2]);
+    if (i == 1) {
+      // A row the robustness tests flagged after a second pass.
+      row->flags = EK_ROW_NOISY | EK_ROW_TWIN;
+      row->passes = 2;
+      row->other_pass_median_ns = 2 * row->stats.median;
+    }
   }
   ek_results_derive(r);
   return 0;
@@ -195,6 +205,13 @@ static void check_h5(const ek_results *r, const char *path) {
       ok = read_text_attr(g, "knob.sweeps", text, sizeof text) == 0 && !strcmp(text, "4");
       check("attribute knob.sweeps", ok, "'%s' expected '4'", ok ? text : "?");
     }
+    char want_flags[64];
+    ek_results_flags_text(row->flags, want_flags, sizeof want_flags);
+    ok = read_text_attr(g, "flags", text, sizeof text) == 0 && !strcmp(text, want_flags);
+    check("attribute flags", ok, "%s: '%s' expected '%s'", row->name, ok ? text : "?", want_flags);
+    long long passes = -1;
+    ok = read_int_attr(g, "passes", &passes) == 0 && passes == row->passes;
+    check("attribute passes", ok, "%s: %lld expected %d", row->name, passes, row->passes);
     long long threads = -1, iters = -1;
     ok = read_int_attr(g, "threads", &threads) == 0 && threads == row->threads &&
          read_int_attr(g, "iters", &iters) == 0 && iters == row->iters;
@@ -210,7 +227,8 @@ static void check_h5(const ek_results *r, const char *path) {
                 {"gflops", row->gflops},
                 {"peak_fraction", row->peak_fraction},
                 {"speedup_vs_baseline", row->speedup_vs_baseline},
-                {"speedup_threads", row->speedup_threads}};
+                {"speedup_threads", row->speedup_threads},
+                {"other_pass_median_ns", row->other_pass_median_ns}};
     for (size_t k = 0; k < sizeof nums / sizeof *nums; k++) {
       double v = -1;
       ok = read_double_attr(g, nums[k].name, &v) == 0 && same(v, nums[k].expected);
@@ -244,48 +262,182 @@ static char *slurp(const char *path) {
   return buf;
 }
 
-static void check_json(const ek_results *r, const char *path) {
+// Every occurrence of "key": in the text is followed by an integer literal
+// (Google Benchmark writes these keys as int64): digits, optional minus,
+// then ',' / '}' / whitespace. The doubles are written in scientific
+// notation, so an integer key written as a double shows here.
+static int key_is_integer_everywhere(const char *text, const char *key, int *count) {
+  char pat[80];
+  snprintf(pat, sizeof pat, "\"%s\":", key);
+  *count = 0;
+  for (const char *p = strstr(text, pat); p; p = strstr(p + 1, pat)) {
+    const char *v = p + strlen(pat);
+    while (*v == ' ' || *v == '\t')
+      v++;
+    if (*v == '-')
+      v++;
+    if (*v < '0' || *v > '9')
+      return 0;
+    while (*v >= '0' && *v <= '9')
+      v++;
+    if (*v != ',' && *v != '}' && *v != '\n' && *v != '\r' && *v != ' ' && *v != '\t')
+      return 0;
+    (*count)++;
+  }
+  return 1;
+}
+
+// 1 if no value anywhere under o is null.
+static int no_null(const cJSON *o, char *where, size_t cap) {
+  if (cJSON_IsNull(o)) {
+    snprintf(where, cap, "'%s' is null", o->string ? o->string : "(array element)");
+    return 0;
+  }
+  const cJSON *c;
+  cJSON_ArrayForEach(c, o) if (!no_null(c, where, cap)) return 0;
+  return 1;
+}
+
+// Google Benchmark's keys and their JSON types (bench/results.c has the
+// source: google/benchmark src/json_reporter.cc). 'i' integer, 'n' number,
+// 's' string, 'b' bool, 'a' array.
+typedef struct {
+  const char *key;
+  char type;
+} schema_key;
+
+static int has_type(const cJSON *v, char type) {
+  switch (type) {
+  case 'i':
+    return cJSON_IsNumber(v) && v->valuedouble == floor(v->valuedouble);
+  case 'n':
+    return cJSON_IsNumber(v);
+  case 's':
+    return cJSON_IsString(v);
+  case 'b':
+    return cJSON_IsBool(v);
+  case 'a':
+    return cJSON_IsArray(v);
+  }
+  return 0;
+}
+
+static int check_keys(const cJSON *o, const schema_key *keys, size_t n, char *detail, size_t cap) {
+  for (size_t k = 0; k < n; k++) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, keys[k].key);
+    if (!has_type(v, keys[k].type)) {
+      snprintf(detail, cap, "'%s' %s (type %c expected)", keys[k].key,
+               v ? "has the wrong type" : "missing", keys[k].type);
+      return 0;
+    }
+  }
+  return 1;
+}
+
+static double number_of(const cJSON *o, const char *key) {
+  const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+  return cJSON_IsNumber(v) ? v->valuedouble : NAN;
+}
+
+static void check_json(const ek_results *r, const char *path, int samples) {
   char *text = slurp(path);
   cJSON *root = text ? cJSON_Parse(text) : NULL;
-  free(text);
   check("JSON parses", root != NULL, "%s", path);
-  if (!root)
+  if (!root) {
+    free(text);
     return;
+  }
+  char where[256] = "";
+  check("no null value anywhere", no_null(root, where, sizeof where), "%s %s", path, where);
+  static const char *const int_keys[] = {
+      "num_cpus",    "mhz_per_cpu",  "json_schema_version",       "level",       "size",
+      "num_sharing", "family_index", "per_family_instance_index", "repetitions", "repetition_index",
+      "threads",     "iterations"};
+  for (size_t k = 0; k < sizeof int_keys / sizeof *int_keys; k++) {
+    int count = 0;
+    int ok = key_is_integer_everywhere(text, int_keys[k], &count);
+    check("integer key written as an integer", ok, "%s: '%s' (%d integer occurrences%s)", path,
+          int_keys[k], count, ok ? "" : " before one that is not");
+  }
+  free(text);
+
   cJSON *ctx = cJSON_GetObjectItemCaseSensitive(root, "context");
-  const char *ctx_keys[] = {"date",         "host_name",
-                            "executable",   "num_cpus",
-                            "mhz_per_cpu",  "cpu_scaling_enabled",
-                            "caches",       "library_build_type",
-                            "git_revision", "compiler",
-                            "c_flags",      "isas_available"};
-  for (size_t k = 0; k < sizeof ctx_keys / sizeof *ctx_keys; k++)
-    check("context key present", cJSON_HasObjectItem(ctx, ctx_keys[k]), "%s", ctx_keys[k]);
+  static const schema_key ctx_keys[] = {{"date", 's'},
+                                        {"host_name", 's'},
+                                        {"executable", 's'},
+                                        {"num_cpus", 'i'},
+                                        {"mhz_per_cpu", 'i'},
+                                        {"cpu_scaling_enabled", 'b'},
+                                        {"caches", 'a'},
+                                        {"load_avg", 'a'},
+                                        {"library_version", 's'},
+                                        {"library_build_type", 's'},
+                                        {"json_schema_version", 'i'}};
+  char detail[512] = "all keys";
+  check("context has Google Benchmark's keys and types",
+        check_keys(ctx, ctx_keys, sizeof ctx_keys / sizeof *ctx_keys, detail, sizeof detail), "%s",
+        detail);
+  check("json_schema_version is 1", number_of(ctx, "json_schema_version") == 1, "%g",
+        number_of(ctx, "json_schema_version"));
+  static const schema_key cache_keys[] = {
+      {"type", 's'}, {"level", 'i'}, {"size", 'i'}, {"num_sharing", 'i'}};
+  const cJSON *c;
+  int caches_ok = 1;
+  snprintf(detail, sizeof detail, "%d caches", r->ncaches);
+  cJSON_ArrayForEach(c, cJSON_GetObjectItemCaseSensitive(ctx, "caches")) caches_ok &=
+      check_keys(c, cache_keys, 4, detail, sizeof detail);
+  check("caches have type, level, size, num_sharing", caches_ok, "%s", detail);
+  int load_ok = 1;
+  cJSON_ArrayForEach(c, cJSON_GetObjectItemCaseSensitive(ctx, "load_avg")) load_ok &=
+      cJSON_IsNumber(c);
+  check("load_avg is an array of numbers", load_ok, "%d entries",
+        cJSON_GetArraySize(cJSON_GetObjectItemCaseSensitive(ctx, "load_avg")));
+  // ek's own metadata: custom context, strings as Google Benchmark writes it.
+  int custom_ok = 1;
+  snprintf(detail, sizeof detail, "all strings");
+  cJSON_ArrayForEach(c, ctx) {
+    int gb = 0;
+    for (size_t k = 0; k < sizeof ctx_keys / sizeof *ctx_keys; k++)
+      gb |= !strcmp(c->string, ctx_keys[k].key);
+    if (!gb && !cJSON_IsString(c)) {
+      custom_ok = 0;
+      snprintf(detail, sizeof detail, "'%s' is not a string", c->string);
+    }
+  }
+  check("custom context values are strings", custom_ok, "%s", detail);
   cJSON *host = cJSON_GetObjectItemCaseSensitive(ctx, "host_name");
   const ek_meta *mh = ek_results_meta_find(r, "host_name");
   check("context host_name equal",
         cJSON_IsString(host) && mh && !strcmp(host->valuestring, mh->text), "'%s'",
         cJSON_IsString(host) ? host->valuestring : "?");
-  check("context cpu_scaling_enabled is a bool",
-        cJSON_IsBool(cJSON_GetObjectItemCaseSensitive(ctx, "cpu_scaling_enabled")), "type");
+  const ek_meta *seed = ek_results_meta_find(r, "seed");
+  char want_seed[40];
+  snprintf(want_seed, sizeof want_seed, "%.17g", seed ? seed->number : NAN);
+  const char *got_seed = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(ctx, "seed"));
+  check("custom context seed as a string", got_seed && !strcmp(got_seed, want_seed),
+        "'%s' expected '%s'", got_seed ? got_seed : "?", want_seed);
 
   cJSON *list = cJSON_GetObjectItemCaseSensitive(root, "benchmarks");
   int expected = 0;
   for (int i = 0; i < NROWS; i++)
-    expected += row_samples[i] + 3;
-  check("benchmarks entries = samples + 3 aggregates per row",
-        cJSON_IsArray(list) && cJSON_GetArraySize(list) == expected, "%d entries, expected %d",
-        cJSON_IsArray(list) ? cJSON_GetArraySize(list) : -1, expected);
-  const char *keys[] = {"name",       "run_name",  "run_type", "repetitions", "threads",
-                        "iterations", "real_time", "cpu_time", "time_unit",   "items_per_second"};
-  int schema_ok = 1, values_ok = 1, aggs_ok = 1, iter_rows = 0;
-  char detail[512] = "all entries", vdetail[512] = "all entries", adetail[512] = "all entries";
+    expected += (samples ? row_samples[i] : 0) + 5;
+  check("benchmarks entries = 5 aggregates per row (+ samples with --samples)",
+        cJSON_IsArray(list) && cJSON_GetArraySize(list) == expected, "%s: %d entries, expected %d",
+        path, cJSON_IsArray(list) ? cJSON_GetArraySize(list) : -1, expected);
+  static const schema_key entry_keys[] = {
+      {"name", 's'},     {"family_index", 'i'}, {"per_family_instance_index", 'i'},
+      {"run_name", 's'}, {"run_type", 's'},     {"repetitions", 'i'},
+      {"threads", 'i'},  {"iterations", 'i'},   {"real_time", 'n'},
+      {"cpu_time", 'n'}, {"time_unit", 's'}};
+  static const schema_key iteration_keys[] = {{"repetition_index", 'i'}};
+  static const schema_key aggregate_keys[] = {{"aggregate_name", 's'}, {"aggregate_unit", 's'}};
+  int schema_ok = 1, values_ok = 1, aggs_ok = 1, extra_ok = 1, iter_rows = 0, agg_rows = 0;
+  char sdetail[512] = "all entries", vdetail[512] = "all entries", adetail[512] = "all entries",
+       edetail[512] = "all extra keys numbers, label a string";
   cJSON *o;
   cJSON_ArrayForEach(o, list) {
-    for (size_t k = 0; k < sizeof keys / sizeof *keys; k++)
-      if (!cJSON_HasObjectItem(o, keys[k])) {
-        schema_ok = 0;
-        snprintf(detail, sizeof detail, "an entry lacks '%s'", keys[k]);
-      }
+    schema_ok &=
+        check_keys(o, entry_keys, sizeof entry_keys / sizeof *entry_keys, sdetail, sizeof sdetail);
     const char *run_name = cJSON_GetStringValue(cJSON_GetObjectItem(o, "run_name"));
     const char *run_type = cJSON_GetStringValue(cJSON_GetObjectItem(o, "run_type"));
     const ek_result_row *row = run_name ? ek_results_find(r, run_name) : NULL;
@@ -295,42 +447,83 @@ static void check_json(const ek_results *r, const char *path) {
                run_name ? run_name : "?");
       continue;
     }
-    double real = cJSON_GetNumberValue(cJSON_GetObjectItem(o, "real_time"));
-    double threads = cJSON_GetNumberValue(cJSON_GetObjectItem(o, "threads"));
-    if (threads != row->threads) {
+    // Keys beyond the schema are counters (numbers) or the label.
+    cJSON_ArrayForEach(c, o) {
+      int known = !strcmp(c->string, "label") || !strcmp(c->string, "repetition_index") ||
+                  !strcmp(c->string, "aggregate_name") || !strcmp(c->string, "aggregate_unit");
+      for (size_t k = 0; k < sizeof entry_keys / sizeof *entry_keys; k++)
+        known |= !strcmp(c->string, entry_keys[k].key);
+      if ((!known && !cJSON_IsNumber(c)) || (!strcmp(c->string, "label") && !cJSON_IsString(c))) {
+        extra_ok = 0;
+        snprintf(edetail, sizeof edetail, "%s: '%s'", row->name, c->string);
+      }
+    }
+    double real = number_of(o, "real_time");
+    if (number_of(o, "threads") != row->threads ||
+        number_of(o, "iterations") != (double)row->iters * (double)row->items ||
+        number_of(o, "repetitions") != row->nsamples) {
       values_ok = 0;
-      snprintf(vdetail, sizeof vdetail, "%s: threads %g, written %d", row->name, threads,
-               row->threads);
+      snprintf(vdetail, sizeof vdetail, "%s: threads %g, iterations %g, repetitions %g", row->name,
+               number_of(o, "threads"), number_of(o, "iterations"), number_of(o, "repetitions"));
     }
     if (!strcmp(run_type, "iteration")) {
       iter_rows++;
-      int s = (int)cJSON_GetNumberValue(cJSON_GetObjectItem(o, "repetition_index"));
-      if (s < 0 || s >= row->nsamples || !same(real, row->sample_ns[s])) {
+      schema_ok &= check_keys(o, iteration_keys, 1, sdetail, sizeof sdetail);
+      int s = (int)number_of(o, "repetition_index");
+      if (s < 0 || s >= row->nsamples || !same(real, row->sample_ns[s]) ||
+          !same(number_of(o, "cpu_time"), row->sample_cpu_ns[s])) {
         values_ok = 0;
         snprintf(vdetail, sizeof vdetail, "%s sample %d: JSON %.17g, written %.17g", row->name, s,
                  real, s >= 0 && s < row->nsamples ? row->sample_ns[s] : NAN);
       }
     } else if (!strcmp(run_type, "aggregate")) {
+      agg_rows++;
+      schema_ok &= check_keys(o, aggregate_keys, 2, sdetail, sizeof sdetail);
       const char *agg = cJSON_GetStringValue(cJSON_GetObjectItem(o, "aggregate_name"));
       double want = !agg                     ? NAN
                     : !strcmp(agg, "mean")   ? row->stats.mean
                     : !strcmp(agg, "median") ? row->stats.median
                     : !strcmp(agg, "stddev") ? row->stats.stddev
+                    : !strcmp(agg, "cv")     ? row->stats.cv
+                    : !strcmp(agg, "min")    ? row->stats.min
                                              : NAN;
       if (!same(real, want)) {
         aggs_ok = 0;
         snprintf(adetail, sizeof adetail, "%s aggregate %s: JSON %.17g, expected %.17g", row->name,
                  agg ? agg : "?", real, want);
       }
+      if (agg && !strcmp(agg, "median")) {
+        // ek's fields ride on the median entry: min and median per row,
+        // flags, and nothing where a value does not apply.
+        int ok =
+            same(number_of(o, "min_ns"), row->stats.min) && number_of(o, "passes") == row->passes &&
+            number_of(o, "noisy") == ((row->flags & EK_ROW_NOISY) != 0) &&
+            cJSON_HasObjectItem(o, "peak_fraction") == isfinite(row->peak_fraction) &&
+            cJSON_HasObjectItem(o, "other_pass_median_ns") == isfinite(row->other_pass_median_ns);
+        const char *label = cJSON_GetStringValue(cJSON_GetObjectItem(o, "label"));
+        ok = ok && label && strstr(label, row->isa) &&
+             ((row->flags & EK_ROW_NOISY) != 0) == (strstr(label, "flags noisy") != NULL);
+        if (!ok) {
+          aggs_ok = 0;
+          snprintf(adetail, sizeof adetail,
+                   "%s median entry: min_ns %.17g (%.17g), passes %g, "
+                   "noisy %g, label '%s'",
+                   row->name, number_of(o, "min_ns"), row->stats.min, number_of(o, "passes"),
+                   number_of(o, "noisy"), label ? label : "?");
+        }
+      }
     } else {
       schema_ok = 0;
-      snprintf(detail, sizeof detail, "run_type '%s'", run_type);
+      snprintf(sdetail, sizeof sdetail, "run_type '%s'", run_type);
     }
   }
-  check("every entry has the Google Benchmark keys", schema_ok, "%s", detail);
-  check("iteration rows: real_time bit-exact, threads equal", values_ok, "%s (%d rows)", vdetail,
-        iter_rows);
-  check("aggregate rows equal the statistics", aggs_ok, "%s", adetail);
+  check("every entry has Google Benchmark's keys and types", schema_ok, "%s", sdetail);
+  check("extra keys are counters (numbers) or the label", extra_ok, "%s", edetail);
+  check(samples ? "iteration entries: times bit-exact" : "no iteration entries without samples",
+        values_ok && iter_rows == (samples ? expected - 5 * NROWS : 0), "%s (%d iteration rows)",
+        vdetail, iter_rows);
+  check("aggregates mean/median/stddev/cv/min equal the statistics",
+        aggs_ok && agg_rows == 5 * NROWS, "%s (%d aggregate rows)", adetail, agg_rows);
   cJSON_Delete(root);
 }
 
@@ -396,7 +589,7 @@ static void check_overwrite(ek_results *r, const char *dir, const char *h5, cons
   // Change the set so a wrong overwrite would show.
   ek_results_meta_text(r, "note", "second write");
   int rc_h5 = ek_results_write_h5(r, h5, 0);
-  int rc_json = ek_results_write_json(r, json, 0);
+  int rc_json = ek_results_write_json(r, json, 0, 0);
   check("write onto an existing HDF5 without force fails", rc_h5 < 0, "rc %d", rc_h5);
   check("write onto an existing JSON without force fails", rc_json < 0, "rc %d", rc_json);
   check("old JSON left byte-for-byte intact", same_file_bytes(json, old_json), "%s", json);
@@ -415,7 +608,7 @@ static void check_overwrite(ek_results *r, const char *dir, const char *h5, cons
     fclose(f);
   check("old HDF5 left byte-for-byte intact", h5_same, "%s, %ld bytes", h5, h5_size);
   check("no temporary file left after the refusals", no_temp_left(dir), "%s", dir);
-  rc_json = ek_results_write_json(r, json, 1);
+  rc_json = ek_results_write_json(r, json, 1, 0);
   char *new_json = slurp(json);
   check("write with force replaces the file",
         rc_json == 0 && new_json && strstr(new_json, "second write") != NULL, "rc %d", rc_json);
@@ -443,27 +636,33 @@ int main(int argc, char **argv) {
     perror("test_results_io: mkdtemp");
     return 1;
   }
-  char h5[256], json[256];
+  char h5[256], json[256], json_samples[256];
   snprintf(h5, sizeof h5, "%s/run.h5", dir);
   snprintf(json, sizeof json, "%s/run.json", dir);
+  snprintf(json_samples, sizeof json_samples, "%s/run_samples.json", dir);
   ek_results r;
   if (build(&r, seed) != 0) {
     printf("FAIL building the results set\n");
     return 1;
   }
   int rc_h5 = ek_results_write_h5(&r, h5, 0);
-  int rc_json = ek_results_write_json(&r, json, 0);
+  int rc_json = ek_results_write_json(&r, json, 0, 0);
+  int rc_samples = ek_results_write_json(&r, json_samples, 0, 1);
   check("HDF5 written", rc_h5 == 0, "rc %d, %s", rc_h5, h5);
   check("JSON written", rc_json == 0, "rc %d, %s", rc_json, json);
+  check("JSON with samples written", rc_samples == 0, "rc %d, %s", rc_samples, json_samples);
   if (rc_h5 == 0)
     check_h5(&r, h5);
   if (rc_json == 0)
-    check_json(&r, json);
+    check_json(&r, json, 0);
+  if (rc_samples == 0)
+    check_json(&r, json_samples, 1);
   if (rc_h5 == 0 && rc_json == 0)
     check_overwrite(&r, dir, h5, json);
   ek_results_free(&r);
   unlink(h5);
   unlink(json);
+  unlink(json_samples);
   rmdir(dir);
   printf("test_results_io: %s (%d failure%s)\n", failures ? "FAILED" : "passed", failures,
          failures == 1 ? "" : "s");
