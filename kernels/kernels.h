@@ -73,6 +73,14 @@ typedef struct ek_xpbd_args_f64 ek_xpbd_args_f64;
 typedef void ek_xpbd_block_f32_fn(const ek_xpbd_args_f32 *a, size_t b0, size_t b1);
 typedef void ek_xpbd_block_f64_fn(const ek_xpbd_args_f64 *a, size_t b0, size_t b1);
 
+// cloth_membrane_block / cloth_bending_block: corner forces of AoSoA
+// triangle / hinge blocks [b0, b1) (contract in
+// kernels/cloth_force/cloth_force_kernel.h).
+typedef struct ek_cloth_args_f32 ek_cloth_args_f32;
+typedef struct ek_cloth_args_f64 ek_cloth_args_f64;
+typedef void ek_cloth_block_f32_fn(const ek_cloth_args_f32 *a, size_t b0, size_t b1);
+typedef void ek_cloth_block_f64_fn(const ek_cloth_args_f64 *a, size_t b0, size_t b1);
+
 typedef struct {
   ek_isa isa;
   int lanes_f32, lanes_f64; // EK_W of the target
@@ -90,6 +98,8 @@ typedef struct {
   ek_hessian_block_f64_fn *hessian_block_f64;
   ek_xpbd_block_f32_fn *xpbd_block_f32;
   ek_xpbd_block_f64_fn *xpbd_block_f64;
+  ek_cloth_block_f32_fn *cloth_membrane_block_f32, *cloth_bending_block_f32;
+  ek_cloth_block_f64_fn *cloth_membrane_block_f64, *cloth_bending_block_f64;
 } ek_kernel_table;
 
 // Table of a resolved target (see ek_isa_resolve), NULL if not available.
