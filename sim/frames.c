@@ -24,7 +24,9 @@
 struct ek_frames {
   hid_t file;
   hid_t positions, J, smin, psi, step, time; // extendible datasets
+  hid_t smax;                                // triangles only: the larger stretch
   size_t nverts, ntets;
+  int nodes; // per element: 4 (tets, /mesh/tets) or 3 (triangles, /mesh/triangles)
   long nframes;
   double *nan_fill; // ntets NaNs for fields the caller did not give
   double *times;    // per frame, for the XDMF
@@ -110,7 +112,7 @@ static int append_row(hid_t dset, hid_t type, int inner_rank, const hsize_t *inn
 }
 
 static void close_all(ek_frames *fr) {
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time};
+  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time, &fr->smax};
   for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
     if (*ds[i] >= 0) {
       H5Dclose(*ds[i]);
@@ -150,15 +152,18 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
   fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
              "<Xdmf Version=\"3.0\">\n <Domain>\n"
              "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-  static const char *fields[] = {"J", "smin", "energy_density_from_rest"};
+  static const char *fields[] = {"J", "smin", "energy_density_from_rest", "smax"};
+  const int nfields = fr->nodes == 3 ? 4 : 3;
+  const char *topology = fr->nodes == 3 ? "Triangle" : "Tetrahedron",
+             *elements = fr->nodes == 3 ? "triangles" : "tets";
   for (long i = 0; i < nf; ++i) {
     fprintf(f, "   <Grid Name=\"frame_%06ld\" GridType=\"Uniform\">\n", i);
     fprintf(f, "    <Time Value=\"%.17g\"/>\n", fr->times[i]);
     fprintf(f,
-            "    <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"%zu\">\n"
-            "     <DataItem Dimensions=\"%zu 4\" NumberType=\"Int\" Precision=\"4\" "
-            "Format=\"HDF\">%s:/mesh/tets</DataItem>\n    </Topology>\n",
-            nt, nt, h5name);
+            "    <Topology TopologyType=\"%s\" NumberOfElements=\"%zu\">\n"
+            "     <DataItem Dimensions=\"%zu %d\" NumberType=\"Int\" Precision=\"4\" "
+            "Format=\"HDF\">%s:/mesh/%s</DataItem>\n    </Topology>\n",
+            topology, nt, nt, fr->nodes, h5name, elements);
     fprintf(f,
             "    <Geometry GeometryType=\"XYZ\">\n"
             "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu 3\" Type=\"HyperSlab\">\n"
@@ -167,7 +172,7 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
             "Format=\"HDF\">%s:/frames/positions</DataItem>\n"
             "     </DataItem>\n    </Geometry>\n",
             nv, i, nv, nf, nv, h5name);
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < nfields; ++k)
       fprintf(f,
               "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
               "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu\" Type=\"HyperSlab\">\n"
@@ -192,6 +197,17 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
 
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen) {
+  return ek_frames_create_ex(path, force, nverts, X, ntets, 4, tets, err, errlen);
+}
+
+ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
+                               size_t ntets, int nodes, const int32_t *tets, char *err,
+                               size_t errlen) {
+  if (nodes != 3 && nodes != 4) {
+    if (err && errlen)
+      snprintf(err, errlen, "ek_frames_create_ex: %d nodes per element: 3 or 4", nodes);
+    return NULL;
+  }
   if (err && errlen)
     err[0] = '\0';
   if (!path || !path[0] || !X || !tets || nverts == 0 || ntets == 0) {
@@ -207,7 +223,8 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
   ek_frames *fr = calloc(1, sizeof *fr);
   if (!fr)
     return NULL;
-  fr->file = fr->positions = fr->J = fr->smin = fr->psi = fr->step = fr->time = -1;
+  fr->file = fr->positions = fr->J = fr->smin = fr->psi = fr->step = fr->time = fr->smax = -1;
+  fr->nodes = nodes;
   fr->nverts = nverts;
   fr->ntets = ntets;
   snprintf(fr->h5path, sizeof fr->h5path, "%s", path);
@@ -247,9 +264,10 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
   if (ok) {
     what = "write the rest mesh to";
     hid_t mesh = H5Gcreate2(fr->file, "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    hsize_t vdims[2] = {nverts, 3}, tdims[2] = {ntets, 4};
-    ok = mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
-         write_fixed(mesh, "tets", H5T_NATIVE_INT32, 2, tdims, tets) == 0;
+    hsize_t vdims[2] = {nverts, 3}, tdims[2] = {ntets, (hsize_t)nodes};
+    ok =
+        mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
+        write_fixed(mesh, nodes == 3 ? "triangles" : "tets", H5T_NATIVE_INT32, 2, tdims, tets) == 0;
     if (mesh >= 0)
       H5Gclose(mesh);
   }
@@ -263,8 +281,10 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
     fr->psi = create_series(frames, "energy_density_from_rest", H5T_NATIVE_DOUBLE, 1, tet_inner);
     fr->step = create_series(frames, "step", H5T_NATIVE_INT64, 0, NULL);
     fr->time = create_series(frames, "time", H5T_NATIVE_DOUBLE, 0, NULL);
+    if (nodes == 3)
+      fr->smax = create_series(frames, "smax", H5T_NATIVE_DOUBLE, 1, tet_inner);
     ok = frames >= 0 && fr->positions >= 0 && fr->J >= 0 && fr->smin >= 0 && fr->psi >= 0 &&
-         fr->step >= 0 && fr->time >= 0;
+         fr->step >= 0 && fr->time >= 0 && (nodes == 4 || fr->smax >= 0);
     if (frames >= 0)
       H5Gclose(frames);
   }
@@ -293,6 +313,12 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
 
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen) {
+  return ek_frames_write_ex(fr, time, step, x, J, smin, psi, NULL, err, errlen);
+}
+
+int ek_frames_write_ex(ek_frames *fr, double time, long step, const double *x, const double *J,
+                       const double *smin, const double *psi, const double *smax, char *err,
+                       size_t errlen) {
   if (!fr || fr->file < 0 || !x) {
     if (err && errlen)
       snprintf(err, errlen, "ek_frames_write: no open file or no positions");
@@ -316,6 +342,8 @@ int ek_frames_write(ek_frames *fr, double time, long step, const double *x, cons
       append_row(fr->J, H5T_NATIVE_DOUBLE, 1, tet_inner, n, J ? J : fr->nan_fill) == 0 &&
       append_row(fr->smin, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smin ? smin : fr->nan_fill) == 0 &&
       append_row(fr->psi, H5T_NATIVE_DOUBLE, 1, tet_inner, n, psi ? psi : fr->nan_fill) == 0 &&
+      (fr->smax < 0 ||
+       append_row(fr->smax, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smax ? smax : fr->nan_fill) == 0) &&
       append_row(fr->step, H5T_NATIVE_INT64, 0, NULL, n, &step64) == 0 &&
       append_row(fr->time, H5T_NATIVE_DOUBLE, 0, NULL, n, &time) == 0 &&
       H5Fflush(fr->file, H5F_SCOPE_GLOBAL) >= 0;
@@ -338,7 +366,7 @@ int ek_frames_close(ek_frames *fr, char *err, size_t errlen) {
   h5_quiet q;
   quiet_on(&q);
   int rc = 0;
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time};
+  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time, &fr->smax};
   for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
     if (*ds[i] >= 0) {
       rc |= H5Dclose(*ds[i]) < 0;
