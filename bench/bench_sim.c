@@ -326,6 +326,85 @@ static int cantilever_1s(ek_bench *b, int threads) {
   return 0;
 }
 
+// sim/cloth_hang/<model>/<isa>/<prec>/tris:<N>/threads:<T>: the explicit
+// cloth step (cloth_force.h) on the hanging cloth of scenes/cloth_hang.json
+// refined to 224 x 224 cells (100 352 triangles), dt under its CFL limit;
+// after each row the split by phase (membrane, bending, gather from the
+// cloth kernel's phase-timed passes; integration) on PHASE_STEPS more
+// steps, ms per step, as a note.
+static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
+  enum { CELLS = 224 };
+  static const char *models[] = {"stvk", "arap"};
+  int rc = 0;
+  for (int mi = 0; mi < 2; ++mi)
+    for (int prec = 32; prec <= 64; prec += 32)
+      for (int t = 0; t < ncounts; ++t) {
+        char json[1200], err[1024], name[EK_BENCH_NAME_MAX], knobs[256];
+        ek_isa isa = EK_ISA_AUTO;
+        if (ek_isa_resolve(EK_ISA_AUTO, &isa) != EK_OK)
+          return -1;
+        snprintf(name, sizeof name, "sim/cloth_hang/%s/%s/f%d/tris:%d/threads:%d", models[mi],
+                 ek_isa_name(isa), prec, 2 * CELLS * CELLS, counts[t]);
+        if (!ek_bench_wants(b, name))
+          continue;
+        // cloth_hang.json at CELLS x CELLS: dt below h_min / c (c ~ 52 m/s).
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"grid\": [%d, %d], \"size\": [1, 1], \"plane\": \"xz\"}, "
+                 "\"material\": {\"model\": \"%s\", \"E\": 1e6, \"nu\": 0.3, \"density\": 400}, "
+                 "\"cloth\": {\"thickness\": 5e-4}, \"precision\": \"f%d\", \"boundary\": "
+                 "[{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 1], \"max\": [0, 0, 1]}}, "
+                 "{\"type\": \"pin\", \"region\": {\"min\": [1, 0, 1], \"max\": [1, 0, 1]}}], "
+                 "\"gravity\": [0, 0, -9.81], \"damping\": 1, \"dt\": 3e-5, \"steps\": 1}",
+                 CELLS, CELLS, models[mi], prec);
+        static ek_scene scene;
+        ek_trimesh *mesh = NULL;
+        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL};
+        if (!ek_bench_listing(b)) {
+          if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene, err, sizeof err) != 0 ||
+              !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
+              !(ctx.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
+            ek_bench_fail(b, "sim: %s: %s", name, err);
+            ek_trimesh_destroy(mesh);
+            rc = -1;
+            continue;
+          }
+        }
+        snprintf(knobs, sizeof knobs,
+                 "scene=cloth_hang;cells=%d;model=%s;integrator=explicit;steps_per_call=%d;dt=3e-5",
+                 CELLS, models[mi], ctx.steps);
+        ek_bench_row row = {.name = name,
+                            .family = "sim",
+                            .isa = isa,
+                            .precision = prec == 32 ? "f32" : "f64",
+                            .threads = counts[t],
+                            .knobs = knobs,
+                            .items = (size_t)ctx.steps,
+                            .fn = run_steps,
+                            .ctx = &ctx};
+        if (ek_bench_run(b, &row) != 0)
+          rc = -1;
+        if (ctx.sim && !ctx.failed) {
+          ek_sim_times before = *ek_sim_timings(ctx.sim);
+          ek_sim_time_phases(ctx.sim, 1);
+          for (int i = 0; i < PHASE_STEPS && ek_sim_step(ctx.sim) == 0; ++i)
+            ;
+          const ek_sim_times *after = ek_sim_timings(ctx.sim);
+          double n = (double)(after->steps - before.steps);
+          if (n > 0)
+            ek_bench_note(b,
+                          "%s: ms per step by phase (separate passes): membrane %.4f, bending "
+                          "%.4f, gather %.4f, integration %.4f",
+                          name, 1e3 * (after->cloth_membrane - before.cloth_membrane) / n,
+                          1e3 * (after->cloth_bending - before.cloth_bending) / n,
+                          1e3 * (after->cloth_gather - before.cloth_gather) / n,
+                          1e3 * (after->integration - before.integration) / n);
+        }
+        ek_sim_destroy(ctx.sim);
+        ek_trimesh_destroy(mesh);
+      }
+  return rc;
+}
+
 int bench_sim(ek_bench *b) {
   static const char *scenes[] = {"cantilever",
                                  "twist",
@@ -429,6 +508,8 @@ int bench_sim(ek_bench *b) {
     ek_mesh_destroy(mesh);
   }
   if (xpbd_grid_rows(b, counts, ncounts) < 0)
+    rc = -1;
+  if (cloth_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (cantilever_1s(b, counts[ncounts - 1]) < 0)
     rc = -1;
