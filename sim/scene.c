@@ -225,7 +225,7 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
     return rc;
   if (!!file + !!box + !!grid > 1)
     return bad(c, grid ? "mesh.grid" : "mesh.box", grid ? grid : box,
-               "give one of mesh.file, mesh.box or mesh.grid");
+               "give either mesh.file, mesh.box or mesh.grid, one of them");
   if (kind && strcmp(kind, "tets") != 0 && strcmp(kind, "triangles") != 0)
     return bad(c, "mesh.kind", kind_node, "must be \"tets\" or \"triangles\"");
   if (kind && !file)
@@ -278,7 +278,7 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
     return 0;
   }
   if (!box)
-    return missing(c, "mesh.file, mesh.box or mesh.grid");
+    return missing(c, "mesh.file or mesh.box (or mesh.grid for a cloth)");
   double cells[3];
   if ((rc = get_vec(c, mesh, "mesh", "box", 1, 3, cells)))
     return rc;

@@ -12,7 +12,9 @@
 //      crumpled one;
 //   e. a flat cloth at rest feels no force (membrane and bending);
 //   f. the same bits at 1 and 2 threads above the parallel threshold;
-//   g. bad input is refused with a message naming the triangle.
+//   g. bad input is refused with a message naming the triangle;
+//   h. ARAP on near rank-deficient triangles (the kernel's slow lanes)
+//      against the reference, and finite on collapsed ones.
 #include <ek/cloth_force.h>
 #include <math.h>
 #include <omp.h>
@@ -345,6 +347,73 @@ int main(int argc, char **argv) {
       snprintf(what, sizeof what, "e. %s %s f32: max |f| at rest / (mu h + k_b / h)",
                model_name(model), ek_isa_name((ek_isa)isa));
       report(what, mf / scale, EK_CLOTH_FORCE_REST_TOL_F32);
+    }
+  }
+
+  // h. ARAP near rank-deficient (every triangle squashed to 1e-3 along an
+  // in-plane axis: sigma2 / sigma1 ~ 1e-3, the kernel's slow lanes) against
+  // the reference, and fully collapsed (rank 1) finite.
+  {
+    const int32_t *T = m.T;
+    double a[3], na = 0;
+    for (int k = 0; k < 3; ++k) {
+      a[k] = m.X[3 * T[1] + k] - m.X[3 * T[0] + k];
+      na += a[k] * a[k];
+    }
+    for (int k = 0; k < 3; ++k)
+      a[k] /= sqrt(na);
+    ek_cloth_params p = {EK_MEMBRANE_ARAP, MU, LAMBDA, BENDING};
+    cloth_ref_params rp = {EK_MEMBRANE_ARAP, MU, LAMBDA, BENDING};
+    for (int collapsed = 0; collapsed < 2; ++collapsed) {
+      double squash = collapsed ? 0 : 1e-3;
+      for (size_t v = 0; v < m.nv; ++v) {
+        double d = 0;
+        for (int k = 0; k < 3; ++k)
+          d += m.X[3 * v + k] * a[k];
+        for (int k = 0; k < 3; ++k)
+          x[3 * v + k] = m.X[3 * v + k] - (1 - squash) * d * a[k];
+      }
+      if (!collapsed)
+        cloth_ref_forces(&rp, m.nv, m.X, m.nt, m.T, nh, ek_cloth_hinges(cl), x, fr);
+      for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; ++isa) {
+        if (!ek_isa_available((ek_isa)isa))
+          continue;
+        ek_cloth_force_opts o = {.isa = (ek_isa)isa};
+        for (int f32 = 0; f32 < 2; ++f32) {
+          int rc;
+          if (f32) {
+            // The reference takes the same float-rounded positions: rounding
+            // x moves the squashed edges (1e-4 m) by 6e-8 m, a 6e-4 change
+            // of F's small column that no kernel can undo.
+            for (size_t i = 0; i < n3; ++i) {
+              xf[i] = (float)x[i];
+              xp[i] = (double)xf[i];
+            }
+            if (!collapsed)
+              cloth_ref_forces(&rp, m.nv, m.X, m.nt, m.T, nh, ek_cloth_hinges(cl), xp, fd);
+            rc = ek_cloth_forces_f32(cl, &p, xf, ff, &o);
+            for (size_t i = 0; i < n3; ++i)
+              f[i] = ff[i];
+          } else {
+            rc = ek_cloth_forces_f64(cl, &p, x, f, &o);
+          }
+          int finite = rc == 0;
+          for (size_t i = 0; i < n3; ++i)
+            finite &= isfinite(f[i]);
+          char what[160];
+          if (collapsed) {
+            snprintf(what, sizeof what, "h. arap %s f%d: collapsed (rank 1) cloth: finite forces",
+                     ek_isa_name((ek_isa)isa), f32 ? 32 : 64);
+            check(what, finite);
+          } else {
+            snprintf(what, sizeof what, "h. arap %s f%d: squashed 1e-3 (slow lanes) vs reference",
+                     ek_isa_name((ek_isa)isa), f32 ? 32 : 64);
+            const double *ref = f32 ? fd : fr;
+            report(what, finite ? maxdiff(n3, f, ref) / maxabs(n3, ref) : INFINITY,
+                   f32 ? EK_CLOTH_FORCE_TOL_F32 : EK_CLOTH_FORCE_TOL_F64);
+          }
+        }
+      }
     }
   }
 
