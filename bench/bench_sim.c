@@ -31,6 +31,7 @@
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
 // dt, implicit at 1/30 s), printed side by side as a note with the final
 // tip positions' difference (one run each: a cost, not a median).
+#include <ek/cloth.h>
 #include <ek/sim.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -405,6 +406,107 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
   return rc;
 }
 
+// sim/rotations/cloth_hang/...: the rotation fields of one state of the
+// 224 x 224 hanging cloth (after STEPS_PER_CALL steps): kabsch_one_ring =
+// ek_sim_vertex_rotations (gather each vertex's one-ring, Kabsch per
+// vertex: ~7 points per set), polar32_element = gather each triangle's
+// corners, F (ek_tri_deformation_f64) and its polar (ek_polar32_f64). Items:
+// vertices, triangles; same threads.
+typedef struct {
+  ek_sim *sim;
+  const ek_trimesh *mesh;
+  double *R, *xc, *F, *Rt;
+  int failed;
+  ek_bench *b;
+} rot_ctx;
+
+static void run_kabsch(void *p) {
+  rot_ctx *c = p;
+  if (!c->failed && ek_sim_vertex_rotations(c->sim, c->R) != 0) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "sim: rotations: %s", ek_last_error());
+  }
+}
+
+static void run_polar(void *p) {
+  rot_ctx *c = p;
+  const size_t nt = ek_trimesh_ntris(c->mesh);
+  const int32_t *T = ek_trimesh_tris(c->mesh);
+  const double *x = ek_sim_positions(c->sim);
+  for (size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k)
+      memcpy(c->xc + 9 * t + 3 * k, x + 3 * (size_t)T[3 * t + k], 3 * sizeof(double));
+  if (c->failed ||
+      ek_tri_deformation_f64(nt, c->xc, ek_cloth_dm_inv(ek_trimesh_cloth(c->mesh)), c->F) != 0 ||
+      ek_polar32_f64(nt, c->F, c->Rt, NULL) != 0) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "sim: rotations: %s", ek_last_error());
+  }
+}
+
+static int rotation_rows(ek_bench *b, const int *counts, int ncounts) {
+  enum { CELLS = 224 };
+  int rc = 0;
+  for (int kind = 0; kind < 2; ++kind)
+    for (int t = 0; t < ncounts; ++t) {
+      char name[EK_BENCH_NAME_MAX], json[1200], err[1024];
+      const size_t nv = (CELLS + 1) * (CELLS + 1), nt = 2 * CELLS * CELLS;
+      snprintf(name, sizeof name, "sim/rotations/cloth_hang/%s/f64/%s:%zu/threads:%d",
+               kind ? "polar32_element" : "kabsch_one_ring", kind ? "tris" : "verts",
+               kind ? nt : nv, counts[t]);
+      if (!ek_bench_wants(b, name))
+        continue;
+      rot_ctx c = {.b = b};
+      static ek_scene scene;
+      ek_trimesh *mesh = NULL;
+      if (!ek_bench_listing(b)) {
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"grid\": [%d, %d], \"size\": [1, 1], \"plane\": \"xz\"}, "
+                 "\"material\": {\"model\": \"stvk\", \"E\": 1e6, \"nu\": 0.3, \"density\": "
+                 "400}, \"cloth\": {\"thickness\": 5e-4}, \"boundary\": [{\"type\": \"pin\", "
+                 "\"region\": {\"min\": [0, 0, 1], \"max\": [0, 0, 1]}}], \"gravity\": [0, 0, "
+                 "-9.81], \"dt\": 3e-5, \"steps\": 1}",
+                 CELLS, CELLS);
+        if (ek_scene_parse(json, "rotations", ".", &scene, err, sizeof err) != 0 ||
+            !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
+            !(c.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
+          ek_bench_fail(b, "sim: %s: %s", name, err);
+          ek_trimesh_destroy(mesh);
+          rc = -1;
+          continue;
+        }
+        for (int i = 0; i < STEPS_PER_CALL; ++i)
+          ek_sim_step(c.sim);
+        c.mesh = mesh;
+        c.R = malloc(9 * nv * sizeof(double));
+        c.xc = malloc(9 * nt * sizeof(double));
+        c.F = malloc(6 * nt * sizeof(double));
+        c.Rt = malloc(6 * nt * sizeof(double));
+        if (!c.R || !c.xc || !c.F || !c.Rt)
+          c.failed = 1;
+        if (!kind)
+          run_kabsch(&c); // builds the one-rings outside the timing
+      }
+      ek_isa isa = EK_ISA_AUTO;
+      ek_isa_resolve(EK_ISA_AUTO, &isa);
+      ek_bench_row row = {.name = name,
+                          .family = "sim",
+                          .isa = isa,
+                          .precision = "f64",
+                          .threads = counts[t],
+                          .knobs = kind ? "rotation=polar32_element" : "rotation=kabsch_one_ring",
+                          .items = kind ? nt : nv,
+                          .fn = kind ? run_polar : run_kabsch,
+                          .ctx = &c};
+      if (ek_bench_run(b, &row) != 0 || c.failed)
+        rc = -1;
+      ek_sim_destroy(c.sim);
+      ek_trimesh_destroy(mesh);
+      free(c.R), free(c.xc), free(c.F), free(c.Rt);
+    }
+  return rc;
+}
+
 int bench_sim(ek_bench *b) {
   static const char *scenes[] = {"cantilever",
                                  "twist",
@@ -510,6 +612,8 @@ int bench_sim(ek_bench *b) {
   if (xpbd_grid_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (cloth_rows(b, counts, ncounts) < 0)
+    rc = -1;
+  if (rotation_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (cantilever_1s(b, counts[ncounts - 1]) < 0)
     rc = -1;

@@ -26,6 +26,7 @@ ek_bench_family_fn bench_svd3;
 ek_bench_family_fn bench_fvm;
 ek_bench_family_fn bench_material;
 ek_bench_family_fn bench_sim;
+ek_bench_family_fn bench_cloth;
 
 static const struct {
   const char *name;
@@ -35,6 +36,7 @@ static const struct {
     {"fvm", bench_fvm},
     {"material", bench_material},
     {"sim", bench_sim},
+    {"cloth", bench_cloth},
 };
 enum { NFAMILIES = sizeof families / sizeof families[0] };
 

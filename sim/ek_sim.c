@@ -435,7 +435,8 @@ int main(int argc, char **argv) {
     ek_trimesh_destroy(trimesh);
     return 1;
   }
-  double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL;
+  double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL, *Drate = NULL, *Wrate = NULL,
+         *rates = NULL, *vrot = NULL;
   ek_frames *frames = NULL;
   if (out) {
     frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
@@ -446,7 +447,11 @@ int main(int argc, char **argv) {
     smin = malloc(nt * sizeof(double));
     psi = malloc(nt * sizeof(double));
     smax = malloc(nt * sizeof(double));
-    if (!frames || !J || !smin || !psi || !smax) {
+    Drate = malloc(9 * nt * sizeof(double));
+    Wrate = malloc(9 * nt * sizeof(double));
+    rates = malloc(3 * nt * sizeof(double));
+    vrot = malloc(9 * nv * sizeof(double));
+    if (!frames || !J || !smin || !psi || !smax || !Drate || !Wrate || !rates || !vrot) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
       free(step_s);
@@ -478,10 +483,13 @@ int main(int argc, char **argv) {
   for (long n = 0; n <= steps; ++n) {
     if (frames && (n % scene.output_every == 0 || n == steps)) {
       double t0 = now();
+      const ek_frame_fields ff = {J, smin, psi, cloth ? smax : NULL, Drate, Wrate, rates, vrot};
       if ((cloth ? ek_sim_cloth_fields(sim, J, smax, smin, psi)
                  : ek_sim_tet_fields(sim, J, smin, psi)) != 0 ||
-          ek_frames_write_ex(frames, ek_sim_time(sim), n, ek_sim_positions(sim), J, smin, psi, smax,
-                             err, sizeof err) != 0) {
+          ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
+          ek_sim_vertex_rotations(sim, vrot) != 0 ||
+          ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff, err,
+                                 sizeof err) != 0) {
         fprintf(stderr, "\nek-sim: %s\n", err[0] ? err : ek_last_error());
         rc = 2;
         break;
@@ -593,6 +601,10 @@ int main(int argc, char **argv) {
   free(smin);
   free(psi);
   free(smax);
+  free(Drate);
+  free(Wrate);
+  free(rates);
+  free(vrot);
   free(step_s);
   free(res);
   ek_sim_destroy(sim);

@@ -164,6 +164,10 @@ void ek_sim_destroy(ek_sim *s) {
     return;
   if (s->integrator && s->integrator->destroy)
     s->integrator->destroy(s->integrator_data);
+  free(s->ring_off);
+  free(s->ring);
+  free(s->ring_P);
+  free(s->ring_Q);
   free(s->x);
   free(s->v);
   free(s->x0);

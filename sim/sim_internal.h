@@ -54,6 +54,13 @@ struct ek_sim {
   const ek_trimesh *trimesh;
   const ek_cloth *cloth;
   ek_cloth_params cloth_p;
+  // One-rings for the per-vertex Kabsch rotations (sim/rate_fields.c),
+  // built at the first ek_sim_vertex_rotations: vertex v's set is itself
+  // and its neighbours, ring[ring_off[v] .. ring_off[v+1]); ring_P their
+  // rest positions, ring_Q the current ones (gathered per call).
+  size_t *ring_off;
+  int32_t *ring;
+  double *ring_P, *ring_Q;
   ek_material mat;
   size_t nv, nt;
   double *x, *v;           // nv x 3: the state at t_n

@@ -9,6 +9,8 @@
 //      threshold), explicit and implicit;
 //   e. frames: /mesh/triangles, the per-triangle fields and an XDMF with a
 //      Triangle topology;
+//   g. the velocity gradient fields (sim.h, ek_sim_rate_fields) of a rigid
+//      spin: D = 0, W = [omega]x, no strain rate, cloth and tets;
 //   f. scene errors: a cloth without thickness, a tet model on triangles,
 //      "cloth" on a tet mesh, a bad grid plane, XPBD clusters on a cloth.
 // The loops: explicit (f32 and f64), implicit and XPBD (double).
@@ -43,6 +45,11 @@ static void check(const char *what, int ok, const char *detail) {
 // the size; f32 positions go through float (6e-8 relative): 1e-6.
 #define REST_TOL_F64 1e-12
 #define REST_TOL_F32 1e-6
+// g. A rigid spin's D (and strain rates, and W - [omega]x) relative to
+// omega: L = Vs Ds^-1 (Ds^+) from positions and velocities rounded at
+// ~1e-16 of |x| ~ 1 m over edges of ~0.2 m, times the condition of Ds
+// (< 10 here): ~1e-14; 1e-10 leaves room.
+#define RATE_TOL 1e-10
 
 typedef struct {
   ek_scene scene;
@@ -267,8 +274,12 @@ int main(int argc, char **argv) {
     double J[64], s1[64], s2[64], psi[64];
     for (int f = 0; fr && f < 2; ++f) {
       ok &= ek_sim_cloth_fields(r.sim, J, s1, s2, psi) == 0;
-      ok &= ek_frames_write_ex(fr, ek_sim_time(r.sim), f, ek_sim_positions(r.sim), J, s2, psi, s1,
-                               err, sizeof err) == 0;
+      double D[9 * 64], W[9 * 64], rates[3 * 64], VR[9 * 64];
+      ok &= ek_sim_rate_fields(r.sim, D, W, rates) == 0;
+      ok &= ek_sim_vertex_rotations(r.sim, VR) == 0;
+      const ek_frame_fields ff = {J, s2, psi, s1, D, W, rates, VR};
+      ok &= ek_frames_write_fields(fr, ek_sim_time(r.sim), f, ek_sim_positions(r.sim), &ff, err,
+                                   sizeof err) == 0;
       ok &= steps(&r, 1) == 0;
     }
     ok &= fr && ek_frames_close(fr, err, sizeof err) == 0;
@@ -285,6 +296,25 @@ int main(int argc, char **argv) {
         H5Sclose(sp);
         H5Dclose(ds);
       }
+      hsize_t d3[3] = {0, 0, 0};
+      ds = H5Dopen2(file, "/frames/D", H5P_DEFAULT);
+      if (ds >= 0) {
+        hid_t sp = H5Dget_space(ds);
+        H5Sget_simple_extent_dims(sp, d3, NULL);
+        H5Sclose(sp);
+        H5Dclose(ds);
+      }
+      check("e. /frames/D nframes x ntris x 9", d3[0] == 2 && d3[1] == nt && d3[2] == 9, NULL);
+      hsize_t d4[3] = {0, 0, 0};
+      ds = H5Dopen2(file, "/frames/vertex_rotation", H5P_DEFAULT);
+      if (ds >= 0) {
+        hid_t sp = H5Dget_space(ds);
+        H5Sget_simple_extent_dims(sp, d4, NULL);
+        H5Sclose(sp);
+        H5Dclose(ds);
+      }
+      check("e. /frames/vertex_rotation nframes x nverts x 9",
+            d4[0] == 2 && d4[1] == nv && d4[2] == 9, NULL);
       hsize_t d2[3] = {0, 0, 0};
       ds = H5Dopen2(file, "/frames/smax", H5P_DEFAULT);
       if (ds >= 0) {
@@ -308,9 +338,10 @@ int main(int argc, char **argv) {
     buf[n] = 0;
     if (x)
       fclose(x);
-    check("e. XDMF: Triangle topology on /mesh/triangles, an smax attribute",
+    check("e. XDMF: Triangle topology on /mesh/triangles; smax, D, vertex_rotation attributes",
           strstr(buf, "TopologyType=\"Triangle\"") && strstr(buf, ":/mesh/triangles") &&
-              strstr(buf, "Name=\"smax\""),
+              strstr(buf, "Name=\"smax\"") && strstr(buf, "Name=\"D\" AttributeType=\"Tensor\"") &&
+              strstr(buf, "Name=\"vertex_rotation\" AttributeType=\"Tensor\" Center=\"Node\""),
           NULL);
     remove(h5);
     remove(xmf);
@@ -353,6 +384,75 @@ int main(int argc, char **argv) {
     check("f. XPBD clusters on a cloth refused with a message", !sim && strstr(err, "xpbd"), err);
     ek_sim_destroy(sim);
     ek_trimesh_destroy(tm);
+  }
+
+  // g. the velocity gradient of a rigid spin about z (every vertex held by
+  // a twist condition, so v = omega x (x - c) exactly): D = 0, W = [omega]x
+  // and no strain rate, for a cloth in the xy plane (the spin lies in its
+  // plane, so L = [omega]x P = [omega]x) and for a tet box.
+  {
+    const double omega = 2.0;
+    const char *twist = "\"boundary\": [{\"type\": \"twist\", \"region\": {\"min\": [-1, -1, "
+                        "-1], \"max\": [2, 2, 2]}, \"axis\": [0, 0, 1], \"center\": [0.5, 0.5, "
+                        "0], \"rate\": 2}]";
+    for (int tets = 0; tets < 2; ++tets) {
+      if (tets)
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"box\": [3, 3, 2], \"size\": [1, 1, 0.5]}, \"material\": "
+                 "{\"model\": \"stvk\", \"E\": 1e6, \"nu\": 0.3, \"density\": 400}, %s, "
+                 "\"dt\": 1e-4, \"steps\": 1}",
+                 twist);
+      else
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"grid\": [6, 5], \"size\": [1, 1]}, \"material\": {\"model\": "
+                 "\"stvk\", \"E\": 1e6, \"nu\": 0.3, \"density\": 400}, \"cloth\": "
+                 "{\"thickness\": 5e-4}, %s, \"dt\": 1e-4, \"steps\": 1}",
+                 twist);
+      ek_scene sc;
+      ek_mesh *tm = NULL;
+      ek_trimesh *cm = NULL;
+      ek_sim *sim = NULL;
+      if (ek_scene_parse(json, "g.json", ".", &sc, err, sizeof err) == 0) {
+        if (tets && (tm = ek_scene_mesh(&sc, err, sizeof err)))
+          sim = ek_sim_create(&sc, tm, err, sizeof err);
+        if (!tets && (cm = ek_scene_trimesh(&sc, err, sizeof err)))
+          sim = ek_sim_create_cloth(&sc, cm, err, sizeof err);
+      }
+      snprintf(what, sizeof what, "g. %s, rigid spin: |D|, |W - [omega]x|, |rates| / omega",
+               tets ? "tets" : "cloth");
+      if (!sim || ek_sim_step(sim) != 0) {
+        check(what, 0, sim ? ek_sim_last_error(sim) : err);
+      } else {
+        size_t ne = tets ? ek_mesh_ntets(tm) : ek_trimesh_ntris(cm);
+        double *D = malloc(9 * ne * sizeof(double)), *W = malloc(9 * ne * sizeof(double)),
+               *rt = malloc(3 * ne * sizeof(double)), e = 0;
+        const double Wx[9] = {0, -omega, 0, omega, 0, 0, 0, 0, 0};
+        int rc = ek_sim_rate_fields(sim, D, W, rt);
+        for (size_t i = 0; rc == 0 && i < ne; ++i) {
+          for (int k = 0; k < 9; ++k)
+            e = fmax(e, fmax(fabs(D[9 * i + k]), fabs(W[9 * i + k] - Wx[k])));
+          for (int k = 0; k < 3; ++k)
+            e = fmax(e, fabs(rt[3 * i + k]));
+        }
+        report(what, rc == 0 ? e / omega : INFINITY, RATE_TOL);
+        // The one-ring Kabsch rotations: Rz(omega t) at every vertex.
+        size_t nvx = tets ? ek_mesh_nverts(tm) : ek_trimesh_nverts(cm);
+        double *VR = malloc(9 * nvx * sizeof(double)), er = 0, th = omega * ek_sim_time(sim);
+        const double Rz[9] = {cos(th), -sin(th), 0, sin(th), cos(th), 0, 0, 0, 1};
+        rc = ek_sim_vertex_rotations(sim, VR);
+        for (size_t i = 0; rc == 0 && i < nvx; ++i)
+          for (int k = 0; k < 9; ++k)
+            er = fmax(er, fabs(VR[9 * i + k] - Rz[k]));
+        snprintf(what, sizeof what, "g. %s, rigid spin: one-ring Kabsch rotations vs Rz(omega t)",
+                 tets ? "tets" : "cloth");
+        report(what, rc == 0 ? er : INFINITY, RATE_TOL);
+        free(VR);
+        free(D), free(W), free(rt);
+      }
+      ek_sim_destroy(sim);
+      ek_mesh_destroy(tm);
+      ek_trimesh_destroy(cm);
+    }
   }
 
   printf("%s (%d failures)\n", failures ? "FAIL" : "PASS", failures);

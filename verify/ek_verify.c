@@ -29,6 +29,8 @@ static const ek_verify_family families[] = {
     {"cloth_force", verify_cloth_force,
      "cloth membrane (StVK, ARAP) and bending forces vs the double reference (metric form, "
      "LAPACK)"},
+    {"cloth", verify_cloth,
+     "polar32, Kabsch, triangle velocity gradient vs LAPACK (dgesvd) references"},
 };
 
 struct ek_verify_ctx {

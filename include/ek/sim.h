@@ -426,6 +426,21 @@ int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
 // density per unit rest area (per unit area of the sheet, Psi h). On a
 // cloth, ek_sim_tet_fields gives (J, s2, psi) and ek_sim_volume the area.
 int ek_sim_cloth_fields(const ek_sim *sim, double *J, double *s1, double *s2, double *psi);
+// The velocity gradient L = D + W of every element in the current state
+// (seed 003 eqs. 28-31, cloth.h): tets L = Fdot F^-1, triangles
+// L = Fdot F^+ (the surface gradient of v); D, W nelems x 9 row-major and
+// the principal strain rates nelems x 3 (any may be NULL): tets the
+// eigenvalues of D, descending; triangles the two eigenvalues of D in the
+// deformed plane (P D P, the membrane's rate of strain), descending, then
+// 0. Eigenvalues of a symmetric 3x3 in closed form (Smith 1961, "Eigenvalues
+// of a symmetric 3 x 3 matrix", CACM 4(4)).
+int ek_sim_rate_fields(const ek_sim *sim, double *D, double *W, double *strain_rates);
+// Per-vertex rotation field (nverts x 9 row-major, det +1): Kabsch
+// (cloth.h's ek_kabsch_f64, seed 003 eqs. 21-27) over each vertex's
+// one-ring (itself and the vertices sharing an element with it), rest
+// positions to current ones, unweighted. The one-rings are built on the
+// first call (the sim is not thread-safe during it).
+int ek_sim_vertex_rotations(const ek_sim *sim, double *R);
 // Number of vertices held by a boundary condition right now.
 size_t ek_sim_constrained_count(const ek_sim *sim);
 
@@ -461,10 +476,20 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
 // be NULL (written as NaN).
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen);
-// The same with the triangles' smax (ignored for tets; NULL: NaN).
-int ek_frames_write_ex(ek_frames *fr, double time, long step, const double *x, const double *J,
-                       const double *smin, const double *psi, const double *smax, char *err,
-                       size_t errlen);
+// Every per-element field of a frame (any may be NULL: written as NaN):
+// J, smin, psi as above; smax (triangles only, the larger stretch); the
+// velocity gradient's rate of strain D and spin W (nelems x 9 row-major,
+// /frames/D, /frames/W: XDMF Tensor attributes) and the principal strain
+// rates (nelems x 3, /frames/strain_rates: a Vector attribute), from
+// ek_sim_rate_fields.
+// vertex_R: the per-vertex rotations of ek_sim_vertex_rotations (nverts x
+// 9, /frames/vertex_rotation, a Node-centred Tensor in the XDMF).
+typedef struct {
+  const double *J, *smin, *psi, *smax, *D, *W, *strain_rates;
+  const double *vertex_R;
+} ek_frame_fields;
+int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
+                           const ek_frame_fields *fields, char *err, size_t errlen);
 long ek_frames_count(const ek_frames *fr);
 // Close the file (and the final XDMF). 0 on success.
 int ek_frames_close(ek_frames *fr, char *err, size_t errlen);

@@ -22,12 +22,12 @@
 #include "cloth_polar.h"
 
 #if defined(EK_REAL_F32)
-typedef struct ek_cloth_args_f32 cloth_args;
+typedef struct ek_cloth_force_args_f32 cloth_args;
 #define MEMBRANE(t) ((t)->cloth_membrane_block_f32)
 #define BENDING(t) ((t)->cloth_bending_block_f32)
 #define SFX(name) name##_f32
 #else
-typedef struct ek_cloth_args_f64 cloth_args;
+typedef struct ek_cloth_force_args_f64 cloth_args;
 #define MEMBRANE(t) ((t)->cloth_membrane_block_f64)
 #define BENDING(t) ((t)->cloth_bending_block_f64)
 #define SFX(name) name##_f64

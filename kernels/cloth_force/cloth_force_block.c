@@ -13,9 +13,9 @@
 #include "cloth_polar.h"
 
 #if defined(EK_REAL_F32)
-typedef struct ek_cloth_args_f32 cloth_args;
+typedef struct ek_cloth_force_args_f32 cloth_args;
 #else
-typedef struct ek_cloth_args_f64 cloth_args;
+typedef struct ek_cloth_force_args_f64 cloth_args;
 #endif
 
 #define L EK_LANES

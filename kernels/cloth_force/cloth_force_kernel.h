@@ -22,7 +22,7 @@
 
 #include "../kernels.h"
 
-struct ek_cloth_args_f32 {
+struct ek_cloth_force_args_f32 {
   const int32_t *tri_idx, *hinge_idx;
   const float *dm_inv, *area, *hinge_k;
   ek_membrane_model model;
@@ -31,7 +31,7 @@ struct ek_cloth_args_f32 {
   float *tri_corner, *hinge_corner;
 };
 
-struct ek_cloth_args_f64 {
+struct ek_cloth_force_args_f64 {
   const int32_t *tri_idx, *hinge_idx;
   const double *dm_inv, *area, *hinge_k;
   ek_membrane_model model;
