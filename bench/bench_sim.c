@@ -31,6 +31,7 @@
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
 // dt, implicit at 1/30 s), printed side by side as a note with the final
 // tip positions' difference (one run each: a cost, not a median).
+#include <ek/cloth.h>
 #include <ek/sim.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -321,6 +322,186 @@ static int cantilever_1s(ek_bench *b, int threads) {
   return 0;
 }
 
+// sim/cloth_hang/<model>/<isa>/<prec>/tris:<N>/threads:<T>: the explicit
+// cloth step (cloth_force.h) on the hanging cloth of scenes/cloth_hang.json
+// refined to 224 x 224 cells (100 352 triangles), dt under its CFL limit;
+// after each row the split by phase (membrane, bending, gather from the
+// cloth kernel's phase-timed passes; integration) on PHASE_STEPS more
+// steps, ms per step, as a note.
+static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
+  enum { CELLS = 224 };
+  static const char *models[] = {"stvk", "arap"};
+  int rc = 0;
+  for (int mi = 0; mi < 2; ++mi)
+    for (int prec = 32; prec <= 64; prec += 32)
+      for (int t = 0; t < ncounts; ++t) {
+        char json[1200], err[1024], name[EK_BENCH_NAME_MAX], knobs[256];
+        ek_isa isa = EK_ISA_AUTO;
+        if (ek_isa_resolve(EK_ISA_AUTO, &isa) != EK_OK)
+          return -1;
+        snprintf(name, sizeof name, "sim/cloth_hang/%s/%s/f%d/tris:%d/threads:%d", models[mi],
+                 ek_isa_name(isa), prec, 2 * CELLS * CELLS, counts[t]);
+        if (!ek_bench_wants(b, name))
+          continue;
+        // cloth_hang.json at CELLS x CELLS: dt below h_min / c (c ~ 52 m/s).
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"grid\": [%d, %d], \"size\": [1, 1], \"plane\": \"xz\"}, "
+                 "\"material\": {\"model\": \"%s\", \"E\": 1e6, \"nu\": 0.3, \"density\": 400}, "
+                 "\"cloth\": {\"thickness\": 5e-4}, \"precision\": \"f%d\", \"boundary\": "
+                 "[{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 1], \"max\": [0, 0, 1]}}, "
+                 "{\"type\": \"pin\", \"region\": {\"min\": [1, 0, 1], \"max\": [1, 0, 1]}}], "
+                 "\"gravity\": [0, 0, -9.81], \"damping\": 1, \"dt\": 3e-5, \"steps\": 1}",
+                 CELLS, CELLS, models[mi], prec);
+        static ek_scene scene;
+        ek_trimesh *mesh = NULL;
+        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL};
+        if (!ek_bench_listing(b)) {
+          if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene, err, sizeof err) != 0 ||
+              !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
+              !(ctx.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
+            ek_bench_fail(b, "sim: %s: %s", name, err);
+            ek_trimesh_destroy(mesh);
+            rc = -1;
+            continue;
+          }
+        }
+        snprintf(knobs, sizeof knobs,
+                 "scene=cloth_hang;cells=%d;model=%s;integrator=explicit;steps_per_call=%d;dt=3e-5",
+                 CELLS, models[mi], ctx.steps);
+        ek_bench_row row = {.name = name,
+                            .family = "sim",
+                            .isa = isa,
+                            .precision = prec == 32 ? "f32" : "f64",
+                            .threads = counts[t],
+                            .knobs = knobs,
+                            .items = (size_t)ctx.steps,
+                            .fn = run_steps,
+                            .ctx = &ctx};
+        if (ek_bench_run(b, &row) != 0)
+          rc = -1;
+        if (ctx.sim && !ctx.failed) {
+          ek_sim_times before = *ek_sim_timings(ctx.sim);
+          ek_sim_time_phases(ctx.sim, 1);
+          for (int i = 0; i < PHASE_STEPS && ek_sim_step(ctx.sim) == 0; ++i)
+            ;
+          const ek_sim_times *after = ek_sim_timings(ctx.sim);
+          double n = (double)(after->steps - before.steps);
+          if (n > 0)
+            ek_bench_note(b,
+                          "%s: ms per step by phase (separate passes): membrane %.4f, bending "
+                          "%.4f, gather %.4f, integration %.4f",
+                          name, 1e3 * (after->cloth_membrane - before.cloth_membrane) / n,
+                          1e3 * (after->cloth_bending - before.cloth_bending) / n,
+                          1e3 * (after->cloth_gather - before.cloth_gather) / n,
+                          1e3 * (after->integration - before.integration) / n);
+        }
+        ek_sim_destroy(ctx.sim);
+        ek_trimesh_destroy(mesh);
+      }
+  return rc;
+}
+
+// sim/rotations/cloth_hang/...: the rotation fields of one state of the
+// 224 x 224 hanging cloth (after STEPS_PER_CALL steps): kabsch_one_ring =
+// ek_sim_vertex_rotations (gather each vertex's one-ring, Kabsch per
+// vertex: ~7 points per set), polar32_element = gather each triangle's
+// corners, F (ek_tri_deformation_f64) and its polar (ek_polar32_f64). Items:
+// vertices, triangles; same threads.
+typedef struct {
+  ek_sim *sim;
+  const ek_trimesh *mesh;
+  double *R, *xc, *F, *Rt;
+  int failed;
+  ek_bench *b;
+} rot_ctx;
+
+static void run_kabsch(void *p) {
+  rot_ctx *c = p;
+  if (!c->failed && ek_sim_vertex_rotations(c->sim, c->R) != 0) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "sim: rotations: %s", ek_last_error());
+  }
+}
+
+static void run_polar(void *p) {
+  rot_ctx *c = p;
+  const size_t nt = ek_trimesh_ntris(c->mesh);
+  const int32_t *T = ek_trimesh_tris(c->mesh);
+  const double *x = ek_sim_positions(c->sim);
+  for (size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k)
+      memcpy(c->xc + 9 * t + 3 * k, x + 3 * (size_t)T[3 * t + k], 3 * sizeof(double));
+  if (c->failed ||
+      ek_tri_deformation_f64(nt, c->xc, ek_cloth_dm_inv(ek_trimesh_cloth(c->mesh)), c->F) != 0 ||
+      ek_polar32_f64(nt, c->F, c->Rt, NULL) != 0) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "sim: rotations: %s", ek_last_error());
+  }
+}
+
+static int rotation_rows(ek_bench *b, const int *counts, int ncounts) {
+  enum { CELLS = 224 };
+  int rc = 0;
+  for (int kind = 0; kind < 2; ++kind)
+    for (int t = 0; t < ncounts; ++t) {
+      char name[EK_BENCH_NAME_MAX], json[1200], err[1024];
+      const size_t nv = (CELLS + 1) * (CELLS + 1), nt = 2 * CELLS * CELLS;
+      snprintf(name, sizeof name, "sim/rotations/cloth_hang/%s/f64/%s:%zu/threads:%d",
+               kind ? "polar32_element" : "kabsch_one_ring", kind ? "tris" : "verts",
+               kind ? nt : nv, counts[t]);
+      if (!ek_bench_wants(b, name))
+        continue;
+      rot_ctx c = {.b = b};
+      static ek_scene scene;
+      ek_trimesh *mesh = NULL;
+      if (!ek_bench_listing(b)) {
+        snprintf(json, sizeof json,
+                 "{\"mesh\": {\"grid\": [%d, %d], \"size\": [1, 1], \"plane\": \"xz\"}, "
+                 "\"material\": {\"model\": \"stvk\", \"E\": 1e6, \"nu\": 0.3, \"density\": "
+                 "400}, \"cloth\": {\"thickness\": 5e-4}, \"boundary\": [{\"type\": \"pin\", "
+                 "\"region\": {\"min\": [0, 0, 1], \"max\": [0, 0, 1]}}], \"gravity\": [0, 0, "
+                 "-9.81], \"dt\": 3e-5, \"steps\": 1}",
+                 CELLS, CELLS);
+        if (ek_scene_parse(json, "rotations", ".", &scene, err, sizeof err) != 0 ||
+            !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
+            !(c.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
+          ek_bench_fail(b, "sim: %s: %s", name, err);
+          ek_trimesh_destroy(mesh);
+          rc = -1;
+          continue;
+        }
+        for (int i = 0; i < STEPS_PER_CALL; ++i)
+          ek_sim_step(c.sim);
+        c.mesh = mesh;
+        c.R = malloc(9 * nv * sizeof(double));
+        c.xc = malloc(9 * nt * sizeof(double));
+        c.F = malloc(6 * nt * sizeof(double));
+        c.Rt = malloc(6 * nt * sizeof(double));
+        if (!c.R || !c.xc || !c.F || !c.Rt)
+          c.failed = 1;
+        if (!kind)
+          run_kabsch(&c); // builds the one-rings outside the timing
+      }
+      ek_isa isa = EK_ISA_AUTO;
+      ek_isa_resolve(EK_ISA_AUTO, &isa);
+      ek_bench_row row = {.name = name,
+                          .family = "sim",
+                          .isa = isa,
+                          .precision = "f64",
+                          .threads = counts[t],
+                          .knobs = kind ? "rotation=polar32_element" : "rotation=kabsch_one_ring",
+                          .items = kind ? nt : nv,
+                          .fn = kind ? run_polar : run_kabsch,
+                          .ctx = &c};
+      if (ek_bench_run(b, &row) != 0 || c.failed)
+        rc = -1;
+      ek_sim_destroy(c.sim);
+      ek_trimesh_destroy(mesh);
+      free(c.R), free(c.xc), free(c.F), free(c.Rt);
+    }
+  return rc;
+}
+
 int bench_sim(ek_bench *b) {
   static const char *scenes[] = {"cantilever",
                                  "twist",
@@ -423,6 +604,10 @@ int bench_sim(ek_bench *b) {
     ek_mesh_destroy(mesh);
   }
   if (xpbd_grid_rows(b, counts, ncounts) < 0)
+    rc = -1;
+  if (cloth_rows(b, counts, ncounts) < 0)
+    rc = -1;
+  if (rotation_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (cantilever_1s(b, counts[ncounts - 1]) < 0)
     rc = -1;

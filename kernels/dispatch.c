@@ -24,6 +24,8 @@
   ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;                                              \
   ek_xpbd_block_f32_fn ek_xpbd_block_##t##_f32;                                                    \
   ek_xpbd_block_f64_fn ek_xpbd_block_##t##_f64;                                                    \
+  ek_cloth_force_block_f32_fn ek_cloth_membrane_block_##t##_f32, ek_cloth_bending_block_##t##_f32; \
+  ek_cloth_force_block_f64_fn ek_cloth_membrane_block_##t##_f64, ek_cloth_bending_block_##t##_f64; \
   ek_cloth_block_f32_fn ek_cloth_tri_F_block_##t##_f32;                                            \
   ek_cloth_block_f64_fn ek_cloth_tri_F_block_##t##_f64;                                            \
   ek_cloth_block_f32_fn ek_cloth_polar32_block_##t##_f32;                                          \
@@ -42,6 +44,10 @@
     .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \
     .hessian_block_f64 = ek_hessian_block_##t##_f64, .xpbd_block_f32 = ek_xpbd_block_##t##_f32,    \
     .xpbd_block_f64 = ek_xpbd_block_##t##_f64,                                                     \
+    .cloth_membrane_block_f32 = ek_cloth_membrane_block_##t##_f32,                                 \
+    .cloth_bending_block_f32 = ek_cloth_bending_block_##t##_f32,                                   \
+    .cloth_membrane_block_f64 = ek_cloth_membrane_block_##t##_f64,                                 \
+    .cloth_bending_block_f64 = ek_cloth_bending_block_##t##_f64,                                   \
     .cloth_tri_F_block_f32 = ek_cloth_tri_F_block_##t##_f32,                                       \
     .cloth_tri_F_block_f64 = ek_cloth_tri_F_block_##t##_f64,                                       \
     .cloth_polar32_block_f32 = ek_cloth_polar32_block_##t##_f32,                                   \

@@ -129,7 +129,40 @@ static void explain_tail(const ek_scene *s, long steps, const char *out) {
     printf("output     none\n");
 }
 
+// A cloth scene's pipeline (cloth_force.h).
+static void explain_cloth(const ek_scene *s, long steps, const char *out, int threads) {
+  printf("scene      %s\n", s->path);
+  if (s->mesh_file[0])
+    printf("mesh       triangles from %s\n", s->mesh_file);
+  else
+    printf("mesh       grid %d x %d cells, %g x %g m in the %s plane -> %ld triangles\n",
+           s->grid_cells[0], s->grid_cells[1], s->grid_size[0], s->grid_size[1], s->grid_plane,
+           2L * s->grid_cells[0] * s->grid_cells[1]);
+  printf("material   %s membrane: mu = %g, lambda = %g Pa, thickness %g m, bending stiffness %g "
+         "N m, density %g\n",
+         s->model_name, s->material.mu, s->material.lambda, s->thickness, s->bending_stiffness,
+         s->density);
+  ek_isa isa;
+  int isa_ok = ek_isa_resolve(s->svd.isa, &isa) == EK_OK;
+  printf("kernels    precision f%d, ISA %s, threads %d (one thread below %d triangles)\n",
+         s->precision, isa_ok ? ek_isa_name(isa) : "UNAVAILABLE", threads, 4096);
+  printf("integrator %s: %s\n", ek_scene_integrator_name(s->integrator),
+         ek_scene_integrator_description(s->integrator));
+  printf("pipeline   per step:\n");
+  printf("  1. cloth force (ek_cloth_forces_f%d), blocks of %d triangles / hinges:\n"
+         "       membrane: gather x -> F = Ds Dm^-1 (3x2) -> P(F) -> -A P Dm^-T to corners\n"
+         "       bending (Bergou 2006): gather 4 x -> s = sum k_i x_i -> -k_b k_i s to corners\n"
+         "       gather: each vertex sums its corners in element order (deterministic)\n",
+         s->precision, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
+  ek_scene_integrator_explain(s, stdout, 2);
+  explain_tail(s, steps, out);
+}
+
 static void explain(const ek_scene *s, long steps, const char *out, int threads) {
+  if (s->triangles) {
+    explain_cloth(s, steps, out, threads);
+    return;
+  }
   const ek_material *m = &s->material;
   printf("scene      %s\n", s->path);
   if (s->mesh_file[0])
@@ -372,18 +405,29 @@ int main(int argc, char **argv) {
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();
-  ek_mesh *mesh = ek_scene_mesh(&scene, err, sizeof err);
-  if (!mesh) {
+  // A tet scene has an ek_mesh, a cloth scene (triangles) an ek_trimesh.
+  const int cloth = scene.triangles;
+  const char *elem = cloth ? "triangles" : "tets";
+  ek_mesh *mesh = NULL;
+  ek_trimesh *trimesh = NULL;
+  if (cloth)
+    trimesh = ek_scene_trimesh(&scene, err, sizeof err);
+  else
+    mesh = ek_scene_mesh(&scene, err, sizeof err);
+  if (!mesh && !trimesh) {
     fprintf(stderr, "ek-sim: %s\n", err);
     return 1;
   }
-  ek_sim *sim = ek_sim_create(&scene, mesh, err, sizeof err);
+  ek_sim *sim = cloth ? ek_sim_create_cloth(&scene, trimesh, err, sizeof err)
+                      : ek_sim_create(&scene, mesh, err, sizeof err);
   if (!sim) {
     fprintf(stderr, "ek-sim: %s\n", err);
     ek_mesh_destroy(mesh);
+    ek_trimesh_destroy(trimesh);
     return 1;
   }
-  size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
+  size_t nv = cloth ? ek_trimesh_nverts(trimesh) : ek_mesh_nverts(mesh);
+  size_t nt = cloth ? ek_trimesh_ntris(trimesh) : ek_mesh_ntets(mesh);
   // Wall time of each step that ran the fused force kernel (one in ten runs
   // the phases as separate passes, for the split): their median and p95.
   double *step_s = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
@@ -395,31 +439,48 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
     ek_mesh_destroy(mesh);
+    ek_trimesh_destroy(trimesh);
     return 1;
   }
-  double *J = NULL, *smin = NULL, *psi = NULL;
+  double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL, *Drate = NULL, *Wrate = NULL,
+         *rates = NULL, *vrot = NULL;
   ek_frames *frames = NULL;
   if (out) {
-    frames = ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt, ek_mesh_tets(mesh),
-                              err, sizeof err);
+    frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
+                                         ek_trimesh_tris(trimesh), err, sizeof err)
+                   : ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt,
+                                      ek_mesh_tets(mesh), err, sizeof err);
     J = malloc(nt * sizeof(double));
     smin = malloc(nt * sizeof(double));
     psi = malloc(nt * sizeof(double));
-    if (!frames || !J || !smin || !psi) {
+    smax = malloc(nt * sizeof(double));
+    Drate = malloc(9 * nt * sizeof(double));
+    Wrate = malloc(9 * nt * sizeof(double));
+    rates = malloc(3 * nt * sizeof(double));
+    vrot = malloc(9 * nv * sizeof(double));
+    if (!frames || !J || !smin || !psi || !smax || !Drate || !Wrate || !rates || !vrot) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
       ek_mesh_destroy(mesh);
+      ek_trimesh_destroy(trimesh);
       return 1;
     }
   }
   t_setup = now() - t_setup;
-  printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
-         "threads, dt %g (CFL h_min/c = %g), %ld steps\n",
-         scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
-         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
+  if (cloth)
+    printf("ek-sim %s: %zu vertices, %zu triangles, %zu hinges, membrane %s, integrator %s, f%d, "
+           "%d threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+           scene.path, nv, nt, ek_cloth_nhinges(ek_trimesh_cloth(trimesh)), scene.model_name,
+           ek_sim_integrator_name(sim), scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim),
+           steps);
+  else
+    printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
+           "threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+           scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
+           scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
@@ -429,9 +490,13 @@ int main(int argc, char **argv) {
   for (long n = 0; n <= steps; ++n) {
     if (frames && (n % scene.output_every == 0 || n == steps)) {
       double t0 = now();
-      if (ek_sim_tet_fields(sim, J, smin, psi) != 0 ||
-          ek_frames_write(frames, ek_sim_time(sim), n, ek_sim_positions(sim), J, smin, psi, err,
-                          sizeof err) != 0) {
+      const ek_frame_fields ff = {J, smin, psi, cloth ? smax : NULL, Drate, Wrate, rates, vrot};
+      if ((cloth ? ek_sim_cloth_fields(sim, J, smax, smin, psi)
+                 : ek_sim_tet_fields(sim, J, smin, psi)) != 0 ||
+          ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
+          ek_sim_vertex_rotations(sim, vrot) != 0 ||
+          ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff, err,
+                                 sizeof err) != 0) {
         fprintf(stderr, "\nek-sim: %s\n", err[0] ? err : ek_last_error());
         rc = EK_EXIT_FAILED;
         break;
@@ -509,21 +574,29 @@ int main(int argc, char **argv) {
       printf(", R^n refresh %.4f ms", polar_ms);
     printf("\n");
     print_step_times(step_s, nstep_s, "fused-kernel steps");
-    double phase_sum = tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
+    double phase_sum = cloth ? tm->cloth_membrane + tm->cloth_bending + tm->cloth_gather
+                             : tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
     if (tm->phase_timed_steps > 0 && phase_sum > 0) {
       double p = (double)tm->phase_timed_steps;
       printf("force split (separate passes on %ld steps, %.4f ms per step; shares applied to "
              "the fused time):\n",
              tm->phase_timed_steps, 1e3 * phase_sum / p);
-      const char *names[] = {"deformation gradient", "SVD/polar", "P(F)", "scatter"};
-      double vals[] = {tm->deformation_gradient, tm->svd_polar, tm->pk1, tm->scatter};
-      for (int i = 0; i < 4; ++i)
+      const char *tet_names[] = {"deformation gradient", "SVD/polar", "P(F)", "scatter"};
+      const char *cloth_names[] = {"membrane (F, P, corners)", "bending (hinges)",
+                                   "gather (per vertex)"};
+      const char **names = cloth ? cloth_names : tet_names;
+      double vals[4] = {tm->deformation_gradient, tm->svd_polar, tm->pk1, tm->scatter};
+      if (cloth) {
+        vals[0] = tm->cloth_membrane, vals[1] = tm->cloth_bending, vals[2] = tm->cloth_gather;
+      }
+      for (int i = 0; i < (cloth ? 3 : 4); ++i)
         printf("  %-22s %5.1f%%  %.4f ms separate, ~%.4f ms fused\n", names[i],
                100.0 * vals[i] / phase_sum, 1e3 * vals[i] / p,
                fused > 0 ? force_ms * vals[i] / phase_sum : NAN);
     }
-    printf("throughput %.3g tets/s (whole step), %.3g tets/s (force kernel)\n",
-           (double)nt / (step_ms * 1e-3), fused > 0 ? (double)nt / (force_ms * 1e-3) : NAN);
+    printf("throughput %.3g %s/s (whole step), %.3g %s/s (force kernel)\n",
+           (double)nt / (step_ms * 1e-3), elem, fused > 0 ? (double)nt / (force_ms * 1e-3) : NAN,
+           elem);
   }
   printf("energy     start: kinetic %.6g, elastic %.6g, potential %.6g, total %.6g J\n", e0.kinetic,
          e0.elastic, e0.potential, e0.kinetic + e0.elastic + e0.potential);
@@ -534,9 +607,15 @@ int main(int argc, char **argv) {
   free(J);
   free(smin);
   free(psi);
+  free(smax);
+  free(Drate);
+  free(Wrate);
+  free(rates);
+  free(vrot);
   free(step_s);
   free(res);
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
+  ek_trimesh_destroy(trimesh);
   return rc;
 }

@@ -24,9 +24,13 @@
 struct ek_frames {
   hid_t file;
   hid_t positions, J, smin, psi, step, time; // extendible datasets
+  hid_t smax;                                // triangles only: the larger stretch
+  hid_t D, W, rates; // the velocity gradient's parts: nelems x 9, 9 and 3 per frame
+  hid_t vrot;        // per-vertex Kabsch rotations: nverts x 9 per frame
   size_t nverts, ntets;
+  int nodes; // per element: 4 (tets, /mesh/tets) or 3 (triangles, /mesh/triangles)
   long nframes;
-  double *nan_fill; // ntets NaNs for fields the caller did not give
+  double *nan_fill; // 9 max(ntets, nverts) NaNs for fields the caller did not give
   double *times;    // per frame, for the XDMF
   size_t times_cap;
   char h5path[EK_SCENE_PATH_MAX];
@@ -110,7 +114,8 @@ static int append_row(hid_t dset, hid_t type, int inner_rank, const hsize_t *inn
 }
 
 static void close_all(ek_frames *fr) {
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time};
+  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi,   &fr->step, &fr->time,
+                 &fr->smax,      &fr->D, &fr->W,    &fr->rates, &fr->vrot};
   for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
     if (*ds[i] >= 0) {
       H5Dclose(*ds[i]);
@@ -150,15 +155,18 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
   fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
              "<Xdmf Version=\"3.0\">\n <Domain>\n"
              "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-  static const char *fields[] = {"J", "smin", "energy_density_from_rest"};
+  static const char *fields[] = {"J", "smin", "energy_density_from_rest", "smax"};
+  const int nfields = fr->nodes == 3 ? 4 : 3;
+  const char *topology = fr->nodes == 3 ? "Triangle" : "Tetrahedron",
+             *elements = fr->nodes == 3 ? "triangles" : "tets";
   for (long i = 0; i < nf; ++i) {
     fprintf(f, "   <Grid Name=\"frame_%06ld\" GridType=\"Uniform\">\n", i);
     fprintf(f, "    <Time Value=\"%.17g\"/>\n", fr->times[i]);
     fprintf(f,
-            "    <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"%zu\">\n"
-            "     <DataItem Dimensions=\"%zu 4\" NumberType=\"Int\" Precision=\"4\" "
-            "Format=\"HDF\">%s:/mesh/tets</DataItem>\n    </Topology>\n",
-            nt, nt, h5name);
+            "    <Topology TopologyType=\"%s\" NumberOfElements=\"%zu\">\n"
+            "     <DataItem Dimensions=\"%zu %d\" NumberType=\"Int\" Precision=\"4\" "
+            "Format=\"HDF\">%s:/mesh/%s</DataItem>\n    </Topology>\n",
+            topology, nt, nt, fr->nodes, h5name, elements);
     fprintf(f,
             "    <Geometry GeometryType=\"XYZ\">\n"
             "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu 3\" Type=\"HyperSlab\">\n"
@@ -167,7 +175,7 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
             "Format=\"HDF\">%s:/frames/positions</DataItem>\n"
             "     </DataItem>\n    </Geometry>\n",
             nv, i, nv, nf, nv, h5name);
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < nfields; ++k)
       fprintf(f,
               "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
               "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu\" Type=\"HyperSlab\">\n"
@@ -176,6 +184,30 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
               "Format=\"HDF\">%s:/frames/%s</DataItem>\n"
               "     </DataItem>\n    </Attribute>\n",
               fields[k], nt, i, nt, nf, nt, h5name, fields[k]);
+    // The velocity gradient's parts (sim.h): D and W as 3x3 tensors, the
+    // principal strain rates as a 3-vector per element.
+    static const char *rate_fields[] = {"D", "W", "strain_rates"};
+    static const char *rate_types[] = {"Tensor", "Tensor", "Vector"};
+    static const int rate_comps[] = {9, 9, 3};
+    for (int k = 0; k < 3; ++k)
+      fprintf(
+          f,
+          "    <Attribute Name=\"%s\" AttributeType=\"%s\" Center=\"Cell\">\n"
+          "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu %d\" Type=\"HyperSlab\">\n"
+          "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%ld 0 0 1 1 1 1 %zu %d</DataItem>\n"
+          "      <DataItem Dimensions=\"%ld %zu %d\" NumberType=\"Float\" Precision=\"8\" "
+          "Format=\"HDF\">%s:/frames/%s</DataItem>\n"
+          "     </DataItem>\n    </Attribute>\n",
+          rate_fields[k], rate_types[k], nt, rate_comps[k], i, nt, rate_comps[k], nf, nt,
+          rate_comps[k], h5name, rate_fields[k]);
+    fprintf(f,
+            "    <Attribute Name=\"vertex_rotation\" AttributeType=\"Tensor\" Center=\"Node\">\n"
+            "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu 9\" Type=\"HyperSlab\">\n"
+            "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%ld 0 0 1 1 1 1 %zu 9</DataItem>\n"
+            "      <DataItem Dimensions=\"%ld %zu 9\" NumberType=\"Float\" Precision=\"8\" "
+            "Format=\"HDF\">%s:/frames/vertex_rotation</DataItem>\n"
+            "     </DataItem>\n    </Attribute>\n",
+            nv, i, nv, nf, nv, h5name);
     fprintf(f, "   </Grid>\n");
   }
   fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
@@ -192,6 +224,17 @@ static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
 
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen) {
+  return ek_frames_create_ex(path, force, nverts, X, ntets, 4, tets, err, errlen);
+}
+
+ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
+                               size_t ntets, int nodes, const int32_t *tets, char *err,
+                               size_t errlen) {
+  if (nodes != 3 && nodes != 4) {
+    if (err && errlen)
+      snprintf(err, errlen, "ek_frames_create_ex: %d nodes per element: 3 or 4", nodes);
+    return NULL;
+  }
   if (err && errlen)
     err[0] = '\0';
   if (!path || !path[0] || !X || !tets || nverts == 0 || ntets == 0) {
@@ -207,7 +250,9 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
   ek_frames *fr = calloc(1, sizeof *fr);
   if (!fr)
     return NULL;
-  fr->file = fr->positions = fr->J = fr->smin = fr->psi = fr->step = fr->time = -1;
+  fr->file = fr->positions = fr->J = fr->smin = fr->psi = fr->step = fr->time = fr->smax = -1;
+  fr->D = fr->W = fr->rates = fr->vrot = -1;
+  fr->nodes = nodes;
   fr->nverts = nverts;
   fr->ntets = ntets;
   snprintf(fr->h5path, sizeof fr->h5path, "%s", path);
@@ -225,14 +270,15 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
       return NULL;
     }
   }
-  fr->nan_fill = malloc(ntets * sizeof(double));
+  size_t nfill = 9 * (ntets > nverts ? ntets : nverts);
+  fr->nan_fill = malloc(nfill * sizeof(double));
   fr->times_cap = 64;
   fr->times = malloc(fr->times_cap * sizeof(double));
   if (!fr->nan_fill || !fr->times) {
     destroy(fr);
     return NULL;
   }
-  for (size_t i = 0; i < ntets; ++i)
+  for (size_t i = 0; i < nfill; ++i)
     fr->nan_fill[i] = NAN;
 
   h5_quiet q;
@@ -247,9 +293,10 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
   if (ok) {
     what = "write the rest mesh to";
     hid_t mesh = H5Gcreate2(fr->file, "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    hsize_t vdims[2] = {nverts, 3}, tdims[2] = {ntets, 4};
-    ok = mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
-         write_fixed(mesh, "tets", H5T_NATIVE_INT32, 2, tdims, tets) == 0;
+    hsize_t vdims[2] = {nverts, 3}, tdims[2] = {ntets, (hsize_t)nodes};
+    ok =
+        mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
+        write_fixed(mesh, nodes == 3 ? "triangles" : "tets", H5T_NATIVE_INT32, 2, tdims, tets) == 0;
     if (mesh >= 0)
       H5Gclose(mesh);
   }
@@ -263,8 +310,17 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
     fr->psi = create_series(frames, "energy_density_from_rest", H5T_NATIVE_DOUBLE, 1, tet_inner);
     fr->step = create_series(frames, "step", H5T_NATIVE_INT64, 0, NULL);
     fr->time = create_series(frames, "time", H5T_NATIVE_DOUBLE, 0, NULL);
+    if (nodes == 3)
+      fr->smax = create_series(frames, "smax", H5T_NATIVE_DOUBLE, 1, tet_inner);
+    hsize_t t9[2] = {ntets, 9}, t3[2] = {ntets, 3};
+    fr->D = create_series(frames, "D", H5T_NATIVE_DOUBLE, 2, t9);
+    fr->W = create_series(frames, "W", H5T_NATIVE_DOUBLE, 2, t9);
+    fr->rates = create_series(frames, "strain_rates", H5T_NATIVE_DOUBLE, 2, t3);
+    hsize_t v9[2] = {nverts, 9};
+    fr->vrot = create_series(frames, "vertex_rotation", H5T_NATIVE_DOUBLE, 2, v9);
     ok = frames >= 0 && fr->positions >= 0 && fr->J >= 0 && fr->smin >= 0 && fr->psi >= 0 &&
-         fr->step >= 0 && fr->time >= 0;
+         fr->step >= 0 && fr->time >= 0 && (nodes == 4 || fr->smax >= 0) && fr->D >= 0 &&
+         fr->W >= 0 && fr->rates >= 0 && fr->vrot >= 0;
     if (frames >= 0)
       H5Gclose(frames);
   }
@@ -293,6 +349,16 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
 
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen) {
+  const ek_frame_fields ff = {.J = J, .smin = smin, .psi = psi};
+  return ek_frames_write_fields(fr, time, step, x, &ff, err, errlen);
+}
+
+int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
+                           const ek_frame_fields *ff, char *err, size_t errlen) {
+  static const ek_frame_fields none = {0};
+  if (!ff)
+    ff = &none;
+  const double *J = ff->J, *smin = ff->smin, *psi = ff->psi, *smax = ff->smax;
   if (!fr || fr->file < 0 || !x) {
     if (err && errlen)
       snprintf(err, errlen, "ek_frames_write: no open file or no positions");
@@ -307,6 +373,7 @@ int ek_frames_write(ek_frames *fr, double time, long step, const double *x, cons
   }
   long n = fr->nframes + 1;
   hsize_t pos_inner[2] = {fr->nverts, 3}, tet_inner[1] = {fr->ntets};
+  hsize_t t9[2] = {fr->ntets, 9}, t3[2] = {fr->ntets, 3}, v9[2] = {fr->nverts, 9};
   int64_t step64 = step;
   h5_quiet q;
   quiet_on(&q);
@@ -316,6 +383,14 @@ int ek_frames_write(ek_frames *fr, double time, long step, const double *x, cons
       append_row(fr->J, H5T_NATIVE_DOUBLE, 1, tet_inner, n, J ? J : fr->nan_fill) == 0 &&
       append_row(fr->smin, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smin ? smin : fr->nan_fill) == 0 &&
       append_row(fr->psi, H5T_NATIVE_DOUBLE, 1, tet_inner, n, psi ? psi : fr->nan_fill) == 0 &&
+      (fr->smax < 0 ||
+       append_row(fr->smax, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smax ? smax : fr->nan_fill) == 0) &&
+      append_row(fr->D, H5T_NATIVE_DOUBLE, 2, t9, n, ff->D ? ff->D : fr->nan_fill) == 0 &&
+      append_row(fr->W, H5T_NATIVE_DOUBLE, 2, t9, n, ff->W ? ff->W : fr->nan_fill) == 0 &&
+      append_row(fr->rates, H5T_NATIVE_DOUBLE, 2, t3, n,
+                 ff->strain_rates ? ff->strain_rates : fr->nan_fill) == 0 &&
+      append_row(fr->vrot, H5T_NATIVE_DOUBLE, 2, v9, n,
+                 ff->vertex_R ? ff->vertex_R : fr->nan_fill) == 0 &&
       append_row(fr->step, H5T_NATIVE_INT64, 0, NULL, n, &step64) == 0 &&
       append_row(fr->time, H5T_NATIVE_DOUBLE, 0, NULL, n, &time) == 0 &&
       H5Fflush(fr->file, H5F_SCOPE_GLOBAL) >= 0;
@@ -338,7 +413,8 @@ int ek_frames_close(ek_frames *fr, char *err, size_t errlen) {
   h5_quiet q;
   quiet_on(&q);
   int rc = 0;
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi, &fr->step, &fr->time};
+  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi,   &fr->step, &fr->time,
+                 &fr->smax,      &fr->D, &fr->W,    &fr->rates, &fr->vrot};
   for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
     if (*ds[i] >= 0) {
       rc |= H5Dclose(*ds[i]) < 0;

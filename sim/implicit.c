@@ -55,6 +55,9 @@ typedef struct {
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
   double *pre; // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
+  // Cloth (sim->cloth): the point of the Hessian products (the last
+  // objective's x, as the tets' cache is) and the 3x3 diagonal blocks.
+  double *hx, *blocks9;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
@@ -68,6 +71,8 @@ static void data_free(implicit_data *d) {
     free(arrays[i]);
   free(d->p32);
   free(d->q32);
+  free(d->hx);
+  free(d->blocks9);
   free(d);
 }
 
@@ -82,7 +87,9 @@ static int implicit_create(ek_sim *s, void **data) {
   d->n3 = 3 * s->nv;
   d->nchunks = (d->n3 + CHUNK - 1) / CHUNK;
   d->par = d->n3 > IMPLICIT_PARALLEL_DOFS;
-  d->f32 = sc->precision == 32;
+  // Cloth: gradient, products and blocks in double (cloth_force.h), in
+  // either scene precision.
+  d->f32 = sc->precision == 32 && !s->cloth;
   d->block = sc->implicit.preconditioner == EK_PRECOND_BLOCK_JACOBI;
   d->residual_merit = ek_model_need(s->mat.model, s->mat.clamp) == EK_NEEDS_SVD;
   ek_fvm_hessian_opts o = {.scatter = sc->scatter,
@@ -91,8 +98,18 @@ static int implicit_create(ek_sim *s, void **data) {
                            .svd_exact_rsqrt = sc->svd.exact_rsqrt,
                            .projection = sc->implicit.projection,
                            .precision = sc->precision};
-  d->H = ek_fvm_hessian_create(ek_mesh_elements(s->mesh), &s->mat, &o);
-  if (!d->H) {
+  if (s->cloth) {
+    d->residual_merit = 0; // the cloth energy is the potential its forces derive from
+    d->hx = calloc(d->n3, sizeof(double));
+    d->blocks9 = calloc(3 * d->n3, sizeof(double));
+    if (!d->hx || !d->blocks9) {
+      data_free(d);
+      return sim_fail(s, "out of memory");
+    }
+  } else {
+    d->H = ek_fvm_hessian_create(ek_mesh_elements(s->mesh), &s->mat, &o);
+  }
+  if (!s->cloth && !d->H) {
     data_free(d);
     return sim_fail(s, "%s", ek_last_error());
   }
@@ -169,7 +186,17 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
                           : d->R64                                  ? d->R64
                                                                     : s->R_state;
   double E, t0 = sim_now();
-  if (s->time_phases) {
+  if (s->cloth) {
+    // grad E = -f; the products are taken at this x (the accepted point is
+    // the last one evaluated, as with the tets' cache).
+    int rc = ek_cloth_forces_f64(s->cloth, &s->cloth_p, x, gr, NULL);
+    if (rc < 0)
+      return sim_fail(s, "gradient: %s", ek_last_error());
+    for (size_t i = 0; i < d->n3; ++i)
+      gr[i] = -gr[i];
+    E = ek_cloth_energy_f64(s->cloth, &s->cloth_p, x);
+    memcpy(d->hx, x, d->n3 * sizeof(double));
+  } else if (s->time_phases) {
     // The pass without the cache, to split off what caching costs.
     int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 0);
     if (rc < 0)
@@ -178,7 +205,7 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
     s->times.eigensystems -= t1 - t0;
     t0 = t1;
   }
-  int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 1);
+  int rc = s->cloth ? 0 : ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 1);
   double t1 = sim_now();
   if (s->time_phases) {
     s->times.eigensystems += t1 - t0;
@@ -208,7 +235,17 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
 // blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
 // the inverse diagonal's 3 out).
 static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
-  int rc = ek_fvm_hessian_diagonal_f64(d->H, blocks);
+  int rc;
+  if (s->cloth) {
+    rc = ek_cloth_hessian_diagonal_f64(s->cloth, &s->cloth_p, d->hx, d->blocks9);
+    for (size_t v = 0; rc == 0 && v < s->nv; ++v) { // 3x3 -> xx, xy, xz, yy, yz, zz
+      const double *b = d->blocks9 + 9 * v;
+      double *o = blocks + 6 * v;
+      o[0] = b[0], o[1] = b[1], o[2] = b[2], o[3] = b[4], o[4] = b[5], o[5] = b[8];
+    }
+  } else {
+    rc = ek_fvm_hessian_diagonal_f64(d->H, blocks);
+  }
   if (rc < 0)
     return sim_fail(s, "diagonal blocks: %s", ek_last_error());
   const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
@@ -282,7 +319,9 @@ static void set_direction(implicit_data *d, const double *z, double beta, double
 static int system_product(ek_sim *s, implicit_data *d, const double *p, double *q, double *pq) {
   double t0 = sim_now();
   int rc;
-  if (d->f32) { // p32 = p, written where p is (set_direction)
+  if (s->cloth) {
+    rc = ek_cloth_hessian_apply_f64(s->cloth, &s->cloth_p, d->hx, 1, p, q);
+  } else if (d->f32) { // p32 = p, written where p is (set_direction)
     rc = ek_fvm_hessian_apply_f32(d->H, d->p32, d->q32);
   } else {
     rc = ek_fvm_hessian_apply_f64(d->H, p, q);

@@ -200,6 +200,8 @@ static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, con
   return 0;
 }
 
+// mesh: {"file"} (tets; triangles for .obj or "kind": "triangles"),
+// {"box", "size"} (tets) or {"grid", "size", "plane"} (a cloth's triangles).
 static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_scene *s) {
   const cJSON *mesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
   if (!mesh)
@@ -207,22 +209,33 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
   int rc = want_object(c, mesh, "mesh");
   if (!rc)
     rc = check_keys(c, mesh, "mesh",
-                    (const char *const[]){"file", "box", "size", "fix_orientation", NULL});
+                    (const char *const[]){"file", "box", "size", "fix_orientation", "grid", "plane",
+                                          "kind", NULL});
   if (rc)
     return rc;
-  const char *file = NULL;
-  const cJSON *file_node = NULL;
-  if ((rc = get_string(c, mesh, "mesh", "file", 0, &file, &file_node)))
+  const char *file = NULL, *kind = NULL, *plane = NULL;
+  const cJSON *file_node = NULL, *kind_node = NULL, *plane_node = NULL;
+  if ((rc = get_string(c, mesh, "mesh", "file", 0, &file, &file_node)) ||
+      (rc = get_string(c, mesh, "mesh", "kind", 0, &kind, &kind_node)) ||
+      (rc = get_string(c, mesh, "mesh", "plane", 0, &plane, &plane_node)))
     return rc;
   const cJSON *box = cJSON_GetObjectItemCaseSensitive(mesh, "box");
+  const cJSON *grid = cJSON_GetObjectItemCaseSensitive(mesh, "grid");
   if ((rc = get_bool(c, mesh, "mesh", "fix_orientation", &s->fix_orientation)))
     return rc;
-  if (file && box)
-    return bad(c, "mesh.box", box, "give either mesh.file or mesh.box, not both");
+  if (!!file + !!box + !!grid > 1)
+    return bad(c, grid ? "mesh.grid" : "mesh.box", grid ? grid : box,
+               "give either mesh.file, mesh.box or mesh.grid, one of them");
+  if (kind && strcmp(kind, "tets") != 0 && strcmp(kind, "triangles") != 0)
+    return bad(c, "mesh.kind", kind_node, "must be \"tets\" or \"triangles\"");
+  if (kind && !file)
+    return bad(c, "mesh.kind", kind_node, "only meaningful with mesh.file");
+  if (plane && !grid)
+    return bad(c, "mesh.plane", plane_node, "only meaningful with mesh.grid");
   if (file) {
     if (cJSON_GetObjectItemCaseSensitive(mesh, "size"))
       return bad(c, "mesh.size", cJSON_GetObjectItemCaseSensitive(mesh, "size"),
-                 "only meaningful with mesh.box");
+                 "only meaningful with mesh.box or mesh.grid");
     int n;
     if (file[0] == '/' || !base_dir || !base_dir[0])
       n = snprintf(s->mesh_file, sizeof s->mesh_file, "%s", file);
@@ -230,10 +243,42 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
       n = snprintf(s->mesh_file, sizeof s->mesh_file, "%s/%s", base_dir, file);
     if (n < 0 || (size_t)n >= sizeof s->mesh_file)
       return bad(c, "mesh.file", file_node, "path too long");
+    size_t len = strlen(file);
+    int obj = len > 4 && strcmp(file + len - 4, ".obj") == 0;
+    if (obj && kind && strcmp(kind, "tets") == 0)
+      return bad(c, "mesh.kind", kind_node, "an .obj file holds triangles, not tets");
+    s->triangles = obj || (kind && strcmp(kind, "triangles") == 0);
+    return 0;
+  }
+  if (grid) {
+    double cells[2];
+    if ((rc = get_vec(c, mesh, "mesh", "grid", 1, 2, cells)))
+      return rc;
+    for (int i = 0; i < 2; ++i) {
+      if (cells[i] != floor(cells[i]) || cells[i] < 1 || cells[i] > 8192) {
+        char p[32];
+        snprintf(p, sizeof p, "mesh.grid[%d]", i);
+        return bad(c, p, cJSON_GetArrayItem(grid, i), "must be a whole number in [1, 8192]");
+      }
+      s->grid_cells[i] = (int)cells[i];
+    }
+    if ((rc = get_vec(c, mesh, "mesh", "size", 1, 2, s->grid_size)))
+      return rc;
+    for (int i = 0; i < 2; ++i)
+      if (!(s->grid_size[i] > 0)) {
+        char p[32];
+        snprintf(p, sizeof p, "mesh.size[%d]", i);
+        return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(mesh, "size"), i),
+                   "must be > 0");
+      }
+    if (plane && strcmp(plane, "xy") != 0 && strcmp(plane, "xz") != 0)
+      return bad(c, "mesh.plane", plane_node, "must be \"xy\" or \"xz\"");
+    snprintf(s->grid_plane, sizeof s->grid_plane, "%s", plane ? plane : "xy");
+    s->triangles = 1;
     return 0;
   }
   if (!box)
-    return missing(c, "mesh.file or mesh.box");
+    return missing(c, "mesh.file or mesh.box (or mesh.grid for a cloth)");
   double cells[3];
   if ((rc = get_vec(c, mesh, "mesh", "box", 1, 3, cells)))
     return rc;
@@ -248,6 +293,47 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
   if ((rc = get_vec(c, mesh, "mesh", "size", 1, 3, s->box_size)))
     return rc;
   return all_positive(c, mesh, "mesh", "size", s->box_size);
+}
+
+// cloth: {"thickness" (m, required for a triangle mesh), "bending_stiffness"
+// (N m; default the plate's E h^3 / (12 (1 - nu^2)))}. Only a triangle
+// mesh takes it, and a triangle mesh takes only the membrane models.
+static int parse_cloth(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *cl = cJSON_GetObjectItemCaseSensitive(root, "cloth");
+  if (!s->triangles) {
+    if (cl)
+      return bad(c, "cloth", cl, "only meaningful with a triangle mesh");
+    return 0;
+  }
+  if (s->material.model != EK_MODEL_STVK && s->material.model != EK_MODEL_ARAP)
+    return bad(c, "material.model",
+               cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "material"),
+                                                "model"),
+               "a triangle mesh (cloth) takes \"stvk\" or \"arap\" membranes only");
+  if (!cl)
+    return missing(c, "cloth (a triangle mesh needs cloth.thickness)");
+  int rc = want_object(c, cl, "cloth");
+  if (!rc)
+    rc = check_keys(c, cl, "cloth", (const char *const[]){"thickness", "bending_stiffness", NULL});
+  const cJSON *th = NULL, *kb = NULL;
+  if (!rc)
+    rc = get_number(c, cl, "cloth", "thickness", 1, &s->thickness, &th);
+  if (!rc && !(s->thickness > 0))
+    rc = bad(c, "cloth.thickness", th, "must be > 0");
+  s->bending_stiffness = NAN;
+  if (!rc)
+    rc = get_number(c, cl, "cloth", "bending_stiffness", 0, &s->bending_stiffness, &kb);
+  if (!rc && kb && !(s->bending_stiffness >= 0))
+    rc = bad(c, "cloth.bending_stiffness", kb, "must be >= 0");
+  if (rc || kb)
+    return rc;
+  // Plate flexural rigidity D = E h^3 / (12 (1 - nu^2)) (Timoshenko and
+  // Woinowsky-Krieger, "Theory of plates and shells", sec. 4), with E, nu
+  // from mu, lambda when those were given.
+  double mu = s->material.mu, lam = s->material.lambda;
+  double E = mu * (3 * lam + 2 * mu) / (lam + mu), nu = lam / (2 * (lam + mu));
+  s->bending_stiffness = E * s->thickness * s->thickness * s->thickness / (12 * (1 - nu * nu));
+  return 0;
 }
 
 static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
@@ -719,7 +805,8 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
     rc = check_keys(&c, root, "",
                     (const char *const[]){"description", "mesh", "initial", "material", "precision",
                                           "isa", "scatter", "svd", "boundary", "gravity", "ground",
-                                          "damping", "dt", "steps", "integrator", "output", NULL});
+                                          "damping", "dt", "steps", "integrator", "output", "cloth",
+                                          NULL});
   if (!rc) {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (d && !cJSON_IsString(d))
@@ -731,6 +818,8 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
     rc = parse_initial(&c, root, &s);
   if (!rc)
     rc = parse_material(&c, root, &s);
+  if (!rc)
+    rc = parse_cloth(&c, root, &s);
   if (!rc)
     rc = parse_kernels(&c, root, &s);
   if (!rc)
@@ -792,6 +881,12 @@ int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
 }
 
 ek_mesh *ek_scene_mesh(const ek_scene *s, char *err, size_t errlen) {
+  if (s->triangles) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: the mesh is a triangle mesh (cloth): use ek_scene_trimesh",
+               s->path);
+    return NULL;
+  }
   if (s->mesh_file[0]) {
     ek_mesh_opts opts = {0};
     opts.fix_orientation = s->fix_orientation;
@@ -799,4 +894,16 @@ ek_mesh *ek_scene_mesh(const ek_scene *s, char *err, size_t errlen) {
   }
   return ek_mesh_box(s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0],
                      s->box_size[1], s->box_size[2], err, errlen);
+}
+
+ek_trimesh *ek_scene_trimesh(const ek_scene *s, char *err, size_t errlen) {
+  if (!s->triangles) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: the mesh is a tet mesh: use ek_scene_mesh", s->path);
+    return NULL;
+  }
+  if (s->mesh_file[0])
+    return ek_trimesh_load(s->mesh_file, err, errlen);
+  return ek_trimesh_grid(s->grid_cells[0], s->grid_cells[1], s->grid_size[0], s->grid_size[1],
+                         s->grid_plane, err, errlen);
 }

@@ -164,6 +164,10 @@ void ek_sim_destroy(ek_sim *s) {
     return;
   if (s->integrator && s->integrator->destroy)
     s->integrator->destroy(s->integrator_data);
+  free(s->ring_off);
+  free(s->ring);
+  free(s->ring_P);
+  free(s->ring_Q);
   free(s->x);
   free(s->v);
   free(s->x0);
@@ -182,12 +186,14 @@ void ek_sim_destroy(ek_sim *s) {
   free(s);
 }
 
-ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
+// One constructor for both kinds: a tet mesh (mesh) or a cloth (tm).
+static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_trimesh *tm,
+                          char *err, size_t errlen) {
   if (err && errlen)
     err[0] = '\0';
-  if (!scene || !mesh) {
+  if (!scene || (!mesh && !tm) || (tm && !scene->triangles) || (mesh && scene->triangles)) {
     if (err && errlen)
-      snprintf(err, errlen, "ek_sim_create: no scene or mesh");
+      snprintf(err, errlen, "ek_sim_create: no scene or mesh, or a mesh of the wrong kind");
     return NULL;
   }
   if ((unsigned)scene->integrator >= EK_INTEGRATOR_COUNT) {
@@ -200,6 +206,7 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     return NULL;
   s->scene = *scene;
   s->mesh = mesh;
+  s->trimesh = tm;
   s->mat = scene->material;
   if (ek_material_check(&s->mat) != 0) {
     if (err && errlen)
@@ -207,7 +214,18 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     ek_sim_destroy(s);
     return NULL;
   }
-  size_t nv = s->nv = ek_mesh_nverts(mesh), nt = s->nt = ek_mesh_ntets(mesh);
+  size_t nv = s->nv = mesh ? ek_mesh_nverts(mesh) : ek_trimesh_nverts(tm);
+  size_t nt = s->nt = mesh ? ek_mesh_ntets(mesh) : ek_trimesh_ntris(tm);
+  if (tm) {
+    // Membrane per unit area: mu h and the plane-stress lambda
+    // 2 mu lambda / (lambda + 2 mu) times h (a thin sheet has no stress
+    // through its thickness: sigma_33 = 0 eliminates eps_33); k_b as given.
+    double mu = s->mat.mu, lam = s->mat.lambda, h = scene->thickness;
+    s->cloth = ek_trimesh_cloth(tm);
+    s->cloth_p =
+        (ek_cloth_params){s->mat.model == EK_MODEL_ARAP ? EK_MEMBRANE_ARAP : EK_MEMBRANE_STVK,
+                          mu * h, 2 * mu * lam / (lam + 2 * mu) * h, scene->bending_stiffness};
+  }
   s->x = malloc(3 * nv * sizeof(double));
   s->v = malloc(3 * nv * sizeof(double));
   s->x0 = malloc(3 * nv * sizeof(double));
@@ -228,20 +246,21 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
     s->F = malloc(9 * nt * sizeof(double));
     s->R = malloc(9 * nt * sizeof(double));
     ok = ok && s->F && s->R;
-  } else {
+  } else if (mesh) {
     s->psi_rest = malloc(nt * sizeof(double));
     ok = ok && s->psi_rest;
   }
   if (!ok) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: out of memory for %zu vertices, %zu tets", scene->path, nv, nt);
+      snprintf(err, errlen, "%s: out of memory for %zu vertices, %zu elements", scene->path, nv,
+               nt);
     ek_sim_destroy(s);
     return NULL;
   }
 
   // Initial state: rest shape scaled about its bounding-box centre, then
   // translated; uniform velocity.
-  const double *X = ek_mesh_rest_positions(mesh);
+  const double *X = mesh ? ek_mesh_rest_positions(mesh) : ek_trimesh_rest_positions(tm);
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (size_t i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
@@ -260,10 +279,11 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
   memcpy(s->x0, s->x, 3 * nv * sizeof(double));
 
   // Lumped masses (Teran 2003 sec. 4: each tet gives a quarter of its mass
-  // to each corner).
-  const double *lumped = ek_mesh_lumped_volume(mesh);
+  // to each corner; each triangle a third of its density * thickness * A).
+  const double *lumped = mesh ? ek_mesh_lumped_volume(mesh) : ek_cloth_lumped_area(s->cloth);
+  double areal = mesh ? 1.0 : scene->thickness;
   for (size_t i = 0; i < nv; ++i) {
-    s->mass[i] = scene->density * lumped[i];
+    s->mass[i] = scene->density * areal * lumped[i];
     s->inv_mass[i] = s->mass[i] > 0 ? 1.0 / s->mass[i] : 0.0;
   }
 
@@ -304,8 +324,12 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
   // across the smallest element, dt <= h_min / c, c = sqrt((lambda + 2 mu)
   // / rho) (Courant, Friedrichs, Lewy 1928; the P-wave speed of linear
   // elasticity). Integrators that it limits check it (their create).
-  s->h_min = min_tet_height(mesh);
-  s->wave_speed = sqrt((s->mat.lambda + 2.0 * s->mat.mu) / scene->density);
+  // Cloth: the smallest triangle height and the membrane's (plane-stress)
+  // P-wave speed sqrt((lambda_2D + 2 mu) h / (rho h)).
+  s->h_min = mesh ? min_tet_height(mesh) : sim_cloth_min_height(tm);
+  s->wave_speed =
+      mesh ? sqrt((s->mat.lambda + 2.0 * s->mat.mu) / scene->density)
+           : sqrt((s->cloth_p.lambda + 2.0 * s->cloth_p.mu) / (scene->density * scene->thickness));
   s->cfl_dt = s->h_min / s->wave_speed;
 
   s->fvm.scatter = scene->scatter;
@@ -333,6 +357,8 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
   // Corotated linear is 0 at rest (R = polar(I) = I); the others are
   // evaluated, per tet for the frames' field and summed for the energy.
   s->elastic_rest = 0.0;
+  if (tm) // flat rest: 0 up to rounding; a bent rest mesh is bent from flat (cloth_force.h)
+    s->elastic_rest = ek_cloth_energy_f64(s->cloth, &s->cloth_p, X);
   if (s->psi_rest) {
     s->elastic_rest = ek_fvm_energy_f64(mesh, &s->mat, X);
     ek_fvm_opts o = s->fvm;
@@ -355,10 +381,23 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
   return s;
 }
 
+ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
+  return sim_create(scene, mesh, NULL, err, errlen);
+}
+
+ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
+                            size_t errlen) {
+  return sim_create(scene, NULL, mesh, err, errlen);
+}
+
+int ek_sim_is_cloth(const ek_sim *s) { return s->cloth != NULL; }
+
 const char *ek_sim_last_error(const ek_sim *s) { return s ? s->error : "no simulation"; }
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
 size_t ek_sim_inverted_count(const ek_sim *s) {
+  if (s->cloth) // a triangle in 3D has no orientation to lose
+    return 0;
   const int32_t *T = ek_mesh_tets(s->mesh);
   size_t n = 0;
   for (size_t e = 0; e < s->nt; ++e)
@@ -367,6 +406,8 @@ size_t ek_sim_inverted_count(const ek_sim *s) {
 }
 
 int sim_forces(ek_sim *s, const double *x) {
+  if (s->cloth)
+    return sim_cloth_forces(s, x);
   ek_fvm_opts o = s->fvm;
   ek_fvm_phase_times pt = {0, 0, 0, 0};
   if (s->time_phases)
@@ -406,6 +447,9 @@ int sim_check_forces(ek_sim *s, const double *x) {
         bad_vertex = i;
   if (bad_vertex == (size_t)-1)
     return 0;
+  if (s->cloth)
+    return sim_fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
+                    s->t, bad_vertex, s->scene.dt, s->cfl_dt);
   // Forces are NaN where an element left the model's domain (neo-Hookean
   // with J <= 0, fvm.h); say which.
   const int32_t *T = ek_mesh_tets(s->mesh);
@@ -478,7 +522,9 @@ int ek_sim_energy(const ek_sim *s, ek_sim_energies *e) {
   }
   e->kinetic = kinetic;
   e->potential = potential;
-  e->elastic = ek_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R) - s->elastic_rest;
+  e->elastic = (s->cloth ? ek_cloth_energy_f64(s->cloth, &s->cloth_p, s->x)
+                         : ek_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R)) -
+               s->elastic_rest;
   return isnan(e->elastic) ? EK_EINVAL : 0;
 }
 
@@ -490,6 +536,18 @@ void ek_sim_momentum(const ek_sim *s, double p[3]) {
 }
 
 double ek_sim_volume(const ek_sim *s) {
+  if (s->cloth) {
+    double A = 0, *J = malloc(s->nt * sizeof(double));
+    if (!J || ek_cloth_fields_f64(s->cloth, &s->cloth_p, s->x, J, NULL, NULL, NULL) != 0) {
+      free(J);
+      return NAN;
+    }
+    const double *A0 = ek_cloth_rest_areas(s->cloth);
+    for (size_t t = 0; t < s->nt; ++t)
+      A += A0[t] * J[t];
+    free(J);
+    return A;
+  }
   const int32_t *T = ek_mesh_tets(s->mesh);
   double V = 0;
   for (size_t e = 0; e < s->nt; ++e)
@@ -498,6 +556,8 @@ double ek_sim_volume(const ek_sim *s) {
 }
 
 int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
+  if (s->cloth)
+    return ek_sim_cloth_fields(s, J, NULL, smin, psi);
   // The FVM kernel computes the fields in double in a separate pass
   // (fvm.h); the force it returns alongside is discarded.
   double *scratch = malloc(3 * s->nv * sizeof(double));

@@ -48,7 +48,19 @@ extern const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT];
 
 struct ek_sim {
   ek_scene scene;
-  const ek_mesh *mesh;
+  const ek_mesh *mesh; // tet scenes; NULL for cloth
+  // Cloth scenes (scene.triangles): the triangle mesh, its element layer and
+  // the membrane and bending parameters per unit area (cloth_force.h).
+  const ek_trimesh *trimesh;
+  const ek_cloth *cloth;
+  ek_cloth_params cloth_p;
+  // One-rings for the per-vertex Kabsch rotations (sim/rate_fields.c),
+  // built at the first ek_sim_vertex_rotations: vertex v's set is itself
+  // and its neighbours, ring[ring_off[v] .. ring_off[v+1]); ring_P their
+  // rest positions, ring_Q the current ones (gathered per call).
+  size_t *ring_off;
+  int32_t *ring;
+  double *ring_P, *ring_Q;
   ek_material mat;
   size_t nv, nt;
   double *x, *v;           // nv x 3: the state at t_n
@@ -80,6 +92,10 @@ struct ek_sim {
 double sim_now(void);
 // Message into sim->error; returns EK_EINVAL.
 int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// The cloth parts of the core (sim/cloth_core.c): forces, CFL length,
+// energy, fields.
+int sim_cloth_forces(ek_sim *sim, const double *x);
+double sim_cloth_min_height(const ek_trimesh *m);
 // sim->f = f(x), x nv x 3 in double, through the FVM kernel in the scene's
 // precision (f32 converts x to float and f back), with the phase split
 // when sim->time_phases is set. Timed into sim->times.

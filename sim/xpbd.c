@@ -21,6 +21,7 @@
 
 typedef struct {
   ek_xpbd *xp;
+  ek_cloth_xpbd *cx; // cloth scenes: the cloth constraints (cloth_force.h), double
   double young;
   double *xs, *vs, *xp_pred, *w; // substep start, prediction, weights
   float *xf, *xf_pred;           // f32 sweeps: displacements, float x~
@@ -31,6 +32,7 @@ static void xpbd_destroy(void *data) {
   if (!d)
     return;
   ek_xpbd_destroy(d->xp);
+  ek_cloth_xpbd_destroy(d->cx);
   free(d->xs);
   free(d->vs);
   free(d->xp_pred);
@@ -50,7 +52,7 @@ static double young_of(const ek_sim *s) {
 
 static int xpbd_create(ek_sim *s, void **data) {
   *data = NULL;
-  if (s->mat.model != EK_MODEL_STVK)
+  if (!s->cloth && s->mat.model != EK_MODEL_STVK)
     return sim_fail(s,
                     "material.model = %s: XPBD's constraint is seed 001's Hookean energy, the "
                     "stvk model; use \"model\": \"stvk\"",
@@ -66,7 +68,7 @@ static int xpbd_create(ek_sim *s, void **data) {
   d->xp_pred = malloc(n3 * sizeof(double));
   d->w = malloc(s->nv * sizeof(double));
   int ok = d->xs && d->vs && d->xp_pred && d->w;
-  if (s->scene.precision == 32) {
+  if (s->scene.precision == 32 && !s->cloth) {
     d->xf = malloc(n3 * sizeof(float));
     d->xf_pred = malloc(n3 * sizeof(float));
     ok = ok && d->xf && d->xf_pred;
@@ -74,6 +76,17 @@ static int xpbd_create(ek_sim *s, void **data) {
   if (!ok)
     return sim_fail(s, "out of memory for %zu vertices", s->nv);
   const ek_scene_xpbd *k = &s->scene.xpbd;
+  if (s->cloth) {
+    // Membrane modulus per unit area: E h (the tets' C = sqrt(2 W / E)
+    // with W per unit area). Gauss-Seidel over colours is the one solver.
+    if (k->elements != EK_XPBD_TETS || k->solver != EK_XPBD_GAUSS_SEIDEL)
+      return sim_fail(s, "xpbd: a cloth takes the default elements and solver (its triangles "
+                         "and hinges, coloured Gauss-Seidel)");
+    d->cx = ek_cloth_xpbd_create(s->cloth, &s->cloth_p, d->young * s->scene.thickness);
+    if (!d->cx)
+      return sim_fail(s, "%s", ek_last_error());
+    return 0;
+  }
   ek_xpbd_opts o = {.elements = k->elements,
                     .solver = k->solver,
                     .isa = s->scene.svd.isa,
@@ -115,7 +128,7 @@ static int xpbd_step(ek_sim *s, void *data) {
   const double h = sc->dt / (double)K, c = sc->damping, damp = 1.0 / (1.0 + c * h);
   const double *g = sc->gravity;
   const size_t nv = s->nv, n3 = 3 * nv;
-  const int f32 = sc->precision == 32;
+  const int f32 = sc->precision == 32 && !d->cx; // cloth: double
   memcpy(d->xs, s->x, n3 * sizeof(double));
   memcpy(d->vs, s->v, n3 * sizeof(double));
   int rc = 0;
@@ -138,7 +151,9 @@ static int xpbd_step(ek_sim *s, void *data) {
         d->w[i] = s->inv_mass[i] * damp;
       }
     }
-    if ((rc = ek_xpbd_set_weights(d->xp, d->w)) == 0)
+    if (d->cx)
+      rc = ek_cloth_xpbd_begin(d->cx, d->w, h);
+    else if ((rc = ek_xpbd_set_weights(d->xp, d->w)) == 0)
       rc = ek_xpbd_begin(d->xp, h);
     if (f32) {
       for (size_t i = 0; i < n3; i++)
@@ -150,21 +165,23 @@ static int xpbd_step(ek_sim *s, void *data) {
     s->times.integration += sim_now() - t0;
     t0 = sim_now();
     if (rc == 0)
-      rc = f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, (int)N)
-               : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, (int)N);
+      rc = d->cx ? ek_cloth_xpbd_iterate(d->cx, s->x_next, (int)N)
+           : f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, (int)N)
+                 : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, (int)N);
     s->times.xpbd_solve += sim_now() - t0;
     s->times.xpbd_sweeps += N;
     if (rc)
       break;
     if (sub == K - 1) {
       double r = NAN, cm = NAN;
-      rc = f32 ? ek_xpbd_residual_f32(d->xp, d->xf_pred, d->xf, &r, &cm)
-               : ek_xpbd_residual_f64(d->xp, NULL, s->x_next, &r, &cm);
+      rc = d->cx ? ek_cloth_xpbd_residual(d->cx, s->x_next, &r, &cm)
+           : f32 ? ek_xpbd_residual_f32(d->xp, d->xf_pred, d->xf, &r, &cm)
+                 : ek_xpbd_residual_f64(d->xp, NULL, s->x_next, &r, &cm);
       s->times.xpbd_last_residual = r;
       s->times.xpbd_last_cmax = cm;
       if (!(r <= s->times.xpbd_worst_residual))
         s->times.xpbd_worst_residual = r;
-      if (s->time_phases && rc == 0) {
+      if (s->time_phases && rc == 0 && !d->cx) {
         double sec[3];
         rc = f32 ? ek_xpbd_profile_f32(d->xp, d->xf_pred, d->xf, sec)
                  : ek_xpbd_profile_f64(d->xp, NULL, s->x_next, sec);
@@ -208,9 +225,10 @@ static int xpbd_step(ek_sim *s, void *data) {
 }
 
 size_t ek_sim_xpbd_constraints(const ek_sim *s) {
-  return s && s->integrator == &sim_integrator_xpbd && s->integrator_data
-             ? ek_xpbd_count(((const xpbd_data *)s->integrator_data)->xp)
-             : 0;
+  if (!s || s->integrator != &sim_integrator_xpbd || !s->integrator_data)
+    return 0;
+  const xpbd_data *d = s->integrator_data;
+  return d->cx ? ek_cloth_xpbd_count(d->cx) : ek_xpbd_count(d->xp);
 }
 
 const sim_integrator sim_integrator_xpbd = {

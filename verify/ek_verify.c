@@ -27,6 +27,9 @@ static const ek_verify_family families[] = {
      "double references"},
     {"xpbd", verify_xpbd,
      "XPBD sweeps (Gauss-Seidel, Jacobi) on tets and clusters vs the double reference"},
+    {"cloth_force", verify_cloth_force,
+     "cloth membrane (StVK, ARAP) and bending forces vs the double reference (metric form, "
+     "LAPACK)"},
     {"cloth", verify_cloth,
      "polar32, Kabsch, triangle velocity gradient vs LAPACK (dgesvd) references"},
 };

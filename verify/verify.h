@@ -59,6 +59,7 @@ int verify_svd3(ek_verify_ctx *ctx);
 int verify_material(ek_verify_ctx *ctx);
 int verify_fvm(ek_verify_ctx *ctx);
 int verify_xpbd(ek_verify_ctx *ctx);
+int verify_cloth_force(ek_verify_ctx *ctx);
 int verify_cloth(ek_verify_ctx *ctx);
 
 #endif

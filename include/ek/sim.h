@@ -35,7 +35,16 @@
 //   description   free text
 //   mesh*         {"file": PATH} (TetGen/Gmsh, relative to the scene file;
 //                 "fix_orientation": bool) or {"box": [nx,ny,nz],
-//                 "size": [lx,ly,lz]} (ek_mesh_box, origin at 0)
+//                 "size": [lx,ly,lz]} (ek_mesh_box, origin at 0);
+//                 cloth (triangles, trimesh.h): {"file": PATH.obj} or
+//                 {"file": PATH.msh, "kind": "triangles"} or {"grid":
+//                 [nx,ny], "size": [lx,ly], "plane": "xy" | "xz"}
+//   cloth         triangle meshes only: {"thickness"*: h (m),
+//                 "bending_stiffness": k_b (N m, default E h^3 / (12 (1 -
+//                 nu^2)))}; material.model stvk or arap (membranes,
+//                 cloth_force.h) with mu h and the plane-stress
+//                 2 mu lambda / (lambda + 2 mu) h per unit area, areal
+//                 density = density h
 //   initial       {"scale": [3], "translate": [3], "velocity": [3]}
 //   material*     {"model": NAME, "E", "nu" | "mu", "lambda", "density"*,
 //                 "clamp"}; NAME one of linear, stvk, corotated_linear,
@@ -75,12 +84,14 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "cloth_force.h"
 #include "core.h"
 #include "fvm.h"
 #include "hessian.h"
 #include "material.h"
 #include "mesh.h"
 #include "svd3.h"
+#include "trimesh.h"
 #include "xpbd.h"
 
 #ifdef __cplusplus
@@ -236,6 +247,14 @@ typedef struct {
   int box_cells[3];
   double box_size[3];
   int fix_orientation;
+  // Cloth: a triangle mesh (mesh.grid, an .obj, or mesh.kind "triangles"),
+  // its grid (cells, size, plane "xy" | "xz"), the thickness (m) and the
+  // bending stiffness k_b (N m) of the "cloth" key.
+  int triangles;
+  int grid_cells[2];
+  double grid_size[2];
+  char grid_plane[4];
+  double thickness, bending_stiffness;
   // Initial state from the rest shape: scaled about the bounding-box centre,
   // then translated; uniform initial velocity.
   double init_scale[3], init_translate[3], init_velocity[3];
@@ -275,7 +294,10 @@ int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen);
 int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene,
                    char *err, size_t errlen);
 // Build (generate or load) the scene's mesh. NULL with err on failure.
+// A tet scene has an ek_mesh, a cloth scene (scene->triangles) an
+// ek_trimesh; asking for the other kind is an error.
 ek_mesh *ek_scene_mesh(const ek_scene *scene, char *err, size_t errlen);
+ek_trimesh *ek_scene_trimesh(const ek_scene *scene, char *err, size_t errlen);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
 int ek_scene_model_from_name(const char *name, ek_model *model);
@@ -329,6 +351,9 @@ typedef struct {
   double xpbd_sweep_F, xpbd_sweep_eval, xpbd_sweep_project;
   long xpbd_sweeps, xpbd_profiles;
   double xpbd_last_residual, xpbd_worst_residual, xpbd_last_cmax;
+  // Cloth (phase-timed steps): the membrane and bending corner passes and
+  // the per-vertex gather (cloth_force.h).
+  double cloth_membrane, cloth_bending, cloth_gather;
 } ek_sim_times;
 
 typedef struct {
@@ -351,6 +376,11 @@ typedef struct {
 // Build the simulation of a scene on a mesh (the caller keeps the mesh alive
 // and destroys it after the sim). NULL with err on failure.
 ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
+// A cloth scene (scene->triangles) on its triangle mesh: the same loop with
+// the cloth forces (cloth_force.h) in place of the FVM force.
+ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
+                            size_t errlen);
+int ek_sim_is_cloth(const ek_sim *sim);
 void ek_sim_destroy(ek_sim *sim);
 // Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED or < 0
 // (message in ek_sim_last_error); on error the state is left as it was
@@ -391,6 +421,26 @@ double ek_sim_cfl_dt(const ek_sim *sim);
 // (0 at rest for every model; sum_e V0_e psi_e is ek_sim_energy's elastic
 // energy).
 int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
+// Per-triangle fields of a cloth (any may be NULL): J = area ratio, the
+// stretches s1 >= s2 (singular values of the 3x2 F) and the membrane energy
+// density per unit rest area (per unit area of the sheet, Psi h). On a
+// cloth, ek_sim_tet_fields gives (J, s2, psi) and ek_sim_volume the area.
+int ek_sim_cloth_fields(const ek_sim *sim, double *J, double *s1, double *s2, double *psi);
+// The velocity gradient L = D + W of every element in the current state
+// (seed 003 eqs. 28-31, cloth.h): tets L = Fdot F^-1, triangles
+// L = Fdot F^+ (the surface gradient of v); D, W nelems x 9 row-major and
+// the principal strain rates nelems x 3 (any may be NULL): tets the
+// eigenvalues of D, descending; triangles the two eigenvalues of D in the
+// deformed plane (P D P, the membrane's rate of strain), descending, then
+// 0. Eigenvalues of a symmetric 3x3 in closed form (Smith 1961, "Eigenvalues
+// of a symmetric 3 x 3 matrix", CACM 4(4)).
+int ek_sim_rate_fields(const ek_sim *sim, double *D, double *W, double *strain_rates);
+// Per-vertex rotation field (nverts x 9 row-major, det +1): Kabsch
+// (cloth.h's ek_kabsch_f64, seed 003 eqs. 21-27) over each vertex's
+// one-ring (itself and the vertices sharing an element with it), rest
+// positions to current ones, unweighted. The one-rings are built on the
+// first call (the sim is not thread-safe during it).
+int ek_sim_vertex_rotations(const ek_sim *sim, double *R);
 // Number of vertices held by a boundary condition right now.
 size_t ek_sim_constrained_count(const ek_sim *sim);
 
@@ -415,10 +465,31 @@ typedef struct ek_frames ek_frames;
 // `h5clear -s FILE`).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
+// The same for any element kind: nodes = 4 (tets, /mesh/tets, XDMF
+// Tetrahedron) or 3 (cloth triangles: /mesh/triangles, XDMF Triangle, and
+// one more per-element field /frames/smax, the larger stretch; J is then
+// the area ratio and smin the smaller stretch).
+ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
+                               size_t nelems, int nodes, const int32_t *elems, char *err,
+                               size_t errlen);
 // Append one frame; J, smin, psi (energy density from the rest shape) may
 // be NULL (written as NaN).
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen);
+// Every per-element field of a frame (any may be NULL: written as NaN):
+// J, smin, psi as above; smax (triangles only, the larger stretch); the
+// velocity gradient's rate of strain D and spin W (nelems x 9 row-major,
+// /frames/D, /frames/W: XDMF Tensor attributes) and the principal strain
+// rates (nelems x 3, /frames/strain_rates: a Vector attribute), from
+// ek_sim_rate_fields.
+// vertex_R: the per-vertex rotations of ek_sim_vertex_rotations (nverts x
+// 9, /frames/vertex_rotation, a Node-centred Tensor in the XDMF).
+typedef struct {
+  const double *J, *smin, *psi, *smax, *D, *W, *strain_rates;
+  const double *vertex_R;
+} ek_frame_fields;
+int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
+                           const ek_frame_fields *fields, char *err, size_t errlen);
 long ek_frames_count(const ek_frames *fr);
 // Close the file (and the final XDMF). 0 on success.
 int ek_frames_close(ek_frames *fr, char *err, size_t errlen);

@@ -1,0 +1,420 @@
+// Cloth force driver (include/ek/cloth_force.h): argument checks, dispatch
+// of the block kernels (cloth_force_block.c) and the deterministic gather;
+// in the f64 build also the energy, the Hessian product, its diagonal
+// blocks and the per-triangle fields, in plain double (the implicit loop's
+// and the frames' paths; the explicit loop's force is the vector kernel).
+// Built once per precision.
+//
+// Threads: one parallel region per force call (three, timed, when the
+// phases are asked for): the membrane blocks, then the hinge blocks, each
+// writing its corners, then every vertex sums its corners in element order.
+// No vertex is written by two threads and no sum depends on the partition:
+// the same bits at any thread count.
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../kernels.h"
+#include "../real.h"
+#include "cloth_force_kernel.h"
+#include "cloth_layer.h"
+#include "cloth_polar.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_cloth_force_args_f32 cloth_args;
+#define MEMBRANE(t) ((t)->cloth_membrane_block_f32)
+#define BENDING(t) ((t)->cloth_bending_block_f32)
+#define SFX(name) name##_f32
+#else
+typedef struct ek_cloth_force_args_f64 cloth_args;
+#define MEMBRANE(t) ((t)->cloth_membrane_block_f64)
+#define BENDING(t) ((t)->cloth_bending_block_f64)
+#define SFX(name) name##_f64
+#endif
+#define L EK_LANES
+
+static double wall(void) { return omp_get_wtime(); }
+
+static int check_params(const char *fn, const ek_cloth *cl, const ek_cloth_params *p) {
+  if (!cl || !p) {
+    ek_set_error("%s: NULL cloth or parameters", fn);
+    return EK_EINVAL;
+  }
+  if ((unsigned)p->model >= EK_MEMBRANE_COUNT || !(p->mu > 0) || !isfinite(p->mu) ||
+      !(p->lambda >= 0) || !isfinite(p->lambda) || !(p->bending >= 0) || !isfinite(p->bending)) {
+    ek_set_error("%s: bad parameters (model %d, mu %g, lambda %g, bending %g): need mu > 0, "
+                 "lambda >= 0, bending >= 0, finite",
+                 fn, (int)p->model, p->mu, p->lambda, p->bending);
+    return EK_EINVAL;
+  }
+  return 0;
+}
+
+// f[v] = sum of the corners touching v, triangles then hinges, in element
+// order. Vertices [v0, v1).
+static void gather(const ek_cloth *cl, const real *tc, const real *hc, real *f, size_t v0,
+                   size_t v1) {
+  for (size_t v = v0; v < v1; ++v) {
+    real s[3] = {0, 0, 0};
+    for (size_t r = cl->tri_off[v]; r < cl->tri_off[v + 1]; ++r) {
+      size_t e = (size_t)cl->tri_ref[r], t = e / 3, c = e % 3;
+      const real *p = tc + ((t / L) * 9 + c * 3) * L + t % L;
+      s[0] += p[0], s[1] += p[L], s[2] += p[2 * L];
+    }
+    for (size_t r = cl->hinge_off[v]; r < cl->hinge_off[v + 1]; ++r) {
+      size_t e = (size_t)cl->hinge_ref[r], h = e / 4, c = e % 4;
+      const real *p = hc + ((h / L) * 12 + c * 3) * L + h % L;
+      s[0] += p[0], s[1] += p[L], s[2] += p[2 * L];
+    }
+    f[3 * v] = s[0], f[3 * v + 1] = s[1], f[3 * v + 2] = s[2];
+  }
+}
+
+// Static partition of [0, n) for thread t of nt.
+static void part(size_t n, int t, int nt, size_t *a, size_t *b) {
+  *a = n * (size_t)t / (size_t)nt;
+  *b = n * (size_t)(t + 1) / (size_t)nt;
+}
+
+int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
+                       const ek_cloth_force_opts *opts) {
+  const char *fn = "ek_cloth_forces";
+  int rc = check_params(fn, cl, p);
+  if (rc)
+    return rc;
+  if (!x || !f) {
+    ek_set_error("%s: NULL x or f", fn);
+    return EK_EINVAL;
+  }
+  const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
+  if (!kt)
+    return EK_EISA;
+  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (cloth_layer.h)
+  cloth_args a = {
+      .tri_idx = SFX(cl->tri_idx),
+      .hinge_idx = SFX(cl->hinge_idx),
+      .dm_inv = SFX(cl->dm),
+      .area = SFX(cl->area),
+      .hinge_k = SFX(cl->hk),
+      .model = p->model,
+      .mu = (real)p->mu,
+      .lambda = (real)p->lambda,
+      .bending = (real)p->bending,
+      .x = x,
+      .tri_corner = SFX(mut->tri_corner),
+      .hinge_corner = SFX(mut->hinge_corner),
+  };
+  const size_t ntb = SFX(cl->ntb), nhb = p->bending > 0 ? SFX(cl->nhb) : 0;
+  if (nhb == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
+    memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
+  void (*membrane)(const cloth_args *, size_t, size_t) = MEMBRANE(kt);
+  void (*bending)(const cloth_args *, size_t, size_t) = BENDING(kt);
+  const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
+  ek_cloth_phase_times *pt = opts ? opts->phase_times : NULL;
+  if (!pt) {
+#pragma omp parallel if (par)
+    {
+      int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      size_t b0, b1;
+      part(ntb, t, nt, &b0, &b1);
+      membrane(&a, b0, b1);
+      part(nhb, t, nt, &b0, &b1);
+      if (b1 > b0)
+        bending(&a, b0, b1);
+#pragma omp barrier
+      part(cl->nv, t, nt, &b0, &b1);
+      gather(cl, a.tri_corner, a.hinge_corner, f, b0, b1);
+    }
+    return 0;
+  }
+  double t0 = wall();
+#pragma omp parallel if (par)
+  {
+    size_t b0, b1;
+    part(ntb, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
+    membrane(&a, b0, b1);
+  }
+  double t1 = wall();
+#pragma omp parallel if (par)
+  {
+    size_t b0, b1;
+    part(nhb, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
+    if (b1 > b0)
+      bending(&a, b0, b1);
+  }
+  double t2 = wall();
+#pragma omp parallel if (par)
+  {
+    size_t b0, b1;
+    part(cl->nv, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
+    gather(cl, a.tri_corner, a.hinge_corner, f, b0, b1);
+  }
+  double t3 = wall();
+  pt->membrane += t1 - t0;
+  pt->bending += t2 - t1;
+  pt->gather += t3 - t2;
+  return 0;
+}
+
+#if defined(EK_REAL_F64)
+// ---------------------------------------------------------------------------
+// Double paths: energy, Hessian product, diagonal blocks, fields.
+
+// F = [x1-x0, x2-x0] Dm^-1 of triangle t (3x2 row-major).
+static void tri_F(const ek_cloth *cl, const double *x, size_t t, double F[6]) {
+  const int32_t *q = cl->tris + 3 * t;
+  const double *D = cl->dm_inv + 4 * t;
+  for (int i = 0; i < 3; ++i) {
+    double e1 = x[3 * (size_t)q[1] + i] - x[3 * (size_t)q[0] + i];
+    double e2 = x[3 * (size_t)q[2] + i] - x[3 * (size_t)q[0] + i];
+    F[2 * i] = e1 * D[0] + e2 * D[2];
+    F[2 * i + 1] = e1 * D[1] + e2 * D[3];
+  }
+}
+
+static double membrane_psi(const ek_cloth_params *p, const double F[6]) {
+  if (p->model == EK_MEMBRANE_STVK) {
+    double C00 = F[0] * F[0] + F[2] * F[2] + F[4] * F[4];
+    double C01 = F[0] * F[1] + F[2] * F[3] + F[4] * F[5];
+    double C11 = F[1] * F[1] + F[3] * F[3] + F[5] * F[5];
+    double E00 = 0.5 * (C00 - 1), E11 = 0.5 * (C11 - 1), E01 = 0.5 * C01;
+    double tr = E00 + E11;
+    return p->mu * (E00 * E00 + E11 * E11 + 2 * E01 * E01) + 0.5 * p->lambda * tr * tr;
+  }
+  // |F - R|^2 = sum (sigma_i - 1)^2 (F - R = U (Sigma - I) V^T).
+  cloth_svd32 d;
+  cloth_svd32_of(F, &d);
+  return p->mu * ((d.sigma[0] - 1) * (d.sigma[0] - 1) + (d.sigma[1] - 1) * (d.sigma[1] - 1));
+}
+
+double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x) {
+  if (check_params("ek_cloth_energy_f64", cl, p) || !x)
+    return NAN;
+  double E = 0;
+  for (size_t t = 0; t < cl->nt; ++t) {
+    double F[6];
+    tri_F(cl, x, t, F);
+    E += cl->area[t] * membrane_psi(p, F);
+  }
+  for (size_t h = 0; h < cl->nh && p->bending > 0; ++h) {
+    const int32_t *q = cl->hinges + 4 * h;
+    const double *k = cl->hinge_k + 4 * h;
+    double s[3] = {0, 0, 0};
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i)
+        s[i] += k[c] * x[3 * (size_t)q[c] + i];
+    E += 0.5 * p->bending * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  }
+  return E;
+}
+
+// dP of one triangle (3x2) for dF, projected when `project` (cloth_force.h).
+static void membrane_dP(const ek_cloth_params *p, const double F[6], const double dF[6],
+                        int project, double dP[6]) {
+  if (p->model == EK_MEMBRANE_STVK) {
+    double C00 = F[0] * F[0] + F[2] * F[2] + F[4] * F[4];
+    double C01 = F[0] * F[1] + F[2] * F[3] + F[4] * F[5];
+    double C11 = F[1] * F[1] + F[3] * F[3] + F[5] * F[5];
+    double E00 = 0.5 * (C00 - 1), E11 = 0.5 * (C11 - 1), E01 = 0.5 * C01;
+    double ltr = p->lambda * (E00 + E11);
+    double S00 = 2 * p->mu * E00 + ltr, S11 = 2 * p->mu * E11 + ltr, S01 = 2 * p->mu * E01;
+    if (project) {
+      // S's negative eigenvalues to 0 (2x2 symmetric, closed form).
+      double m = 0.5 * (S00 + S11), r = hypot(0.5 * (S00 - S11), S01);
+      double l0 = m + r, l1 = m - r;
+      if (l1 < 0) {
+        if (l0 <= 0) {
+          S00 = S11 = S01 = 0;
+        } else {
+          // S+ = l0 v v^T, v the eigenvector of l0: (S - l1 I) / (l0 - l1)
+          // is the projector onto it.
+          double w = l0 / (l0 - l1);
+          S00 = w * (S00 - l1), S11 = w * (S11 - l1), S01 = w * S01;
+        }
+      }
+    }
+    // dE = sym(F^T dF), dS = 2 mu dE + lambda tr(dE) I.
+    double G00 = F[0] * dF[0] + F[2] * dF[2] + F[4] * dF[4];
+    double G01 = F[0] * dF[1] + F[2] * dF[3] + F[4] * dF[5];
+    double G10 = F[1] * dF[0] + F[3] * dF[2] + F[5] * dF[4];
+    double G11 = F[1] * dF[1] + F[3] * dF[3] + F[5] * dF[5];
+    double dE00 = G00, dE11 = G11, dE01 = 0.5 * (G01 + G10);
+    double dltr = p->lambda * (dE00 + dE11);
+    double dS00 = 2 * p->mu * dE00 + dltr, dS11 = 2 * p->mu * dE11 + dltr, dS01 = 2 * p->mu * dE01;
+    for (int i = 0; i < 3; ++i) {
+      dP[2 * i] = dF[2 * i] * S00 + dF[2 * i + 1] * S01 + F[2 * i] * dS00 + F[2 * i + 1] * dS01;
+      dP[2 * i + 1] = dF[2 * i] * S01 + dF[2 * i + 1] * S11 + F[2 * i] * dS01 + F[2 * i + 1] * dS11;
+    }
+    return;
+  }
+  // ARAP: dP = 2 mu (dF - dR). With F = U diag(sigma) V^T, n = u0 x u1,
+  // M = U^T dF V, w = n^T dF V: dF - dR = U (sym M + gamma_t skew M) V^T +
+  // n sum_i gamma_i w_i v_i^T, gamma_t = 1 - 2 / (sigma0 + sigma1) (the
+  // in-plane twist), gamma_i = 1 - 1 / sigma_i (out of plane); the other
+  // in-plane modes keep 1. These are the eigenvalues of the F-space
+  // Hessian / 2 mu (the 3x2 form of Smith et al. 2019's analysis);
+  // projected, each is clamped at 0.
+  cloth_svd32 d;
+  cloth_svd32_of(F, &d);
+  double M[4] = {0, 0, 0, 0}, w[2] = {0, 0};
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 2; ++j)
+          M[2 * a + b] += d.U[2 * i + a] * dF[2 * i + j] * d.V[2 * j + b];
+  for (int b = 0; b < 2; ++b)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 2; ++j)
+        w[b] += d.n[i] * dF[2 * i + j] * d.V[2 * j + b];
+  double gt = 1 - 2 / (d.sigma[0] + d.sigma[1]);
+  double g[2] = {1 - 1 / d.sigma[0], 1 - 1 / d.sigma[1]};
+  if (project) {
+    gt = fmax(gt, 0);
+    g[0] = fmax(g[0], 0);
+    g[1] = fmax(g[1], 0);
+  }
+  double sym = 0.5 * (M[1] + M[2]), k = 0.5 * (M[2] - M[1]);
+  double N[4] = {M[0], sym - gt * k, sym + gt * k, M[3]}; // sym M + gt k J, J = [[0,-1],[1,0]]
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 2; ++j) {
+      double v = 0;
+      for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+          v += d.U[2 * i + a] * N[2 * a + b] * d.V[2 * j + b];
+      for (int b = 0; b < 2; ++b)
+        v += d.n[i] * g[b] * w[b] * d.V[2 * j + b];
+      dP[2 * i + j] = 2 * p->mu * v;
+    }
+}
+
+// Element Hessian product of triangle t: q (3 corners x 3) = A dP Dm^-T
+// spread to the corners (the gradient's pattern).
+static void tri_hess(const ek_cloth *cl, const ek_cloth_params *p, const double *x, size_t t,
+                     const double dxc[9], int project, double qc[9]) {
+  const double *D = cl->dm_inv + 4 * t;
+  double F[6], dF[6], dP[6];
+  tri_F(cl, x, t, F);
+  for (int i = 0; i < 3; ++i) {
+    double e1 = dxc[3 + i] - dxc[i], e2 = dxc[6 + i] - dxc[i];
+    dF[2 * i] = e1 * D[0] + e2 * D[2];
+    dF[2 * i + 1] = e1 * D[1] + e2 * D[3];
+  }
+  membrane_dP(p, F, dF, project, dP);
+  double A = cl->area[t];
+  for (int i = 0; i < 3; ++i) {
+    double g1 = A * (dP[2 * i] * D[0] + dP[2 * i + 1] * D[1]);
+    double g2 = A * (dP[2 * i] * D[2] + dP[2 * i + 1] * D[3]);
+    qc[3 + i] = g1;
+    qc[6 + i] = g2;
+    qc[i] = -(g1 + g2);
+  }
+}
+
+int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
+                               int project, const double *dx, double *q) {
+  int rc = check_params("ek_cloth_hessian_apply_f64", cl, p);
+  if (rc)
+    return rc;
+  if (!x || !dx || !q) {
+    ek_set_error("ek_cloth_hessian_apply_f64: NULL x, dx or q");
+    return EK_EINVAL;
+  }
+  ek_cloth *mut = (ek_cloth *)cl;
+  double *tc = mut->tri_corner_f64, *hc = mut->hinge_corner_f64;
+  const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
+  long nt = (long)cl->nt, nh = (long)cl->nh;
+#pragma omp parallel if (par)
+  {
+#pragma omp for schedule(static)
+    for (long t = 0; t < nt; ++t) {
+      const int32_t *tri = cl->tris + 3 * t;
+      double dxc[9], qc[9];
+      for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < 3; ++i)
+          dxc[3 * c + i] = dx[3 * (size_t)tri[c] + i];
+      tri_hess(cl, p, x, (size_t)t, dxc, project, qc);
+      for (int c = 0; c < 3; ++c)
+        for (int i = 0; i < 3; ++i)
+          tc[((size_t)t / L * 9 + (size_t)(c * 3 + i)) * L + (size_t)t % L] = qc[3 * c + i];
+    }
+#pragma omp for schedule(static)
+    for (long h = 0; h < nh; ++h) {
+      // Bending: k_b Q (x) I3, Q = k k^T.
+      const int32_t *hq = cl->hinges + 4 * h;
+      const double *k = cl->hinge_k + 4 * h;
+      double s[3] = {0, 0, 0};
+      for (int c = 0; c < 4; ++c)
+        for (int i = 0; i < 3; ++i)
+          s[i] += k[c] * dx[3 * (size_t)hq[c] + i];
+      for (int c = 0; c < 4; ++c)
+        for (int i = 0; i < 3; ++i)
+          hc[((size_t)h / L * 12 + (size_t)(c * 3 + i)) * L + (size_t)h % L] =
+              p->bending * k[c] * s[i];
+    }
+    size_t v0, v1;
+    part(cl->nv, omp_get_thread_num(), omp_get_num_threads(), &v0, &v1);
+    // The implicit omp-for barrier above orders the corners before the gather.
+    gather(cl, tc, hc, q, v0, v1);
+  }
+  return 0;
+}
+
+int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
+                                  double *blocks) {
+  int rc = check_params("ek_cloth_hessian_diagonal_f64", cl, p);
+  if (rc)
+    return rc;
+  if (!x || !blocks) {
+    ek_set_error("ek_cloth_hessian_diagonal_f64: NULL x or blocks");
+    return EK_EINVAL;
+  }
+  memset(blocks, 0, 9 * cl->nv * sizeof(double));
+  // Serial, element order: column j of corner c's block is the corner-c
+  // part of the element product with e_j at corner c.
+  for (size_t t = 0; t < cl->nt; ++t) {
+    const int32_t *tri = cl->tris + 3 * t;
+    for (int c = 0; c < 3; ++c)
+      for (int j = 0; j < 3; ++j) {
+        double dxc[9] = {0}, qc[9];
+        dxc[3 * c + j] = 1;
+        tri_hess(cl, p, x, t, dxc, 1, qc);
+        for (int i = 0; i < 3; ++i)
+          blocks[9 * (size_t)tri[c] + 3 * i + j] += qc[3 * c + i];
+      }
+  }
+  for (size_t h = 0; h < cl->nh; ++h)
+    for (int c = 0; c < 4; ++c) {
+      double kk = p->bending * cl->hinge_k[4 * h + c] * cl->hinge_k[4 * h + c];
+      for (int i = 0; i < 3; ++i)
+        blocks[9 * (size_t)cl->hinges[4 * h + c] + 4 * i] += kk;
+    }
+  return 0;
+}
+
+int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x, double *J,
+                        double *s1, double *s2, double *psi) {
+  int rc = check_params("ek_cloth_fields_f64", cl, p);
+  if (rc)
+    return rc;
+  if (!x) {
+    ek_set_error("ek_cloth_fields_f64: NULL x");
+    return EK_EINVAL;
+  }
+  for (size_t t = 0; t < cl->nt; ++t) {
+    double F[6];
+    tri_F(cl, x, t, F);
+    cloth_svd32 d;
+    cloth_svd32_of(F, &d);
+    if (J)
+      J[t] = d.sigma[0] * d.sigma[1];
+    if (s1)
+      s1[t] = d.sigma[0];
+    if (s2)
+      s2[t] = d.sigma[1];
+    if (psi)
+      psi[t] = membrane_psi(p, F);
+  }
+  return 0;
+}
+#endif
