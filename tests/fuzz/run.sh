@@ -37,7 +37,7 @@ if [ ${#names[@]} -eq 0 ]; then
 fi
 
 build=build/fuzz
-cmake -S . -B "$build" -DCMAKE_C_COMPILER=clang -DCMAKE_BUILD_TYPE=RelWithDebInfo -DEK_FUZZ=ON \
+cmake -S . -B "$build" -DCMAKE_C_COMPILER=clang -DCMAKE_BUILD_TYPE=Debug -DEK_FUZZ=ON \
   >/dev/null
 targets=()
 for n in "${names[@]}"; do targets+=("fuzz_$n"); done
