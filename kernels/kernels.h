@@ -131,4 +131,18 @@ const ek_kernel_table *ek_kernels_resolve(ek_isa requested);
 // Record an error message for ek_last_error (printed only with EK_VERBOSE).
 void ek_set_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+// The batch argument check every batch entry point makes before it reads or
+// writes anything (EK_OK, or EK_EINVAL with ek_last_error set):
+//   - count items of item_bytes each (AoS: n and the bytes of its largest
+//     per-item array; AoSoA: nblocks and a whole block's largest array)
+//     must stay below PTRDIFF_MAX bytes with EK_BATCH_SLACK items to spare
+//     for the drivers' rounding up to whole chunks, so no byte count, chunk
+//     count or pointer offset wraps (n = SIZE_MAX is refused, not run as a
+//     small batch);
+//   - every non-NULL array must be aligned to `align` (the alignment of its
+//     element type, as core.h documents); names[i] names arrays[i].
+#define EK_BATCH_SLACK 4096
+int ek_batch_check(const char *fn, size_t count, size_t item_bytes, size_t align, int narrays,
+                   const void *const *arrays, const char *const *names);
+
 #endif

@@ -3,6 +3,7 @@
 // rest-shape data, orders and AoSoA blocks the kernels read are the element
 // layer's (kernels/elements/, built from the validated arrays). Readers
 // live in mesh_io.c and call mesh_build().
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -40,7 +41,8 @@ static void where_tet(char *buf, size_t len, const mesh_origin *o, size_t t) {
 
 static void where_vert(char *buf, size_t len, const mesh_origin *o, size_t v) {
   if (o && o->file && o->vert_line)
-    snprintf(buf, len, "%s:%ld: vertex %zu", o->file, o->vert_line[v], v);
+    snprintf(buf, len, "%s:%ld: vertex %zu", o->vert_file ? o->vert_file : o->file, o->vert_line[v],
+             v);
   else
     snprintf(buf, len, "%s: vertex %zu", o && o->file ? o->file : "ek_mesh_create", v);
 }
@@ -58,34 +60,46 @@ static void rest_edges(const double *X, const int32_t *t, double Dm[9]) {
       Dm[r * 3 + c] = X[t[c + 1] * 3 + r] - X[t[0] * 3 + r];
 }
 
-static double longest_edge(const double *X, const int32_t *t) {
-  double best = 0;
-  for (int a = 0; a < 4; a++)
-    for (int b = a + 1; b < 4; b++) {
-      double d2 = 0;
-      for (int k = 0; k < 3; k++) {
-        double d = X[t[a] * 3 + k] - X[t[b] * 3 + k];
-        d2 += d * d;
-      }
-      if (d2 > best)
-        best = d2;
-    }
-  return sqrt(best);
+static double maxabs9(const double A[9]) {
+  double s = 0;
+  for (int k = 0; k < 9; k++)
+    s = fmax(s, fabs(A[k]));
+  return s;
 }
 
-static double shortest_edge(const double *X, const int32_t *t) {
-  double best = INFINITY;
-  for (int a = 0; a < 4; a++)
-    for (int b = a + 1; b < 4; b++) {
-      double d2 = 0;
-      for (int k = 0; k < 3; k++) {
-        double d = X[t[a] * 3 + k] - X[t[b] * 3 + k];
-        d2 += d * d;
-      }
-      if (d2 < best)
-        best = d2;
+// Longest and shortest of the 6 edges of a tet whose edge vectors from
+// vertex 0 are the columns of D (the other three edges are differences of
+// columns).
+static void edge_range(const double D[9], double *lmin, double *lmax) {
+  static const int ends[6][2] = {{-1, 0}, {-1, 1}, {-1, 2}, {0, 1}, {0, 2}, {1, 2}};
+  double lo = INFINITY, hi = 0;
+  for (int e = 0; e < 6; e++) {
+    double d2 = 0;
+    for (int r = 0; r < 3; r++) {
+      double a = ends[e][0] < 0 ? 0 : D[r * 3 + ends[e][0]], b = D[r * 3 + ends[e][1]];
+      d2 += (b - a) * (b - a);
     }
-  return sqrt(best);
+    lo = fmin(lo, d2);
+    hi = fmax(hi, d2);
+  }
+  *lmin = sqrt(lo);
+  *lmax = sqrt(hi);
+}
+
+// m * 2^e2 as text, also where that value is beyond the range of a double
+// (a rest frame measured in scaled units, see mesh_build).
+static void fmt_scaled(char *buf, size_t len, double m, int e2) {
+  double v = ldexp(m, e2);
+  if (m == 0 || (isfinite(v) && fabs(v) >= DBL_MIN)) {
+    snprintf(buf, len, "%.6g", v);
+    return;
+  }
+  double l = log10(fabs(m)) + e2 * log10(2.0), d = floor(l), mant = pow(10, l - d);
+  if (mant >= 9.999995) { // would print as "10" with 6 digits
+    mant /= 10;
+    d += 1;
+  }
+  snprintf(buf, len, "%s%.6ge%+d", m < 0 ? "-" : "", mant, (int)d);
 }
 
 // Validate, precompute and pack. Takes ownership of nothing; copies X and
@@ -172,23 +186,65 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
         }
     double Dm[9];
     rest_edges(m->X, tv, Dm);
-    double six_v = det3(Dm);
-    double lmax = longest_edge(m->X, tv);
+    for (int k = 0; k < 9; k++)
+      if (!isfinite(Dm[k])) {
+        // Two finite coordinates whose difference is beyond DBL_MAX.
+        where_tet(where, sizeof where, origin, t);
+        int c = k % 3, r = k / 3;
+        long base = origin ? origin->index_base : 0;
+        mesh_error(err, errlen,
+                   "%s: edge from vertex %ld to vertex %ld overflows: %c = %.17g - %.17g is "
+                   "beyond the range of a double (supported: 6V in [DBL_MIN, DBL_MAX], see "
+                   "mesh.h)",
+                   where, (long)tv[0] + base, (long)tv[c + 1] + base, "xyz"[r],
+                   m -> X[tv[c + 1] * 3 + r], m -> X[tv[0] * 3 + r]);
+        goto fail;
+      }
+    // Shape tests in scaled units, so that they hold at any scale: Dm
+    // divided by the power of two 2^e nearest above its largest entry
+    // (exact), so 6V and edge^3 are computed without overflow or underflow
+    // and the degeneracy test does not depend on the mesh's units.
+    int e = 0;
+    frexp(maxabs9(Dm), &e);
+    double Ds[9];
+    for (int k = 0; k < 9; k++)
+      Ds[k] = ldexp(Dm[k], -e);
+    double six_v_s = det3(Ds), lmin_s, lmax_s;
+    edge_range(Ds, &lmin_s, &lmax_s);
     // Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (DESIGN.md, "Meshes").
-    if (fabs(six_v) <= EK_MESH_DEGENERATE_REL * lmax * lmax * lmax) {
+    if (fabs(six_v_s) <= EK_MESH_DEGENERATE_REL * lmax_s * lmax_s * lmax_s) {
+      char v6[48], lm[48];
+      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      fmt_scaled(lm, sizeof lm, lmax_s, e);
       where_tet(where, sizeof where, origin, t);
-      mesh_error(err, errlen,
-                 "%s: degenerate: 6V = %.6g <= %g * (longest edge %.6g)^3 (zero volume)", where,
-                 six_v, EK_MESH_DEGENERATE_REL, lmax);
+      mesh_error(err, errlen, "%s: degenerate: 6V = %s <= %g * (longest edge %s)^3 (zero volume)",
+                 where, v6, EK_MESH_DEGENERATE_REL, lm);
       goto fail;
     }
-    if (six_v < 0) {
+    // The supported range: 6V = det(Dm), computed in the mesh's units as
+    // the element layer computes it, must be a finite, normal double
+    // (mesh.h). A cube of edge 1e120 is a valid shape whose volume (1e360)
+    // no double holds.
+    double six_v = det3(Dm);
+    if (!isfinite(six_v) || fabs(six_v) < DBL_MIN) {
+      char v6[48];
+      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      where_tet(where, sizeof where, origin, t);
+      mesh_error(err, errlen,
+                 "%s: 6V = %s is outside the supported range [%g, %g] of rest volumes (a "
+                 "double; edges from about 1e-102 to 1e102): rescale the mesh",
+                 where, v6, DBL_MIN, DBL_MAX);
+      goto fail;
+    }
+    if (six_v_s < 0) {
       if (!fix) {
+        char v[48];
+        fmt_scaled(v, sizeof v, six_v_s / 6, 3 * e);
         where_tet(where, sizeof where, origin, t);
         mesh_error(err, errlen,
-                   "%s: inverted: rest volume %.6g < 0 (refused; set fix_orientation to swap "
+                   "%s: inverted: rest volume %s < 0 (refused; set fix_orientation to swap "
                    "its vertices 1 and 2)",
-                   where, six_v / 6);
+                   where, v);
         goto fail;
       }
       int32_t tmp = tv[1];
@@ -196,19 +252,34 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
       tv[2] = tmp;
       m->nfixed++;
     }
-    double lmin = shortest_edge(m->X, tv);
+    double lmin = ldexp(lmin_s, e);
     if (lmin < m->min_edge)
       m->min_edge = lmin;
   }
-  m->el = ek_tets_create(nverts, X, ntets, T, err, errlen);
-  if (!m->el)
-    goto fail;
+  {
+    char el_err[256] = "";
+    m->el = ek_tets_create(nverts, X, ntets, T, el_err, sizeof el_err);
+    if (!m->el) {
+      mesh_error(err, errlen, "%s: %s", src, el_err);
+      goto fail;
+    }
+  }
   // Lumped volumes: a quarter of each tet's V0 to each of its corners
-  // (Teran et al. 2003 sec. 4).
+  // (Teran et al. 2003 sec. 4). Each V0 is finite, their sum at a vertex
+  // may not be.
   const double *V0 = ek_tets_rest_volumes(m->el);
   for (size_t t = 0; t < ntets; t++)
     for (int c = 0; c < 4; c++)
       m->lumped[T[t * 4 + c]] += V0[t] / 4;
+  for (size_t v = 0; v < nverts; v++)
+    if (!isfinite(m->lumped[v])) {
+      where_vert(where, sizeof where, origin, v);
+      mesh_error(err, errlen,
+                 "%s: lumped volume (sum of V0 / 4 over its tets) overflows to %g: outside the "
+                 "supported range, rescale the mesh",
+                 where, m->lumped[v]);
+      goto fail;
+    }
   free(T);
   free(used);
   return m;

@@ -20,8 +20,11 @@ struct ek_mesh {
 // Where the arrays came from, so errors can name file and line. vert_line
 // and tet_line (nverts / ntets entries) may be NULL; index_base is the
 // file's first index (0 or 1) so indices are reported as the file has them.
+// vert_file names the file of vert_line when the vertices come from another
+// file than the tets (TetGen .node beside .ele); NULL means `file`.
 typedef struct {
   const char *file;
+  const char *vert_file;
   const long *vert_line;
   const long *tet_line;
   long index_base;

@@ -6,13 +6,25 @@
 // Formats: TetGen manual 1.5, sec. 5.2.1 (.node) and 5.2.4 (.ele); Gmsh
 // reference manual sec. 10.1 ("MSH file format", v4.1) and its legacy v2
 // description; v4.0 differs from v4.1 in the block headers only.
+//
+// Counts in headers are never trusted for memory: arrays grow as items
+// arrive (mesh_arrays), and in a regular file a count is checked against
+// the bytes left (rd_count_fits), so a header declaring 2e9 vertices is an
+// error at its line, not a 96 GB allocation. Bytes quoted from a file are
+// escaped (text_escape.h).
+//
+// Adding a format: a load_<format>() built from the reader (rd_*) and
+// mesh_arrays that ends in mesh_build(), and a branch in ek_mesh_load_ex.
 #include <errno.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "mesh_build.h"
+#include "text_escape.h"
 
 // A line reader with a token cursor and line numbers for messages.
 typedef struct {
@@ -21,8 +33,9 @@ typedef struct {
   char *line;
   size_t cap;
   long lineno;
-  char *cur;    // next token in line
-  int comments; // '#' starts a comment (TetGen)
+  char *cur;      // next token in line
+  int comments;   // '#' starts a comment (TetGen)
+  long long size; // bytes in the file if it is a regular file, else -1
   char *err;
   size_t errlen;
   int failed;
@@ -38,6 +51,20 @@ static int rd_open(reader *r, const char *path, int comments, char *err, size_t 
   if (!r->fp) {
     mesh_error(err, errlen, "%s: cannot open: %s", path, strerror(errno));
     return -1;
+  }
+  // fopen succeeds on a directory; reading it then fails (EISDIR), which
+  // would read as a truncated file.
+  struct stat st;
+  r->size = -1;
+  if (fstat(fileno(r->fp), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) {
+      mesh_error(err, errlen, "%s: is a directory, not a mesh file", path);
+      fclose(r->fp);
+      r->fp = NULL;
+      return -1;
+    }
+    if (S_ISREG(st.st_mode))
+      r->size = (long long)st.st_size;
   }
   return 0;
 }
@@ -55,15 +82,26 @@ static void rd_close(reader *r) {
 // an error naming `what` was expected.
 static int rd_line(reader *r, const char *what) {
   for (;;) {
+    errno = 0;
     ssize_t n = getline(&r->line, &r->cap, r->fp);
     if (n < 0) {
       // Reported at the line that is missing (one past the last read).
-      mesh_error(r->err, r->errlen, "%s:%ld: truncated file: end of file while reading %s", r->path,
-                 r->lineno + 1, what);
+      if (ferror(r->fp))
+        mesh_error(r->err, r->errlen, "%s:%ld: read error while reading %s: %s", r->path,
+                   r->lineno + 1, what, strerror(errno));
+      else
+        mesh_error(r->err, r->errlen, "%s:%ld: truncated file: end of file while reading %s",
+                   r->path, r->lineno + 1, what);
       r->failed = 1;
       return -1;
     }
     r->lineno++;
+    if (strlen(r->line) != (size_t)n) {
+      mesh_error(r->err, r->errlen, "%s:%ld: NUL byte at column %zu: not a text mesh file", r->path,
+                 r->lineno, strlen(r->line) + 1);
+      r->failed = 1;
+      return -1;
+    }
     if (r->comments) {
       char *h = strchr(r->line, '#');
       if (h)
@@ -106,7 +144,9 @@ static char *rd_need_token(reader *r, const char *what) {
 }
 
 static int rd_bad_number(reader *r, const char *tok, const char *what) {
-  mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
+  char text[128];
+  mesh_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno,
+             text_escape(text, sizeof text, tok, 40, 1), what);
   r->failed = 1;
   return -1;
 }
@@ -146,15 +186,50 @@ static int check_count(reader *r, long n, long max, const char *what) {
   return 0;
 }
 
-// Growable arrays for the readers.
+// A count against the bytes left in a regular file: every item takes at
+// least one line, and a line at least 2 bytes (a character and a newline),
+// so a larger count cannot be right whatever the format. Checked before
+// anything is read, so a header that lies by orders of magnitude (2e9
+// vertices in a few bytes) is reported at its own line; a merely truncated
+// file reads on to its end and is reported there, with the count read.
+static int rd_count_fits(reader *r, long n, const char *what) {
+  if (r->size < 0 || n <= 0)
+    return 0;
+  long long at = (long long)ftello(r->fp), left = r->size - (at > 0 ? at : 0);
+  if ((long long)n > (left + 1) / 2) {
+    mesh_error(r->err, r->errlen,
+               "%s:%ld: header declares %ld %ss, but only %lld bytes follow (a line each, 2 "
+               "bytes or more): corrupt header or truncated file",
+               r->path, r->lineno, n, what, left);
+    r->failed = 1;
+    return -1;
+  }
+  return 0;
+}
+
+// Growable arrays for the readers: they take what the file holds, never
+// what its header promises.
 typedef struct {
   double *X;
   long *vline;
-  size_t nv;
+  size_t nv, vcap;
   int32_t *T;
   long *tline;
   size_t nt, tcap;
 } mesh_arrays;
+
+// *p resized to cap elements of elem bytes (cap * elem checked).
+static int resize(void **p, size_t cap, size_t elem) {
+  if (cap > SIZE_MAX / elem)
+    return -1;
+  void *q = realloc(*p, cap * elem);
+  if (!q)
+    return -1;
+  *p = q;
+  return 0;
+}
+
+static size_t next_cap(size_t cap) { return cap ? cap * 2 : 1024; }
 
 static void arrays_free(mesh_arrays *a) {
   free(a->X);
@@ -163,24 +238,25 @@ static void arrays_free(mesh_arrays *a) {
   free(a->tline);
 }
 
-static int arrays_verts(mesh_arrays *a, size_t nv) {
-  a->X = malloc((nv ? nv : 1) * 3 * sizeof(double));
-  a->vline = malloc((nv ? nv : 1) * sizeof(long));
-  a->nv = nv;
-  return a->X && a->vline ? 0 : -1;
+static int arrays_push_vert(mesh_arrays *a, const double x[3], long line) {
+  if (a->nv == a->vcap) {
+    size_t cap = next_cap(a->vcap);
+    if (resize((void **)&a->X, cap, 3 * sizeof(double)) ||
+        resize((void **)&a->vline, cap, sizeof(long)))
+      return -1;
+    a->vcap = cap;
+  }
+  memcpy(a->X + a->nv * 3, x, 3 * sizeof(double));
+  a->vline[a->nv++] = line;
+  return 0;
 }
 
 static int arrays_push_tet(mesh_arrays *a, const int32_t v[4], long line) {
   if (a->nt == a->tcap) {
-    size_t cap = a->tcap ? a->tcap * 2 : 1024;
-    int32_t *T = realloc(a->T, cap * 4 * sizeof(int32_t));
-    if (!T)
+    size_t cap = next_cap(a->tcap);
+    if (resize((void **)&a->T, cap, 4 * sizeof(int32_t)) ||
+        resize((void **)&a->tline, cap, sizeof(long)))
       return -1;
-    a->T = T;
-    long *L = realloc(a->tline, cap * sizeof(long));
-    if (!L)
-      return -1;
-    a->tline = L;
     a->tcap = cap;
   }
   memcpy(a->T + a->nt * 4, v, 4 * sizeof(int32_t));
@@ -217,7 +293,8 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
     goto done;
   long np, dim;
   if (rd_line(&r, "the .node header") || rd_long(&r, "number of points", &np) ||
-      check_count(&r, np, MAX_ITEMS, "point") || rd_long(&r, "dimension", &dim))
+      check_count(&r, np, MAX_ITEMS, "point") || rd_count_fits(&r, np, "point") ||
+      rd_long(&r, "dimension", &dim))
     goto done;
   if (dim != 3) {
     mesh_error(err, errlen, "%s:%ld: dimension %ld, expected 3", node_path, r.lineno, dim);
@@ -225,10 +302,6 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
   }
   // Attribute and marker counts (optional) are not needed: the rest of
   // each point line is ignored.
-  if (arrays_verts(&a, (size_t)np)) {
-    mesh_error(err, errlen, "%s: out of memory", node_path);
-    goto done;
-  }
   for (long i = 0; i < np; i++) {
     long idx;
     char what[96];
@@ -247,10 +320,14 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
                  r.lineno, idx, base_index + i);
       goto done;
     }
+    double x[3];
     for (int k = 0; k < 3; k++)
-      if (rd_double(&r, "coordinate", &a.X[i * 3 + k]))
+      if (rd_double(&r, "coordinate", &x[k]))
         goto done;
-    a.vline[i] = r.lineno;
+    if (arrays_push_vert(&a, x, r.lineno)) {
+      mesh_error(err, errlen, "%s:%ld: out of memory at point %ld", node_path, r.lineno, i);
+      goto done;
+    }
   }
   rd_close(&r);
 
@@ -261,7 +338,7 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
     goto done;
   long ne, npt;
   if (rd_line(&r, "the .ele header") || rd_long(&r, "number of tetrahedra", &ne) ||
-      check_count(&r, ne, MAX_ITEMS / 4, "tetrahedron") ||
+      check_count(&r, ne, MAX_ITEMS / 4, "tetrahedron") || rd_count_fits(&r, ne, "tetrahedron") ||
       rd_long(&r, "nodes per tetrahedron", &npt))
     goto done;
   if (npt != 4 && npt != 10) {
@@ -289,7 +366,7 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
       t[c] = (int32_t)z;
     }
     if (arrays_push_tet(&a, t, r.lineno)) {
-      mesh_error(err, errlen, "%s: out of memory", ele_path);
+      mesh_error(err, errlen, "%s:%ld: out of memory at tetrahedron %ld", ele_path, r.lineno, e);
       goto done;
     }
   }
@@ -305,8 +382,11 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
                      a.vline[i], (long)i + base_index, "xyz"[k], a.X[i * 3 + k]);
           goto done;
         }
-    mesh_origin o = {
-        .file = ele_path, .vert_line = a.vline, .tet_line = a.tline, .index_base = base_index};
+    mesh_origin o = {.file = ele_path,
+                     .vert_file = node_path,
+                     .vert_line = a.vline,
+                     .tet_line = a.tline,
+                     .index_base = base_index};
     m = mesh_build(a.nv, a.X, a.nt, a.T, opts, &o, err, errlen);
   }
 done:
@@ -327,6 +407,24 @@ typedef struct {
 static int cmp_tag(const void *x, const void *y) {
   long a = ((const tag_index *)x)->tag, b = ((const tag_index *)y)->tag;
   return (a > b) - (a < b);
+}
+
+// Node tags in file order, grown as nodes arrive.
+typedef struct {
+  tag_index *v;
+  size_t n, cap;
+} tag_map;
+
+static int map_push(tag_map *m, long tag) {
+  if (m->n == m->cap) {
+    size_t cap = next_cap(m->cap);
+    if (resize((void **)&m->v, cap, sizeof *m->v))
+      return -1;
+    m->cap = cap;
+  }
+  m->v[m->n] = (tag_index){tag, (int32_t)m->n};
+  m->n++;
+  return 0;
 }
 
 static int32_t find_tag(const tag_index *map, size_t n, long tag) {
@@ -358,7 +456,7 @@ static int read_tet_nodes(reader *r, const tag_index *map, size_t nnodes, long t
     }
   }
   if (arrays_push_tet(a, t, r->lineno)) {
-    mesh_error(r->err, r->errlen, "%s: out of memory", r->path);
+    mesh_error(r->err, r->errlen, "%s:%ld: out of memory at element %ld", r->path, r->lineno, tag);
     return -1;
   }
   return 0;
@@ -380,10 +478,10 @@ static int find_section(reader *r, const char *name) {
 static int expect_end(reader *r, const char *name) {
   if (rd_line(r, name))
     return -1;
-  char *tok = rd_token(r);
+  char *tok = rd_token(r), text[128];
   if (!tok || strcmp(tok, name) != 0) {
     mesh_error(r->err, r->errlen, "%s:%ld: expected %s, found '%s'", r->path, r->lineno, name,
-               tok ? tok : "");
+               text_escape(text, sizeof text, tok ? tok : "", 40, 1));
     r->failed = 1;
     return -1;
   }
@@ -393,7 +491,7 @@ static int expect_end(reader *r, const char *name) {
 static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen) {
   reader r;
   mesh_arrays a = {0};
-  tag_index *map = NULL;
+  tag_map map = {0};
   ek_mesh *m = NULL;
   if (rd_open(&r, path, 0, err, errlen))
     return NULL;
@@ -420,23 +518,21 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
     goto done;
 
   long nnodes = 0;
+  double x[3];
   if (!v4) {
     // v2: "n", then "tag x y z" per node.
     if (rd_line(&r, "node count") || rd_long(&r, "node count", &nnodes) ||
-        check_count(&r, nnodes, MAX_ITEMS, "node"))
+        check_count(&r, nnodes, MAX_ITEMS, "node") || rd_count_fits(&r, nnodes, "node"))
       goto done;
-    if (arrays_verts(&a, (size_t)nnodes) || !(map = malloc((nnodes + 1) * sizeof *map))) {
-      mesh_error(err, errlen, "%s: out of memory", path);
-      goto done;
-    }
     for (long i = 0; i < nnodes; i++) {
-      if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &map[i].tag))
+      long tag;
+      if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &tag))
         goto done;
-      map[i].index = (int32_t)i;
       for (int k = 0; k < 3; k++)
-        if (rd_double(&r, "coordinate", &a.X[i * 3 + k]))
+        if (rd_double(&r, "coordinate", &x[k]))
           goto done;
-      a.vline[i] = r.lineno;
+      if (map_push(&map, tag) || arrays_push_vert(&a, x, r.lineno))
+        goto oom;
     }
   } else {
     // v4.1: "numBlocks numNodes minTag maxTag"; per block
@@ -446,12 +542,9 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
     long nblocks;
     if (rd_line(&r, "node header") || rd_long(&r, "node block count", &nblocks) ||
         rd_long(&r, "node count", &nnodes) || check_count(&r, nnodes, MAX_ITEMS, "node") ||
-        check_count(&r, nblocks, MAX_ITEMS, "node block"))
+        check_count(&r, nblocks, MAX_ITEMS, "node block") || rd_count_fits(&r, nnodes, "node") ||
+        rd_count_fits(&r, nblocks, "node block"))
       goto done;
-    if (arrays_verts(&a, (size_t)nnodes) || !(map = malloc((nnodes + 1) * sizeof *map))) {
-      mesh_error(err, errlen, "%s: out of memory", path);
-      goto done;
-    }
     long filled = 0;
     for (long b = 0; b < nblocks; b++) {
       long e1, e2, param, n;
@@ -470,27 +563,31 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
       }
       if (v41) {
         for (long i = 0; i < n; i++) {
-          if (rd_line(&r, "node tags") || rd_long(&r, "node tag", &map[filled + i].tag))
+          long tag;
+          if (rd_line(&r, "node tags") || rd_long(&r, "node tag", &tag))
             goto done;
-          map[filled + i].index = (int32_t)(filled + i);
+          if (map_push(&map, tag))
+            goto oom;
         }
         for (long i = 0; i < n; i++) {
           if (rd_line(&r, "node coordinates"))
             goto done;
           for (int k = 0; k < 3; k++)
-            if (rd_double(&r, "coordinate", &a.X[(filled + i) * 3 + k]))
+            if (rd_double(&r, "coordinate", &x[k]))
               goto done;
-          a.vline[filled + i] = r.lineno;
+          if (arrays_push_vert(&a, x, r.lineno))
+            goto oom;
         }
       } else {
         for (long i = 0; i < n; i++) {
-          if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &map[filled + i].tag))
+          long tag;
+          if (rd_line(&r, "nodes") || rd_long(&r, "node tag", &tag))
             goto done;
-          map[filled + i].index = (int32_t)(filled + i);
           for (int k = 0; k < 3; k++)
-            if (rd_double(&r, "coordinate", &a.X[(filled + i) * 3 + k]))
+            if (rd_double(&r, "coordinate", &x[k]))
               goto done;
-          a.vline[filled + i] = r.lineno;
+          if (map_push(&map, tag) || arrays_push_vert(&a, x, r.lineno))
+            goto oom;
         }
       }
       filled += n;
@@ -503,11 +600,11 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
   }
   if (expect_end(&r, "$EndNodes"))
     goto done;
-  qsort(map, (size_t)nnodes, sizeof *map, cmp_tag);
-  for (long i = 1; i < nnodes; i++)
-    if (map[i].tag == map[i - 1].tag) {
-      mesh_error(err, errlen, "%s:%ld: node tag %ld appears twice", path, a.vline[map[i].index],
-                 map[i].tag);
+  qsort(map.v, map.n, sizeof *map.v, cmp_tag);
+  for (size_t i = 1; i < map.n; i++)
+    if (map.v[i].tag == map.v[i - 1].tag) {
+      mesh_error(err, errlen, "%s:%ld: node tag %ld appears twice", path, a.vline[map.v[i].index],
+                 map.v[i].tag);
       goto done;
     }
   if (find_section(&r, "$Elements"))
@@ -520,7 +617,7 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
     // v2: "n", then "tag type ntags tags... nodes..." per element.
     long ne;
     if (rd_line(&r, "element count") || rd_long(&r, "element count", &ne) ||
-        check_count(&r, ne, MAX_ITEMS, "element"))
+        check_count(&r, ne, MAX_ITEMS, "element") || rd_count_fits(&r, ne, "element"))
       goto done;
     for (long e = 0; e < ne; e++) {
       long tag, type, ntags, dummy;
@@ -536,7 +633,7 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
       for (long k = 0; k < ntags; k++)
         if (rd_long(&r, "element tag value", &dummy))
           goto done;
-      if (read_tet_nodes(&r, map, (size_t)nnodes, tag, &a))
+      if (read_tet_nodes(&r, map.v, map.n, tag, &a))
         goto done;
     }
   } else {
@@ -546,7 +643,8 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
     long nblocks, ne;
     if (rd_line(&r, "element header") || rd_long(&r, "element block count", &nblocks) ||
         rd_long(&r, "element count", &ne) || check_count(&r, ne, MAX_ITEMS, "element") ||
-        check_count(&r, nblocks, MAX_ITEMS, "element block"))
+        check_count(&r, nblocks, MAX_ITEMS, "element block") || rd_count_fits(&r, ne, "element") ||
+        rd_count_fits(&r, nblocks, "element block"))
       goto done;
     for (long b = 0; b < nblocks; b++) {
       long e1, e2, type, n;
@@ -560,7 +658,7 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
           goto done;
         if (type != 4)
           continue;
-        if (read_tet_nodes(&r, map, (size_t)nnodes, tag, &a))
+        if (read_tet_nodes(&r, map.v, map.n, tag, &a))
           goto done;
       }
     }
@@ -575,9 +673,12 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
     mesh_origin o = {.file = path, .vert_line = a.vline, .tet_line = a.tline, .index_base = 0};
     m = mesh_build(a.nv, a.X, a.nt, a.T, opts, &o, err, errlen);
   }
+  goto done;
+oom:
+  mesh_error(err, errlen, "%s:%ld: out of memory at node %zu", path, r.lineno, map.n);
 done:
   rd_close(&r);
-  free(map);
+  free(map.v);
   arrays_free(&a);
   return m;
 }
@@ -585,6 +686,14 @@ done:
 ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen) {
   if (!path) {
     mesh_error(err, errlen, "ek_mesh_load: NULL path");
+    return NULL;
+  }
+  struct stat st;
+  if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+    mesh_error(err, errlen,
+               "%s: is a directory, not a mesh file (give a .msh file, a TetGen .node or .ele "
+               "file, or a TetGen base name)",
+               path);
     return NULL;
   }
   if (ends_with(path, ".msh"))

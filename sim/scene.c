@@ -1,6 +1,9 @@
 // Scene files: JSON (cJSON) -> ek_scene, with errors that name the file,
 // the key path and the offending value, and unknown keys refused (a typo in
-// a scene must not silently fall back to a default).
+// a scene must not silently fall back to a default). A key twice in one
+// object is refused too (cJSON keeps both and lookups find the first, so
+// "dt": 1e-4, "dt": -1 would run with 1e-4), and text quoted from the file
+// is escaped (text_escape.h).
 #include "sim_internal.h"
 
 #include <cjson/cJSON.h>
@@ -10,6 +13,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+
+#include "text_escape.h"
 
 // ---------------------------------------------------------------- errors
 
@@ -26,10 +32,11 @@ static void value_text(const cJSON *v, char *out, size_t outlen) {
   } else if (cJSON_IsNumber(v)) {
     snprintf(out, outlen, "%.10g", v->valuedouble);
   } else if (cJSON_IsString(v)) {
-    snprintf(out, outlen, "\"%.60s\"", v->valuestring);
+    char text[256];
+    snprintf(out, outlen, "\"%s\"", text_escape(text, sizeof text, v->valuestring, 60, 1));
   } else {
-    char *s = cJSON_PrintUnformatted(v);
-    snprintf(out, outlen, "%.60s%s", s ? s : "?", s && strlen(s) > 60 ? "..." : "");
+    char *s = cJSON_PrintUnformatted(v), text[256];
+    snprintf(out, outlen, "%s", text_escape(text, sizeof text, s ? s : "?", 60, 0));
     cJSON_free(s);
   }
 }
@@ -37,7 +44,7 @@ static void value_text(const cJSON *v, char *out, size_t outlen) {
 // "<file>: <path> = <value>: <reason>"; always returns EK_EINVAL.
 __attribute__((format(printf, 4, 5))) static int bad(parse_ctx *c, const char *path, const cJSON *v,
                                                      const char *fmt, ...) {
-  char val[96], reason[256];
+  char val[300], reason[256];
   value_text(v, val, sizeof val);
   va_list ap;
   va_start(ap, fmt);
@@ -54,11 +61,14 @@ static int missing(parse_ctx *c, const char *path) {
   return EK_EINVAL;
 }
 
+// parent.key; the key is escaped (it may come from the file).
 static void join(char *out, size_t outlen, const char *parent, const char *key) {
+  char text[160];
+  text_escape(text, sizeof text, key, 40, 1);
   if (parent[0])
-    snprintf(out, outlen, "%s.%s", parent, key);
+    snprintf(out, outlen, "%s.%s", parent, text);
   else
-    snprintf(out, outlen, "%s", key);
+    snprintf(out, outlen, "%s", text);
 }
 
 // Every key of `obj` must be one of `allowed` (NULL-terminated).
@@ -86,6 +96,215 @@ static int want_object(parse_ctx *c, const cJSON *v, const char *path) {
   if (!cJSON_IsObject(v))
     return bad(c, path, v, "must be an object");
   return 0;
+}
+
+// ---------------------------------------------------------------- duplicates
+// Found in the tree (cJSON's unescaped names); placed in the text by a scan
+// of the already validated text, which meets the keys in the order of a
+// pre-order walk of the tree. Should the two ever disagree, the message
+// goes without positions rather than with wrong ones.
+
+typedef struct {
+  const char *p;
+  const char **keys; // opening quote of each key, in text order
+  size_t n, cap;
+  int ok;
+} key_scan;
+
+static void scan_ws(key_scan *k) {
+  while (*k->p && (unsigned char)*k->p <= 32) // cJSON's whitespace
+    k->p++;
+}
+
+static void scan_string(key_scan *k) {
+  if (*k->p != '"') {
+    k->ok = 0;
+    return;
+  }
+  for (k->p++; *k->p && *k->p != '"'; k->p++)
+    if (*k->p == '\\' && k->p[1])
+      k->p++;
+  if (*k->p == '"')
+    k->p++;
+  else
+    k->ok = 0;
+}
+
+static void scan_value(key_scan *k, int depth) {
+  scan_ws(k);
+  if (!k->ok || depth > 2000) {
+    k->ok = 0;
+    return;
+  }
+  char open = *k->p;
+  if (open == '"') {
+    scan_string(k);
+  } else if (open == '{' || open == '[') {
+    char close = open == '{' ? '}' : ']';
+    k->p++;
+    scan_ws(k);
+    if (*k->p == close) {
+      k->p++;
+      return;
+    }
+    while (k->ok) {
+      if (open == '{') {
+        scan_ws(k);
+        if (k->n == k->cap) {
+          size_t cap = k->cap ? 2 * k->cap : 64;
+          const char **keys = realloc(k->keys, cap * sizeof *keys);
+          if (!keys) {
+            k->ok = 0;
+            return;
+          }
+          k->keys = keys;
+          k->cap = cap;
+        }
+        k->keys[k->n++] = k->p;
+        scan_string(k);
+        scan_ws(k);
+        if (*k->p != ':') {
+          k->ok = 0;
+          return;
+        }
+        k->p++;
+      }
+      scan_value(k, depth + 1);
+      scan_ws(k);
+      if (*k->p == ',') {
+        k->p++;
+      } else if (*k->p == close) {
+        k->p++;
+        return;
+      } else {
+        k->ok = 0;
+      }
+    }
+  } else {
+    // number, true, false, null
+    while (*k->p && *k->p != ',' && *k->p != '}' && *k->p != ']' && (unsigned char)*k->p > 32)
+      k->p++;
+  }
+}
+
+static void line_col(const char *text, const char *at, int *line, int *col) {
+  *line = 1;
+  *col = 1;
+  for (const char *p = text; *p && p < at; ++p) {
+    if (*p == '\n') {
+      ++*line;
+      *col = 1;
+    } else {
+      ++*col;
+    }
+  }
+}
+
+static size_t count_keys(const cJSON *v) {
+  size_t n = 0;
+  for (const cJSON *it = v->child; it; it = it->next)
+    n += (cJSON_IsObject(v) ? 1 : 0) + count_keys(it);
+  return n;
+}
+
+typedef struct {
+  const cJSON *item;
+  size_t key; // index of its key in text order
+} member;
+
+static int cmp_member(const void *x, const void *y) {
+  const member *a = x, *b = y;
+  int c = strcmp(a->item->string, b->item->string);
+  return c ? c : (a->key > b->key) - (a->key < b->key);
+}
+
+typedef struct {
+  parse_ctx *c;
+  const char *text;
+  const key_scan *scan;
+  size_t next; // keys met so far in the walk
+} dup_walk;
+
+static int find_duplicates(dup_walk *w, const cJSON *v, const char *path) {
+  if (cJSON_IsArray(v)) {
+    int i = 0;
+    for (const cJSON *it = v->child; it; it = it->next, ++i) {
+      char p[300];
+      snprintf(p, sizeof p, "%s[%d]", path[0] ? path : "(top level)", i);
+      int rc = find_duplicates(w, it, p);
+      if (rc)
+        return rc;
+    }
+    return 0;
+  }
+  if (!cJSON_IsObject(v))
+    return 0;
+  size_t n = 0;
+  for (const cJSON *it = v->child; it; it = it->next)
+    n++;
+  member *m = malloc((n ? n : 1) * sizeof *m);
+  if (!m) {
+    if (w->c->err && w->c->errlen)
+      snprintf(w->c->err, w->c->errlen, "%s: out of memory checking keys", w->c->name);
+    return EK_ENOMEM;
+  }
+  size_t i = 0;
+  int rc = 0;
+  for (const cJSON *it = v->child; it && !rc; it = it->next, ++i) {
+    m[i] = (member){it, w->next++};
+    char p[300];
+    join(p, sizeof p, path, it->string);
+    rc = find_duplicates(w, it, p);
+  }
+  if (!rc) {
+    qsort(m, n, sizeof *m, cmp_member);
+    // The repeat that comes first in the text.
+    const member *first = NULL, *again = NULL;
+    for (i = 1; i < n; i++)
+      if (strcmp(m[i].item->string, m[i - 1].item->string) == 0 &&
+          (!again || m[i].key < again->key)) {
+        again = &m[i];
+        first = &m[i - 1];
+        while (first > m && strcmp((first - 1)->item->string, again->item->string) == 0)
+          first--;
+      }
+    if (again) {
+      char p[300];
+      join(p, sizeof p, path, again->item->string);
+      const key_scan *k = w->scan;
+      if (k->ok) {
+        int l1, c1, l2, c2;
+        line_col(w->text, k->keys[first->key], &l1, &c1);
+        line_col(w->text, k->keys[again->key], &l2, &c2);
+        if (w->c->err && w->c->errlen)
+          snprintf(w->c->err, w->c->errlen,
+                   "%s:%d:%d: duplicate key \"%s\" (first at line %d, column %d): a key may "
+                   "appear once per object",
+                   w->c->name, l2, c2, p, l1, c1);
+      } else if (w->c->err && w->c->errlen) {
+        snprintf(w->c->err, w->c->errlen,
+                 "%s: duplicate key \"%s\": a key may appear once per object", w->c->name, p);
+      }
+      rc = EK_EINVAL;
+    }
+  }
+  free(m);
+  return rc;
+}
+
+// 0 if no object of the scene repeats a key, else EK_EINVAL with the key
+// path and both places in the message.
+static int check_duplicates(parse_ctx *c, const char *text, const cJSON *root) {
+  key_scan k = {.p = text, .ok = 1};
+  if (!strncmp(k.p, "\xEF\xBB\xBF", 3)) // a UTF-8 byte order mark, as cJSON skips it
+    k.p += 3;
+  scan_value(&k, 0);
+  if (k.n != count_keys(root))
+    k.ok = 0;
+  dup_walk w = {c, text, &k, 0};
+  int rc = find_duplicates(&w, root, "");
+  free(k.keys);
+  return rc;
 }
 
 // ---------------------------------------------------------------- readers
@@ -233,6 +452,9 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
   if (plane && !grid)
     return bad(c, "mesh.plane", plane_node, "only meaningful with mesh.grid");
   if (file) {
+    for (const char *p = file; *p; ++p)
+      if ((unsigned char)*p < 0x20 || *p == 0x7f)
+        return bad(c, "mesh.file", file_node, "control character in a path");
     if (cJSON_GetObjectItemCaseSensitive(mesh, "size"))
       return bad(c, "mesh.size", cJSON_GetObjectItemCaseSensitive(mesh, "size"),
                  "only meaningful with mesh.box or mesh.grid");
@@ -791,8 +1013,10 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
         ++col;
       }
     }
+    char near[128];
     if (err && errlen)
-      snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%.20s\"", c.name, line, col, at);
+      snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%s\"", c.name, line, col,
+               text_escape(near, sizeof near, at, 20, 1));
     return EK_EINVAL;
   }
   ek_scene s;
@@ -801,6 +1025,8 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
   int rc = 0;
   if (!cJSON_IsObject(root))
     rc = bad(&c, "(top level)", root, "a scene must be a JSON object");
+  if (!rc)
+    rc = check_duplicates(&c, text, root);
   if (!rc)
     rc = check_keys(&c, root, "",
                     (const char *const[]){"description", "mesh", "initial", "material", "precision",
@@ -849,6 +1075,13 @@ int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
       snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
     return EK_EIO;
   }
+  struct stat st;
+  if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: is a directory, not a scene file", path);
+    fclose(f);
+    return EK_EIO;
+  }
   // Scenes are small; 1 MiB is far beyond any hand-written one.
   enum { MAX_SCENE = 1 << 20 };
   char *text = malloc(MAX_SCENE + 1);
@@ -867,6 +1100,17 @@ int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
     return EK_EIO;
   }
   text[n] = '\0';
+  if (strlen(text) != n) {
+    // cJSON would stop at the NUL and take what precedes it as the scene.
+    int line = 1;
+    for (const char *p = text; *p; ++p)
+      line += *p == '\n';
+    if (err && errlen)
+      snprintf(err, errlen, "%s:%d: NUL byte at offset %zu: not a JSON text file", path, line,
+               strlen(text));
+    free(text);
+    return EK_EIO;
+  }
   // Mesh files are resolved relative to the scene's directory.
   char dir[EK_SCENE_PATH_MAX];
   snprintf(dir, sizeof dir, "%s", path);

@@ -21,13 +21,16 @@ extern "C" {
 #define EK_LANES_F32 16
 #define EK_LANES_F64 8
 
-// Number of blocks for n items, and scalars needed for the packed batch.
+// Number of blocks for n items, and scalars needed for the packed batch
+// (ek_aosoa_size_*: 0 when nplanes is not in 1..64 or the byte count would
+// overflow). Alignment and size rules of the arrays: core.h.
 size_t ek_aosoa_blocks_f32(size_t n);
 size_t ek_aosoa_blocks_f64(size_t n);
 size_t ek_aosoa_size_f32(size_t n, int nplanes);
 size_t ek_aosoa_size_f64(size_t n, int nplanes);
 
 // Allocate a packed batch (64-byte aligned, tail padded); free with ek_free.
+// NULL for a bad nplanes, a size that overflows, or out of memory.
 float *ek_aosoa_alloc_f32(size_t n, int nplanes);
 double *ek_aosoa_alloc_f64(size_t n, int nplanes);
 

@@ -39,7 +39,20 @@ int ek_isa_resolve(ek_isa requested, ek_isa *resolved);
 // also writes each error to stderr as it happens.
 const char *ek_last_error(void);
 
+// Batch arguments (every entry point that takes a count n or nblocks:
+// batch.h, svd3.h, material.h):
+//   - alignment: a float array must be aligned to 4 bytes and a double
+//     array to 8 (_Alignof of the element type: what malloc, ek_alloc and
+//     any C array of that type give). Reading a double through a pointer at
+//     a 4-byte offset is undefined behaviour in C, so such an array is
+//     refused with EK_EINVAL and nothing is written. AoSoA batches need no
+//     more than that; 64 bytes (ek_alloc, ek_aosoa_alloc_*) keeps each plane
+//     in one cache line and is faster.
+//   - size: a batch whose byte count would exceed PTRDIFF_MAX (n = SIZE_MAX,
+//     say) is refused with EK_EINVAL, never run as the small batch its
+//     wrapped count would describe.
 // 64-byte aligned allocation (one AoSoA plane of 16 floats is one cache line).
+// NULL when bytes is beyond what can be allocated.
 void *ek_alloc(size_t bytes);
 void ek_free(void *p);
 

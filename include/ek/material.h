@@ -134,7 +134,8 @@ typedef struct {
 // EK_MODEL_COROTATED_LINEAR (else NULL allowed, never read). Returns the
 // number of elements outside the model's domain (J <= 0 for neo-Hookean
 // without clamp: their psi is +inf and P is NaN), or < 0 for an invalid
-// argument.
+// argument (among them an array not aligned to its element type, 4 / 8
+// bytes, or an n whose byte count overflows: core.h).
 int ek_energy_f64(const ek_material *m, size_t n, const double *F, const double *R, double *psi);
 int ek_pk1_f32(const ek_material *m, size_t n, const float *F, const float *R, float *P);
 int ek_pk1_f64(const ek_material *m, size_t n, const double *F, const double *R, double *P);

@@ -12,6 +12,15 @@
 //   - vertex indices in range, at least 4 distinct vertices used;
 //   - a tet with a repeated vertex, or with 6V <= EK_MESH_DEGENERATE_REL *
 //     (longest edge)^3, is degenerate and refused;
+//   - the supported range: every tet's 6V = det(Dm) must be a finite,
+//     normal double, [DBL_MIN, DBL_MAX] ~ [2.2e-308, 1.8e308] (edges from
+//     about 1e-102 to 1e102 for a well-shaped tet; a cube of edge 1e120 is
+//     a valid shape whose volume, 1e360, no double holds), no edge vector
+//     may overflow (coordinates 1e308 and -1e308 in one tet), and every
+//     lumped volume must be finite; anything else is refused with the tet,
+//     its 6V and "outside the supported range", never loaded with an
+//     infinite or NaN volume. The shape tests (degenerate, inverted) are
+//     computed in scaled units and do not depend on the mesh's units;
 //   - a tet with negative volume (det Dm < 0) is inverted and refused unless
 //     fix_orientation is set, in which case its vertices 1 and 2 are swapped
 //     (the swap is visible through ek_mesh_tets and counted by
@@ -19,7 +28,10 @@
 // Errors name the file, the line (or the element index for in-memory
 // meshes) and the offending value; a mesh never half-loads: on error the
 // functions return NULL and write the message into err (when err != NULL,
-// truncated to errlen).
+// truncated to errlen). Files: counts in headers are checked against the
+// bytes that follow and memory grows only as items arrive; a directory, a
+// NUL byte or a read error is reported as such; bytes quoted from a file
+// are escaped (\xNN) in messages.
 #ifndef EK_MESH_H
 #define EK_MESH_H
 

@@ -52,7 +52,9 @@ int ek_svd3_default_exact_rsqrt_f32(void);
 int ek_svd3_default_exact_rsqrt_f64(void);
 
 // A, U, V: n row-major 3x3 matrices; S: n x 3. opts may be NULL. U or V may
-// be NULL when not wanted. 0 on success, < 0 on error.
+// be NULL when not wanted. 0 on success, < 0 on error. Arrays aligned to
+// their element type (4 / 8 bytes), and n small enough that the byte count
+// does not overflow, else EK_EINVAL and nothing written (core.h).
 int ek_svd3_f32(size_t n, const float *A, float *U, float *S, float *V, const ek_svd3_opts *opts);
 int ek_svd3_f64(size_t n, const double *A, double *U, double *S, double *V,
                 const ek_svd3_opts *opts);

@@ -1,29 +1,36 @@
 // AoS <-> AoSoA conversion (layout in include/ek/batch.h). Built once per
 // precision; EK_P() gives the public names.
+#include <stdint.h>
 #include <string.h>
 
 #include "kernels.h"
 #include "real.h"
 
-size_t EK_P(aosoa_blocks)(size_t n) { return (n + EK_LANES - 1) / EK_LANES; }
+// n / LANES rounded up, written so that it cannot wrap (n + LANES - 1
+// would, near SIZE_MAX).
+size_t EK_P(aosoa_blocks)(size_t n) { return n / EK_LANES + (n % EK_LANES != 0); }
 
 size_t EK_P(aosoa_size)(size_t n, int nplanes) {
-  return EK_P(aosoa_blocks)(n) * (size_t)nplanes * EK_LANES;
+  size_t nb = EK_P(aosoa_blocks)(n);
+  if (nplanes < 1 || nplanes > 64 || nb > SIZE_MAX / sizeof(real) / ((size_t)nplanes * EK_LANES))
+    return 0; // no such batch (batch.h)
+  return nb * (size_t)nplanes * EK_LANES;
 }
 
-static int check(size_t n, int nplanes, const void *in, const void *out) {
+static int check(const char *fn, size_t n, int nplanes, const void *in, const void *out) {
   if (nplanes < 1 || nplanes > 64 || (n && (!in || !out))) {
-    ek_set_error("ek_aosoa: nplanes %d (1..64) or NULL array with n = %zu", nplanes, n);
+    ek_set_error("%s: nplanes %d (1..64) or NULL array with n = %zu", fn, nplanes, n);
     return EK_EINVAL;
   }
-  return EK_OK;
+  return ek_batch_check(fn, n, (size_t)nplanes * sizeof(real), _Alignof(real), 2,
+                        (const void *[]){in, out}, (const char *const[]){"input", "output"});
 }
 
 // Padding of a tail lane: identity for 3x3 matrices, zero otherwise.
 static real pad_value(int nplanes, int k) { return nplanes == 9 && k % 4 == 0 ? 1 : 0; }
 
 int EK_P(aosoa_pack)(size_t n, int nplanes, const real *aos, real *soa) {
-  int rc = check(n, nplanes, aos, soa);
+  int rc = check("ek_aosoa_pack", n, nplanes, aos, soa);
   if (rc)
     return rc;
   size_t nb = EK_P(aosoa_blocks)(n);
@@ -42,7 +49,7 @@ int EK_P(aosoa_pack)(size_t n, int nplanes, const real *aos, real *soa) {
 }
 
 int EK_P(aosoa_unpack)(size_t n, int nplanes, const real *soa, real *aos) {
-  int rc = check(n, nplanes, soa, aos);
+  int rc = check("ek_aosoa_unpack", n, nplanes, soa, aos);
   if (rc)
     return rc;
   size_t nb = EK_P(aosoa_blocks)(n);
@@ -58,7 +65,8 @@ int EK_P(aosoa_unpack)(size_t n, int nplanes, const real *soa, real *aos) {
 }
 
 real *EK_P(aosoa_alloc)(size_t n, int nplanes) {
-  if (nplanes < 1 || nplanes > 64)
+  if (nplanes < 1 || nplanes > 64 ||
+      ek_batch_check("ek_aosoa_alloc", n, (size_t)nplanes * sizeof(real), 1, 0, NULL, NULL))
     return NULL;
   size_t count = EK_P(aosoa_size)(n, nplanes);
   real *p = ek_alloc(count * sizeof(real));

@@ -148,12 +148,16 @@ static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
   for (size_t t = 0; t < nt; t++) {
     uint64_t key = 0;
     for (int k = 0; k < 3; k++) {
+      // Halved coordinates: the centroid's sum and the box's span stay
+      // finite for any finite coordinates (near DBL_MAX, X + X or hi - lo
+      // would overflow), and u is clamped to [0, 1] (NaN -> 0) before the
+      // conversion to an integer, which is undefined outside its range.
       double c = 0;
       for (int j = 0; j < 4; j++)
-        c += X[(size_t)el->tets[t * 4 + j] * 3 + k];
-      c /= 4;
-      double span = hi[k] - lo[k];
-      double u = span > 0 ? (c - lo[k]) / span : 0;
+        c += X[(size_t)el->tets[t * 4 + j] * 3 + k] / 8;
+      double span = hi[k] / 2 - lo[k] / 2;
+      double u = span > 0 ? (c - lo[k] / 2) / span : 0;
+      u = u >= 0 ? fmin(u, 1.0) : 0;
       key |= spread3((uint64_t)(u * 2097151.0)) << k;
     }
     keyed[t].key = key;

@@ -57,8 +57,9 @@ static int check_params(const char *fn, const ek_material *m) {
   return EK_OK;
 }
 
+// count: items (lanes = 1) or blocks (lanes = EK_LANES).
 static int check_call(const char *fn, const ek_material *m, ek_material_op op, size_t count,
-                      const real *F, const real *R, const real *dF, const real *out) {
+                      size_t lanes, const real *F, const real *R, const real *dF, const real *out) {
   int rc = check_params(fn, m);
   if (rc)
     return rc;
@@ -80,7 +81,10 @@ static int check_call(const char *fn, const ek_material *m, ek_material_op op, s
     ek_set_error("%s: dF is NULL", fn);
     return EK_EINVAL;
   }
-  return EK_OK;
+  const size_t planes = out_planes(op) > 9 ? (size_t)out_planes(op) : 9;
+  return ek_batch_check(fn, count, planes * lanes * sizeof(real), _Alignof(real), 4,
+                        (const void *[]){F, R, dF, out},
+                        (const char *const[]){"F", "R", "dF", "the output array"});
 }
 
 static ek_material_knobs knobs_of(const ek_material *m, ek_material_op op, int project) {
@@ -121,7 +125,7 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
                               const real *F, const real *R, const real *dF, real *out,
                               int project) {
   static const char fn[] = "ek_material_eval_aosoa";
-  int rc = check_call(fn, m, op, nblocks, F, R, dF, out);
+  int rc = check_call(fn, m, op, nblocks, EK_LANES, F, R, dF, out);
   if (rc)
     return rc;
   const ek_kernel_table *t = ek_kernels_resolve(isa);
@@ -152,7 +156,7 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
 int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
                         const real *F, const real *R, const real *dF, real *out, int project) {
   static const char fn[] = "ek_material_eval";
-  int rc = check_call(fn, m, op, n, F, R, dF, out);
+  int rc = check_call(fn, m, op, n, 1, F, R, dF, out);
   if (rc)
     return rc;
   const ek_kernel_table *t = ek_kernels_resolve(isa);
@@ -280,8 +284,16 @@ int ek_lame_from_young_poisson(double E, double nu, double *mu, double *lambda) 
                  nu);
     return EK_EINVAL;
   }
-  *mu = E / (2 * (1 + nu));
-  *lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+  double m = E / (2 * (1 + nu)), l = E * nu / ((1 + nu) * (1 - 2 * nu));
+  if (!isfinite(m) || !isfinite(l)) {
+    // E near DBL_MAX, or nu near 0.5: finite inputs, an overflowing result.
+    ek_set_error("ek_lame_from_young_poisson: E = %g, nu = %g give mu = %g, lambda = %g: not "
+                 "finite (E too large for this nu)",
+                 E, nu, m, l);
+    return EK_EINVAL;
+  }
+  *mu = m;
+  *lambda = l;
   return EK_OK;
 }
 

@@ -139,6 +139,10 @@ int EK_P(svd3)(size_t n, const real *A, real *U, real *S, real *V, const ek_svd3
     ek_set_error("ek_svd3: A and S must not be NULL (n = %zu)", n);
     return EK_EINVAL;
   }
+  if ((rc =
+           ek_batch_check("ek_svd3", n, 9 * sizeof(real), _Alignof(real), 4,
+                          (const void *[]){A, U, S, V}, (const char *const[]){"A", "U", "S", "V"})))
+    return rc;
   return n ? run_aos(block, n, A, U, S, V, &k) : EK_OK;
 }
 
@@ -153,6 +157,10 @@ int EK_P(svd3_aosoa)(size_t nblocks, const real *A, real *U, real *S, real *V,
     ek_set_error("ek_svd3_aosoa: A, U, S, V must not be NULL (nblocks = %zu)", nblocks);
     return EK_EINVAL;
   }
+  if ((rc =
+           ek_batch_check("ek_svd3_aosoa", nblocks, 9 * EK_LANES * sizeof(real), _Alignof(real), 4,
+                          (const void *[]){A, U, S, V}, (const char *const[]){"A", "U", "S", "V"})))
+    return rc;
   run_blocks(block, nblocks, A, U, S, V, &k);
   return EK_OK;
 }
@@ -167,6 +175,9 @@ int EK_P(polar3)(size_t n, const real *A, real *R, real *Ssym, const ek_svd3_opt
     ek_set_error("ek_polar3: A and R must not be NULL (n = %zu)", n);
     return EK_EINVAL;
   }
+  if ((rc = ek_batch_check("ek_polar3", n, 9 * sizeof(real), _Alignof(real), 3,
+                           (const void *[]){A, R, Ssym}, (const char *const[]){"A", "R", "Ssym"})))
+    return rc;
   return n ? run_aos(block, n, A, R, NULL, Ssym, &k) : EK_OK;
 }
 
@@ -181,6 +192,10 @@ int EK_P(polar3_aosoa)(size_t nblocks, const real *A, real *R, real *Ssym,
     ek_set_error("ek_polar3_aosoa: A and R must not be NULL (nblocks = %zu)", nblocks);
     return EK_EINVAL;
   }
+  if ((rc = ek_batch_check("ek_polar3_aosoa", nblocks, 9 * EK_LANES * sizeof(real), _Alignof(real),
+                           3, (const void *[]){A, R, Ssym},
+                           (const char *const[]){"A", "R", "Ssym"})))
+    return rc;
   run_blocks(block, nblocks, A, R, NULL, Ssym, &k);
   return EK_OK;
 }

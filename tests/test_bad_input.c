@@ -1,0 +1,484 @@
+// Invariant: every malformed input of issue 14 is refused, never half-used:
+//   - meshes: huge coordinates (6V beyond a double, or an edge vector that
+//     overflows) and rest volumes out of range are refused naming the tet
+//     and its 6V, never loaded with a NaN or infinite V0; the shape tests
+//     are scale-free (a cube at 1e-100 or 1e100 loads, exact to
+//     EK_MESH_TOL); a header declaring 2e9 items is refused at its line
+//     before anything is allocated for it; a directory is reported as one;
+//     NUL and binary bytes are refused and never echoed raw;
+//   - scenes: a key twice in one object is refused naming the key and both
+//     places; E = 1e308 is refused naming material.E; a directory as the
+//     mesh is reported as one; messages never carry raw control or non-ASCII
+//     bytes;
+//   - batches: a count whose byte count overflows (n = SIZE_MAX) gives
+//     EK_EINVAL from every batch entry point and writes nothing; an array not
+//     aligned to its element type gives EK_EINVAL; element-aligned arrays
+//     that are not 64-byte aligned work and give the same bits.
+// Run under the asan preset it also checks that every error path frees
+// what it took (ctest --preset asan -R bad_input).
+#include <ek/batch.h>
+#include <ek/elements.h>
+#include <ek/material.h>
+#include <ek/mesh.h>
+#include <ek/sim.h>
+#include <ek/svd3.h>
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "check.h"
+
+static int failures = 0;
+static char tmp_dir[256];
+
+static void verdict(const char *what, int ok, const char *detail) {
+  printf("%-52s %s  %s\n", what, ok ? "PASS" : "FAIL", detail);
+  if (!ok)
+    failures++;
+}
+
+static void write_file(const char *name, const char *text, size_t len) {
+  char path[512];
+  snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+  FILE *f = fopen(path, "wb");
+  if (!f || fwrite(text, 1, len, f) != len) {
+    printf("cannot write %s\n", path);
+    exit(2);
+  }
+  fclose(f);
+}
+
+static void write_text(const char *name, const char *text) { write_file(name, text, strlen(text)); }
+
+// Every byte of a message printable ASCII (binary input never echoed raw).
+static int printable(const char *s) {
+  for (; *s; s++)
+    if ((unsigned char)*s < 0x20 || (unsigned char)*s >= 0x7f)
+      return 0;
+  return 1;
+}
+
+static int contains_all(const char *s, const char *w1, const char *w2, const char *w3) {
+  const char *w[3] = {w1, w2, w3};
+  for (int k = 0; k < 3; k++)
+    if (w[k] && !strstr(s, w[k]))
+      return 0;
+  return 1;
+}
+
+// A mesh that must be refused: NULL, the pieces in the message, no raw
+// bytes, and no pieces that must not be there (`never`).
+static void mesh_refused(const char *what, ek_mesh *m, const char *err, const char *w1,
+                         const char *w2, const char *w3, const char *never) {
+  int ok = m == NULL && contains_all(err, w1, w2, w3) && printable(err) &&
+           !(never && strstr(err, never));
+  verdict(what, ok, err);
+  if (!ok) {
+    printf("  expected NULL and a printable message with '%s' '%s' '%s'%s%s\n", w1 ? w1 : "",
+           w2 ? w2 : "", w3 ? w3 : "", never ? ", without " : "", never ? never : "");
+    if (m)
+      printf("  loaded: %zu tets, V0[0] = %g\n", ek_mesh_ntets(m), ek_mesh_rest_volumes(m)[0]);
+  }
+  ek_mesh_destroy(m);
+}
+
+static ek_mesh *load(const char *name, char *err, size_t errlen) {
+  char path[512];
+  snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+  err[0] = 0;
+  return ek_mesh_load(path, err, errlen);
+}
+
+// The unit cube as 6 Kuhn tets (as ek_mesh_box(1,1,1)), scaled by s.
+static ek_mesh *cube(double s, char *err, size_t errlen) {
+  double X[8 * 3];
+  for (int v = 0; v < 8; v++)
+    for (int k = 0; k < 3; k++)
+      X[v * 3 + k] = s * (double)(v >> k & 1);
+  ek_mesh *box = ek_mesh_box(1, 1, 1, 1, 1, 1, err, errlen);
+  if (!box)
+    return NULL;
+  // ek_mesh_box numbers vertices x fastest, as above.
+  ek_mesh *m = ek_mesh_create(8, X, 6, ek_mesh_tets(box), err, errlen);
+  ek_mesh_destroy(box);
+  return m;
+}
+
+// Loaded at scale s: 6 tets, V0 = s^3 / 6 each, Dm Dm^-1 = I, all to
+// EK_MESH_TOL relative.
+static void cube_loads(double s) {
+  char err[512] = "", what[96];
+  snprintf(what, sizeof what, "cube of edge %g loads, V0 = s^3/6, Dm Dm^-1 = I", s);
+  ek_mesh *m = cube(s, err, sizeof err);
+  if (!m) {
+    verdict(what, 0, err);
+    return;
+  }
+  double worst = 0;
+  const double *X = ek_mesh_rest_positions(m);
+  for (size_t t = 0; t < ek_mesh_ntets(m); t++) {
+    double V0 = ek_mesh_rest_volumes(m)[t], want = s * s * s / 6;
+    worst = fmax(worst, fabs(V0 - want) / want);
+    const int32_t *T = ek_mesh_tets(m) + t * 4;
+    const double *Dmi = ek_mesh_dm_inv(m) + t * 9;
+    for (int r = 0; r < 3; r++)
+      for (int c = 0; c < 3; c++) {
+        double sum = 0; // (Dm Dm^-1)_rc with Dm's columns X_j - X_0
+        for (int j = 0; j < 3; j++)
+          sum += (X[T[j + 1] * 3 + r] - X[T[0] * 3 + r]) * Dmi[j * 3 + c];
+        worst = fmax(worst, fabs(sum - (r == c)));
+      }
+  }
+  char detail[128];
+  snprintf(detail, sizeof detail, "worst relative error %.3g (budget %g)", worst, EK_MESH_TOL);
+  verdict(what, worst <= EK_MESH_TOL && isfinite(ek_mesh_min_edge(m)), detail);
+  ek_mesh_destroy(m);
+}
+
+static void meshes(void) {
+  char err[512];
+  printf("-- meshes\n");
+  // Scale: the shape tests hold at any scale; 6V must fit a double.
+  cube_loads(1e-100);
+  cube_loads(1e100);
+  mesh_refused("cube of edge 1e120: outside the range, not 'zero volume'",
+               cube(1e120, err, sizeof err), err, "tet 0", "6V = 1e+360",
+               "outside the supported range", "zero volume");
+  mesh_refused("cube of edge 1e-120: outside the range, not 'zero volume'",
+               cube(1e-120, err, sizeof err), err, "tet 0", "6V = 1e-360",
+               "outside the supported range", "zero volume");
+
+  // Huge finite coordinates: 6V overflows (|x| ~ 1e160: it was NaN and
+  // passed both the degenerate and the inverted test).
+  write_text("huge.node", "4 3 0 0\n1 0 0 0\n2 1e160 0 0\n3 0 1e160 0\n4 0 0 1e160\n");
+  write_text("huge.ele", "1 4 0\n1 1 2 3 4\n");
+  mesh_refused("TetGen tet at 1e160: refused, file:line and 6V", load("huge", err, sizeof err), err,
+               "huge.ele:2: tet 0", "6V = 1e+480", "outside the supported range", "nan");
+  // An edge vector that overflows: x = 1e308 and -1e308 in one tet.
+  write_text("edge.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 -1e308 0 0\n"
+                         "2 1e308 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n1\n"
+                         "1 4 0 1 2 3 4\n$EndElements\n");
+  mesh_refused("Gmsh edge from -1e308 to 1e308: overflow named", load("edge.msh", err, sizeof err),
+               err, "edge.msh:13: tet 0", "overflows", "x = 1e+308 - -1e+308", NULL);
+  // A needle tet near DBL_MAX (edges 1e307 along x, 1 across): its 6V =
+  // 1e307 is finite, so the element layer takes it; the Morton order's
+  // centroid (sum of four 1.5e308) must not overflow into an infinite key,
+  // whose conversion to an integer is undefined (UBSan, float-cast-overflow:
+  // clang's -fsanitize=undefined, the fuzz build). The mesh layer refuses it
+  // as degenerate (6V against (longest edge)^3, in scaled units).
+  {
+    double X[4 * 3] = {1.5e308, 0, 0, 1.6e308, 0, 0, 1.5e308, 1, 0, 1.5e308, 0, 1};
+    int32_t T[4] = {0, 1, 2, 3};
+    err[0] = 0;
+    ek_tets *el = ek_tets_create(4, X, 1, T, err, sizeof err);
+    int ok = el && fabs(ek_tets_rest_volumes(el)[0] - 1e307 / 6) <= EK_MESH_TOL * 1e307 / 6;
+    verdict("element layer: needle tet at 1.5e308, V0 = 1e307/6", ok, el ? "" : err);
+    ek_tets_destroy(el);
+    mesh_refused("mesh: the same needle is degenerate", ek_mesh_create(4, X, 1, T, err, sizeof err),
+                 err, "tet 0", "degenerate", NULL, NULL);
+  }
+  // A tet translated far from the origin: edges 2^-40 of the coordinates.
+  {
+    const double T0 = 1e110, T1 = 1e110 * (1 + 0x1p-40);
+    double X[4 * 3] = {T0, T0, T0, T1, T0, T0, T0, T1, T0, T0, T0, T1};
+    int32_t T[4] = {0, 1, 2, 3};
+    err[0] = 0;
+    ek_mesh *m = ek_mesh_create(4, X, 1, T, err, sizeof err);
+    double d = T1 - T0, want = d * d * d / 6;
+    int ok = m && fabs(ek_mesh_rest_volumes(m)[0] - want) <= EK_MESH_TOL * want;
+    verdict("tet of edge 9e97 at 1e110: loads, V0 = d^3/6", ok, m ? "" : err);
+    ek_mesh_destroy(m);
+  }
+
+  // Header counts: 2e9 items declared, a few bytes follow.
+  write_text("count.node", "2000000000 3 0 0\n1 0 0 0\n2 1 0 0\n");
+  write_text("count.ele", "1 4 0\n1 1 2 3 4\n");
+  mesh_refused("TetGen header of 2e9 points: refused at its line",
+               load("count.node", err, sizeof err), err, "count.node:1",
+               "declares 2000000000 points", NULL, NULL);
+  write_text("count_ele.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
+  write_text("count_ele.ele", "499999999 4 0\n1 1 2 3 4\n");
+  mesh_refused("TetGen header of 5e8 tets: refused at its line", load("count_ele", err, sizeof err),
+               err, "count_ele.ele:1", "declares 499999999 tetrahedrons", NULL, NULL);
+  write_text("count_v2.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2000000000\n"
+                             "1 0 0 0\n$EndNodes\n");
+  mesh_refused("Gmsh v2 header of 2e9 nodes: refused at its line",
+               load("count_v2.msh", err, sizeof err), err, "count_v2.msh:5",
+               "declares 2000000000 nodes", NULL, NULL);
+  write_text("count_v4.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n"
+                             "1 2000000000 1 2000000000\n0 1 0 1\n1\n0 0 0\n$EndNodes\n");
+  mesh_refused("Gmsh v4 header of 2e9 nodes: refused at its line",
+               load("count_v4.msh", err, sizeof err), err, "count_v4.msh:5",
+               "declares 2000000000 nodes", NULL, NULL);
+  write_text("count_el.msh",
+             "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n"
+             "4 0 0 1\n$EndNodes\n$Elements\n2000000000\n1 4 0 1 2 3 4\n$EndElements\n");
+  mesh_refused("Gmsh v2 header of 2e9 elements: refused at its line",
+               load("count_el.msh", err, sizeof err), err, "count_el.msh:12",
+               "declares 2000000000 elements", NULL, NULL);
+
+  // A directory, as a .msh name and as a TetGen base name.
+  char path[512];
+  snprintf(path, sizeof path, "%s/dir.msh", tmp_dir);
+  mkdir(path, 0700);
+  snprintf(path, sizeof path, "%s/dir.node", tmp_dir);
+  mkdir(path, 0700);
+  mesh_refused("directory dir.msh: 'is a directory'", load("dir.msh", err, sizeof err), err,
+               "dir.msh: is a directory", NULL, NULL, "truncated");
+  mesh_refused("TetGen base whose .node is a directory", load("dir", err, sizeof err), err,
+               "dir.node: is a directory", NULL, NULL, "truncated");
+
+  // Binary bytes: a NUL, and raw bytes in a number, escaped in the message.
+  write_file("nul.node", "2 3 0 0\n1 0 0 0\n2 1\0 0 0\n", 25);
+  write_text("nul.ele", "1 4 0\n1 1 2 3 4\n");
+  mesh_refused("NUL byte in a .node: refused at its line", load("nul", err, sizeof err), err,
+               "nul.node:3", "NUL byte", NULL, NULL);
+  write_text("bytes.node", "2 3 0 0\n1 0 0 0\n2 1\x1b[31m\xff 0 0\n");
+  write_text("bytes.ele", "1 4 0\n1 1 2 3 4\n");
+  mesh_refused("raw bytes in a number: escaped in the message", load("bytes", err, sizeof err), err,
+               "bytes.node:3", "bad number '1\\x1b[31m\\xff'", NULL, NULL);
+  write_text("bytes.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n0\n\x01\x02\n");
+  mesh_refused("raw bytes for $EndNodes: escaped", load("bytes.msh", err, sizeof err), err,
+               "bytes.msh:6", "found '\\x01\\x02'", NULL, NULL);
+}
+
+// ---- scenes
+
+#define MESH "\"mesh\": {\"box\": [2, 2, 2], \"size\": [1, 1, 1]}"
+#define MAT "\"material\": {\"model\": \"arap\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}"
+#define TAIL "\"dt\": 1e-4, \"steps\": 10"
+
+static void scene_refused(const char *what, const char *json, const char *w1, const char *w2,
+                          const char *w3) {
+  ek_scene s;
+  char err[1024] = "";
+  int rc = ek_scene_parse(json, "bad.json", ".", &s, err, sizeof err);
+  int ok = rc == EK_EINVAL && contains_all(err, w1, w2, w3) && printable(err);
+  verdict(what, ok, err);
+  if (!ok)
+    printf("  rc %d; expected EK_EINVAL and a printable message with '%s' '%s' '%s'\n", rc, w1,
+           w2 ? w2 : "", w3 ? w3 : "");
+}
+
+static void scenes(void) {
+  printf("-- scenes\n");
+  scene_refused("\"dt\" twice: refused, both places named",
+                "{" MESH ", " MAT ",\n \"dt\": 1e-4,\n \"dt\": -1, \"steps\": 10}",
+                "bad.json:3:2: duplicate key \"dt\"", "first at line 2, column 2", NULL);
+  scene_refused("\"material\" twice: refused",
+                "{" MESH ", " MAT ", " TAIL ",\n \"material\": {\"model\": \"snh\"}}",
+                "bad.json:2:2: duplicate key \"material\"", "first at line 1", NULL);
+  scene_refused("\"E\" twice inside material: path named",
+                "{" MESH ", \"material\": {\"model\": \"arap\", \"E\": 1e5, \"nu\": 0.3, "
+                "\"E\": 2e5, \"density\": 1}, " TAIL "}",
+                "duplicate key \"material.E\"", "first at line 1", NULL);
+  scene_refused("escaped duplicate (\\u0064t = dt): refused",
+                "{" MESH ", " MAT ", \"dt\": 1e-4, \"\\u0064t\": 1, \"steps\": 10}",
+                "duplicate key \"dt\"", NULL, NULL);
+  scene_refused("duplicate inside boundary[1]: path named",
+                "{" MESH ", " MAT ", " TAIL ", \"boundary\": [{\"type\": \"pin\", \"region\": "
+                "{\"min\": [0,0,0], \"max\": [1,1,1]}}, {\"type\": \"pin\", \"type\": \"pin\"}]}",
+                "duplicate key \"boundary[1].type\"", NULL, NULL);
+  scene_refused("E = 1e308 (lambda = inf): refused naming material.E",
+                "{" MESH ", \"material\": {\"model\": \"arap\", \"E\": 1e308, \"nu\": 0.49, "
+                "\"density\": 1}, " TAIL "}",
+                "material.E = 1e+308", "lambda = inf", NULL);
+  scene_refused("raw bytes in an unknown key: escaped",
+                "{" MESH ", " MAT ", " TAIL ", \"\x1b[2J\xc3\": 1}", "unknown key", "\\x1b[2J\\xc3",
+                NULL);
+  scene_refused("raw bytes in a string value: escaped",
+                "{" MESH ", \"material\": {\"model\": \"\x07\xfe\", \"E\": 1, \"nu\": 0.3, "
+                "\"density\": 1}, " TAIL "}",
+                "material.model = \"\\x07\\xfe\"", NULL, NULL);
+  // (cJSON skips every byte <= 32 as whitespace, so the error is at \xfe.)
+  scene_refused("raw bytes in invalid JSON: escaped", "{\"mesh\": \xfe\x1b\x7f}",
+                "invalid JSON near \"\\xfe\\x1b\\x7f}\"", NULL, NULL);
+  scene_refused("control character in mesh.file: refused",
+                "{\"mesh\": {\"file\": \"a\\nb.msh\"}, " MAT ", " TAIL "}", "mesh.file",
+                "control character", NULL);
+  {
+    // A NUL in the file: cJSON would stop there and take the first part.
+    const char text[] = "{" MESH ", " MAT ", " TAIL "}\0, \"dt\": -1}";
+    write_file("nul.json", text, sizeof text - 1);
+    ek_scene s;
+    char err[512] = "", path[512];
+    snprintf(path, sizeof path, "%s/nul.json", tmp_dir);
+    int rc = ek_scene_load(path, &s, err, sizeof err);
+    verdict("NUL byte in a scene file: refused", rc < 0 && strstr(err, "NUL byte"), err);
+    snprintf(path, sizeof path, "%s/dir.msh", tmp_dir);
+    rc = ek_scene_load(path, &s, err, sizeof err);
+    verdict("directory as the scene: 'is a directory'", rc < 0 && strstr(err, "is a directory"),
+            err);
+  }
+  {
+    // A directory as the mesh.
+    write_text("dirmesh.json", "{\"mesh\": {\"file\": \"dir.msh\"}, " MAT ", " TAIL "}");
+    ek_scene s;
+    char err[512] = "", path[512];
+    snprintf(path, sizeof path, "%s/dirmesh.json", tmp_dir);
+    int rc = ek_scene_load(path, &s, err, sizeof err);
+    ek_mesh *m = rc == 0 ? ek_scene_mesh(&s, err, sizeof err) : NULL;
+    verdict("directory as the scene's mesh: 'is a directory'",
+            rc == 0 && !m && strstr(err, "dir.msh: is a directory") && !strstr(err, "truncated"),
+            err);
+    ek_mesh_destroy(m);
+  }
+}
+
+// ---- batches
+
+static void rc_is(const char *what, int rc, int want) {
+  char detail[160];
+  snprintf(detail, sizeof detail, "rc %d (want %d) %s", rc, want, rc < 0 ? ek_last_error() : "");
+  verdict(what, rc == want, detail);
+}
+
+// Sentinels stay where nothing may be written.
+static int untouched(const double *a, size_t n) {
+  for (size_t i = 0; i < n; i++)
+    if (a[i] != -7.0)
+      return 0;
+  return 1;
+}
+
+static void batches(void) {
+  printf("-- batches\n");
+  // Big enough for a real call on 20 matrices (+ an offset of one float).
+  enum { N = 20 };
+  double *buf = malloc((N * 81 + 8) * sizeof(double) * 4);
+  float *fbuf = malloc((N * 81 + 8) * sizeof(float) * 4);
+  double *A = buf, *U = buf + N * 81 + 8, *S = U + N * 81, *V = S + N * 81;
+  float *Af = fbuf, *Uf = fbuf + N * 81 + 8, *Sf = Uf + N * 81, *Vf = Sf + N * 81;
+  for (size_t i = 0; i < (N * 81 + 8) * 4; i++) {
+    buf[i] = -7.0;
+    fbuf[i] = -7.0f;
+  }
+  ek_material mat = {.model = EK_MODEL_FIXED_COROTATED, .mu = 1, .lambda = 1};
+  ek_material_op ops[] = {EK_MAT_ENERGY, EK_MAT_PK1, EK_MAT_PK1_DIFF, EK_MAT_HESSIAN};
+  const size_t huge[] = {SIZE_MAX, SIZE_MAX / 2, SIZE_MAX / 9 + 1};
+  for (int h = 0; h < 3; h++) {
+    size_t n = huge[h];
+    char what[96];
+#define HUGE_CASE(name, call)                                                                      \
+  do {                                                                                             \
+    snprintf(what, sizeof what, "%s, n = %zu", name, n);                                           \
+    rc_is(what, call, EK_EINVAL);                                                                  \
+  } while (0)
+    HUGE_CASE("ek_svd3_f64", ek_svd3_f64(n, A, U, S, V, NULL));
+    HUGE_CASE("ek_svd3_f32", ek_svd3_f32(n, Af, Uf, Sf, Vf, NULL));
+    HUGE_CASE("ek_svd3_aosoa_f64", ek_svd3_aosoa_f64(n, A, U, S, V, NULL));
+    HUGE_CASE("ek_svd3_aosoa_f32", ek_svd3_aosoa_f32(n, Af, Uf, Sf, Vf, NULL));
+    HUGE_CASE("ek_polar3_f64", ek_polar3_f64(n, A, U, S, NULL));
+    HUGE_CASE("ek_polar3_f32", ek_polar3_f32(n, Af, Uf, Sf, NULL));
+    HUGE_CASE("ek_polar3_aosoa_f64", ek_polar3_aosoa_f64(n, A, U, S, NULL));
+    HUGE_CASE("ek_polar3_aosoa_f32", ek_polar3_aosoa_f32(n, Af, Uf, Sf, NULL));
+    HUGE_CASE("ek_pk1_f64", ek_pk1_f64(&mat, n, A, NULL, U));
+    HUGE_CASE("ek_pk1_f32", ek_pk1_f32(&mat, n, Af, NULL, Uf));
+    HUGE_CASE("ek_pk1_diff_f64", ek_pk1_diff_f64(&mat, n, A, NULL, S, U, 1));
+    HUGE_CASE("ek_pk1_hessian_f32", ek_pk1_hessian_f32(&mat, n, Af, NULL, Uf, 0));
+    HUGE_CASE("ek_energy_f64", ek_energy_f64(&mat, n, A, NULL, U));
+    HUGE_CASE("ek_pk1_aosoa_f64", ek_pk1_aosoa_f64(&mat, n, A, NULL, U));
+    HUGE_CASE("ek_pk1_diff_aosoa_f32", ek_pk1_diff_aosoa_f32(&mat, n, Af, NULL, Sf, Uf, 0));
+    for (int o = 0; o < 4; o++) {
+      HUGE_CASE("ek_material_eval_f64",
+                ek_material_eval_f64(&mat, ops[o], EK_ISA_AUTO, n, A, NULL, S, U, 0));
+      HUGE_CASE("ek_material_eval_aosoa_f32",
+                ek_material_eval_aosoa_f32(&mat, ops[o], EK_ISA_AUTO, n, Af, NULL, Sf, Uf, 0));
+    }
+    HUGE_CASE("ek_aosoa_pack_f64", ek_aosoa_pack_f64(n, 9, A, U));
+    HUGE_CASE("ek_aosoa_unpack_f32", ek_aosoa_unpack_f32(n, 9, Af, Uf));
+#undef HUGE_CASE
+  }
+  verdict("nothing written by the refused calls", untouched(U, (N * 81) * 3), "");
+  {
+    double *p = ek_aosoa_alloc_f64(SIZE_MAX, 9);
+    verdict("ek_aosoa_alloc_f64(SIZE_MAX): NULL", p == NULL, "");
+    ek_free(p);
+    verdict("ek_aosoa_size_f64(SIZE_MAX, 9): 0 (no such batch)",
+            ek_aosoa_size_f64(SIZE_MAX, 9) == 0, "");
+    verdict("ek_aosoa_blocks_f64(SIZE_MAX) = SIZE_MAX / 8 + 1",
+            ek_aosoa_blocks_f64(SIZE_MAX) == SIZE_MAX / 8 + 1, "");
+    void *q = ek_alloc(SIZE_MAX);
+    verdict("ek_alloc(SIZE_MAX): NULL", q == NULL, "");
+    ek_free(q);
+  }
+
+  // Alignment: a double array at a 4-byte offset, a float array at 2.
+  {
+    char *raw = malloc(N * 9 * sizeof(double) + 64);
+    double *mis = (double *)(void *)(raw + 4); // never dereferenced by the test
+    float *misf = (float *)(void *)(raw + 2);
+    rc_is("ek_svd3_f64, A at a 4-byte offset", ek_svd3_f64(N, mis, U, S, V, NULL), EK_EINVAL);
+    rc_is("ek_svd3_f64, S at a 4-byte offset", ek_svd3_f64(N, A, U, mis, V, NULL), EK_EINVAL);
+    rc_is("ek_svd3_f32, A at a 2-byte offset", ek_svd3_f32(N, misf, Uf, Sf, Vf, NULL), EK_EINVAL);
+    rc_is("ek_pk1_f64, F at a 4-byte offset", ek_pk1_f64(&mat, N, mis, NULL, U), EK_EINVAL);
+    rc_is("ek_pk1_f64, P at a 4-byte offset", ek_pk1_f64(&mat, N, A, NULL, mis), EK_EINVAL);
+    rc_is("ek_pk1_aosoa_f64, F at a 4-byte offset", ek_pk1_aosoa_f64(&mat, 1, mis, NULL, U),
+          EK_EINVAL);
+    rc_is("ek_aosoa_pack_f64, AoS at a 4-byte offset", ek_aosoa_pack_f64(N, 9, mis, U), EK_EINVAL);
+    rc_is("ek_aosoa_unpack_f32, AoS at a 2-byte offset", ek_aosoa_unpack_f32(N, 9, Uf, misf),
+          EK_EINVAL);
+    verdict("nothing written by the refused calls", untouched(U, (N * 81) * 3), "");
+    free(raw);
+  }
+  // Element-aligned, not 64-byte aligned: supported, same bits as aligned.
+  {
+    double *F64 = ek_alloc(N * 9 * sizeof(double)), *P64 = ek_alloc(N * 9 * sizeof(double));
+    double *Fodd = buf + 1, *Podd = U + 1; // 8-byte aligned, not 16
+    ek_rng rng;
+    ek_rng_seed(&rng, 14);
+    for (int i = 0; i < N * 9; i++)
+      F64[i] = Fodd[i] = (i % 4 == 0) + 0.3 * (2 * ek_rng_uniform(&rng) - 1);
+    int rc1 = ek_pk1_f64(&mat, N, F64, NULL, P64), rc2 = ek_pk1_f64(&mat, N, Fodd, NULL, Podd);
+    int same = rc1 == 0 && rc2 == 0 && memcmp(P64, Podd, N * 9 * sizeof(double)) == 0;
+    verdict("ek_pk1_f64 on 8-byte aligned arrays: same bits", same, "");
+    rc1 = ek_svd3_f64(N, F64, NULL, P64, NULL, NULL);
+    rc2 = ek_svd3_f64(N, Fodd, NULL, Podd, NULL, NULL);
+    same = rc1 == 0 && rc2 == 0 && memcmp(P64, Podd, N * 3 * sizeof(double)) == 0;
+    verdict("ek_svd3_f64 on 8-byte aligned arrays: same bits", same, "");
+    ek_free(F64);
+    ek_free(P64);
+  }
+  free(buf);
+  free(fbuf);
+}
+
+static void remove_tree(void) {
+  static const char *names[] = {"huge.node",    "huge.ele",       "edge.msh",      "count.node",
+                                "count.ele",    "count_ele.node", "count_ele.ele", "count_v2.msh",
+                                "count_v4.msh", "count_el.msh",   "nul.node",      "nul.ele",
+                                "bytes.node",   "bytes.ele",      "bytes.msh",     "nul.json",
+                                "dirmesh.json"};
+  char path[512];
+  for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, names[i]);
+    remove(path);
+  }
+  snprintf(path, sizeof path, "%s/dir.msh", tmp_dir);
+  rmdir(path);
+  snprintf(path, sizeof path, "%s/dir.node", tmp_dir);
+  rmdir(path);
+  rmdir(tmp_dir);
+}
+
+int main(int argc, char **argv) {
+  (void)argc;
+  (void)argv;
+  const char *base = getenv("TMPDIR");
+  snprintf(tmp_dir, sizeof tmp_dir, "%s/ek_bad_input_XXXXXX", base && base[0] ? base : "/tmp");
+  if (!mkdtemp(tmp_dir)) {
+    perror("mkdtemp");
+    return 2;
+  }
+  meshes();
+  scenes();
+  batches();
+  remove_tree();
+  printf("test_bad_input: %s (%d failures)\n", failures ? "FAIL" : "PASS", failures);
+  return failures ? 1 : 0;
+}
