@@ -17,6 +17,7 @@
 // Run under the asan preset it also checks that every error path frees
 // what it took (ctest --preset asan -R bad_input).
 #include <ek/batch.h>
+#include <ek/cloth.h>
 #include <ek/elements.h>
 #include <ek/material.h>
 #include <ek/mesh.h>
@@ -32,6 +33,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "cli.h"
 
 static int failures = 0;
 static char tmp_dir[256];
@@ -390,6 +392,14 @@ static void batches(void) {
       HUGE_CASE("ek_material_eval_aosoa_f32",
                 ek_material_eval_aosoa_f32(&mat, ops[o], EK_ISA_AUTO, n, Af, NULL, Sf, Uf, 0));
     }
+    HUGE_CASE("ek_tri_rest_f64", ek_tri_rest_f64(n, A, U, S));
+    HUGE_CASE("ek_tri_deformation_f64", ek_tri_deformation_f64(n, A, S, U));
+    HUGE_CASE("ek_tri_deformation_aosoa_f32", ek_tri_deformation_aosoa_f32(n, Af, Sf, Uf, NULL));
+    HUGE_CASE("ek_polar32_f32", ek_polar32_f32(n, Af, Uf, Sf));
+    HUGE_CASE("ek_polar32_aosoa_f64", ek_polar32_aosoa_f64(n, A, U, S, NULL));
+    HUGE_CASE("ek_tri_velocity_gradient_f64",
+              ek_tri_velocity_gradient_f64(n, A, S, U, NULL, NULL, NULL));
+    HUGE_CASE("ek_kabsch_f64", ek_kabsch_f64(n, (const size_t *)(void *)A, A, S, NULL, U));
     HUGE_CASE("ek_aosoa_pack_f64", ek_aosoa_pack_f64(n, 9, A, U));
     HUGE_CASE("ek_aosoa_unpack_f32", ek_aosoa_unpack_f32(n, 9, Af, Uf));
 #undef HUGE_CASE
@@ -467,8 +477,7 @@ static void remove_tree(void) {
 }
 
 int main(int argc, char **argv) {
-  (void)argc;
-  (void)argv;
+  ek_cli_test_args(argc, argv, 1, NULL); // deterministic: the seed is unused
   const char *base = getenv("TMPDIR");
   snprintf(tmp_dir, sizeof tmp_dir, "%s/ek_bad_input_XXXXXX", base && base[0] ? base : "/tmp");
   if (!mkdtemp(tmp_dir)) {

@@ -46,9 +46,27 @@ typedef struct {
   int out_planes[3];
 } io;
 
+// The batch checks every entry point shares (core.c): `count` items of
+// `lanes` x the largest plane count values each must have a byte count
+// that fits, and every array must be aligned to its element type.
+static int check_io(const char *fn, size_t count, size_t lanes, const io *a) {
+  int planes = 0;
+  for (int k = 0; k < 2; k++)
+    planes = a->in_planes[k] > planes ? a->in_planes[k] : planes;
+  for (int k = 0; k < 3; k++)
+    planes = a->out_planes[k] > planes ? a->out_planes[k] : planes;
+  const void *arrays[5] = {a->in[0], a->in[1], a->out[0], a->out[1], a->out[2]};
+  static const char *const names[5] = {"input 1", "input 2", "output 1", "output 2", "output 3"};
+  return ek_batch_check(fn, count, (size_t)planes * lanes * sizeof(real), _Alignof(real), 5, arrays,
+                        names);
+}
+
 // AoS path: each thread packs a chunk into its own staging buffers, runs
 // the kernel there and unpacks the wanted outputs.
 static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
+  int rc = check_io(fn, n, 1, a);
+  if (rc)
+    return rc;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
   int failed = 0;
@@ -94,7 +112,10 @@ static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a)
   return EK_OK;
 }
 
-static void run_blocks(cloth_block_fn *block, size_t nblocks, const io *a) {
+static int run_blocks(const char *fn, cloth_block_fn *block, size_t nblocks, const io *a) {
+  int rc = check_io(fn, nblocks, EK_LANES, a);
+  if (rc)
+    return rc;
   size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
 #pragma omp parallel for schedule(static) if (nchunks > 1)
   for (size_t c = 0; c < nchunks; c++) {
@@ -107,6 +128,7 @@ static void run_blocks(cloth_block_fn *block, size_t nblocks, const io *a) {
       out[k] = a->out[k] ? a->out[k] + b0 * (size_t)a->out_planes[k] * EK_LANES : NULL;
     block(nb, in[0], in[1], out[0], out[1], out[2]);
   }
+  return EK_OK;
 }
 
 // ---- Rest data (double only) ----------------------------------------------
@@ -118,6 +140,11 @@ int ek_tri_rest_f64(size_t n, const double *X, double *Dm_inv, double *area) {
     ek_set_error("ek_tri_rest_f64: X and Dm_inv must not be NULL (n = %zu)", n);
     return EK_EINVAL;
   }
+  int rc = ek_batch_check("ek_tri_rest_f64", n, 9 * sizeof(double), _Alignof(double), 3,
+                          (const void *[]){X, Dm_inv, area},
+                          (const char *const[]){"X", "Dm_inv", "area"});
+  if (rc)
+    return rc;
   // Validate every triangle before writing anything.
   for (size_t t = 0; t < n; t++) {
     const double *p = X + 9 * t;
@@ -196,8 +223,7 @@ int EK_P(tri_deformation_aosoa)(size_t nblocks, const real *x, const real *Dm_in
     return EK_EINVAL;
   }
   io a = {.in = {x, Dm_inv}, .in_planes = {9, 4}, .out = {F}, .out_planes = {6}};
-  run_blocks(FN(t, cloth_tri_F_block), nblocks, &a);
-  return EK_OK;
+  return run_blocks("ek_tri_deformation_aosoa", FN(t, cloth_tri_F_block), nblocks, &a);
 }
 
 // ---- Polar decomposition of 3x2 F -----------------------------------------
@@ -227,8 +253,7 @@ int EK_P(polar32_aosoa)(size_t nblocks, const real *F, real *R, real *Uc,
     return EK_EINVAL;
   }
   io a = {.in = {F}, .in_planes = {6, 0}, .out = {R, Uc}, .out_planes = {6, 4}};
-  run_blocks(FN(t, cloth_polar32_block), nblocks, &a);
-  return EK_OK;
+  return run_blocks("ek_polar32_aosoa", FN(t, cloth_polar32_block), nblocks, &a);
 }
 
 // ---- Triangle velocity gradient -------------------------------------------
@@ -258,8 +283,7 @@ int EK_P(tri_velocity_gradient_aosoa)(size_t nblocks, const real *x, const real 
     return EK_EINVAL;
   }
   io a = {.in = {x, v}, .in_planes = {9, 9}, .out = {L, D, W}, .out_planes = {9, 9, 9}};
-  run_blocks(FN(t, cloth_tri_velgrad_block), nblocks, &a);
-  return EK_OK;
+  return run_blocks("ek_tri_velocity_gradient_aosoa", FN(t, cloth_tri_velgrad_block), nblocks, &a);
 }
 
 // ---- Tet velocity gradient ------------------------------------------------
@@ -424,8 +448,13 @@ int EK_P(kabsch_ex)(size_t nsets, const size_t *offsets, const real *P, const re
   const ek_kernel_table *t = table(opts);
   if (!t)
     return EK_EISA;
-  int rc = kabsch_check(nsets, offsets, P, Q, w);
-  if (rc)
+  // The byte count first: kabsch_check reads offsets[0..nsets].
+  int rc;
+  if ((rc =
+           ek_batch_check("ek_kabsch", nsets, 9 * sizeof(real), _Alignof(real), 4,
+                          (const void *[]){P, Q, w, R}, (const char *const[]){"P", "Q", "w", "R"})))
+    return rc;
+  if ((rc = kabsch_check(nsets, offsets, P, Q, w)))
     return rc;
   if (nsets && !R) {
     ek_set_error("ek_kabsch: R must not be NULL (nsets = %zu)", nsets);
