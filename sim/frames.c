@@ -11,7 +11,9 @@
 // and holds every frame this writer reported complete. The old `path` is
 // now the scratch copy, one frame behind; the next frame first replays the
 // frame it lacks (kept in memory), so each frame is written twice: the I/O
-// grows linearly with the frame count, at twice the data of one copy.
+// grows linearly with the frame count, at twice the data of one copy. A
+// reader that still holds the old file open (HDF5's lock refuses the
+// writer) keeps it: the scratch name then gets a fresh byte copy.
 // In-place alternatives were rejected: a flush after each frame leaves a
 // window inside the flush (and HDF5 may reuse space the on-disk metadata
 // still points to) where a kill corrupts the file; SWMR avoids that but
@@ -308,6 +310,44 @@ static int pwrite_all(int fd, const char *buf, size_t len, off_t off) {
   return 0;
 }
 
+// Replace the scratch copy by a byte copy of the committed file. Needed
+// when the scratch copy (the previously committed file) does not open for
+// writing: a reader that opened it while it was committed still holds it
+// (HDF5 locks the files it opens). That reader's file is left as it is,
+// unlinked; the scratch name gets a new file. Once per reader that holds
+// a file open across frames, not once per frame.
+static int scratch_from_committed(const ek_frames *fr) {
+  int in = open(fr->h5path, O_RDONLY | O_CLOEXEC);
+  if (in < 0)
+    return -1;
+  unlink(fr->scratch_path);
+  int out = open(fr->scratch_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (out < 0) {
+    close(in);
+    return -1;
+  }
+  enum { CHUNK = 1 << 20 };
+  char *buf = malloc(CHUNK);
+  int rc = buf ? 0 : -1;
+  off_t off = 0;
+  while (rc == 0) {
+    ssize_t r = read(in, buf, CHUNK);
+    if (r < 0 && errno == EINTR)
+      continue;
+    if (r <= 0) {
+      rc = r < 0 ? -1 : 0;
+      break;
+    }
+    rc = pwrite_all(out, buf, (size_t)r, off);
+    off += r;
+  }
+  free(buf);
+  close(in);
+  if (close(out) != 0)
+    rc = -1;
+  return rc;
+}
+
 // One frame's grid followed by the closing tail (malloc'ed); *grid_len is
 // the length of the grid alone.
 static char *xmf_grid(const ek_frames *fr, long k, double time, size_t *grid_len) {
@@ -548,6 +588,10 @@ int ek_frames_write(ek_frames *fr, double time, long step, const double *x, cons
   const char *what = "write";
   if (ok) {
     hid_t file = H5Fopen(fr->scratch_path, H5F_ACC_RDWR, H5P_DEFAULT);
+    if (file < 0 && scratch_from_committed(fr) == 0) {
+      fr->scratch_frames = k; // now a copy of the committed file
+      file = H5Fopen(fr->scratch_path, H5F_ACC_RDWR, H5P_DEFAULT);
+    }
     ok = file >= 0;
     if (ok && fr->scratch_frames < k)
       ok = write_frame(fr, file, k - 1, fr->last_time, fr->last_step, fr->last_x, fr->last_f) == 0;

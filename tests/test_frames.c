@@ -442,6 +442,51 @@ int main(int argc, char **argv) {
             same && !tmp_seen && whole == n && listed == n, detail);
   }
 
+  // 2b. A reader that holds the file open across frames (HDF5 locks it)
+  // neither blocks the writer nor sees its file change.
+  {
+    char err2[512];
+    snprintf(path, sizeof path, "%s/held.h5", dir);
+    ek_frames *fw = ek_frames_create(path, 0, nv, X, nt, tets, err2, sizeof err2);
+    double *x = malloc(3 * nv * sizeof(double)), *J = malloc(nt * sizeof(double));
+    double *sm = malloc(nt * sizeof(double)), *ps = malloc(nt * sizeof(double));
+    long n = 8, written = 0, held_frames = -1, held_bad = -1;
+    hid_t held = -1;
+    for (long k = 0; fw && k < n; ++k) {
+      if (k == 2)
+        held = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+      fill_frame(k, nv, nt, x, J, sm, ps);
+      if (ek_frames_write(fw, 0.125 * (double)k, 10 * k, x, J, sm, ps, err2, sizeof err2) != 0) {
+        printf("  ek_frames_write: %s\n", err2);
+        break;
+      }
+      written++;
+    }
+    if (fw)
+      ek_frames_close(fw, NULL, 0);
+    if (held >= 0) {
+      held_frames = series_length(held, "/frames/time");
+      held_bad = check_file(held, nv, nt, X, tets, 2);
+      H5Fclose(held);
+    }
+    hid_t f = -1;
+    long stored = frames_in(path, &f), bad2 = -1;
+    if (f >= 0) {
+      bad2 = check_file(f, nv, nt, X, tets, n);
+      H5Fclose(f);
+    }
+    free(x);
+    free(J);
+    free(sm);
+    free(ps);
+    snprintf(detail, sizeof detail,
+             "wrote %ld of %ld; the held file: %ld frames, %ld mismatches; the file now: %ld "
+             "frames, %ld mismatches",
+             written, n, held_frames, held_bad, stored, bad2);
+    verdict("a reader holding the file open does not block",
+            written == n && held_frames == 2 && held_bad == 0 && stored == n && bad2 == 0, detail);
+  }
+
   // 3. Refuse to overwrite; the existing file stays intact.
   snprintf(path, sizeof path, "%s/roundtrip.h5", dir);
   struct stat before, after;
