@@ -14,6 +14,7 @@
 #include <errno.h>
 #include <math.h>
 #include <omp.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,6 +22,21 @@
 #include <unistd.h>
 
 #include "omp_env.h"
+
+// SIGINT / SIGTERM: the handler only records the signal (async-signal-safe);
+// the step loop checks it, stops, and the frames are closed as at the end.
+static volatile sig_atomic_t stop_signal = 0;
+static void on_stop_signal(int sig) { stop_signal = sig; }
+
+static void catch_stop_signals(void) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART; // file writes in flight are not cut short
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+}
 
 static double now(void) {
   struct timespec ts;
@@ -384,6 +400,7 @@ int main(int argc, char **argv) {
   const int xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
   double *res = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
   if (!step_s || !res) {
+    free(step_s);
     free(res);
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
@@ -392,6 +409,7 @@ int main(int argc, char **argv) {
   }
   double *J = NULL, *smin = NULL, *psi = NULL;
   ek_frames *frames = NULL;
+  catch_stop_signals();
   if (out) {
     frames = ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt, ek_mesh_tets(mesh),
                               err, sizeof err);
@@ -401,6 +419,9 @@ int main(int argc, char **argv) {
     if (!frames || !J || !smin || !psi) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
+      free(J);
+      free(smin);
+      free(psi);
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
@@ -419,7 +440,12 @@ int main(int argc, char **argv) {
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
   double t_start = now(), t_last_progress = t_start;
+  long stopped_at = -1; // the step a signal stopped the run before
   for (long n = 0; n <= steps; ++n) {
+    if (stop_signal) {
+      stopped_at = n;
+      break;
+    }
     if (frames && (n % scene.output_every == 0 || n == steps)) {
       double t0 = now();
       if (ek_sim_tet_fields(sim, J, smin, psi) != 0 ||
@@ -470,16 +496,22 @@ int main(int argc, char **argv) {
   double wall = now() - t_start;
   if (tty)
     fprintf(stderr, "\n");
+  const int wrote_frames = frames != NULL;
+  long nframes = frames ? ek_frames_count(frames) : 0;
   if (frames) {
-    long nf = ek_frames_count(frames);
     if (ek_frames_close(frames, err, sizeof err) != 0) {
       fprintf(stderr, "ek-sim: %s\n", err);
       rc = 2;
     }
     char xdmf[EK_SCENE_PATH_MAX];
     ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
-    printf("frames     %ld written to %s (ParaView: %s)\n", nf, out, xdmf);
+    printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
   }
+  if (stopped_at >= 0)
+    fprintf(stderr, "ek-sim: stopped by %s before step %ld of %ld; %ld frames written%s%s%s\n",
+            stop_signal == SIGINT ? "SIGINT" : "SIGTERM", stopped_at, steps, nframes,
+            wrote_frames ? " to " : "", wrote_frames ? out : "",
+            wrote_frames ? " (file closed)" : "");
 
   const ek_sim_times *tm = ek_sim_timings(sim);
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;
@@ -531,5 +563,13 @@ int main(int argc, char **argv) {
   free(res);
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
+  if (stopped_at >= 0) {
+    // Die of the signal, as the caller asked, now that everything is
+    // closed: a shell or a job runner sees the signal, not an exit code.
+    fflush(stdout);
+    fflush(stderr);
+    signal(stop_signal, SIG_DFL);
+    raise(stop_signal);
+  }
   return rc;
 }
