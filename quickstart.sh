@@ -18,12 +18,56 @@ missing=""
 for p in $packages; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
 done
+# apt-get's output, condensed: its download size, then a line per 10% of
+# the download and of the installation (from APT::Status-Fd, apt's
+# machine-readable progress: "dlstatus:N:PERCENT:TEXT",
+# "pmstatus:PACKAGE:PERCENT:TEXT"), with the seconds since the start. Every
+# other line goes to $apt_log, shown if apt-get fails. Status on stdout, not
+# fd 3: sudo closes descriptors above 2.
+apt_progress() {
+  local line kind pct text step next_dl=0 next_pm=0
+  while IFS= read -r line; do
+    case "$line" in
+    dlstatus:* | pmstatus:*)
+      IFS=: read -r kind _ pct text <<<"$line"
+      step=${pct%%.*}
+      if [ "$kind" = dlstatus ] && [ "$step" -ge "$next_dl" ]; then
+        printf '  [%3ds] download %3d%%  %s\n' "$SECONDS" "$step" "$text"
+        next_dl=$((step / 10 * 10 + 10))
+      elif [ "$kind" = pmstatus ] && [ "$step" -ge "$next_pm" ]; then
+        printf '  [%3ds] install  %3d%%  %s\n' "$SECONDS" "$step" "$text"
+        next_pm=$((step / 10 * 10 + 10))
+      fi
+      ;;
+    "Need to get "* | "After this operation"*) echo "  $line" ;;
+    *) echo "$line" >>"$apt_log" ;;
+    esac
+  done
+}
+
 if [ -n "$missing" ]; then
-  echo "installing:$missing"
   sudo=""
   [ "$(id -u)" -ne 0 ] && sudo=sudo
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq $missing >/dev/null
+  apt_log=$(mktemp)
+  trap 'rm -f "$apt_log"' EXIT
+  SECONDS=0
+  echo "apt-get update (package lists) ..."
+  if ! $sudo apt-get update -q >"$apt_log" 2>&1; then
+    cat "$apt_log" >&2
+    echo "quickstart: apt-get update failed (its output above)" >&2
+    exit 1
+  fi
+  : >"$apt_log"
+  # What will be installed: the missing packages and their dependencies.
+  count=$($sudo apt-get install -s -q $missing 2>/dev/null | grep -c '^Inst ' || true)
+  echo "installing:$missing ($count packages with their dependencies)"
+  if ! $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q -o APT::Status-Fd=1 \
+    $missing 2>&1 | apt_progress; then
+    cat "$apt_log" >&2
+    echo "quickstart: apt-get install failed (its output above)" >&2
+    exit 1
+  fi
+  echo "installed in ${SECONDS}s"
 fi
 
 cmake --preset release >/dev/null

@@ -37,6 +37,7 @@
 #include <string.h>
 
 #include "bench.h"
+#include "scene_find.h"
 
 #include <ek/fvm.h>
 #include <math.h>
@@ -64,17 +65,13 @@ static void run_steps(void *p) {
   }
 }
 
-// The shipped scenes, found relative to this source file (CMake compiles
-// with an absolute __FILE__).
-static void scene_path(const char *name, char *out, size_t outlen) {
-  char dir[1024];
-  snprintf(dir, sizeof dir, "%s", __FILE__);
-  char *slash = strrchr(dir, '/');
-  if (slash)
-    *slash = '\0';
-  else
-    snprintf(dir, sizeof dir, ".");
-  snprintf(out, outlen, "%s/../scenes/%s.json", dir, name);
+// A shipped scene by name, from the build or the installed tree
+// (sim/scene_find.h); the error names every path tried.
+static int load_shipped(const char *name, ek_scene *scene, char *err, size_t errlen) {
+  char path[EK_SCENE_PATH_MAX];
+  if (ek_shipped_scene(name, path, sizeof path, err, errlen) != 0)
+    return -1;
+  return ek_scene_load(path, scene, err, errlen);
 }
 
 static double now(void) { return omp_get_wtime(); }
@@ -192,7 +189,7 @@ static const struct {
 static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
   static const char *scene_name = "cantilever_xpbd";
   static ek_scene scene;
-  char path[1200], err[1024];
+  char err[1024];
   ek_mesh *mesh = NULL;
   int rc = 0, loaded = 0;
   for (int t = 0; t < ncounts; ++t) {
@@ -208,8 +205,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
       sim_ctx ctx = {NULL, b, 0, 1};
       if (!ek_bench_listing(b)) {
         if (!loaded) {
-          scene_path(scene_name, path, sizeof path);
-          if (ek_scene_load(path, &scene, err, sizeof err) != 0 ||
+          if (load_shipped(scene_name, &scene, err, sizeof err) != 0 ||
               !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
             ek_bench_fail(b, "sim: %s: %s", scene_name, err);
             ek_sim_destroy(last);
@@ -290,12 +286,11 @@ static int cantilever_1s(ek_bench *b, int threads) {
   long steps[2] = {0, 0};
   omp_set_num_threads(threads);
   for (int k = 0; k < 2; k++) {
-    char path[1200], err[1024];
+    char err[1024];
     ek_scene scene;
-    scene_path(names[k], path, sizeof path);
     ek_mesh *mesh = NULL;
     ek_sim *sim = NULL;
-    if (ek_scene_load(path, &scene, err, sizeof err) != 0 ||
+    if (load_shipped(names[k], &scene, err, sizeof err) != 0 ||
         !(mesh = ek_scene_mesh(&scene, err, sizeof err)) ||
         !(sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
       ek_bench_fail(b, "sim: %s: %s", names[k], err);
@@ -344,10 +339,9 @@ int bench_sim(ek_bench *b) {
   int ncounts = ek_bench_thread_counts(b, counts);
   int rc = 0;
   for (size_t k = 0; k < sizeof scenes / sizeof scenes[0]; ++k) {
-    char path[1200], err[1024];
+    char err[1024];
     static ek_scene scene;
-    scene_path(scenes[k], path, sizeof path);
-    if (ek_scene_load(path, &scene, err, sizeof err) != 0) {
+    if (load_shipped(scenes[k], &scene, err, sizeof err) != 0) {
       ek_bench_fail(b, "sim: %s", err);
       rc = -1;
       continue;

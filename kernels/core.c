@@ -4,6 +4,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "kernels.h"
 
@@ -16,7 +17,9 @@ void ek_set_error(const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(last_error, sizeof last_error, fmt, ap);
   va_end(ap);
-  fprintf(stderr, "ek: %s\n", last_error);
+  const char *verbose = getenv("EK_VERBOSE");
+  if (verbose && *verbose && strcmp(verbose, "0") != 0)
+    fprintf(stderr, "ek: %s\n", last_error);
 }
 
 void *ek_alloc(size_t bytes) {

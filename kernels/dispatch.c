@@ -23,7 +23,15 @@
   ek_hessian_block_f32_fn ek_hessian_block_##t##_f32;                                              \
   ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;                                              \
   ek_xpbd_block_f32_fn ek_xpbd_block_##t##_f32;                                                    \
-  ek_xpbd_block_f64_fn ek_xpbd_block_##t##_f64;
+  ek_xpbd_block_f64_fn ek_xpbd_block_##t##_f64;                                                    \
+  ek_cloth_block_f32_fn ek_cloth_tri_F_block_##t##_f32;                                            \
+  ek_cloth_block_f64_fn ek_cloth_tri_F_block_##t##_f64;                                            \
+  ek_cloth_block_f32_fn ek_cloth_polar32_block_##t##_f32;                                          \
+  ek_cloth_block_f64_fn ek_cloth_polar32_block_##t##_f64;                                          \
+  ek_cloth_block_f32_fn ek_cloth_tri_velgrad_block_##t##_f32;                                      \
+  ek_cloth_block_f64_fn ek_cloth_tri_velgrad_block_##t##_f64;                                      \
+  ek_cloth_block_f32_fn ek_cloth_tet_velgrad_block_##t##_f32;                                      \
+  ek_cloth_block_f64_fn ek_cloth_tet_velgrad_block_##t##_f64;
 #define EK_ROW(t, isa_, w32, w64)                                                                  \
   {                                                                                                \
     .isa = isa_, .lanes_f32 = w32, .lanes_f64 = w64, .svd3_block_f32 = ek_svd3_block_##t##_f32,    \
@@ -33,7 +41,15 @@
     .fvm_block_f64 = ek_fvm_block_##t##_f64, .fvm_F_block_f32 = ek_fvm_F_block_##t##_f32,          \
     .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \
     .hessian_block_f64 = ek_hessian_block_##t##_f64, .xpbd_block_f32 = ek_xpbd_block_##t##_f32,    \
-    .xpbd_block_f64 = ek_xpbd_block_##t##_f64                                                      \
+    .xpbd_block_f64 = ek_xpbd_block_##t##_f64,                                                     \
+    .cloth_tri_F_block_f32 = ek_cloth_tri_F_block_##t##_f32,                                       \
+    .cloth_tri_F_block_f64 = ek_cloth_tri_F_block_##t##_f64,                                       \
+    .cloth_polar32_block_f32 = ek_cloth_polar32_block_##t##_f32,                                   \
+    .cloth_polar32_block_f64 = ek_cloth_polar32_block_##t##_f64,                                   \
+    .cloth_tri_velgrad_block_f32 = ek_cloth_tri_velgrad_block_##t##_f32,                           \
+    .cloth_tri_velgrad_block_f64 = ek_cloth_tri_velgrad_block_##t##_f64,                           \
+    .cloth_tet_velgrad_block_f32 = ek_cloth_tet_velgrad_block_##t##_f32,                           \
+    .cloth_tet_velgrad_block_f64 = ek_cloth_tet_velgrad_block_##t##_f64                            \
   }
 
 EK_DECLARE_TARGET(scalar)

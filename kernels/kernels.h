@@ -73,6 +73,18 @@ typedef struct ek_xpbd_args_f64 ek_xpbd_args_f64;
 typedef void ek_xpbd_block_f32_fn(const ek_xpbd_args_f32 *a, size_t b0, size_t b1);
 typedef void ek_xpbd_block_f64_fn(const ek_xpbd_args_f64 *a, size_t b0, size_t b1);
 
+// cloth blocks (kernels/cloth/cloth_block.c): nblocks AoSoA blocks, two
+// inputs and up to three outputs (an output may be NULL where the kernel
+// says so; unused ones are ignored):
+//   cloth_tri_F:       x (9 planes), Dm_inv (4)      -> F (6)
+//   cloth_polar32:     F (6), unused                 -> R (6), Uc (4 or NULL)
+//   cloth_tri_velgrad: x (9), v (9)                  -> L, D, W (9 each or NULL)
+//   cloth_tet_velgrad: x (12), v (12)                -> L, D, W (9 each or NULL)
+typedef void ek_cloth_block_f32_fn(size_t nblocks, const float *a, const float *b, float *o0,
+                                   float *o1, float *o2);
+typedef void ek_cloth_block_f64_fn(size_t nblocks, const double *a, const double *b, double *o0,
+                                   double *o1, double *o2);
+
 typedef struct {
   ek_isa isa;
   int lanes_f32, lanes_f64; // EK_W of the target
@@ -90,6 +102,14 @@ typedef struct {
   ek_hessian_block_f64_fn *hessian_block_f64;
   ek_xpbd_block_f32_fn *xpbd_block_f32;
   ek_xpbd_block_f64_fn *xpbd_block_f64;
+  ek_cloth_block_f32_fn *cloth_tri_F_block_f32;
+  ek_cloth_block_f64_fn *cloth_tri_F_block_f64;
+  ek_cloth_block_f32_fn *cloth_polar32_block_f32;
+  ek_cloth_block_f64_fn *cloth_polar32_block_f64;
+  ek_cloth_block_f32_fn *cloth_tri_velgrad_block_f32;
+  ek_cloth_block_f64_fn *cloth_tri_velgrad_block_f64;
+  ek_cloth_block_f32_fn *cloth_tet_velgrad_block_f32;
+  ek_cloth_block_f64_fn *cloth_tet_velgrad_block_f64;
 } ek_kernel_table;
 
 // Table of a resolved target (see ek_isa_resolve), NULL if not available.
@@ -98,7 +118,7 @@ const ek_kernel_table *ek_kernels_for(ek_isa isa);
 // ek_last_error set) on error.
 const ek_kernel_table *ek_kernels_resolve(ek_isa requested);
 
-// Record an error message for ek_last_error and print it to stderr.
+// Record an error message for ek_last_error (printed only with EK_VERBOSE).
 void ek_set_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 #endif

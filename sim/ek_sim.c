@@ -7,8 +7,11 @@
 // the median, 95th percentile and minimum of the steps' wall times, tets
 // per second and the energies at start and end. --explain prints the
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
-// Exit status: 0 done, 1 bad usage or scene, 2 the run failed (e.g. an
-// element inverted with a model undefined there).
+// Exit status (sim/cli.h, the same in every ek program): 0 done, 1 the run
+// failed (a bad scene or mesh, an element inverted with a model undefined
+// there, unwritable output), 2 bad usage. SIGINT or SIGTERM stops the run
+// at the next step: the frames are closed, their count printed, and ek-sim
+// dies of that signal.
 #include <ek/sim.h>
 
 #include <errno.h>
@@ -21,7 +24,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cli.h"
 #include "omp_env.h"
+#include "scene_find.h"
 
 // SIGINT / SIGTERM: the handler only records the signal (async-signal-safe);
 // the step loop checks it, stops, and the frames are closed as at the end.
@@ -57,7 +62,9 @@ static void usage(FILE *out) {
           "  --residuals   XPBD: print each step's constraint residual (max |C + alpha~ "
           "lambda|\n"
           "                after the last sweep) and its largest C\n"
-          "Environment: OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
+          "  -h, --help    this text\n"
+          "  --version     print the version\n"
+          "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
           "pinned, one per core); values the user set are kept. Meshes below a few\n"
           "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
 }
@@ -81,9 +88,8 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
   errno = 0;
   long v = s ? strtol(s, &end, 10) : 0;
   if (!s || errno || end == s || *end || v < lo || v > hi) {
-    fprintf(stderr, "ek-sim: %s %s: expected a whole number in [%ld, %ld]\n", opt,
-            s ? s : "(missing)", lo, hi);
-    return -1;
+    return ek_cli_usage_error("ek-sim", "%s %s: expected a whole number in [%ld, %ld]", opt,
+                              s ? s : "(missing)", lo, hi);
   }
   *out = v;
   return 0;
@@ -315,17 +321,16 @@ int main(int argc, char **argv) {
   int force = 0, do_explain = 0, no_output = 0, residuals = 0;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
+    ek_cli_common("ek-sim", a, usage);
     if (strcmp(a, "--steps") == 0) {
       if (parse_long(a, i + 1 < argc ? argv[++i] : NULL, 0, 1000000000L, &steps))
-        return 1;
+        return EK_EXIT_USAGE;
     } else if (strcmp(a, "--threads") == 0) {
       if (parse_long(a, i + 1 < argc ? argv[++i] : NULL, 1, 4096, &threads))
-        return 1;
+        return EK_EXIT_USAGE;
     } else if (strcmp(a, "--out") == 0) {
-      if (i + 1 >= argc) {
-        fprintf(stderr, "ek-sim: --out needs a file name\n");
-        return 1;
-      }
+      if (i + 1 >= argc)
+        return ek_cli_usage_error("ek-sim", "--out needs a file name");
       out = argv[++i];
     } else if (strcmp(a, "--no-output") == 0) {
       no_output = 1;
@@ -335,26 +340,25 @@ int main(int argc, char **argv) {
       do_explain = 1;
     } else if (strcmp(a, "--residuals") == 0) {
       residuals = 1;
-    } else if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-      usage(stdout);
-      return 0;
     } else if (a[0] == '-' || scene_path) {
-      fprintf(stderr, "ek-sim: unexpected argument \"%s\"\n", a);
-      usage(stderr);
-      return 1;
+      return ek_cli_usage_error("ek-sim", "unexpected argument \"%s\"", a);
     } else {
       scene_path = a;
     }
   }
-  if (!scene_path) {
-    usage(stderr);
-    return 1;
-  }
-  if (out && no_output) {
-    fprintf(stderr, "ek-sim: --out and --no-output exclude each other\n");
-    return 1;
-  }
+  if (!scene_path)
+    return ek_cli_usage_error("ek-sim", "no SCENE given");
+  if (out && no_output)
+    return ek_cli_usage_error("ek-sim", "--out and --no-output exclude each other");
   char err[1024];
+  // SCENE is a file, or the name of a shipped scene ("drop"), found in the
+  // build or the installed tree (scene_find.h).
+  char found[EK_SCENE_PATH_MAX];
+  if (ek_scene_arg(scene_path, found, sizeof found, err, sizeof err) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return 1;
+  }
+  scene_path = found;
   static ek_scene scene;
   if (ek_scene_load(scene_path, &scene, err, sizeof err) != 0) {
     fprintf(stderr, "ek-sim: %s\n", err);
@@ -364,8 +368,11 @@ int main(int argc, char **argv) {
   // output exists.
   ek_isa isa;
   if (ek_isa_resolve(scene.svd.isa, &isa) != EK_OK) {
+    // EK_ISA is part of the invocation (usage); the scene's isa key is input.
+    if (scene.svd.isa == EK_ISA_AUTO)
+      return ek_cli_usage_error("ek-sim", "%s", ek_last_error());
     fprintf(stderr, "ek-sim: %s: %s\n", scene_path, ek_last_error());
-    return 1;
+    return EK_EXIT_FAILED;
   }
   if (steps < 0)
     steps = scene.steps;
@@ -452,7 +459,7 @@ int main(int argc, char **argv) {
           ek_frames_write(frames, ek_sim_time(sim), n, ek_sim_positions(sim), J, smin, psi, err,
                           sizeof err) != 0) {
         fprintf(stderr, "\nek-sim: %s\n", err[0] ? err : ek_last_error());
-        rc = 2;
+        rc = EK_EXIT_FAILED;
         break;
       }
       t_output += now() - t0;
@@ -468,7 +475,7 @@ int main(int argc, char **argv) {
     t_step = now() - t_step;
     if (src != 0) {
       fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
-      rc = 2;
+      rc = EK_EXIT_FAILED;
       break;
     }
     if (!phase_timed)
@@ -501,7 +508,7 @@ int main(int argc, char **argv) {
   if (frames) {
     if (ek_frames_close(frames, err, sizeof err) != 0) {
       fprintf(stderr, "ek-sim: %s\n", err);
-      rc = 2;
+      rc = EK_EXIT_FAILED;
     }
     char xdmf[EK_SCENE_PATH_MAX];
     ek_frames_xdmf_path(out, xdmf, sizeof xdmf);

@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 
 static int failures;
 
@@ -121,7 +122,7 @@ static void bad_arguments(void) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_aosoa: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "check.h"
+#include "cli.h"
 
 static int failures;
 
@@ -85,7 +86,7 @@ static void in_child(const char *env_value) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_dispatch: seed %llu (unused)\n", (unsigned long long)seed);
 
   check(ek_isa_available(EK_ISA_SCALAR), "scalar is always available%s%s", "", "");

@@ -18,6 +18,7 @@
 
 #include "../kernels/elements/tets.h"
 #include "check.h"
+#include "cli.h"
 
 static int failures = 0;
 
@@ -269,7 +270,7 @@ static void check_state(ek_rng *rng) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 5);
+  uint64_t seed = ek_cli_test_args(argc, argv, 5, NULL);
   printf("test_elements: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

@@ -11,6 +11,7 @@
 // does not block a new one.
 #include <ek/sim.h>
 
+#include "cli.h"
 #include <errno.h>
 #include <hdf5.h>
 #include <math.h>
@@ -355,9 +356,7 @@ static void remove_dir(const char *dir) {
 }
 
 int main(int argc, char **argv) {
-  for (int i = 1; i < argc; ++i)
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoull(argv[++i], NULL, 10);
+  seed = ek_cli_test_args(argc, argv, seed, NULL);
   printf("test_frames --seed %llu\n", seed);
   char dir[] = "/tmp/ek_test_frames_XXXXXX";
   if (!mkdtemp(dir)) {

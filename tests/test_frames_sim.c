@@ -22,6 +22,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "cli.h"
+
 #ifndef EK_SIM_EXE
 #error "EK_SIM_EXE (the ek-sim binary's path) is set by tests/CMakeLists.txt"
 #endif
@@ -303,7 +305,8 @@ static void stop_case(int sig) {
   verdict(what, ok, detail);
 }
 
-int main(void) {
+int main(int argc, char **argv) {
+  ek_cli_test_args(argc, argv, 0, NULL); // no seed: the kill moments are fixed
   if (!mkdtemp(dir)) {
     perror("mkdtemp");
     return 1;

@@ -20,6 +20,7 @@
 //      precision is refused.
 #include <omp.h>
 
+#include "cli.h"
 #include "svd3/svd3_ref.h"
 #include "test_fvm_common.h"
 
@@ -304,7 +305,7 @@ static void check_R_state(const ek_mesh *mesh, const ek_material *mat, const dou
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 2026);
+  uint64_t seed = ek_cli_test_args(argc, argv, 2026, NULL);
   printf("test_fvm: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

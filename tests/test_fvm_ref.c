@@ -11,6 +11,7 @@
 //      R are not rotation-invariant and are exempt;
 //   4. f = 0 at the rest shape (corotated linear with R = I).
 // Also: ek_fvm_energy_f64 (the library) equals the reference energy.
+#include "cli.h"
 #include "test_fvm_common.h"
 
 static int failures = 0;
@@ -21,7 +22,7 @@ static double energy(const test_mesh *t, const ek_material_ref *m, const double 
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 2003);
+  uint64_t seed = ek_cli_test_args(argc, argv, 2003, NULL);
   printf("test_fvm_ref: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

@@ -22,6 +22,7 @@
 #include <ek/hessian.h>
 #include <omp.h>
 
+#include "cli.h"
 #include "test_fvm_common.h"
 
 // Central differences of the kernel's own gradient with step h = 1e-6 of
@@ -385,7 +386,7 @@ static void check_errors(void) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 2026);
+  uint64_t seed = ek_cli_test_args(argc, argv, 2026, NULL);
   printf("test_hessian: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

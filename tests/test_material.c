@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 #include "material/material_ref.h"
 
 // Random inputs from the shared check library (verify/check.h).
@@ -267,10 +268,7 @@ static void check_nan_lane(int f32, ek_isa isa, const ek_material *m) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = 1;
-  for (int i = 1; i < argc; i++)
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoull(argv[++i], NULL, 10);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   ek_rng_seed(&rng, seed);
   printf("test_material --seed %llu\n", (unsigned long long)seed);
   const double clamps[2] = {0, 0.3};

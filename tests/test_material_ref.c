@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 #include "material/material_ref.h"
 
 extern void dsyev_(const char *jobz, const char *uplo, const int *n, double *a, const int *lda,
@@ -104,10 +105,7 @@ static int rotation_invariant(int model) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = 1;
-  for (int i = 1; i < argc; i++)
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoull(argv[++i], NULL, 10);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   ek_rng_seed(&rng, seed);
   printf("test_material_ref --seed %llu\n", (unsigned long long)seed);
   const double mu = 1.3, lambda = 2.1, clamp_on = 0.3;

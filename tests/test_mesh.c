@@ -16,6 +16,7 @@
 #include <ek/mesh.h>
 
 #include "check.h"
+#include "cli.h"
 
 static int failures = 0;
 
@@ -212,7 +213,7 @@ static void check_box(int nx, int ny, int nz, double lx, double ly, double lz) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 4);
+  uint64_t seed = ek_cli_test_args(argc, argv, 4, NULL);
   printf("test_mesh: seed %llu\n", (unsigned long long)seed);
   init_dirs();
   ek_rng rng;

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "cli.h"
 #include "results.h"
 #include "timer.h"
 
@@ -434,20 +435,7 @@ static void check_overwrite(ek_results *r, const char *dir, const char *h5, cons
 }
 
 int main(int argc, char **argv) {
-  unsigned long long seed = 1;
-  for (int i = 1; i < argc; i++) {
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc) {
-      char *end;
-      seed = strtoull(argv[++i], &end, 10);
-      if (*end) {
-        fprintf(stderr, "test_results_io: bad --seed value '%s'\n", argv[i]);
-        return 2;
-      }
-    } else {
-      fprintf(stderr, "test_results_io: unknown argument '%s' (usage: [--seed N])\n", argv[i]);
-      return 2;
-    }
-  }
+  unsigned long long seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_results_io: seed %llu (exact round trips: no tolerance)\n", seed);
   check_names();
   char dir[] = "/tmp/ek_results_io_XXXXXX";

@@ -4,6 +4,7 @@
 // offending value; unknown keys are errors, never silently ignored.
 #include <ek/sim.h>
 
+#include "cli.h"
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -216,22 +217,19 @@ static int contains_all(const char *msg, const char *const *expect) {
 static int close_to(double a, double b) { return fabs(a - b) <= 1e-12 * fmax(1.0, fabs(b)); }
 
 int main(int argc, char **argv) {
-  unsigned long seed = 1;
   snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
   char *slash = strrchr(scenes_dir, '/');
   if (slash)
     snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
   else
     snprintf(scenes_dir, sizeof scenes_dir, "../scenes");
-  for (int i = 1; i < argc; ++i) {
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoul(argv[++i], NULL, 10);
-    else if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
-      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[++i]);
-  }
+  const char *scenes = NULL;
+  unsigned long long seed = ek_cli_test_args(argc, argv, 1, &scenes);
+  if (scenes)
+    snprintf(scenes_dir, sizeof scenes_dir, "%s", scenes);
   // Deterministic test (no random inputs); the seed is accepted and printed
   // for uniformity with the other tests.
-  printf("test_scene --seed %lu (scenes from %s)\n", seed, scenes_dir);
+  printf("test_scene --seed %llu (scenes from %s)\n", seed, scenes_dir);
   char err[1024], path[1200], detail[1400];
   static ek_scene s;
 

@@ -5,6 +5,7 @@
 #ifndef EK_TEST_SIM_COMMON_H
 #define EK_TEST_SIM_COMMON_H
 
+#include "cli.h"
 #include <ek/sim.h>
 #include <omp.h>
 #include <stdio.h>
@@ -31,17 +32,23 @@ static void check(const char *what, int ok, const char *detail) {
     failures++;
 }
 
-// scenes/ beside tests/ (this header's folder), or `--scenes DIR`.
-static void scenes_dir_init(int argc, char **argv) {
-  snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
-  char *slash = strrchr(scenes_dir, '/');
-  if (slash)
-    snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
-  else
-    snprintf(scenes_dir, sizeof scenes_dir, "../scenes");
-  for (int i = 1; i + 1 < argc; ++i)
-    if (strcmp(argv[i], "--scenes") == 0)
-      snprintf(scenes_dir, sizeof scenes_dir, "%s", argv[i + 1]);
+// Parses the test's arguments ([--seed N] [--scenes DIR], cli.h) and sets
+// scenes_dir: scenes/ beside tests/ (this header's folder), or DIR. Returns
+// the seed.
+static unsigned long long scenes_dir_init(int argc, char **argv) {
+  const char *scenes = NULL;
+  unsigned long long seed = ek_cli_test_args(argc, argv, 1, &scenes);
+  if (scenes)
+    snprintf(scenes_dir, sizeof scenes_dir, "%s", scenes);
+  else {
+    snprintf(scenes_dir, sizeof scenes_dir, "%s", __FILE__);
+    char *slash = strrchr(scenes_dir, '/');
+    if (slash)
+      snprintf(slash, sizeof scenes_dir - (size_t)(slash - scenes_dir), "/../scenes");
+    else
+      snprintf(scenes_dir, sizeof scenes_dir, "../scenes");
+  }
+  return seed;
 }
 
 // A scene (JSON text, or a shipped scene's name when is_file), its mesh and

@@ -301,14 +301,7 @@ static void threads_test(void) {
 }
 
 int main(int argc, char **argv) {
-  unsigned long long seed = 1;
-  scenes_dir_init(argc, argv);
-  for (int i = 1; i < argc; ++i) {
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc)
-      seed = strtoull(argv[++i], NULL, 10);
-    else if (strcmp(argv[i], "--scenes") == 0 && i + 1 < argc)
-      ++i; // scenes_dir_init
-  }
+  unsigned long long seed = scenes_dir_init(argc, argv);
   printf("test_sim_explicit --seed %llu (scenes from %s)\n", seed, scenes_dir);
   rng_state = seed;
   energy_test("fixed_corotated", 64);

@@ -23,6 +23,7 @@
 
 #include "../kernels/kernels.h" // ek_svd3_knobs: the driver's defaults
 #include "check.h"
+#include "cli.h"
 #include "svd3/svd3_ref.h"
 
 ek_svd3_knobs ek_svd3_default_knobs_f64(void);
@@ -448,7 +449,7 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_svd3: seed %llu; default sweeps f32 %d, f64 %d\n", (unsigned long long)seed,
          ek_svd3_default_sweeps_f32(), ek_svd3_default_sweeps_f64());
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)

@@ -15,6 +15,7 @@
 
 #include "../kernels/kernels.h" // ek_svd3_knobs: the library's default knobs
 #include "check.h"
+#include "cli.h"
 #include "svd3/svd3_ref.h"
 
 // The driver's defaults (kernels/svd3/svd3.c), so the replica runs the very
@@ -148,7 +149,7 @@ static void check_known(void) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 1);
+  uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_svd3_ref: seed %llu\n", (unsigned long long)seed);
   check_known();
   ek_svd3_knobs k64 = ek_svd3_default_knobs_f64(), k32 = ek_svd3_default_knobs_f32();

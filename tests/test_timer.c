@@ -12,6 +12,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cli.h"
 #include "timer.h"
 
 static int failures;
@@ -190,21 +191,7 @@ static void timing(void) {
 }
 
 int main(int argc, char **argv) {
-  unsigned long long seed = 1;
-  for (int i = 1; i < argc; i++) {
-    if (strcmp(argv[i], "--seed") == 0 && i + 1 < argc) {
-      char *end;
-      seed = strtoull(argv[++i], &end, 10);
-      if (*end) {
-        fprintf(stderr, "test_timer: bad --seed value '%s'\n", argv[i]);
-        return 2;
-      }
-    } else {
-      fprintf(stderr, "test_timer: unknown argument '%s' (usage: test_timer [--seed N])\n",
-              argv[i]);
-      return 2;
-    }
-  }
+  unsigned long long seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_timer: seed %llu, budget EK_TIMER_STATS_RTOL = %g\n", seed, EK_TIMER_STATS_RTOL);
   known_arrays();
   random_arrays(seed);

@@ -19,6 +19,7 @@
 #include <ek/xpbd.h>
 #include <omp.h>
 
+#include "cli.h"
 #include "test_fvm_common.h"
 #include "xpbd/xpbd_ref.h"
 
@@ -906,7 +907,7 @@ static void check_errors(const scene *sc) {
 }
 
 int main(int argc, char **argv) {
-  uint64_t seed = ek_check_seed_arg(argc, argv, 2026);
+  uint64_t seed = ek_cli_test_args(argc, argv, 2026, NULL);
   printf("test_xpbd: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);

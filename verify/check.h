@@ -140,9 +140,6 @@ const char *ek_verdict_name(ek_verdict v);
 // Print "label: err=... budget=... ratio=... VERDICT" and return 1 on FAIL.
 int ek_check_report(const char *label, double err, double budget);
 
-// --seed N from argv (default `fallback`), printed by the caller.
-uint64_t ek_check_seed_arg(int argc, char **argv, uint64_t fallback);
-
 #ifdef __cplusplus
 }
 #endif

@@ -136,17 +136,3 @@ int ek_check_finite9(const double A[9]) {
       return 0;
   return 1;
 }
-
-uint64_t ek_check_seed_arg(int argc, char **argv, uint64_t fallback) {
-  for (int i = 1; i + 1 < argc; i++)
-    if (strcmp(argv[i], "--seed") == 0) {
-      char *end;
-      unsigned long long v = strtoull(argv[i + 1], &end, 0);
-      if (*end) {
-        fprintf(stderr, "--seed: '%s' is not a number\n", argv[i + 1]);
-        exit(2);
-      }
-      return v;
-    }
-  return fallback;
-}

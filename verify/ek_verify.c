@@ -2,11 +2,11 @@
 // reference, on a seeded random set and on every family of the extremes
 // catalogue; prints the worst errors and worst/budget per row and exits
 // non-zero if a default-option row misses its budget, a finite input gives
-// a non-finite output, or a NaN leaks into a neighbour.
-//
-// Usage: ek-verify [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]
+// a non-finite output, or a NaN leaks into a neighbour. `ek-verify --help`
+// lists the options; exit status as in sim/cli.h (0 pass, 1 fail, 2 usage).
 #include <cjson/cJSON.h>
 #include <ek/ek.h>
+#include <errno.h>
 #include <math.h>
 #include <regex.h>
 #include <stdarg.h>
@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "cli.h"
 #include "verify.h"
 
 // The family table: one row per kernel family (FFTW "favor a table").
@@ -26,6 +27,8 @@ static const ek_verify_family families[] = {
      "double references"},
     {"xpbd", verify_xpbd,
      "XPBD sweeps (Gauss-Seidel, Jacobi) on tets and clusters vs the double reference"},
+    {"cloth", verify_cloth,
+     "polar32, Kabsch, triangle velocity gradient vs LAPACK (dgesvd) references"},
 };
 
 struct ek_verify_ctx {
@@ -128,24 +131,27 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
   cJSON_AddItemToArray(ctx->rows, j);
 }
 
-static void usage(const char *prog) {
-  fprintf(stderr,
-          "usage: %s [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]\n"
-          "  --seed N       seed of every input set (default 1)\n"
-          "  --n N          size of the random set (default 100000; --quick 10000)\n"
-          "  --json FILE    also write the rows as JSON\n"
-          "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
-          "  --quick        fewer matrices and variants\n",
-          prog);
+static void usage(FILE *out) {
+  fputs("usage: ek-verify [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]\n"
+        "  --seed N       seed of every input set (default 1)\n"
+        "  --n N          size of the random set, >= 1 (default 100000; --quick 10000)\n"
+        "  --json FILE    also write the rows as JSON\n"
+        "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
+        "  --quick        fewer matrices and variants\n"
+        "  -h, --help     this text\n"
+        "  --version      print the version\n"
+        "Every ISA this CPU runs is verified by name; EK_ISA picks what 'auto' means.\n",
+        out);
 }
 
-static int parse_size(const char *opt, const char *s, unsigned long long *out) {
+// A whole number in [lo, ULLONG_MAX]: the whole string, no sign.
+static int parse_count(const char *opt, const char *s, unsigned long long lo,
+                       unsigned long long *out) {
   char *end;
+  errno = 0;
   *out = strtoull(s, &end, 0);
-  if (!*s || *end || s[0] == '-') {
-    fprintf(stderr, "ek-verify: %s: '%s' is not a non-negative integer\n", opt, s);
-    return -1;
-  }
+  if (!*s || *end || s[0] == '-' || errno || *out < lo)
+    return ek_cli_usage_error("ek-verify", "%s: '%s' is not a whole number >= %llu", opt, s, lo);
   return 0;
 }
 
@@ -158,25 +164,23 @@ int main(int argc, char **argv) {
     const char *a = argv[i];
     int has_value = i + 1 < argc;
     unsigned long long v;
+    ek_cli_common("ek-verify", a, usage);
     if (strcmp(a, "--quick") == 0)
       ctx.quick = 1;
     else if (strcmp(a, "--seed") == 0 && has_value) {
-      if (parse_size(a, argv[++i], &v))
-        return 2;
+      if (parse_count(a, argv[++i], 0, &v))
+        return EK_EXIT_USAGE;
       ctx.seed = v;
     } else if (strcmp(a, "--n") == 0 && has_value) {
-      if (parse_size(a, argv[++i], &n_opt))
-        return 2;
+      if (parse_count(a, argv[++i], 1, &n_opt))
+        return EK_EXIT_USAGE;
       have_n = 1;
     } else if (strcmp(a, "--json") == 0 && has_value)
       json_path = argv[++i];
     else if (strcmp(a, "--filter") == 0 && has_value)
       filter = argv[++i];
-    else {
-      fprintf(stderr, "ek-verify: unknown or incomplete option '%s'\n", a);
-      usage(argv[0]);
-      return 2;
-    }
+    else
+      return ek_cli_usage_error("ek-verify", "unknown or incomplete option '%s'", a);
   }
   ctx.n_random = have_n ? (size_t)n_opt : ctx.quick ? 10000 : 100000;
   ctx.n_family = ctx.quick ? 200 : 2000;
@@ -185,8 +189,7 @@ int main(int argc, char **argv) {
     if (rc) {
       char msg[128];
       regerror(rc, &ctx.filter, msg, sizeof msg);
-      fprintf(stderr, "ek-verify: --filter '%s': %s\n", filter, msg);
-      return 2;
+      return ek_cli_usage_error("ek-verify", "--filter '%s': %s", filter, msg);
     }
     ctx.has_filter = 1;
   }
@@ -194,7 +197,7 @@ int main(int argc, char **argv) {
   // AUTO means. One the CPU lacks is an error, not a silent pass without it.
   ek_isa auto_isa;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
-    return 2;
+    return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
 

@@ -59,5 +59,6 @@ int verify_svd3(ek_verify_ctx *ctx);
 int verify_material(ek_verify_ctx *ctx);
 int verify_fvm(ek_verify_ctx *ctx);
 int verify_xpbd(ek_verify_ctx *ctx);
+int verify_cloth(ek_verify_ctx *ctx);
 
 #endif

@@ -34,8 +34,9 @@ int ek_isa_available(ek_isa isa);
 // unknown, not built or not supported by this CPU; never falls back silently.
 int ek_isa_resolve(ek_isa requested, ek_isa *resolved);
 
-// Message of the last error on the calling thread ("" if none). Errors are
-// also written to stderr.
+// Message of the last error on the calling thread ("" if none). The library
+// prints nothing itself (the caller reports the error once); EK_VERBOSE=1
+// also writes each error to stderr as it happens.
 const char *ek_last_error(void);
 
 // 64-byte aligned allocation (one AoSoA plane of 16 floats is one cache line).

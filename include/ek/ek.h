@@ -2,6 +2,7 @@
 #ifndef EK_EK_H
 #define EK_EK_H
 #include "batch.h"
+#include "cloth.h"
 #include "core.h"
 #include "elements.h"
 #include "fvm.h"

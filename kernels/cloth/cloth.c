@@ -1,0 +1,478 @@
+// Driver of the cloth kernels (include/ek/cloth.h): argument checks,
+// dispatch once per call, OpenMP over chunks of blocks, AoS <-> AoSoA
+// staging per thread (no batch-sized copy). Built once per precision
+// (EK_P names); the triangle rest data is double only.
+#include <ek/cloth.h>
+#include <math.h>
+#include <omp.h>
+#include <string.h>
+
+#include "kernels.h"
+#include "real.h"
+
+#if defined(EK_REAL_F32)
+typedef ek_cloth_block_f32_fn cloth_block_fn;
+typedef ek_svd3_block_f32_fn svd3_block_fn;
+#define FN(t, name) ((t)->name##_f32)
+#else
+typedef ek_cloth_block_f64_fn cloth_block_fn;
+typedef ek_svd3_block_f64_fn svd3_block_fn;
+#define FN(t, name) ((t)->name##_f64)
+#endif
+
+// A Kabsch set has no spread when its centred points are within
+// SPREAD_EPS times its centroid's largest coordinate (8 eps: the rounding
+// of a weighted mean).
+#if defined(EK_REAL_F32)
+#define SPREAD_EPS (8 * 0x1p-23f)
+#else
+#define SPREAD_EPS (8 * 0x1p-52)
+#endif
+
+// Blocks per OpenMP work item and per staging chunk (the svd3 driver's
+// choice: a chunk's inputs and outputs stay in L2).
+#define CHUNK_BLOCKS 32
+
+static const ek_kernel_table *table(const ek_cloth_opts *opts) {
+  return ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
+}
+
+// Two inputs and up to three outputs of a block kernel, as AoS arrays
+// (item-major, `planes` values per item) or AoSoA batches.
+typedef struct {
+  const real *in[2];
+  int in_planes[2]; // 0: input unused
+  real *out[3];     // NULL: not wanted
+  int out_planes[3];
+} io;
+
+// AoS path: each thread packs a chunk into its own staging buffers, runs
+// the kernel there and unpacks the wanted outputs.
+static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t nchunks = (n + chunk - 1) / chunk;
+  int failed = 0;
+#pragma omp parallel if (nchunks > 1)
+  {
+    real *buf[5] = {0};
+    int ok = 1;
+    for (int k = 0; k < 5; k++) {
+      int planes = k < 2 ? a->in_planes[k] : a->out_planes[k - 2];
+      int used = k < 2 ? planes > 0 : a->out[k - 2] != NULL;
+      if (used) {
+        buf[k] = ek_alloc((size_t)CHUNK_BLOCKS * planes * EK_LANES * sizeof(real));
+        ok = ok && buf[k];
+      }
+    }
+    if (!ok) {
+#pragma omp atomic write
+      failed = 1;
+    }
+#pragma omp barrier
+    if (!failed) {
+#pragma omp for schedule(static)
+      for (size_t c = 0; c < nchunks; c++) {
+        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
+        size_t nb = (m + EK_LANES - 1) / EK_LANES;
+        for (int k = 0; k < 2; k++)
+          if (buf[k])
+            EK_P(aosoa_pack)(m, a->in_planes[k], a->in[k] + (size_t)a->in_planes[k] * i0, buf[k]);
+        block(nb, buf[0], buf[1], buf[2], buf[3], buf[4]);
+        for (int k = 0; k < 3; k++)
+          if (buf[2 + k])
+            EK_P(aosoa_unpack)
+        (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
+      }
+    }
+    for (int k = 0; k < 5; k++)
+      ek_free(buf[k]);
+  }
+  if (failed) {
+    ek_set_error("%s: out of memory for staging buffers", fn);
+    return EK_ENOMEM;
+  }
+  return EK_OK;
+}
+
+static void run_blocks(cloth_block_fn *block, size_t nblocks, const io *a) {
+  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+#pragma omp parallel for schedule(static) if (nchunks > 1)
+  for (size_t c = 0; c < nchunks; c++) {
+    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
+    const real *in[2];
+    real *out[3];
+    for (int k = 0; k < 2; k++)
+      in[k] = a->in[k] ? a->in[k] + b0 * (size_t)a->in_planes[k] * EK_LANES : NULL;
+    for (int k = 0; k < 3; k++)
+      out[k] = a->out[k] ? a->out[k] + b0 * (size_t)a->out_planes[k] * EK_LANES : NULL;
+    block(nb, in[0], in[1], out[0], out[1], out[2]);
+  }
+}
+
+// ---- Rest data (double only) ----------------------------------------------
+#if defined(EK_REAL_F64)
+// The rest frame of cloth.h: t1 = E1 / |E1|, t2 = N x t1,
+// Dm = [[|E1|, E2.t1], [0, E2.t2]], E2.t2 = |E1 x E2| / |E1| = 2A / |E1|.
+int ek_tri_rest_f64(size_t n, const double *X, double *Dm_inv, double *area) {
+  if (n && (!X || !Dm_inv)) {
+    ek_set_error("ek_tri_rest_f64: X and Dm_inv must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  // Validate every triangle before writing anything.
+  for (size_t t = 0; t < n; t++) {
+    const double *p = X + 9 * t;
+    for (int i = 0; i < 9; i++)
+      if (!isfinite(p[i])) {
+        ek_set_error("ek_tri_rest_f64: triangle %zu: coordinate %d is %g (not finite)", t, i, p[i]);
+        return EK_EINVAL;
+      }
+    double e1[3], e2[3], e3[3];
+    for (int i = 0; i < 3; i++)
+      e1[i] = p[3 + i] - p[i], e2[i] = p[6 + i] - p[i], e3[i] = p[6 + i] - p[3 + i];
+    double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                   e1[0] * e2[1] - e1[1] * e2[0]};
+    double twoA = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
+    double l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+    double l3 = e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2];
+    double lmax2 = fmax(l1, fmax(l2, l3));
+    if (!(twoA > EK_TRI_DEGENERATE_REL * lmax2)) {
+      ek_set_error("ek_tri_rest_f64: triangle %zu is degenerate: 2 x area = %g <= %g x (longest "
+                   "edge)^2 = %g",
+                   t, twoA, EK_TRI_DEGENERATE_REL, EK_TRI_DEGENERATE_REL * lmax2);
+      return EK_EINVAL;
+    }
+  }
+  for (size_t t = 0; t < n; t++) {
+    const double *p = X + 9 * t;
+    double e1[3], e2[3];
+    for (int i = 0; i < 3; i++)
+      e1[i] = p[3 + i] - p[i], e2[i] = p[6 + i] - p[i];
+    double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                   e1[0] * e2[1] - e1[1] * e2[0]};
+    double twoA = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    double m01 = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / l1; // E2.t1
+    double m11 = twoA / l1;                                            // E2.t2
+    // Inverse of the upper-triangular [[l1, m01], [0, m11]].
+    double *d = Dm_inv + 4 * t;
+    d[0] = 1 / l1;
+    d[1] = -m01 / (l1 * m11);
+    d[2] = 0;
+    d[3] = 1 / m11;
+    if (area)
+      area[t] = 0.5 * twoA;
+  }
+  return EK_OK;
+}
+#endif
+
+// ---- Triangle deformation gradient ----------------------------------------
+int EK_P(tri_deformation_ex)(size_t n, const real *x, const real *Dm_inv, real *F,
+                             const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (n && (!x || !Dm_inv || !F)) {
+    ek_set_error("ek_tri_deformation: x, Dm_inv and F must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  io a = {.in = {x, Dm_inv}, .in_planes = {9, 4}, .out = {F}, .out_planes = {6}};
+  return n ? run_aos("ek_tri_deformation", FN(t, cloth_tri_F_block), n, &a) : EK_OK;
+}
+
+int EK_P(tri_deformation)(size_t n, const real *x, const real *Dm_inv, real *F) {
+  return EK_P(tri_deformation_ex)(n, x, Dm_inv, F, NULL);
+}
+
+int EK_P(tri_deformation_aosoa)(size_t nblocks, const real *x, const real *Dm_inv, real *F,
+                                const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (nblocks && (!x || !Dm_inv || !F)) {
+    ek_set_error("ek_tri_deformation_aosoa: x, Dm_inv and F must not be NULL (nblocks = %zu)",
+                 nblocks);
+    return EK_EINVAL;
+  }
+  io a = {.in = {x, Dm_inv}, .in_planes = {9, 4}, .out = {F}, .out_planes = {6}};
+  run_blocks(FN(t, cloth_tri_F_block), nblocks, &a);
+  return EK_OK;
+}
+
+// ---- Polar decomposition of 3x2 F -----------------------------------------
+int EK_P(polar32_ex)(size_t n, const real *F, real *R, real *Uc, const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (n && (!F || !R)) {
+    ek_set_error("ek_polar32: F and R must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  io a = {.in = {F}, .in_planes = {6, 0}, .out = {R, Uc}, .out_planes = {6, 4}};
+  return n ? run_aos("ek_polar32", FN(t, cloth_polar32_block), n, &a) : EK_OK;
+}
+
+int EK_P(polar32)(size_t n, const real *F, real *R, real *Uc) {
+  return EK_P(polar32_ex)(n, F, R, Uc, NULL);
+}
+
+int EK_P(polar32_aosoa)(size_t nblocks, const real *F, real *R, real *Uc,
+                        const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (nblocks && (!F || !R)) {
+    ek_set_error("ek_polar32_aosoa: F and R must not be NULL (nblocks = %zu)", nblocks);
+    return EK_EINVAL;
+  }
+  io a = {.in = {F}, .in_planes = {6, 0}, .out = {R, Uc}, .out_planes = {6, 4}};
+  run_blocks(FN(t, cloth_polar32_block), nblocks, &a);
+  return EK_OK;
+}
+
+// ---- Triangle velocity gradient -------------------------------------------
+int EK_P(tri_velocity_gradient)(size_t n, const real *x, const real *v, real *L, real *D, real *W,
+                                const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (n && (!x || !v)) {
+    ek_set_error("ek_tri_velocity_gradient: x and v must not be NULL (n = %zu)", n);
+    return EK_EINVAL;
+  }
+  if (!L && !D && !W)
+    return EK_OK;
+  io a = {.in = {x, v}, .in_planes = {9, 9}, .out = {L, D, W}, .out_planes = {9, 9, 9}};
+  return n ? run_aos("ek_tri_velocity_gradient", FN(t, cloth_tri_velgrad_block), n, &a) : EK_OK;
+}
+
+int EK_P(tri_velocity_gradient_aosoa)(size_t nblocks, const real *x, const real *v, real *L,
+                                      real *D, real *W, const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (nblocks && (!x || !v)) {
+    ek_set_error("ek_tri_velocity_gradient_aosoa: x and v must not be NULL (nblocks = %zu)",
+                 nblocks);
+    return EK_EINVAL;
+  }
+  io a = {.in = {x, v}, .in_planes = {9, 9}, .out = {L, D, W}, .out_planes = {9, 9, 9}};
+  run_blocks(FN(t, cloth_tri_velgrad_block), nblocks, &a);
+  return EK_OK;
+}
+
+// ---- Tet velocity gradient ------------------------------------------------
+// Caller tet order: each thread gathers a chunk's corner positions and
+// velocities into its staging blocks (12 planes each), runs the kernel and
+// unpacks L, D, W.
+int EK_P(tet_velocity_gradient)(const ek_tets *el, const real *x, const real *v, real *L, real *D,
+                                real *W, const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  if (!el || !x || !v) {
+    ek_set_error("ek_tet_velocity_gradient: el, x and v must not be NULL");
+    return EK_EINVAL;
+  }
+  if (!L && !D && !W)
+    return EK_OK;
+  cloth_block_fn *block = FN(t, cloth_tet_velgrad_block);
+  size_t n = ek_tets_count(el);
+  const int32_t *tets = ek_tets_vertices(el);
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t nchunks = (n + chunk - 1) / chunk;
+  real *out[3] = {L, D, W};
+  int failed = 0;
+#pragma omp parallel if (nchunks > 1)
+  {
+    real *xs = ek_alloc((size_t)CHUNK_BLOCKS * 12 * EK_LANES * sizeof(real));
+    real *vs = ek_alloc((size_t)CHUNK_BLOCKS * 12 * EK_LANES * sizeof(real));
+    real *os[3] = {0};
+    int ok = xs && vs;
+    for (int k = 0; k < 3; k++)
+      if (out[k]) {
+        os[k] = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+        ok = ok && os[k];
+      }
+    if (!ok) {
+#pragma omp atomic write
+      failed = 1;
+    }
+#pragma omp barrier
+    if (!failed) {
+#pragma omp for schedule(static)
+      for (size_t c = 0; c < nchunks; c++) {
+        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
+        size_t nb = (m + EK_LANES - 1) / EK_LANES;
+        for (size_t l = 0; l < nb * EK_LANES; l++) {
+          size_t b = l / EK_LANES, lane = l % EK_LANES;
+          for (int k = 0; k < 4; k++)
+            for (int i = 0; i < 3; i++) {
+              size_t at = (b * 12 + 3 * k + i) * EK_LANES + lane;
+              if (l < m) {
+                size_t vtx = (size_t)tets[4 * (i0 + l) + k];
+                xs[at] = x[3 * vtx + i], vs[at] = v[3 * vtx + i];
+              } else { // padding: a unit right-angled tet at rest
+                xs[at] = (real)(k == i + 1), vs[at] = 0;
+              }
+            }
+        }
+        block(nb, xs, vs, os[0], os[1], os[2]);
+        for (int k = 0; k < 3; k++)
+          if (os[k])
+            EK_P(aosoa_unpack)(m, 9, os[k], out[k] + 9 * i0);
+      }
+    }
+    ek_free(xs), ek_free(vs);
+    for (int k = 0; k < 3; k++)
+      ek_free(os[k]);
+  }
+  if (failed) {
+    ek_set_error("ek_tet_velocity_gradient: out of memory for staging buffers");
+    return EK_ENOMEM;
+  }
+  return EK_OK;
+}
+
+// ---- Kabsch ---------------------------------------------------------------
+// Per set (serially checked first, so an error writes nothing): the
+// weighted centroids, the centred points of P and Q each scaled by their
+// largest entry, M = sum_k (w_k / w_max) q_k p_k^T written into an AoSoA
+// staging chunk; then the SVD kernel in its polar mode (R = U V^T of the
+// rotation-variant SVD, det +1: seed 003 eq. 21 with d = det(V U^T)).
+static int kabsch_check(size_t nsets, const size_t *offsets, const real *P, const real *Q,
+                        const real *w) {
+  if (nsets && (!offsets || !P || !Q)) {
+    ek_set_error("ek_kabsch: offsets, P and Q must not be NULL (nsets = %zu)", nsets);
+    return EK_EINVAL;
+  }
+  for (size_t s = 0; s < nsets; s++) {
+    if (offsets[s + 1] < offsets[s]) {
+      ek_set_error("ek_kabsch: offsets[%zu] = %zu < offsets[%zu] = %zu (must not decrease)", s + 1,
+                   offsets[s + 1], s, offsets[s]);
+      return EK_EINVAL;
+    }
+    if (!w)
+      continue;
+    double sum = 0;
+    for (size_t k = offsets[s]; k < offsets[s + 1]; k++) {
+      if (!(w[k] >= 0) || !isfinite(w[k])) {
+        ek_set_error("ek_kabsch: set %zu: weight of point %zu is %g (must be finite and >= 0)", s,
+                     k, (double)w[k]);
+        return EK_EINVAL;
+      }
+      sum += w[k];
+    }
+    if (offsets[s + 1] > offsets[s] && !(sum > 0)) {
+      ek_set_error("ek_kabsch: set %zu: the weights of points %zu..%zu sum to 0", s, offsets[s],
+                   offsets[s + 1] - 1);
+      return EK_EINVAL;
+    }
+  }
+  return EK_OK;
+}
+
+// M of one set into lane `lane` of a 9-plane block at `blk`; returns 0 when
+// P or Q has no spread (the set's R is then the identity).
+static int kabsch_covariance(size_t k0, size_t k1, const real *P, const real *Q, const real *w,
+                             real *blk, size_t lane) {
+  real wmax = 0;
+  for (size_t k = k0; k < k1; k++)
+    wmax = w ? (w[k] > wmax ? w[k] : wmax) : 1;
+  real sw = 0, pbar[3] = {0, 0, 0}, qbar[3] = {0, 0, 0};
+  for (size_t k = k0; k < k1; k++) {
+    real wk = w ? w[k] / wmax : 1;
+    sw += wk;
+    for (int i = 0; i < 3; i++)
+      pbar[i] += wk * P[3 * k + i], qbar[i] += wk * Q[3 * k + i];
+  }
+  real sp = 0, sq = 0, cp = 0, cq = 0;
+  if (k1 > k0)
+    for (int i = 0; i < 3; i++) {
+      pbar[i] /= sw, qbar[i] /= sw;
+      cp = (real)fmax(cp, fabs((double)pbar[i])), cq = (real)fmax(cq, fabs((double)qbar[i]));
+    }
+  for (size_t k = k0; k < k1; k++)
+    for (int i = 0; i < 3; i++) {
+      real a = (real)fabs((double)(P[3 * k + i] - pbar[i]));
+      real b = (real)fabs((double)(Q[3 * k + i] - qbar[i]));
+      sp = a > sp ? a : sp, sq = b > sq ? b : sq;
+    }
+  real M[9] = {0};
+  // Points that coincide up to the rounding of their centroid have no
+  // spread (the centroid of equal values need not equal them exactly).
+  int spread = sp > SPREAD_EPS * cp && sq > SPREAD_EPS * cq && sp > 0 && sq > 0;
+  if (spread)
+    for (size_t k = k0; k < k1; k++) {
+      real wk = w ? w[k] / wmax : 1, p[3], q[3];
+      for (int i = 0; i < 3; i++)
+        p[i] = (P[3 * k + i] - pbar[i]) / sp, q[i] = wk * ((Q[3 * k + i] - qbar[i]) / sq);
+      for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+          M[3 * i + j] += q[i] * p[j];
+    }
+  else
+    M[0] = M[4] = M[8] = 1;
+  for (int i = 0; i < 9; i++)
+    blk[(size_t)i * EK_LANES + lane] = M[i];
+  return spread;
+}
+
+int EK_P(kabsch_ex)(size_t nsets, const size_t *offsets, const real *P, const real *Q,
+                    const real *w, real *R, const ek_cloth_opts *opts) {
+  const ek_kernel_table *t = table(opts);
+  if (!t)
+    return EK_EISA;
+  int rc = kabsch_check(nsets, offsets, P, Q, w);
+  if (rc)
+    return rc;
+  if (nsets && !R) {
+    ek_set_error("ek_kabsch: R must not be NULL (nsets = %zu)", nsets);
+    return EK_EINVAL;
+  }
+  svd3_block_fn *block = FN(t, svd3_block);
+  ek_svd3_knobs knobs = EK_P(svd3_default_knobs)();
+  knobs.polar = 1;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t nchunks = (nsets + chunk - 1) / chunk;
+  int failed = 0;
+#pragma omp parallel if (nchunks > 1)
+  {
+    real *m = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+    real *r = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
+    if (!m || !r) {
+#pragma omp atomic write
+      failed = 1;
+    }
+#pragma omp barrier
+    if (!failed) {
+#pragma omp for schedule(static)
+      for (size_t c = 0; c < nchunks; c++) {
+        size_t s0 = c * chunk, ns = nsets - s0 < chunk ? nsets - s0 : chunk;
+        size_t nb = (ns + EK_LANES - 1) / EK_LANES;
+        for (size_t l = 0; l < nb * EK_LANES; l++) {
+          real *blk = m + (l / EK_LANES) * 9 * EK_LANES;
+          if (l < ns)
+            kabsch_covariance(offsets[s0 + l], offsets[s0 + l + 1], P, Q, w, blk, l % EK_LANES);
+          else
+            for (int i = 0; i < 9; i++)
+              blk[(size_t)i * EK_LANES + l % EK_LANES] = (real)(i % 4 == 0);
+        }
+        block(nb, m, r, NULL, NULL, &knobs);
+        EK_P(aosoa_unpack)(ns, 9, r, R + 9 * s0);
+      }
+    }
+    ek_free(m), ek_free(r);
+  }
+  if (failed) {
+    ek_set_error("ek_kabsch: out of memory for staging buffers");
+    return EK_ENOMEM;
+  }
+  return EK_OK;
+}
+
+int EK_P(kabsch)(size_t nsets, const size_t *offsets, const real *P, const real *Q, const real *w,
+                 real *R) {
+  return EK_P(kabsch_ex)(nsets, offsets, P, Q, w, R, NULL);
+}

@@ -1,0 +1,312 @@
+// Cloth kernels on whole AoSoA blocks (contract in include/ek/cloth.h,
+// layout in include/ek/batch.h): the triangle's 3x2 deformation gradient,
+// the polar decomposition of a 3x2 F from the closed-form eigen-
+// decomposition of C = F^T F (seed 003 eqs. 15-20), and the velocity
+// gradients of triangles (L = Vs Ds^+) and tets (L = Vs Ds^-1).
+//
+// Only correctly rounded operations (add, mul, div, sqrt), no fused ones
+// and the same order on every target: each ISA gives the same bits as the
+// scalar build, which the tests use to catch lane mixing.
+#include <float.h>
+#include <math.h>
+
+#include "simd/simd.h"
+
+#if defined(EK_REAL_F32)
+#define MIN_NORMAL FLT_MIN
+#define EPS FLT_EPSILON
+#else
+#define MIN_NORMAL DBL_MIN
+#define EPS DBL_EPSILON
+#endif
+
+#define INLINE static inline __attribute__((always_inline))
+
+// Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
+INLINE size_t vec_offset(size_t j, int planes) {
+  return (j / EK_VPB) * (size_t)planes * EK_LANES + (j % EK_VPB) * EK_W;
+}
+
+INLINE void load_planes(const real *p, size_t j, int planes, vreal *out) {
+  size_t o = vec_offset(j, planes);
+  for (int i = 0; i < planes; i++)
+    out[i] = vload(p + o + (size_t)i * EK_LANES);
+}
+
+INLINE void store_planes(real *p, size_t j, int planes, const vreal *in) {
+  size_t o = vec_offset(j, planes);
+  for (int i = 0; i < planes; i++)
+    vstore(p + o + (size_t)i * EK_LANES, in[i]);
+}
+
+INLINE vreal dot3(const vreal a[3], const vreal b[3]) {
+  return vadd(vadd(vmul(a[0], b[0]), vmul(a[1], b[1])), vmul(a[2], b[2]));
+}
+
+INLINE void cross3(const vreal a[3], const vreal b[3], vreal c[3]) {
+  c[0] = vsub(vmul(a[1], b[2]), vmul(a[2], b[1]));
+  c[1] = vsub(vmul(a[2], b[0]), vmul(a[0], b[2]));
+  c[2] = vsub(vmul(a[0], b[1]), vmul(a[1], b[0]));
+}
+
+// Largest |entry| of n values, and whether all of them are finite.
+INLINE vreal max_abs(const vreal *a, int n, vmask *finite) {
+  vreal s = vabs(a[0]);
+  vmask f = visfinite(a[0]);
+  for (int i = 1; i < n; i++) {
+    s = vmax(s, vabs(a[i]));
+    f = vmand(f, visfinite(a[i]));
+  }
+  *finite = f;
+  return s;
+}
+
+// ---- Eigenvector of the larger eigenvalue of a 2x2 symmetric matrix -------
+// [[a, b], [b, c]], lambda1 = (a + c)/2 + h, h = sqrt(d^2 + b^2),
+// d = (a - c)/2. (C - lambda1 I) v = 0 gives v = (h + d, b) from the second
+// row and v = (b, h - d) from the first; the one without cancellation is
+// taken (d >= 0: h + d >= 2|d|; d < 0: h - d > 0). h + d = 0 only when
+// b = d = 0 (C a multiple of I): every vector is an eigenvector, (1, 0).
+INLINE void sym2_top_eigvec(vreal a, vreal b, vreal c, vreal v[2]) {
+  vreal half = vset((real)0.5);
+  vreal d = vmul(vsub(a, c), half);
+  vreal h = vsqrt(vadd(vmul(d, d), vmul(b, b)));
+  vmask dpos = vge(d, vzero());
+  vreal x = vsel(dpos, vadd(h, d), b);
+  vreal y = vsel(dpos, b, vsub(h, d));
+  vreal n2 = vadd(vmul(x, x), vmul(y, y));
+  vmask none = veq(n2, vzero());
+  vreal inv = vrsqrt(vsel(none, vset(1), n2));
+  v[0] = vsel(none, vset(1), vmul(x, inv));
+  v[1] = vsel(none, vzero(), vmul(y, inv));
+}
+
+// ---- Triangle deformation gradient ----------------------------------------
+// F = [x1 - x0, x2 - x0] Dm^-1 (seed 003 eq. 2 in the rest triangle's own
+// frame); x 9 planes, Dm_inv 4, F 6.
+void EK_SYM(cloth_tri_F_block)(size_t nblocks, const real *x, const real *Dm_inv, real *F,
+                               real *unused1, real *unused2) {
+  (void)unused1, (void)unused2;
+  size_t nvec = nblocks * EK_VPB;
+  for (size_t j = 0; j < nvec; j++) {
+    vreal p[9], m[4], f[6];
+    load_planes(x, j, 9, p);
+    load_planes(Dm_inv, j, 4, m);
+    for (int i = 0; i < 3; i++) {
+      vreal e1 = vsub(p[3 + i], p[i]), e2 = vsub(p[6 + i], p[i]);
+      f[2 * i] = vadd(vmul(e1, m[0]), vmul(e2, m[2]));
+      f[2 * i + 1] = vadd(vmul(e1, m[1]), vmul(e2, m[3]));
+    }
+    store_planes(F, j, 6, f);
+  }
+}
+
+// ---- Polar decomposition of a 3x2 F (seed 003 eqs. 14-20) -----------------
+// F = R Uc with C = F^T F = V diag(lambda) V^T, Uc = V diag(sigma) V^T and
+// R = [u1 u2] V^T; cloth.h states the conventions. Steps:
+//   1. scale F by its largest entry s (C's entries then lie in [0, 3]);
+//   2. C, the top eigenvector v1 (sym2_top_eigvec), v2 = (-v1y, v1x);
+//   3. u1 = F v1 / |F v1|, sigma1 = |F v1| (>= 1 after step 1);
+//   4. u2 = n x u1, n = f1 x f2 / |f1 x f2|; sigma2 = |f1 x f2| / sigma1
+//      (|f1 x f2|^2 = det C, without the cancellation of lambda1 lambda2
+//      or of a c - b^2); rank-deficient: u2 from a coordinate axis;
+//   5. R = u1 v1^T + u2 v2^T, Uc = s (sigma1 v1 v1^T + sigma2 v2 v2^T).
+INLINE void polar32_vec(const vreal f[6], vreal R[6], vreal Uc[4]) {
+  vreal zero = vzero(), one = vset(1);
+  // 1. Scale.
+  vmask finite;
+  vreal s = max_abs(f, 6, &finite);
+  vmask rank0 = veq(s, zero);
+  vreal sd = vsel(vmand(finite, vmnot(rank0)), s, one);
+  vreal c1[3], c2[3];
+  for (int i = 0; i < 3; i++) {
+    c1[i] = vdiv(f[2 * i], sd);
+    c2[i] = vdiv(f[2 * i + 1], sd);
+  }
+  // 2. C = F^T F and its eigenvectors.
+  vreal v1[2];
+  sym2_top_eigvec(dot3(c1, c1), dot3(c1, c2), dot3(c2, c2), v1);
+  vreal v2[2] = {vneg(v1[1]), v1[0]};
+  // 3. u1 and sigma1.
+  vreal w[3];
+  for (int i = 0; i < 3; i++)
+    w[i] = vadd(vmul(c1[i], v1[0]), vmul(c2[i], v1[1]));
+  vreal w2 = dot3(w, w);
+  vreal sigma1 = vsqrt(w2);
+  vreal winv = vrsqrt(vsel(rank0, one, w2));
+  vreal u1[3];
+  for (int i = 0; i < 3; i++)
+    u1[i] = vsel(rank0, i == 0 ? one : zero, vmul(w[i], winv));
+  // 4. u2 from the normal (rank 2) or from the axis least aligned with u1.
+  // n is accurate to ~eps sigma1 / sigma2 (the cross product of nearly
+  // parallel columns); n x u1 is renormalised, and taken only while it is
+  // clearly non-zero, so u2 is a unit vector orthogonal to u1 either way.
+  vreal n[3], un[3];
+  cross3(c1, c2, n);
+  vreal n2 = dot3(n, n);
+  cross3(n, u1, un);
+  vreal un2 = dot3(un, un);
+  vmask rank2 = vmand(vge(n2, vset(MIN_NORMAL)), vgt(un2, vmul(n2, vset((real)0.5))));
+  vreal uninv = vrsqrt(vsel(rank2, un2, one));
+  vreal ax = vabs(u1[0]), ay = vabs(u1[1]), az = vabs(u1[2]);
+  vmask kx = vmand(vle(ax, ay), vle(ax, az));
+  vmask ky = vmand(vmnot(kx), vle(ay, az));
+  // e_x x u = (0, -uz, uy), e_y x u = (uz, 0, -ux), e_z x u = (-uy, ux, 0).
+  vreal p[3] = {vsel(kx, zero, vsel(ky, u1[2], vneg(u1[1]))),
+                vsel(kx, vneg(u1[2]), vsel(ky, zero, u1[0])),
+                vsel(kx, u1[1], vsel(ky, vneg(u1[0]), zero))};
+  vreal pinv = vrsqrt(dot3(p, p)); // |p|^2 = 1 - u_k^2 >= 2/3
+  vreal u2[3];
+  for (int i = 0; i < 3; i++) {
+    vreal perp = vsel(rank0, i == 1 ? one : zero, vmul(p[i], pinv));
+    u2[i] = vsel(rank2, vmul(un[i], uninv), perp);
+  }
+  vreal sigma2 = vsel(rank0, zero, vdiv(vsqrt(n2), vsel(rank0, one, sigma1)));
+  // 5. R and Uc; NaN for a non-finite F.
+  vreal nan = vset((real)NAN);
+  for (int i = 0; i < 3; i++) {
+    R[2 * i] = vsel(finite, vadd(vmul(u1[i], v1[0]), vmul(u2[i], v2[0])), nan);
+    R[2 * i + 1] = vsel(finite, vadd(vmul(u1[i], v1[1]), vmul(u2[i], v2[1])), nan);
+  }
+  // Uc in the scaled units, then one multiplication by s (one rounding
+  // when the output is subnormal).
+  vreal u00 = vadd(vmul(sigma1, vmul(v1[0], v1[0])), vmul(sigma2, vmul(v2[0], v2[0])));
+  vreal u01 = vadd(vmul(sigma1, vmul(v1[0], v1[1])), vmul(sigma2, vmul(v2[0], v2[1])));
+  vreal u11 = vadd(vmul(sigma1, vmul(v1[1], v1[1])), vmul(sigma2, vmul(v2[1], v2[1])));
+  u00 = vmul(u00, s), u01 = vmul(u01, s), u11 = vmul(u11, s);
+  Uc[0] = vsel(finite, u00, nan);
+  Uc[1] = Uc[2] = vsel(finite, u01, nan);
+  Uc[3] = vsel(finite, u11, nan);
+}
+
+// F 6 planes, R 6, Uc 4 (may be NULL).
+void EK_SYM(cloth_polar32_block)(size_t nblocks, const real *F, const real *unused, real *R,
+                                 real *Uc, real *unused2) {
+  (void)unused, (void)unused2;
+  size_t nvec = nblocks * EK_VPB;
+  for (size_t j = 0; j < nvec; j++) {
+    vreal f[6], r[6], u[4];
+    load_planes(F, j, 6, f);
+    polar32_vec(f, r, u);
+    store_planes(R, j, 6, r);
+    if (Uc)
+      store_planes(Uc, j, 4, u);
+  }
+}
+
+// L, D = (L + L^T)/2, W = (L - L^T)/2 (seed 003 eqs. 29-31); any may be
+// NULL.
+INLINE void store_LDW(size_t j, const vreal l[9], real *L, real *D, real *W) {
+  if (L)
+    store_planes(L, j, 9, l);
+  vreal half = vset((real)0.5), d[9], w[9];
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) {
+      d[3 * r + c] = vmul(vadd(l[3 * r + c], l[3 * c + r]), half);
+      w[3 * r + c] = vmul(vsub(l[3 * r + c], l[3 * c + r]), half);
+    }
+  if (D)
+    store_planes(D, j, 9, d);
+  if (W)
+    store_planes(W, j, 9, w);
+}
+
+// ---- Triangle velocity gradient L = Fdot F^+ = Vs Ds^+ ---------------------
+// With N = e1 x e2 (Ds = [e1 e2]), the rows of Ds^+ are the dual basis of
+// the edges in the plane: d1 = (e2 x N) / |N|^2, d2 = (N x e1) / |N|^2
+// (d_i . e_j = delta_ij, d_i . N = 0), so L = g1 d1^T + g2 d2^T (Vs =
+// [g1 g2]). Rank 1 (sigma2 <= 3 eps sigma1, i.e. |N| <= 3 eps lambda1):
+// Ds^+ = v1 (Ds v1)^T / |Ds v1|^2 (v1 the top eigenvector of Ds^T Ds), so
+// L = (Vs v1)(Ds v1)^T / |Ds v1|^2; Ds = 0 gives L = 0. Edges and
+// velocities are scaled by the largest edge entry first (L is unchanged).
+void EK_SYM(cloth_tri_velgrad_block)(size_t nblocks, const real *x, const real *v, real *L, real *D,
+                                     real *W) {
+  size_t nvec = nblocks * EK_VPB;
+  vreal zero = vzero(), one = vset(1);
+  for (size_t j = 0; j < nvec; j++) {
+    vreal p[9], q[9], e[6];
+    load_planes(x, j, 9, p);
+    load_planes(v, j, 9, q);
+    for (int i = 0; i < 3; i++)
+      e[i] = vsub(p[3 + i], p[i]), e[3 + i] = vsub(p[6 + i], p[i]);
+    vmask finite;
+    vreal s = max_abs(e, 6, &finite);
+    vmask rank0 = veq(s, zero);
+    vreal sd = vsel(rank0, one, s);
+    vreal e1[3], e2[3], g1[3], g2[3];
+    for (int i = 0; i < 3; i++) {
+      e1[i] = vdiv(e[i], sd), e2[i] = vdiv(e[3 + i], sd);
+      g1[i] = vdiv(vsub(q[3 + i], q[i]), sd), g2[i] = vdiv(vsub(q[6 + i], q[i]), sd);
+    }
+    vreal N[3], d1[3], d2[3];
+    cross3(e1, e2, N);
+    vreal n2 = dot3(N, N);
+    cross3(e2, N, d1);
+    cross3(N, e1, d2);
+    // The rank test: |N|^2 <= (3 eps lambda1)^2.
+    vreal a = dot3(e1, e1), b = dot3(e1, e2), c = dot3(e2, e2);
+    vreal h = vsqrt(vadd(vmul(vmul(vsub(a, c), vset((real)0.5)), vmul(vsub(a, c), vset((real)0.5))),
+                         vmul(b, b)));
+    vreal lambda1 = vadd(vmul(vadd(a, c), vset((real)0.5)), h);
+    vreal cut = vmul(vset((real)(3 * EPS)), lambda1);
+    vmask rank2 = vgt(n2, vmul(cut, cut));
+    vreal ninv = vdiv(one, vsel(rank2, n2, one));
+    vreal v1[2];
+    sym2_top_eigvec(a, b, c, v1);
+    vreal dv[3], gv[3];
+    for (int i = 0; i < 3; i++) {
+      dv[i] = vadd(vmul(e1[i], v1[0]), vmul(e2[i], v1[1]));
+      gv[i] = vadd(vmul(g1[i], v1[0]), vmul(g2[i], v1[1]));
+    }
+    vreal dinv = vdiv(one, vsel(rank0, one, dot3(dv, dv)));
+    vreal l[9];
+    for (int r = 0; r < 3; r++)
+      for (int col = 0; col < 3; col++) {
+        vreal full = vmul(vadd(vmul(g1[r], d1[col]), vmul(g2[r], d2[col])), ninv);
+        vreal one_rank = vmul(vmul(gv[r], dv[col]), dinv);
+        l[3 * r + col] = vsel(rank2, full, vsel(rank0, zero, one_rank));
+      }
+    store_LDW(j, l, L, D, W);
+  }
+}
+
+// ---- Tet velocity gradient L = Fdot F^-1 = Vs Ds^-1 (seed 003 eq. 28) ------
+// The rows of Ds^-1 are the dual basis of the edges: (e2 x e3, e3 x e1,
+// e1 x e2) / det Ds, so L = sum_k g_k d_k^T. Edges and velocities are
+// scaled by the largest edge entry first (L is unchanged; det Ds is then at
+// most 6 and never overflows). det Ds = 0: NaN. x and v 12 planes.
+void EK_SYM(cloth_tet_velgrad_block)(size_t nblocks, const real *x, const real *v, real *L, real *D,
+                                     real *W) {
+  size_t nvec = nblocks * EK_VPB;
+  vreal one = vset(1);
+  for (size_t j = 0; j < nvec; j++) {
+    vreal p[12], q[12], e[9];
+    load_planes(x, j, 12, p);
+    load_planes(v, j, 12, q);
+    for (int k = 0; k < 3; k++)
+      for (int i = 0; i < 3; i++)
+        e[3 * k + i] = vsub(p[3 * (k + 1) + i], p[i]);
+    vmask finite;
+    vreal s = max_abs(e, 9, &finite);
+    vreal sd = vsel(veq(s, vzero()), one, s);
+    vreal ed[3][3], g[3][3], d[3][3];
+    for (int k = 0; k < 3; k++)
+      for (int i = 0; i < 3; i++) {
+        ed[k][i] = vdiv(e[3 * k + i], sd);
+        g[k][i] = vdiv(vsub(q[3 * (k + 1) + i], q[i]), sd);
+      }
+    cross3(ed[1], ed[2], d[0]);
+    cross3(ed[2], ed[0], d[1]);
+    cross3(ed[0], ed[1], d[2]);
+    vreal det = dot3(ed[0], d[0]);
+    vmask ok = vmnot(veq(det, vzero()));
+    vreal dinv = vsel(ok, vdiv(one, det), vset((real)NAN));
+    vreal l[9];
+    for (int r = 0; r < 3; r++)
+      for (int c = 0; c < 3; c++)
+        l[3 * r + c] =
+            vmul(vadd(vadd(vmul(g[0][r], d[0][c]), vmul(g[1][r], d[1][c])), vmul(g[2][r], d[2][c])),
+                 dinv);
+    store_LDW(j, l, L, D, W);
+  }
+}

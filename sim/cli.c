@@ -1,0 +1,78 @@
+// The command-line conventions of ek's programs (see cli.h).
+#include "cli.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef EK_VERSION_STRING
+#define EK_VERSION_STRING "unknown"
+#endif
+
+void ek_cli_footer(FILE *out) {
+  fputs("Environment:\n"
+        "  EK_ISA=scalar|avx2|avx512  force one kernel ISA (default: the best this CPU runs;\n"
+        "                             one the CPU lacks is an error, exit 2)\n"
+        "  EK_VERBOSE=1               print the ISA chosen, and each library error as it happens\n"
+        "  OMP_NUM_THREADS=N          OpenMP threads (default: all cores)\n"
+        "Exit status: 0 done, 1 a check or the run failed, 2 bad usage.\n",
+        out);
+}
+
+void ek_cli_common(const char *program, const char *arg, void (*help)(FILE *out)) {
+  if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
+    help(stdout);
+    ek_cli_footer(stdout);
+    exit(EK_EXIT_OK);
+  }
+  if (!strcmp(arg, "--version")) {
+    printf("%s (ek %s)\n", program, EK_VERSION_STRING);
+    exit(EK_EXIT_OK);
+  }
+}
+
+int ek_cli_usage_error(const char *program, const char *fmt, ...) {
+  char msg[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(msg, sizeof msg, fmt, ap);
+  va_end(ap);
+  fprintf(stderr, "%s: %s (see %s --help)\n", program, msg, program);
+  return EK_EXIT_USAGE;
+}
+
+static const char *test_program;
+static int test_takes_scenes;
+
+static void test_help(FILE *out) {
+  fprintf(out, "usage: %s [--seed N]%s\n", test_program, test_takes_scenes ? " [--scenes DIR]" : "");
+  fputs("  --seed N       seed of the random inputs (the default is printed on start)\n", out);
+  if (test_takes_scenes)
+    fputs("  --scenes DIR   the shipped scenes (default: the source tree's scenes/)\n", out);
+}
+
+unsigned long long ek_cli_test_args(int argc, char **argv, unsigned long long fallback,
+                                    const char **scenes) {
+  test_takes_scenes = scenes != NULL;
+  const char *slash = strrchr(argv[0], '/');
+  test_program = slash ? slash + 1 : argv[0];
+  unsigned long long seed = fallback;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    ek_cli_common(test_program, a, test_help);
+    if (!strcmp(a, "--seed") && i + 1 < argc) {
+      const char *v = argv[++i];
+      char *end;
+      errno = 0;
+      seed = strtoull(v, &end, 0);
+      if (errno || end == v || *end || v[0] == '-')
+        exit(ek_cli_usage_error(test_program, "--seed: '%s' is not a non-negative integer", v));
+    } else if (scenes && !strcmp(a, "--scenes") && i + 1 < argc) {
+      *scenes = argv[++i];
+    } else {
+      exit(ek_cli_usage_error(test_program, "unknown or incomplete argument '%s'", a));
+    }
+  }
+  return seed;
+}

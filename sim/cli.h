@@ -1,0 +1,36 @@
+// Internal: what ek's programs and test binaries share on their command
+// lines, so that all of them behave alike. Not installed.
+//
+// Exit status, everywhere:
+//   0  done, every check passed
+//   1  a check failed or the run could not be done (bad input file, failed
+//      step, unwritable output)
+//   2  usage: a bad option or value on the command line or in EK_ISA
+#ifndef EK_SIM_CLI_H
+#define EK_SIM_CLI_H
+
+#include <stdio.h>
+
+enum { EK_EXIT_OK = 0, EK_EXIT_FAILED = 1, EK_EXIT_USAGE = 2 };
+
+// --help / -h: print help(stdout) and the common footer, exit 0;
+// --version: print "<program> (ek <version>)", exit 0. Any other argument
+// is left to the caller. Call it first for each argument.
+void ek_cli_common(const char *program, const char *arg, void (*help)(FILE *out));
+
+// The lines every help text ends with: the environment variables ek reads
+// and the exit status.
+void ek_cli_footer(FILE *out);
+
+// Prints "<program>: <message> (see <program> --help)" on stderr once and
+// returns EK_EXIT_USAGE.
+int ek_cli_usage_error(const char *program, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+// Test binaries: parses [--seed N] [--help] [--version], and [--scenes DIR]
+// when scenes is not NULL (*scenes is set to DIR); anything else is a usage
+// error (exit 2). Returns the seed (fallback when not given).
+unsigned long long ek_cli_test_args(int argc, char **argv, unsigned long long fallback,
+                                    const char **scenes);
+
+#endif

@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Every ek program and test binary behaves alike on its command line
+# (sim/cli.h): --help and -h print help naming the environment variables and
+# exit 0, --version exits 0, a bad option or EK_ISA value exits 2 with one
+# error line, errors are printed once.
+#   cli.sh BIN_DIR SCENES_DIR TEST_BINARY...
+set -u
+bin=$1 scenes=$2
+shift 2
+failures=0
+out=$(mktemp) err=$(mktemp)
+trap 'rm -f "$out" "$err"' EXIT
+
+# expect WHAT STATUS COMMAND...: the exit status is STATUS.
+expect() {
+  local what=$1 want=$2
+  shift 2
+  "$@" >"$out" 2>"$err" </dev/null
+  local got=$?
+  if [ "$got" -ne "$want" ]; then
+    echo "FAIL $what: exit $got, expected $want"
+    sed 's/^/  | /' "$err" | head -5
+    failures=$((failures + 1))
+    return 1
+  fi
+  return 0
+}
+# one_error WHAT: stderr is exactly one line (the error, printed once).
+one_error() {
+  local n
+  n=$(wc -l <"$err")
+  if [ "$n" -ne 1 ]; then
+    echo "FAIL $1: $n lines on stderr, expected 1"
+    sed 's/^/  | /' "$err" | head -5
+    failures=$((failures + 1))
+  fi
+}
+
+for prog in ek-bench ek-sim ek-verify "$@"; do
+  exe=$bin/$prog
+  for h in --help -h; do
+    if expect "$prog $h" 0 "$exe" "$h"; then
+      for word in usage EK_ISA EK_VERBOSE OMP_NUM_THREADS "Exit status"; do
+        grep -q "$word" "$out" || {
+          echo "FAIL $prog $h: the help does not mention '$word'"
+          failures=$((failures + 1))
+        }
+      done
+      [ -s "$err" ] && {
+        echo "FAIL $prog $h: wrote to stderr"
+        failures=$((failures + 1))
+      }
+    fi
+  done
+  expect "$prog --version" 0 "$exe" --version && grep -q "(ek [0-9]" "$out" || {
+    echo "FAIL $prog --version: no '(ek X.Y.Z)' in: $(head -1 "$out")"
+    failures=$((failures + 1))
+  }
+  expect "$prog --no-such-option" 2 "$exe" --no-such-option && one_error "$prog --no-such-option"
+done
+
+# Values and environment.
+expect "ek-verify --n 0" 2 "$bin/ek-verify" --n 0 && one_error "ek-verify --n 0"
+expect "ek-verify --seed x" 2 "$bin/ek-verify" --seed x && one_error "ek-verify --seed x"
+expect "ek-bench --threads 0" 2 "$bin/ek-bench" --threads 0 && one_error "ek-bench --threads 0"
+expect "ek-sim --steps -1" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps -1 &&
+  one_error "ek-sim --steps -1"
+expect "ek-sim without a scene" 2 "$bin/ek-sim" && one_error "ek-sim without a scene"
+for prog in ek-bench ek-verify; do
+  expect "EK_ISA=bogus $prog" 2 env EK_ISA=bogus "$bin/$prog" --filter nothing &&
+    one_error "EK_ISA=bogus $prog"
+done
+expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantilever.json" \
+  --no-output --steps 1 && one_error "EK_ISA=bogus ek-sim"
+# A scene that cannot be read is a failed run (1), not a usage error.
+expect "ek-sim on a missing scene" 1 "$bin/ek-sim" "$scenes/no-such-scene.json" --no-output &&
+  one_error "ek-sim on a missing scene"
+
+echo "cli: $failures failure(s)"
+[ "$failures" -eq 0 ]
