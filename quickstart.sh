@@ -13,7 +13,7 @@ case "$mode" in bench | test) ;; *)
   ;;
 esac
 
-packages="build-essential cmake git pkg-config liblapack-dev libhdf5-dev libcjson-dev python3"
+packages="build-essential cmake git pkg-config liblapack-dev libhdf5-dev libcjson-dev python3 python3-venv"
 missing=""
 for p in $packages; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
@@ -72,6 +72,14 @@ fi
 
 cmake --preset release >/dev/null
 cmake --build --preset release
+# The tests read the frames' XDMF with meshio (PyPI): a virtual environment
+# in build/venv holds it and h5py (tests/requirements-venv.txt).
+if [ "$mode" = test ] && ! build/venv/bin/python -c "import meshio, h5py" 2>/dev/null; then
+  echo "creating build/venv (meshio, h5py from PyPI, for the XDMF test)"
+  python3 -m venv build/venv
+  build/venv/bin/python -m pip install -q --disable-pip-version-check -r tests/requirements-venv.txt
+fi
+
 case "$mode" in
 bench) ./build/release/bin/ek-bench "$@" ;;
 test) ctest --preset release ;;

@@ -9,12 +9,15 @@
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
 // Exit status (sim/cli.h, the same in every ek program): 0 done, 1 the run
 // failed (a bad scene or mesh, an element inverted with a model undefined
-// there, unwritable output), 2 bad usage.
+// there, unwritable output), 2 bad usage. SIGINT or SIGTERM stops the run
+// at the next step: the frames are closed, their count printed, and ek-sim
+// dies of that signal.
 #include <ek/sim.h>
 
 #include <errno.h>
 #include <math.h>
 #include <omp.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +27,21 @@
 #include "cli.h"
 #include "omp_env.h"
 #include "scene_find.h"
+
+// SIGINT / SIGTERM: the handler only records the signal (async-signal-safe);
+// the step loop checks it, stops, and the frames are closed as at the end.
+static volatile sig_atomic_t stop_signal = 0;
+static void on_stop_signal(int sig) { stop_signal = sig; }
+
+static void catch_stop_signals(void) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART; // file writes in flight are not cut short
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+}
 
 static double now(void) {
   struct timespec ts;
@@ -435,6 +453,7 @@ int main(int argc, char **argv) {
   const int xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
   double *res = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
   if (!step_s || !res) {
+    free(step_s);
     free(res);
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
@@ -445,6 +464,7 @@ int main(int argc, char **argv) {
   double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL, *Drate = NULL, *Wrate = NULL,
          *rates = NULL, *vrot = NULL;
   ek_frames *frames = NULL;
+  catch_stop_signals();
   if (out) {
     frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
                                          ek_trimesh_tris(trimesh), err, sizeof err)
@@ -461,6 +481,14 @@ int main(int argc, char **argv) {
     if (!frames || !J || !smin || !psi || !smax || !Drate || !Wrate || !rates || !vrot) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
+      free(J);
+      free(smin);
+      free(psi);
+      free(smax);
+      free(Drate);
+      free(Wrate);
+      free(rates);
+      free(vrot);
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
@@ -487,7 +515,12 @@ int main(int argc, char **argv) {
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
   double t_start = now(), t_last_progress = t_start;
+  long stopped_at = -1; // the step a signal stopped the run before
   for (long n = 0; n <= steps; ++n) {
+    if (stop_signal) {
+      stopped_at = n;
+      break;
+    }
     if (frames && (n % scene.output_every == 0 || n == steps)) {
       double t0 = now();
       const ek_frame_fields ff = {J, smin, psi, cloth ? smax : NULL, Drate, Wrate, rates, vrot};
@@ -542,16 +575,22 @@ int main(int argc, char **argv) {
   double wall = now() - t_start;
   if (tty)
     fprintf(stderr, "\n");
+  const int wrote_frames = frames != NULL;
+  long nframes = frames ? ek_frames_count(frames) : 0;
   if (frames) {
-    long nf = ek_frames_count(frames);
     if (ek_frames_close(frames, err, sizeof err) != 0) {
       fprintf(stderr, "ek-sim: %s\n", err);
       rc = EK_EXIT_FAILED;
     }
     char xdmf[EK_SCENE_PATH_MAX];
     ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
-    printf("frames     %ld written to %s (ParaView: %s)\n", nf, out, xdmf);
+    printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
   }
+  if (stopped_at >= 0)
+    fprintf(stderr, "ek-sim: stopped by %s before step %ld of %ld; %ld frames written%s%s%s\n",
+            stop_signal == SIGINT ? "SIGINT" : "SIGTERM", stopped_at, steps, nframes,
+            wrote_frames ? " to " : "", wrote_frames ? out : "",
+            wrote_frames ? " (file closed)" : "");
 
   const ek_sim_times *tm = ek_sim_timings(sim);
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;
@@ -617,5 +656,13 @@ int main(int argc, char **argv) {
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
   ek_trimesh_destroy(trimesh);
+  if (stopped_at >= 0) {
+    // Die of the signal, as the caller asked, now that everything is
+    // closed: a shell or a job runner sees the signal, not an exit code.
+    fflush(stdout);
+    fflush(stderr);
+    signal(stop_signal, SIG_DFL);
+    raise(stop_signal);
+  }
   return rc;
 }

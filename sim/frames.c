@@ -1,18 +1,40 @@
 // Simulation frames: HDF5 (rest mesh once, then per frame positions and
-// per-tet fields) with an XDMF companion that ParaView reads as a temporal
-// collection of tetrahedral grids.
+// per-element and per-vertex fields) with an XDMF companion that ParaView
+// and meshio read as a temporal collection of tetrahedral or triangle grids.
 //
-// Crash safety: the file is created with the latest format and switched to
-// single-writer/multiple-reader (SWMR) mode before the first frame. In that
-// mode HDF5 orders its metadata writes (flush dependencies) so that the file
-// on disk is consistent at every moment, and each frame ends with
-// H5Fflush; a writer killed at any point therefore leaves every completed
-// frame readable (HDF5 user guide, "Single Writer/Multiple Reader"). Frames
-// are appended by extending chunked datasets; /frames/time is extended last,
-// so its length is the number of complete frames.
+// Crash safety without SWMR: the file at `path` is always a closed HDF5
+// file. Every frame is written into a scratch copy (`path.scratch`, opened,
+// extended, closed), and the scratch copy and `path` then swap names in one
+// atomic rename (renameat2 RENAME_EXCHANGE; hard link + rename where the
+// file system lacks it). A writer killed at any moment therefore leaves at
+// `path` the last committed file: it opens in any reader without h5clear,
+// and holds every frame this writer reported complete. The old `path` is
+// now the scratch copy, one frame behind; the next frame first replays the
+// frame it lacks (kept in memory), so each frame is written twice: the I/O
+// grows linearly with the frame count, at twice the data of one copy. A
+// reader that still holds the old file open (HDF5's lock refuses the
+// writer) keeps it: the scratch name then gets a fresh byte copy.
+// In-place alternatives were rejected: a flush after each frame leaves a
+// window inside the flush (and HDF5 may reuse space the on-disk metadata
+// still points to) where a kill corrupts the file; SWMR avoids that but
+// leaves a file every reader refuses until `h5clear -s`.
+//
+// The XDMF is written once with an empty collection and then appended to: a
+// frame's grid and the fixed closing tail go in one write at the end of the
+// body, overwriting the previous tail, so the XDMF is valid after every
+// frame and each frame costs one grid's text (no rewrite of the whole file,
+// whose cost would grow with the square of the frame count). A frame's grid
+// is appended after its HDF5 commit, so the XDMF never lists a frame the
+// HDF5 file lacks (after a kill it may list one frame fewer).
+//
+// The XDMF's data items are plain whole-dataset HDF references, one dataset
+// per frame and field: meshio's TimeSeriesReader (5.3) reads only those
+// (not HyperSlab items), and ParaView's Xdmf3 reader reads them too.
+#define _GNU_SOURCE // renameat2 (glibc >= 2.28)
 #include <ek/sim.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <hdf5.h>
 #include <math.h>
 #include <stdio.h>
@@ -21,21 +43,50 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+// The fields of a frame (sim.h, ek_frame_fields, in its order): values per
+// element (or per vertex), the XDMF attribute type.
+typedef struct {
+  const char *name;
+  int comps;
+  int per_vertex;
+  const char *xdmf_type;
+} field_spec;
+enum { NFIELDS = 8, FIELD_SMAX = 3 };
+static const field_spec fields_spec[NFIELDS] = {{"J", 1, 0, "Scalar"},
+                                                {"smin", 1, 0, "Scalar"},
+                                                {"energy_density_from_rest", 1, 0, "Scalar"},
+                                                {"smax", 1, 0, "Scalar"},
+                                                {"D", 9, 0, "Tensor"},
+                                                {"W", 9, 0, "Tensor"},
+                                                {"strain_rates", 3, 0, "Vector"},
+                                                {"vertex_rotation", 9, 1, "Tensor"}};
+
 struct ek_frames {
-  hid_t file;
-  hid_t positions, J, smin, psi, step, time; // extendible datasets
-  hid_t smax;                                // triangles only: the larger stretch
-  hid_t D, W, rates; // the velocity gradient's parts: nelems x 9, 9 and 3 per frame
-  hid_t vrot;        // per-vertex Kabsch rotations: nverts x 9 per frame
-  size_t nverts, ntets;
-  int nodes; // per element: 4 (tets, /mesh/tets) or 3 (triangles, /mesh/triangles)
-  long nframes;
-  double *nan_fill; // 9 max(ntets, nverts) NaNs for fields the caller did not give
-  double *times;    // per frame, for the XDMF
-  size_t times_cap;
+  size_t nverts, ntets;    // ntets: elements (tets or triangles)
+  int nodes;               // per element: 4 (tets) or 3 (triangles)
+  int has[NFIELDS];        // smax only for triangles
+  long nframes;            // frames committed to h5path (and listed in the XDMF)
+  long scratch_frames;     // frames in the scratch copy: nframes or nframes - 1
+  int failed;              // a write failed: the scratch copy is in an unknown state
+  double *last_x;          // the last committed frame, replayed into the scratch
+  double *last_f[NFIELDS]; // copy (its fields; NaN when not given)
+  double last_time;
+  int64_t last_step;
+  int xmf_fd;         // the XDMF, open for the appends
+  off_t xmf_body_end; // where the closing tail starts
+  char *h5name_xml;   // the HDF5 file's base name, XML-escaped
   char h5path[EK_SCENE_PATH_MAX];
+  char scratch_path[EK_SCENE_PATH_MAX + 16];
+  char swap_path[EK_SCENE_PATH_MAX + 16]; // the hard-link fallback's third name
   char xdmf_path[EK_SCENE_PATH_MAX];
 };
+
+// Values of field i in one frame.
+static size_t field_count(const ek_frames *fr, int i) {
+  return (fields_spec[i].per_vertex ? fr->nverts : fr->ntets) * (size_t)fields_spec[i].comps;
+}
+
+static const char xmf_tail[] = "  </Grid>\n </Domain>\n</Xdmf>\n";
 
 void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen) {
   size_t n = strlen(h5path);
@@ -47,7 +98,7 @@ void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen) {
 
 static int file_exists(const char *path) {
   struct stat st;
-  return stat(path, &st) == 0;
+  return lstat(path, &st) == 0;
 }
 
 // HDF5 prints its error stack by default; ek reports its own messages.
@@ -61,6 +112,80 @@ static void quiet_on(h5_quiet *q) {
 }
 static void quiet_off(const h5_quiet *q) { H5Eset_auto2(H5E_DEFAULT, q->func, q->data); }
 
+// The XDMF names the HDF5 file by its base name inside XML text and splits
+// "file:/dataset" at the colon (meshio: exactly one colon). Refuses what
+// cannot be written there: a colon, control characters, bytes that are not
+// UTF-8 (the XML's encoding), leading or trailing blanks (readers strip
+// them). Returns 0, or -1 with the reason in err.
+static int check_xml_name(const char *path, const char *name, char *err, size_t errlen) {
+  const unsigned char *s = (const unsigned char *)name;
+  size_t n = strlen(name), at = 0;
+  const char *why = NULL;
+  int printable = 1; // the name may be echoed in the message
+  for (size_t i = 0; i < n && !why; ++i) {
+    unsigned char c = s[i];
+    at = i;
+    if (c == ':') {
+      why = "a colon (XDMF separates the file from the dataset with one)";
+    } else if (c < 0x20 || c == 0x7f) {
+      why = "a control character";
+      printable = 0;
+    } else if (c >= 0x80) {
+      // UTF-8: a lead byte 110xxxxx / 1110xxxx / 11110xxx and 1-3
+      // continuation bytes 10xxxxxx (RFC 3629 sec. 3; overlongs and
+      // surrogates are left to the XML parser, which rejects them).
+      size_t extra = (c & 0xe0) == 0xc0 ? 1 : (c & 0xf0) == 0xe0 ? 2 : (c & 0xf8) == 0xf0 ? 3 : 0;
+      int valid = extra > 0;
+      for (size_t k = 1; k <= extra && valid; ++k)
+        valid = i + k < n && (s[i + k] & 0xc0) == 0x80;
+      if (!valid) {
+        why = "a byte that is not UTF-8";
+        printable = 0;
+      }
+      i += extra;
+    }
+  }
+  if (!why && n > 0 && (name[0] == ' ' || name[n - 1] == ' ')) {
+    why = "a leading or trailing blank (readers strip them)";
+    at = name[0] == ' ' ? 0 : n - 1;
+  }
+  if (!why)
+    return 0;
+  // Bytes that are not printable text are shown by position and value only.
+  if (err && errlen)
+    snprintf(err, errlen,
+             "%s: the XDMF file cannot name this HDF5 file: its base name holds %s "
+             "(byte %zu, 0x%02x)",
+             printable ? path : "output file", why, at, s[at]);
+  return -1;
+}
+
+// `name` with & < > " ' replaced by their XML entities (malloc'ed).
+static char *xml_escape(const char *name) {
+  size_t n = 1;
+  for (const char *p = name; *p; ++p)
+    n += *p == '&' || *p == '"' || *p == '\'' ? 6 : *p == '<' || *p == '>' ? 4 : 1;
+  char *out = malloc(n), *o = out;
+  if (!out)
+    return NULL;
+  for (const char *p = name; *p; ++p) {
+    const char *ent = *p == '&'    ? "&amp;"
+                      : *p == '<'  ? "&lt;"
+                      : *p == '>'  ? "&gt;"
+                      : *p == '"'  ? "&quot;"
+                      : *p == '\'' ? "&apos;"
+                                   : NULL;
+    if (ent) {
+      memcpy(o, ent, strlen(ent));
+      o += strlen(ent);
+    } else {
+      *o++ = *p;
+    }
+  }
+  *o = '\0';
+  return out;
+}
+
 // A fixed dataset written in one go.
 static int write_fixed(hid_t loc, const char *name, hid_t type, int rank, const hsize_t *dims,
                        const void *data) {
@@ -73,153 +198,287 @@ static int write_fixed(hid_t loc, const char *name, hid_t type, int rank, const 
   return rc < 0 ? -1 : 0;
 }
 
-// An extendible dataset [0 x inner...], one frame per chunk row.
-static hid_t create_series(hid_t loc, const char *name, hid_t type, int inner_rank,
-                           const hsize_t *inner) {
-  hsize_t dims[3] = {0, 0, 0}, maxdims[3] = {H5S_UNLIMITED, 0, 0}, chunk[3] = {1, 1, 1};
-  for (int i = 0; i < inner_rank; ++i) {
-    dims[i + 1] = maxdims[i + 1] = chunk[i + 1] = inner[i];
-  }
-  // Scalars per frame (time, step): several frames per chunk.
-  if (inner_rank == 0)
-    chunk[0] = 256;
-  hid_t space = H5Screate_simple(inner_rank + 1, dims, maxdims);
+// An extendible 1-D dataset of scalars per frame (time, step).
+static int create_series(hid_t loc, const char *name, hid_t type) {
+  hsize_t dims[1] = {0}, maxdims[1] = {H5S_UNLIMITED}, chunk[1] = {256};
+  hid_t space = H5Screate_simple(1, dims, maxdims);
   hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-  H5Pset_chunk(dcpl, inner_rank + 1, chunk);
+  H5Pset_chunk(dcpl, 1, chunk);
   hid_t dset = H5Dcreate2(loc, name, type, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
   H5Pclose(dcpl);
   H5Sclose(space);
-  return dset;
+  if (dset < 0)
+    return -1;
+  H5Dclose(dset);
+  return 0;
 }
 
-// Extend a series to `frames` rows and write row frames-1.
-static int append_row(hid_t dset, hid_t type, int inner_rank, const hsize_t *inner, long frames,
-                      const void *data) {
-  hsize_t dims[3] = {(hsize_t)frames, 0, 0}, start[3] = {(hsize_t)frames - 1, 0, 0},
-          count[3] = {1, 1, 1};
-  for (int i = 0; i < inner_rank; ++i)
-    dims[i + 1] = count[i + 1] = inner[i];
-  if (H5Dset_extent(dset, dims) < 0)
+// Extend a 1-D series to `frames` entries and write the last one.
+static int append_scalar(hid_t file, const char *name, hid_t type, long frames, const void *value) {
+  hid_t dset = H5Dopen2(file, name, H5P_DEFAULT);
+  if (dset < 0)
     return -1;
-  hid_t fspace = H5Dget_space(dset);
-  hid_t mspace = H5Screate_simple(inner_rank + 1, count, NULL);
-  herr_t rc = H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL);
-  if (rc >= 0)
-    rc = H5Dwrite(dset, type, mspace, fspace, H5P_DEFAULT, data);
-  H5Sclose(mspace);
-  H5Sclose(fspace);
-  if (rc >= 0)
-    rc = H5Dflush(dset);
+  hsize_t dims[1] = {(hsize_t)frames}, start[1] = {(hsize_t)frames - 1}, count[1] = {1};
+  herr_t rc = H5Dset_extent(dset, dims);
+  if (rc >= 0) {
+    hid_t fspace = H5Dget_space(dset);
+    hid_t mspace = H5Screate_simple(1, count, NULL);
+    rc = H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL);
+    if (rc >= 0)
+      rc = H5Dwrite(dset, type, mspace, fspace, H5P_DEFAULT, value);
+    H5Sclose(mspace);
+    H5Sclose(fspace);
+  }
+  H5Dclose(dset);
   return rc < 0 ? -1 : 0;
 }
 
-static void close_all(ek_frames *fr) {
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi,   &fr->step, &fr->time,
-                 &fr->smax,      &fr->D, &fr->W,    &fr->rates, &fr->vrot};
-  for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
-    if (*ds[i] >= 0) {
-      H5Dclose(*ds[i]);
-      *ds[i] = -1;
+static hid_t file_access(void) {
+  // Formats of HDF5 1.8 (link-indexed groups scale to many frames) and no
+  // newer, so that readers built on 1.8 open the file too.
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18);
+  return fapl;
+}
+
+// Create `file` (truncating) with the rest mesh and no frames; closed on
+// return. Returns 0, or -1 with what failed in *what.
+static int create_base(const ek_frames *fr, const char *file, const double *X, const int32_t *tets,
+                       const char **what) {
+  *what = "create";
+  hid_t fapl = file_access();
+  hid_t f = H5Fcreate(file, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  H5Pclose(fapl);
+  if (f < 0)
+    return -1;
+  *what = "write the rest mesh to";
+  hid_t mesh = H5Gcreate2(f, "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  hsize_t vdims[2] = {fr->nverts, 3}, tdims[2] = {fr->ntets, (hsize_t)fr->nodes};
+  int ok = mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
+           write_fixed(mesh, fr->nodes == 4 ? "tets" : "triangles", H5T_NATIVE_INT32, 2, tdims,
+                       tets) == 0;
+  if (mesh >= 0)
+    H5Gclose(mesh);
+  if (ok) {
+    *what = "create the frame groups in";
+    hid_t frames = H5Gcreate2(f, "frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    ok = frames >= 0 && create_series(frames, "time", H5T_NATIVE_DOUBLE) == 0 &&
+         create_series(frames, "step", H5T_NATIVE_INT64) == 0;
+    for (int i = -1; i < NFIELDS && ok; ++i) {
+      if (i >= 0 && !fr->has[i])
+        continue;
+      hid_t g = H5Gcreate2(frames, i < 0 ? "positions" : fields_spec[i].name, H5P_DEFAULT,
+                           H5P_DEFAULT, H5P_DEFAULT);
+      ok = g >= 0;
+      if (g >= 0)
+        H5Gclose(g);
     }
-  if (fr->file >= 0) {
-    H5Fclose(fr->file);
-    fr->file = -1;
+    if (frames >= 0)
+      H5Gclose(frames);
   }
+  if (H5Fclose(f) < 0 && ok) {
+    *what = "close";
+    ok = 0;
+  }
+  return ok ? 0 : -1;
 }
 
-static void destroy(ek_frames *fr) {
-  if (!fr)
-    return;
-  close_all(fr);
-  free(fr->nan_fill);
-  free(fr->times);
-  free(fr);
+// Write frame k (its datasets, then its time and step) into an open file.
+static int write_frame(const ek_frames *fr, hid_t file, long k, double time, int64_t step,
+                       const double *x, double *const *fields) {
+  char name[96];
+  hsize_t pdims[2] = {fr->nverts, 3};
+  snprintf(name, sizeof name, "/frames/positions/%06ld", k);
+  if (write_fixed(file, name, H5T_NATIVE_DOUBLE, 2, pdims, x) != 0)
+    return -1;
+  for (int i = 0; i < NFIELDS; ++i) {
+    if (!fr->has[i])
+      continue;
+    const field_spec *f = &fields_spec[i];
+    hsize_t dims[2] = {f->per_vertex ? fr->nverts : fr->ntets, (hsize_t)f->comps};
+    snprintf(name, sizeof name, "/frames/%s/%06ld", f->name, k);
+    if (write_fixed(file, name, H5T_NATIVE_DOUBLE, f->comps > 1 ? 2 : 1, dims, fields[i]) != 0)
+      return -1;
+  }
+  if (append_scalar(file, "/frames/step", H5T_NATIVE_INT64, k + 1, &step) != 0)
+    return -1;
+  return append_scalar(file, "/frames/time", H5T_NATIVE_DOUBLE, k + 1, &time);
 }
 
-// Write the XDMF for the frames so far: into a temporary file, then renamed
-// over the old one, so a reader (or a kill) never sees a half-written XDMF.
-static int write_xdmf(const ek_frames *fr, char *err, size_t errlen) {
+// Swap the names of the scratch copy and the committed file: one atomic
+// rename where the file system supports it; otherwise a hard link keeps
+// the committed file reachable at h5path throughout (link, rename over,
+// rename the link).
+static int swap_files(const ek_frames *fr) {
+#ifdef RENAME_EXCHANGE
+  if (renameat2(AT_FDCWD, fr->scratch_path, AT_FDCWD, fr->h5path, RENAME_EXCHANGE) == 0)
+    return 0;
+  if (errno != EINVAL && errno != ENOSYS && errno != EOPNOTSUPP)
+    return -1;
+#endif
+  unlink(fr->swap_path);
+  if (link(fr->h5path, fr->swap_path) != 0)
+    return -1;
+  if (rename(fr->scratch_path, fr->h5path) != 0)
+    return -1;
+  return rename(fr->swap_path, fr->scratch_path);
+}
+
+// Write all of buf at offset off (one call in practice: a grid is small).
+static int pwrite_all(int fd, const char *buf, size_t len, off_t off) {
+  while (len > 0) {
+    ssize_t w = pwrite(fd, buf, len, off);
+    if (w < 0 && errno == EINTR)
+      continue;
+    if (w <= 0)
+      return -1;
+    buf += w;
+    len -= (size_t)w;
+    off += w;
+  }
+  return 0;
+}
+
+// Replace the scratch copy by a byte copy of the committed file. Needed
+// when the scratch copy (the previously committed file) does not open for
+// writing: a reader that opened it while it was committed still holds it
+// (HDF5 locks the files it opens). That reader's file is left as it is,
+// unlinked; the scratch name gets a new file. Once per reader that holds
+// a file open across frames, not once per frame.
+static int scratch_from_committed(const ek_frames *fr) {
+  int in = open(fr->h5path, O_RDONLY | O_CLOEXEC);
+  if (in < 0)
+    return -1;
+  unlink(fr->scratch_path);
+  int out = open(fr->scratch_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (out < 0) {
+    close(in);
+    return -1;
+  }
+  enum { CHUNK = 1 << 20 };
+  char *buf = malloc(CHUNK);
+  int rc = buf ? 0 : -1;
+  off_t off = 0;
+  while (rc == 0) {
+    ssize_t r = read(in, buf, CHUNK);
+    if (r < 0 && errno == EINTR)
+      continue;
+    if (r <= 0) {
+      rc = r < 0 ? -1 : 0;
+      break;
+    }
+    rc = pwrite_all(out, buf, (size_t)r, off);
+    off += r;
+  }
+  free(buf);
+  close(in);
+  if (close(out) != 0)
+    rc = -1;
+  return rc;
+}
+
+// One frame's grid followed by the closing tail (malloc'ed); *grid_len is
+// the length of the grid alone.
+static char *xmf_grid(const ek_frames *fr, long k, double time, size_t *grid_len) {
+  const char *h5 = fr->h5name_xml;
+  size_t cap = 8192 + 12 * strlen(h5);
+  char *buf = malloc(cap);
+  if (!buf)
+    return NULL;
+  size_t nv = fr->nverts, nt = fr->ntets;
+  int n = snprintf(buf, cap,
+                   "   <Grid Name=\"frame_%06ld\" GridType=\"Uniform\">\n"
+                   "    <Time Value=\"%.17g\"/>\n"
+                   "    <Topology TopologyType=\"%s\" NumberOfElements=\"%zu\">\n"
+                   "     <DataItem Dimensions=\"%zu %d\" DataType=\"Int\" Precision=\"4\" "
+                   "Format=\"HDF\">%s:/mesh/%s</DataItem>\n"
+                   "    </Topology>\n"
+                   "    <Geometry GeometryType=\"XYZ\">\n"
+                   "     <DataItem Dimensions=\"%zu 3\" DataType=\"Float\" Precision=\"8\" "
+                   "Format=\"HDF\">%s:/frames/positions/%06ld</DataItem>\n"
+                   "    </Geometry>\n"
+                   // The positions again as a point vector: meshio's time
+                   // series reader returns attributes only, not geometry.
+                   "    <Attribute Name=\"positions\" AttributeType=\"Vector\" Center=\"Node\">\n"
+                   "     <DataItem Dimensions=\"%zu 3\" DataType=\"Float\" Precision=\"8\" "
+                   "Format=\"HDF\">%s:/frames/positions/%06ld</DataItem>\n"
+                   "    </Attribute>\n",
+                   k, time, fr->nodes == 4 ? "Tetrahedron" : "Triangle", nt, nt, fr->nodes, h5,
+                   fr->nodes == 4 ? "tets" : "triangles", nv, h5, k, nv, h5, k);
+  for (int i = 0; i < NFIELDS && n > 0 && (size_t)n < cap; ++i) {
+    const field_spec *f = &fields_spec[i];
+    if (!fr->has[i])
+      continue;
+    char dims[48];
+    size_t rows = f->per_vertex ? nv : nt;
+    if (f->comps > 1)
+      snprintf(dims, sizeof dims, "%zu %d", rows, f->comps);
+    else
+      snprintf(dims, sizeof dims, "%zu", rows);
+    n += snprintf(buf + n, cap - (size_t)n,
+                  "    <Attribute Name=\"%s\" AttributeType=\"%s\" Center=\"%s\">\n"
+                  "     <DataItem Dimensions=\"%s\" DataType=\"Float\" Precision=\"8\" "
+                  "Format=\"HDF\">%s:/frames/%s/%06ld</DataItem>\n"
+                  "    </Attribute>\n",
+                  f->name, f->xdmf_type, f->per_vertex ? "Node" : "Cell", dims, h5, f->name, k);
+  }
+  if (n > 0 && (size_t)n < cap)
+    n += snprintf(buf + n, cap - (size_t)n, "   </Grid>\n");
+  *grid_len = (size_t)n;
+  if (n > 0 && (size_t)n < cap)
+    n += snprintf(buf + n, cap - (size_t)n, "%s", xmf_tail);
+  if (n <= 0 || (size_t)n >= cap) {
+    free(buf);
+    return NULL;
+  }
+  return buf;
+}
+
+// Create the XDMF with an empty collection (through a temporary file and a
+// rename, so a kill never leaves half a header) and open it for appends.
+static int xmf_create(ek_frames *fr, char *err, size_t errlen) {
   char tmp[EK_SCENE_PATH_MAX + 8];
   snprintf(tmp, sizeof tmp, "%s.tmp", fr->xdmf_path);
   FILE *f = fopen(tmp, "w");
   if (!f) {
     if (err && errlen)
       snprintf(err, errlen, "%s: cannot write: %s", tmp, strerror(errno));
-    return EK_EIO;
+    return -1;
   }
-  // The XDMF names the HDF5 file relative to itself (same directory).
-  const char *h5name = strrchr(fr->h5path, '/');
-  h5name = h5name ? h5name + 1 : fr->h5path;
-  size_t nv = fr->nverts, nt = fr->ntets;
-  long nf = fr->nframes;
-  fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-             "<Xdmf Version=\"3.0\">\n <Domain>\n"
-             "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-  static const char *fields[] = {"J", "smin", "energy_density_from_rest", "smax"};
-  const int nfields = fr->nodes == 3 ? 4 : 3;
-  const char *topology = fr->nodes == 3 ? "Triangle" : "Tetrahedron",
-             *elements = fr->nodes == 3 ? "triangles" : "tets";
-  for (long i = 0; i < nf; ++i) {
-    fprintf(f, "   <Grid Name=\"frame_%06ld\" GridType=\"Uniform\">\n", i);
-    fprintf(f, "    <Time Value=\"%.17g\"/>\n", fr->times[i]);
-    fprintf(f,
-            "    <Topology TopologyType=\"%s\" NumberOfElements=\"%zu\">\n"
-            "     <DataItem Dimensions=\"%zu %d\" NumberType=\"Int\" Precision=\"4\" "
-            "Format=\"HDF\">%s:/mesh/%s</DataItem>\n    </Topology>\n",
-            topology, nt, nt, fr->nodes, h5name, elements);
-    fprintf(f,
-            "    <Geometry GeometryType=\"XYZ\">\n"
-            "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu 3\" Type=\"HyperSlab\">\n"
-            "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%ld 0 0 1 1 1 1 %zu 3</DataItem>\n"
-            "      <DataItem Dimensions=\"%ld %zu 3\" NumberType=\"Float\" Precision=\"8\" "
-            "Format=\"HDF\">%s:/frames/positions</DataItem>\n"
-            "     </DataItem>\n    </Geometry>\n",
-            nv, i, nv, nf, nv, h5name);
-    for (int k = 0; k < nfields; ++k)
-      fprintf(f,
-              "    <Attribute Name=\"%s\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
-              "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu\" Type=\"HyperSlab\">\n"
-              "      <DataItem Dimensions=\"3 2\" Format=\"XML\">%ld 0 1 1 1 %zu</DataItem>\n"
-              "      <DataItem Dimensions=\"%ld %zu\" NumberType=\"Float\" Precision=\"8\" "
-              "Format=\"HDF\">%s:/frames/%s</DataItem>\n"
-              "     </DataItem>\n    </Attribute>\n",
-              fields[k], nt, i, nt, nf, nt, h5name, fields[k]);
-    // The velocity gradient's parts (sim.h): D and W as 3x3 tensors, the
-    // principal strain rates as a 3-vector per element.
-    static const char *rate_fields[] = {"D", "W", "strain_rates"};
-    static const char *rate_types[] = {"Tensor", "Tensor", "Vector"};
-    static const int rate_comps[] = {9, 9, 3};
-    for (int k = 0; k < 3; ++k)
-      fprintf(
-          f,
-          "    <Attribute Name=\"%s\" AttributeType=\"%s\" Center=\"Cell\">\n"
-          "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu %d\" Type=\"HyperSlab\">\n"
-          "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%ld 0 0 1 1 1 1 %zu %d</DataItem>\n"
-          "      <DataItem Dimensions=\"%ld %zu %d\" NumberType=\"Float\" Precision=\"8\" "
-          "Format=\"HDF\">%s:/frames/%s</DataItem>\n"
-          "     </DataItem>\n    </Attribute>\n",
-          rate_fields[k], rate_types[k], nt, rate_comps[k], i, nt, rate_comps[k], nf, nt,
-          rate_comps[k], h5name, rate_fields[k]);
-    fprintf(f,
-            "    <Attribute Name=\"vertex_rotation\" AttributeType=\"Tensor\" Center=\"Node\">\n"
-            "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"1 %zu 9\" Type=\"HyperSlab\">\n"
-            "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%ld 0 0 1 1 1 1 %zu 9</DataItem>\n"
-            "      <DataItem Dimensions=\"%ld %zu 9\" NumberType=\"Float\" Precision=\"8\" "
-            "Format=\"HDF\">%s:/frames/vertex_rotation</DataItem>\n"
-            "     </DataItem>\n    </Attribute>\n",
-            nv, i, nv, nf, nv, h5name);
-    fprintf(f, "   </Grid>\n");
-  }
-  fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
+  static const char head[] =
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<Xdmf Version=\"3.0\">\n <Domain>\n"
+      "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  fputs(head, f);
+  fputs(xmf_tail, f);
   int bad = ferror(f);
   bad |= fclose(f) != 0;
   if (bad || rename(tmp, fr->xdmf_path) != 0) {
     if (err && errlen)
       snprintf(err, errlen, "%s: write failed: %s", fr->xdmf_path, strerror(errno));
     remove(tmp);
-    return EK_EIO;
+    return -1;
   }
+  fr->xmf_fd = open(fr->xdmf_path, O_WRONLY | O_CLOEXEC);
+  if (fr->xmf_fd < 0) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: cannot open for appending: %s", fr->xdmf_path, strerror(errno));
+    return -1;
+  }
+  fr->xmf_body_end = (off_t)(sizeof head - 1);
   return 0;
+}
+
+static void destroy(ek_frames *fr) {
+  if (!fr)
+    return;
+  if (fr->xmf_fd >= 0)
+    close(fr->xmf_fd);
+  free(fr->last_x);
+  for (int i = 0; i < NFIELDS; ++i)
+    free(fr->last_f[i]);
+  free(fr->h5name_xml);
+  free(fr);
 }
 
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
@@ -230,16 +489,11 @@ ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const do
 ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
                                size_t ntets, int nodes, const int32_t *tets, char *err,
                                size_t errlen) {
-  if (nodes != 3 && nodes != 4) {
-    if (err && errlen)
-      snprintf(err, errlen, "ek_frames_create_ex: %d nodes per element: 3 or 4", nodes);
-    return NULL;
-  }
   if (err && errlen)
     err[0] = '\0';
-  if (!path || !path[0] || !X || !tets || nverts == 0 || ntets == 0) {
+  if (!path || !path[0] || !X || !tets || nverts == 0 || ntets == 0 || (nodes != 3 && nodes != 4)) {
     if (err && errlen)
-      snprintf(err, errlen, "ek_frames_create: empty path or mesh");
+      snprintf(err, errlen, "ek_frames_create: empty path or mesh, or %d nodes per element", nodes);
     return NULL;
   }
   if (strlen(path) + 6 >= EK_SCENE_PATH_MAX) {
@@ -247,18 +501,30 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
       snprintf(err, errlen, "%s: path too long", path);
     return NULL;
   }
+  const char *base = strrchr(path, '/');
+  base = base ? base + 1 : path;
+  if (!base[0]) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: names a directory, not a file", path);
+    return NULL;
+  }
+  if (check_xml_name(path, base, err, errlen) != 0)
+    return NULL;
   ek_frames *fr = calloc(1, sizeof *fr);
   if (!fr)
     return NULL;
-  fr->file = fr->positions = fr->J = fr->smin = fr->psi = fr->step = fr->time = fr->smax = -1;
-  fr->D = fr->W = fr->rates = fr->vrot = -1;
-  fr->nodes = nodes;
+  fr->xmf_fd = -1;
   fr->nverts = nverts;
   fr->ntets = ntets;
+  fr->nodes = nodes;
+  for (int i = 0; i < NFIELDS; ++i)
+    fr->has[i] = i != FIELD_SMAX || nodes == 3;
   snprintf(fr->h5path, sizeof fr->h5path, "%s", path);
+  snprintf(fr->scratch_path, sizeof fr->scratch_path, "%s.scratch", path);
+  snprintf(fr->swap_path, sizeof fr->swap_path, "%s.swap", path);
   ek_frames_xdmf_path(path, fr->xdmf_path, sizeof fr->xdmf_path);
   // Never overwrite results unless asked: check both files before touching
-  // either.
+  // either. The scratch copy a killed run leaves is ours to overwrite.
   if (!force) {
     const char *existing = file_exists(fr->h5path)      ? fr->h5path
                            : file_exists(fr->xdmf_path) ? fr->xdmf_path
@@ -270,78 +536,62 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
       return NULL;
     }
   }
-  size_t nfill = 9 * (ntets > nverts ? ntets : nverts);
-  fr->nan_fill = malloc(nfill * sizeof(double));
-  fr->times_cap = 64;
-  fr->times = malloc(fr->times_cap * sizeof(double));
-  if (!fr->nan_fill || !fr->times) {
+  fr->h5name_xml = xml_escape(base);
+  fr->last_x = malloc(3 * nverts * sizeof(double));
+  int ok = fr->h5name_xml && fr->last_x;
+  for (int i = 0; i < NFIELDS; ++i)
+    if (fr->has[i]) {
+      fr->last_f[i] = malloc(field_count(fr, i) * sizeof(double));
+      ok = ok && fr->last_f[i];
+    }
+  if (!ok) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: out of memory for one frame (%zu vertices, %zu tets)", path,
+               nverts, ntets);
     destroy(fr);
     return NULL;
   }
-  for (size_t i = 0; i < nfill; ++i)
-    fr->nan_fill[i] = NAN;
 
+  // The empty file is built under the scratch name and then committed:
+  // h5path never names a file that is not whole. Without force the commit
+  // is a hard link, which fails if h5path appeared meanwhile.
   h5_quiet q;
   quiet_on(&q);
   const char *what = "create";
-  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
-  // SWMR needs the latest file format.
-  H5Pset_libver_bounds(fapl, H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
-  fr->file = H5Fcreate(path, force ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl);
-  H5Pclose(fapl);
-  int ok = fr->file >= 0;
+  errno = 0;
+  ok = create_base(fr, fr->scratch_path, X, tets, &what) == 0;
   if (ok) {
-    what = "write the rest mesh to";
-    hid_t mesh = H5Gcreate2(fr->file, "mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    hsize_t vdims[2] = {nverts, 3}, tdims[2] = {ntets, (hsize_t)nodes};
-    ok =
-        mesh >= 0 && write_fixed(mesh, "vertices", H5T_NATIVE_DOUBLE, 2, vdims, X) == 0 &&
-        write_fixed(mesh, nodes == 3 ? "triangles" : "tets", H5T_NATIVE_INT32, 2, tdims, tets) == 0;
-    if (mesh >= 0)
-      H5Gclose(mesh);
-  }
-  if (ok) {
-    what = "create the frame datasets in";
-    hid_t frames = H5Gcreate2(fr->file, "frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    hsize_t pos_inner[2] = {nverts, 3}, tet_inner[1] = {ntets};
-    fr->positions = create_series(frames, "positions", H5T_NATIVE_DOUBLE, 2, pos_inner);
-    fr->J = create_series(frames, "J", H5T_NATIVE_DOUBLE, 1, tet_inner);
-    fr->smin = create_series(frames, "smin", H5T_NATIVE_DOUBLE, 1, tet_inner);
-    fr->psi = create_series(frames, "energy_density_from_rest", H5T_NATIVE_DOUBLE, 1, tet_inner);
-    fr->step = create_series(frames, "step", H5T_NATIVE_INT64, 0, NULL);
-    fr->time = create_series(frames, "time", H5T_NATIVE_DOUBLE, 0, NULL);
-    if (nodes == 3)
-      fr->smax = create_series(frames, "smax", H5T_NATIVE_DOUBLE, 1, tet_inner);
-    hsize_t t9[2] = {ntets, 9}, t3[2] = {ntets, 3};
-    fr->D = create_series(frames, "D", H5T_NATIVE_DOUBLE, 2, t9);
-    fr->W = create_series(frames, "W", H5T_NATIVE_DOUBLE, 2, t9);
-    fr->rates = create_series(frames, "strain_rates", H5T_NATIVE_DOUBLE, 2, t3);
-    hsize_t v9[2] = {nverts, 9};
-    fr->vrot = create_series(frames, "vertex_rotation", H5T_NATIVE_DOUBLE, 2, v9);
-    ok = frames >= 0 && fr->positions >= 0 && fr->J >= 0 && fr->smin >= 0 && fr->psi >= 0 &&
-         fr->step >= 0 && fr->time >= 0 && (nodes == 4 || fr->smax >= 0) && fr->D >= 0 &&
-         fr->W >= 0 && fr->rates >= 0 && fr->vrot >= 0;
-    if (frames >= 0)
-      H5Gclose(frames);
-  }
-  if (ok) {
-    what = "switch to single-writer/multiple-reader mode";
-    ok = H5Fstart_swmr_write(fr->file) >= 0 && H5Fflush(fr->file, H5F_SCOPE_GLOBAL) >= 0;
+    if (force)
+      unlink(fr->xdmf_path); // the old XDMF lists frames the new file lacks
+    what = "commit";
+    ok = force ? rename(fr->scratch_path, fr->h5path) == 0
+               : link(fr->scratch_path, fr->h5path) == 0 && unlink(fr->scratch_path) == 0;
+    if (ok) {
+      // A second empty copy is the scratch the first frame extends.
+      ok = create_base(fr, fr->scratch_path, X, tets, &what) == 0;
+      if (!ok)
+        unlink(fr->h5path);
+    }
   }
   quiet_off(&q);
   if (!ok) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: cannot %s the HDF5 file%s", path, what,
-               fr->file < 0 && !force && file_exists(path) ? " (it exists)" : "");
-    int created = fr->file >= 0;
+    int e = errno;
+    if (err && errlen) {
+      if (strcmp(what, "commit") == 0)
+        snprintf(err, errlen, "%s: cannot create: %s%s", path, strerror(e),
+                 e == EEXIST ? " (refusing to overwrite; use --force)" : "");
+      else
+        snprintf(err, errlen, "%s: cannot %s the HDF5 file %s%s%s%s", path, what, fr->scratch_path,
+                 e ? " (" : "", e ? strerror(e) : "", e ? ")" : "");
+    }
+    unlink(fr->scratch_path);
     destroy(fr);
-    if (created)
-      remove(path); // no partial output
     return NULL;
   }
-  if (write_xdmf(fr, err, errlen) != 0) {
+  if (xmf_create(fr, err, errlen) != 0) {
+    unlink(fr->h5path);
+    unlink(fr->scratch_path);
     destroy(fr);
-    remove(path);
     return NULL;
   }
   return fr;
@@ -349,60 +599,104 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
 
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
                     const double *smin, const double *psi, char *err, size_t errlen) {
-  const ek_frame_fields ff = {.J = J, .smin = smin, .psi = psi};
-  return ek_frames_write_fields(fr, time, step, x, &ff, err, errlen);
+  const ek_frame_fields f = {.J = J, .smin = smin, .psi = psi};
+  return ek_frames_write_fields(fr, time, step, x, &f, err, errlen);
 }
 
 int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
                            const ek_frame_fields *ff, char *err, size_t errlen) {
-  static const ek_frame_fields none = {0};
-  if (!ff)
-    ff = &none;
-  const double *J = ff->J, *smin = ff->smin, *psi = ff->psi, *smax = ff->smax;
-  if (!fr || fr->file < 0 || !x) {
+  if (!fr || !x || !ff) {
     if (err && errlen)
-      snprintf(err, errlen, "ek_frames_write: no open file or no positions");
+      snprintf(err, errlen, "ek_frames_write: no open frames or no positions");
     return EK_EINVAL;
   }
-  if ((size_t)fr->nframes == fr->times_cap) {
-    double *t = realloc(fr->times, 2 * fr->times_cap * sizeof(double));
-    if (!t)
-      return EK_ENOMEM;
-    fr->times = t;
-    fr->times_cap *= 2;
-  }
-  long n = fr->nframes + 1;
-  hsize_t pos_inner[2] = {fr->nverts, 3}, tet_inner[1] = {fr->ntets};
-  hsize_t t9[2] = {fr->ntets, 9}, t3[2] = {fr->ntets, 3}, v9[2] = {fr->nverts, 9};
-  int64_t step64 = step;
-  h5_quiet q;
-  quiet_on(&q);
-  // Time goes last: its length counts the complete frames.
-  int ok =
-      append_row(fr->positions, H5T_NATIVE_DOUBLE, 2, pos_inner, n, x) == 0 &&
-      append_row(fr->J, H5T_NATIVE_DOUBLE, 1, tet_inner, n, J ? J : fr->nan_fill) == 0 &&
-      append_row(fr->smin, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smin ? smin : fr->nan_fill) == 0 &&
-      append_row(fr->psi, H5T_NATIVE_DOUBLE, 1, tet_inner, n, psi ? psi : fr->nan_fill) == 0 &&
-      (fr->smax < 0 ||
-       append_row(fr->smax, H5T_NATIVE_DOUBLE, 1, tet_inner, n, smax ? smax : fr->nan_fill) == 0) &&
-      append_row(fr->D, H5T_NATIVE_DOUBLE, 2, t9, n, ff->D ? ff->D : fr->nan_fill) == 0 &&
-      append_row(fr->W, H5T_NATIVE_DOUBLE, 2, t9, n, ff->W ? ff->W : fr->nan_fill) == 0 &&
-      append_row(fr->rates, H5T_NATIVE_DOUBLE, 2, t3, n,
-                 ff->strain_rates ? ff->strain_rates : fr->nan_fill) == 0 &&
-      append_row(fr->vrot, H5T_NATIVE_DOUBLE, 2, v9, n,
-                 ff->vertex_R ? ff->vertex_R : fr->nan_fill) == 0 &&
-      append_row(fr->step, H5T_NATIVE_INT64, 0, NULL, n, &step64) == 0 &&
-      append_row(fr->time, H5T_NATIVE_DOUBLE, 0, NULL, n, &time) == 0 &&
-      H5Fflush(fr->file, H5F_SCOPE_GLOBAL) >= 0;
-  quiet_off(&q);
-  if (!ok) {
+  if (fr->failed) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: writing frame %ld failed", fr->h5path, fr->nframes);
+      snprintf(err, errlen, "%s: an earlier frame failed; %ld frames are kept", fr->h5path,
+               fr->nframes);
     return EK_EIO;
   }
-  fr->times[fr->nframes] = time;
-  fr->nframes = n;
-  return write_xdmf(fr, err, errlen);
+  const long k = fr->nframes;
+  const int64_t step64 = step;
+  // The fields as written: NaN where the caller gave none.
+  const double *given[NFIELDS] = {ff->J, ff->smin, ff->psi,          ff->smax,
+                                  ff->D, ff->W,    ff->strain_rates, ff->vertex_R};
+  double *fields[NFIELDS] = {0};
+  for (int i = 0; i < NFIELDS; ++i) {
+    if (!fr->has[i])
+      continue;
+    size_t count = field_count(fr, i);
+    fields[i] = malloc(count * sizeof(double));
+    if (!fields[i]) {
+      for (int j = 0; j < i; ++j)
+        free(fields[j]);
+      if (err && errlen)
+        snprintf(err, errlen, "%s: out of memory for frame %ld", fr->h5path, k);
+      return EK_ENOMEM;
+    }
+    for (size_t e = 0; e < count; ++e)
+      fields[i][e] = given[i] ? given[i][e] : NAN;
+  }
+  size_t grid_len = 0;
+  char *grid = xmf_grid(fr, k, time, &grid_len);
+
+  // The scratch copy: replay the frame it lacks, add this one, close.
+  h5_quiet q;
+  quiet_on(&q);
+  errno = 0;
+  int ok = grid != NULL;
+  const char *what = "write";
+  if (ok) {
+    hid_t file = H5Fopen(fr->scratch_path, H5F_ACC_RDWR, H5P_DEFAULT);
+    if (file < 0 && scratch_from_committed(fr) == 0) {
+      fr->scratch_frames = k; // now a copy of the committed file
+      file = H5Fopen(fr->scratch_path, H5F_ACC_RDWR, H5P_DEFAULT);
+    }
+    ok = file >= 0;
+    if (ok && fr->scratch_frames < k)
+      ok = write_frame(fr, file, k - 1, fr->last_time, fr->last_step, fr->last_x, fr->last_f) == 0;
+    if (ok)
+      ok = write_frame(fr, file, k, time, step64, x, fields) == 0;
+    if (file >= 0 && H5Fclose(file) < 0)
+      ok = 0;
+  }
+  quiet_off(&q);
+  if (ok) {
+    what = "commit";
+    ok = swap_files(fr) == 0;
+  }
+  if (!ok) {
+    fr->failed = 1;
+    if (err && errlen)
+      snprintf(err, errlen, "%s: cannot %s frame %ld (%s); the file keeps frames 0..%ld",
+               fr->h5path, what, k, errno ? strerror(errno) : "HDF5 error", k - 1);
+    for (int i = 0; i < NFIELDS; ++i)
+      free(fields[i]);
+    free(grid);
+    return EK_EIO;
+  }
+  // Committed: the old file is now the scratch copy, one frame behind.
+  fr->nframes = k + 1;
+  fr->scratch_frames = k;
+  memcpy(fr->last_x, x, 3 * fr->nverts * sizeof(double));
+  for (int i = 0; i < NFIELDS; ++i)
+    if (fr->has[i]) {
+      memcpy(fr->last_f[i], fields[i], field_count(fr, i) * sizeof(double));
+      free(fields[i]);
+    }
+  fr->last_time = time;
+  fr->last_step = step64;
+  // The grid and the tail after it, in one write over the old tail.
+  ok = pwrite_all(fr->xmf_fd, grid, grid_len + sizeof xmf_tail - 1, fr->xmf_body_end) == 0;
+  free(grid);
+  if (!ok) {
+    fr->failed = 1;
+    if (err && errlen)
+      snprintf(err, errlen, "%s: cannot append frame %ld: %s", fr->xdmf_path, k, strerror(errno));
+    return EK_EIO;
+  }
+  fr->xmf_body_end += (off_t)grid_len;
+  return 0;
 }
 
 long ek_frames_count(const ek_frames *fr) { return fr ? fr->nframes : 0; }
@@ -410,23 +704,15 @@ long ek_frames_count(const ek_frames *fr) { return fr ? fr->nframes : 0; }
 int ek_frames_close(ek_frames *fr, char *err, size_t errlen) {
   if (!fr)
     return 0;
-  h5_quiet q;
-  quiet_on(&q);
   int rc = 0;
-  hid_t *ds[] = {&fr->positions, &fr->J, &fr->smin, &fr->psi,   &fr->step, &fr->time,
-                 &fr->smax,      &fr->D, &fr->W,    &fr->rates, &fr->vrot};
-  for (size_t i = 0; i < sizeof ds / sizeof ds[0]; ++i)
-    if (*ds[i] >= 0) {
-      rc |= H5Dclose(*ds[i]) < 0;
-      *ds[i] = -1;
-    }
-  if (fr->file >= 0) {
-    rc |= H5Fclose(fr->file) < 0;
-    fr->file = -1;
+  if (fr->xmf_fd >= 0) {
+    rc |= close(fr->xmf_fd) != 0;
+    fr->xmf_fd = -1;
   }
-  quiet_off(&q);
+  // Every frame is committed at h5path; the scratch copy is no longer needed.
+  unlink(fr->scratch_path);
   if (rc && err && errlen)
-    snprintf(err, errlen, "%s: closing failed", fr->h5path);
+    snprintf(err, errlen, "%s: closing failed: %s", fr->xdmf_path, strerror(errno));
   destroy(fr);
   return rc ? EK_EIO : 0;
 }

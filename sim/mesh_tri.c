@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "text_escape.h"
+
 struct ek_trimesh {
   size_t nv, nt;
   double *X;
@@ -21,13 +23,17 @@ struct ek_trimesh {
 
 static void tm_error(char *err, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
+// Messages quote tokens from the file: every byte that is not printable
+// ASCII is shown as \xNN (text_escape.h), never echoed raw.
 static void tm_error(char *err, size_t errlen, const char *fmt, ...) {
-  if (!err || !errlen)
+  if (!err || errlen < 8)
     return;
+  char raw[1024];
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(err, errlen, fmt, ap);
+  vsnprintf(raw, sizeof raw, fmt, ap);
   va_end(ap);
+  text_escape(err, errlen, raw, sizeof raw, 0);
 }
 
 void ek_trimesh_destroy(ek_trimesh *m) {

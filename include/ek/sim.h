@@ -74,9 +74,9 @@
 //
 // Frames (ek_frames_*): one HDF5 file with the rest mesh once and, per
 // output frame, positions and per-tet fields (J, smallest singular value,
-// energy density measured from the rest shape) and the time, flushed every
-// frame, plus an XDMF file beside it (same name, extension .xmf, the XDMF
-// extension ParaView also reads) so ParaView opens the time series.
+// energy density measured from the rest shape) and the time, committed
+// whole every frame, plus an XDMF file beside it (same name, extension
+// .xmf) so ParaView and meshio open the time series.
 #ifndef EK_SIM_H
 #define EK_SIM_H
 
@@ -449,20 +449,25 @@ size_t ek_sim_constrained_count(const ek_sim *sim);
 typedef struct ek_frames ek_frames;
 
 // Create `path` (HDF5) and its XDMF companion and write the rest mesh.
-// Refuses (NULL, err) if either exists unless `force`. Layout:
+// Refuses (NULL, err) if either exists unless `force`, or if the XDMF
+// cannot name the file (its base name holds a colon, a control character,
+// bytes that are not UTF-8 or a leading/trailing blank). Layout:
 //   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
 //   /frames/time     nframes double        /frames/step nframes int64
-//   /frames/positions nframes x nverts x 3 double
-//   /frames/J, /frames/smin                nframes x ntets double
-//   /frames/energy_density_from_rest       nframes x ntets double
-// The XDMF names the cell attributes as the datasets. The energy density is
-// the `psi` ek_frames_write is given; ek-sim writes ek_sim_tet_fields' (from
-// the rest shape: 0 at rest, and it sums to the elastic energy).
-// The file is written in HDF5's single-writer/multiple-reader mode and
-// flushed after each frame, so a killed writer leaves a consistent file; the
-// number of complete frames is the length of /frames/time (written last).
-// A file whose writer was killed opens with H5F_ACC_SWMR_READ (or after
-// `h5clear -s FILE`).
+//   /frames/positions/NNNNNN               nverts x 3 double
+//   /frames/J/NNNNNN, /frames/smin/NNNNNN  ntets double
+//   /frames/energy_density_from_rest/NNNNNN ntets double
+// with NNNNNN the frame index (0-based, at least 6 digits). The XDMF (3.0)
+// is a temporal collection of one grid per frame whose data items are
+// these whole datasets, the positions also as a point vector "positions";
+// it names the HDF5 file by its base name, XML-escaped. The energy density
+// is the `psi` ek_frames_write is given; ek-sim writes ek_sim_tet_fields'
+// (from the rest shape: 0 at rest, and it sums to the elastic energy).
+// `path` is always a closed, whole HDF5 file: each frame is written into a
+// scratch copy (`path`.scratch, one frame behind) that then swaps names
+// with `path` atomically, so a writer killed at any moment leaves every
+// frame it completed readable with plain read-only access. The XDMF is
+// appended to after each commit (it may lack the last frame after a kill).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
 // The same for any element kind: nodes = 4 (tets, /mesh/tets, XDMF
@@ -491,7 +496,8 @@ typedef struct {
 int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
                            const ek_frame_fields *fields, char *err, size_t errlen);
 long ek_frames_count(const ek_frames *fr);
-// Close the file (and the final XDMF). 0 on success.
+// Close the XDMF and remove the scratch copy (every frame is already in
+// `path`). 0 on success.
 int ek_frames_close(ek_frames *fr, char *err, size_t errlen);
 // Path of the XDMF companion of an HDF5 path (".h5" replaced by ".xmf", or
 // ".xmf" appended).

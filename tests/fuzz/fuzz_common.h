@@ -42,7 +42,7 @@ static void fuzz_write(const char *path, const uint8_t *data, size_t size) {
 // A mesh that loaded must be whole: positive finite rest volumes, finite
 // Dm^-1 and lumped volumes, at least one tet. Anything else is a bug the
 // fuzzer must report, so it aborts.
-static void fuzz_check_mesh(const ek_mesh *m) {
+__attribute__((unused)) static void fuzz_check_mesh(const ek_mesh *m) {
   size_t nt = ek_mesh_ntets(m), nv = ek_mesh_nverts(m);
   const double *V0 = ek_mesh_rest_volumes(m), *Dmi = ek_mesh_dm_inv(m);
   const double *L = ek_mesh_lumped_volume(m);
