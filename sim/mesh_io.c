@@ -600,7 +600,8 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
   }
   if (expect_end(&r, "$EndNodes"))
     goto done;
-  qsort(map.v, map.n, sizeof *map.v, cmp_tag);
+  if (map.n) // no nodes: map.v is NULL, which qsort must not be given
+    qsort(map.v, map.n, sizeof *map.v, cmp_tag);
   for (size_t i = 1; i < map.n; i++)
     if (map.v[i].tag == map.v[i - 1].tag) {
       mesh_error(err, errlen, "%s:%ld: node tag %ld appears twice", path, a.vline[map.v[i].index],

@@ -567,7 +567,8 @@ static ek_trimesh *read_msh(tm_reader *r) {
                  seen, nnodes);
         goto done;
       }
-      qsort(tags, ntags, sizeof *tags, tag_cmp);
+      if (ntags) // no nodes: tags is NULL, which qsort must not be given
+        qsort(tags, ntags, sizeof *tags, tag_cmp);
       for (size_t i = 1; i < ntags; ++i)
         if (tags[i].tag == tags[i - 1].tag) {
           tm_error(r->err, r->errlen, "%s:%ld: node tag %ld defined twice", r->path,
@@ -640,7 +641,8 @@ static ek_trimesh *read_msh(tm_reader *r) {
             long nt;
             if (parse_long(r, &cur, "triangle node", &nt))
               goto done;
-            tag_pair key = {nt, 0}, *hit = bsearch(&key, tags, ntags, sizeof *tags, tag_cmp);
+            tag_pair key = {nt, 0};
+            tag_pair *hit = ntags ? bsearch(&key, tags, ntags, sizeof *tags, tag_cmp) : NULL;
             if (!hit) {
               tm_error(r->err, r->errlen, "%s:%ld: node %ld of element %ld is not defined", r->path,
                        r->lineno, nt, tag);
