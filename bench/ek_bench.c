@@ -33,11 +33,8 @@ static const struct {
   const char *name;
   ek_bench_family_fn *fn;
 } families[] = {
-    {"svd3", bench_svd3},
-    {"fvm", bench_fvm},
-    {"material", bench_material},
-    {"sim", bench_sim},
-    {"cloth", bench_cloth},
+    {"svd3", bench_svd3}, {"fvm", bench_fvm},     {"material", bench_material},
+    {"sim", bench_sim},   {"cloth", bench_cloth},
 };
 enum { NFAMILIES = sizeof families / sizeof families[0] };
 

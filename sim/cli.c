@@ -46,7 +46,8 @@ static const char *test_program;
 static int test_takes_scenes;
 
 static void test_help(FILE *out) {
-  fprintf(out, "usage: %s [--seed N]%s\n", test_program, test_takes_scenes ? " [--scenes DIR]" : "");
+  fprintf(out, "usage: %s [--seed N]%s\n", test_program,
+          test_takes_scenes ? " [--scenes DIR]" : "");
   fputs("  --seed N       seed of the random inputs (the default is printed on start)\n", out);
   if (test_takes_scenes)
     fputs("  --scenes DIR   the shipped scenes (default: the source tree's scenes/)\n", out);

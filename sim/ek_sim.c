@@ -71,6 +71,14 @@ static void usage(FILE *out) {
           "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
 }
 
+// The per-frame field buffers (any may be NULL).
+static void free_frame_fields(double *J, double *smin, double *psi, double *smax, double *D,
+                              double *W, double *rates, double *vrot) {
+  double *bufs[] = {J, smin, psi, smax, D, W, rates, vrot};
+  for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; ++i)
+    free(bufs[i]);
+}
+
 static int compare_double(const void *a, const void *b) {
   double x = *(const double *)a, y = *(const double *)b;
   return (x > y) - (x < y);
@@ -481,14 +489,7 @@ int main(int argc, char **argv) {
     if (!frames || !J || !smin || !psi || !smax || !Drate || !Wrate || !rates || !vrot) {
       fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
       ek_frames_close(frames, NULL, 0);
-      free(J);
-      free(smin);
-      free(psi);
-      free(smax);
-      free(Drate);
-      free(Wrate);
-      free(rates);
-      free(vrot);
+      free_frame_fields(J, smin, psi, smax, Drate, Wrate, rates, vrot);
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
@@ -643,14 +644,7 @@ int main(int argc, char **argv) {
          "(t = %g s)\n",
          e1.kinetic, e1.elastic, e1.potential, e1.kinetic + e1.elastic + e1.potential,
          ek_sim_time(sim));
-  free(J);
-  free(smin);
-  free(psi);
-  free(smax);
-  free(Drate);
-  free(Wrate);
-  free(rates);
-  free(vrot);
+  free_frame_fields(J, smin, psi, smax, Drate, Wrate, rates, vrot);
   free(step_s);
   free(res);
   ek_sim_destroy(sim);

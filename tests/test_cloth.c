@@ -31,8 +31,8 @@
 #include <string.h>
 
 #include "check.h"
-#include "cli.h"
 #include "check_cloth.h"
+#include "cli.h"
 #include "cloth/cloth_ref.h"
 
 // Odd sizes, so every ISA has tail lanes.

@@ -22,8 +22,8 @@
 #include <string.h>
 
 #include "check.h"
-#include "cli.h"
 #include "check_cloth.h"
+#include "cli.h"
 #include "cloth/cloth_ref.h"
 #include "svd3/svd3_ref.h"
 
