@@ -256,41 +256,42 @@ static int rd_getline(tm_reader *r) {
   return 0;
 }
 
-static int push_vertex(tm_reader *r, const double p[3]) {
-  if (r->nv == r->vcap) {
-    size_t cap = r->vcap ? 2 * r->vcap : 1024;
-    double *X = realloc(r->X, 3 * cap * sizeof(double));
-    if (X)
-      r->X = X;
-    long *l = realloc(r->vline, cap * sizeof(long));
-    if (l)
-      r->vline = l;
-    if (!X || !l) {
-      tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-      return -1;
-    }
-    r->vcap = cap;
+// Room for one more item: `items` (item_bytes each) and their line numbers
+// grow together, doubling from 1024.
+static int grow(tm_reader *r, void *items_p, size_t item_bytes, long **lines, size_t *cap) {
+  void **items = items_p;
+  size_t c = *cap ? 2 * *cap : 1024;
+  void *a = realloc(*items, c * item_bytes);
+  if (a)
+    *items = a;
+  long *l = realloc(*lines, c * sizeof(long));
+  if (l)
+    *lines = l;
+  if (!a || !l) {
+    tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
+    return -1;
   }
+  *cap = c;
+  return 0;
+}
+
+static int push_vertex(tm_reader *r, const double p[3]) {
+  void *X = r->X;
+  int rc = r->nv == r->vcap ? grow(r, &X, 3 * sizeof(double), &r->vline, &r->vcap) : 0;
+  r->X = X; // moved by realloc even when the line numbers' realloc failed
+  if (rc)
+    return -1;
   memcpy(r->X + 3 * r->nv, p, 3 * sizeof(double));
   r->vline[r->nv++] = r->lineno;
   return 0;
 }
 
 static int push_tri(tm_reader *r, const int32_t q[3]) {
-  if (r->nt == r->tcap) {
-    size_t cap = r->tcap ? 2 * r->tcap : 1024;
-    int32_t *T = realloc(r->T, 3 * cap * sizeof(int32_t));
-    if (T)
-      r->T = T;
-    long *l = realloc(r->tline, cap * sizeof(long));
-    if (l)
-      r->tline = l;
-    if (!T || !l) {
-      tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-      return -1;
-    }
-    r->tcap = cap;
-  }
+  void *T = r->T;
+  int rc = r->nt == r->tcap ? grow(r, &T, 3 * sizeof(int32_t), &r->tline, &r->tcap) : 0;
+  r->T = T;
+  if (rc)
+    return -1;
   memcpy(r->T + 3 * r->nt, q, 3 * sizeof(int32_t));
   r->tline[r->nt++] = r->lineno;
   return 0;
