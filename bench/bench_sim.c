@@ -322,6 +322,18 @@ static int cantilever_1s(ek_bench *b, int threads) {
   return 0;
 }
 
+// PHASE_STEPS more steps of a row's run with the phases timed (same
+// threads: the harness set them for the row); *before and *after are the
+// sim's timings around them. Returns the number of steps taken.
+static double phase_timed_steps(ek_sim *sim, ek_sim_times *before, ek_sim_times *after) {
+  *before = *ek_sim_timings(sim);
+  ek_sim_time_phases(sim, 1);
+  for (int i = 0; i < PHASE_STEPS && ek_sim_step(sim) == 0; ++i)
+    ;
+  *after = *ek_sim_timings(sim);
+  return (double)(after->steps - before->steps);
+}
+
 // sim/cloth_hang/<model>/<isa>/<prec>/tris:<N>/threads:<T>: the explicit
 // cloth step (cloth_force.h) on the hanging cloth of scenes/cloth_hang.json
 // refined to 224 x 224 cells (100 352 triangles), dt under its CFL limit;
@@ -380,20 +392,16 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
         if (ek_bench_run(b, &row) != 0)
           rc = -1;
         if (ctx.sim && !ctx.failed) {
-          ek_sim_times before = *ek_sim_timings(ctx.sim);
-          ek_sim_time_phases(ctx.sim, 1);
-          for (int i = 0; i < PHASE_STEPS && ek_sim_step(ctx.sim) == 0; ++i)
-            ;
-          const ek_sim_times *after = ek_sim_timings(ctx.sim);
-          double n = (double)(after->steps - before.steps);
+          ek_sim_times before, after;
+          double n = phase_timed_steps(ctx.sim, &before, &after);
           if (n > 0)
             ek_bench_note(b,
                           "%s: ms per step by phase (separate passes): membrane %.4f, bending "
                           "%.4f, gather %.4f, integration %.4f",
-                          name, 1e3 * (after->cloth_membrane - before.cloth_membrane) / n,
-                          1e3 * (after->cloth_bending - before.cloth_bending) / n,
-                          1e3 * (after->cloth_gather - before.cloth_gather) / n,
-                          1e3 * (after->integration - before.integration) / n);
+                          name, 1e3 * (after.cloth_membrane - before.cloth_membrane) / n,
+                          1e3 * (after.cloth_bending - before.cloth_bending) / n,
+                          1e3 * (after.cloth_gather - before.cloth_gather) / n,
+                          1e3 * (after.integration - before.integration) / n);
         }
         ek_sim_destroy(ctx.sim);
         ek_trimesh_destroy(mesh);
@@ -581,23 +589,19 @@ int bench_sim(ek_bench *b) {
       } else if (ctx.sim && !ctx.failed) {
         // The split, on a few more steps of the same run (same threads:
         // the harness set them for the row).
-        ek_sim_times before = *ek_sim_timings(ctx.sim);
-        ek_sim_time_phases(ctx.sim, 1);
-        for (int i = 0; i < PHASE_STEPS && ek_sim_step(ctx.sim) == 0; ++i)
-          ;
-        const ek_sim_times *after = ek_sim_timings(ctx.sim);
-        double n = (double)(after->steps - before.steps);
+        ek_sim_times before, after;
+        double n = phase_timed_steps(ctx.sim, &before, &after);
         if (n > 0)
           ek_bench_note(b,
                         "%s: ms per step by phase (separate passes): deformation gradient "
                         "%.4f, SVD/polar %.4f, P %.4f, scatter %.4f, integration %.4f, R^n "
                         "refresh %.4f",
-                        name, 1e3 * (after->deformation_gradient - before.deformation_gradient) / n,
-                        1e3 * (after->svd_polar - before.svd_polar) / n,
-                        1e3 * (after->pk1 - before.pk1) / n,
-                        1e3 * (after->scatter - before.scatter) / n,
-                        1e3 * (after->integration - before.integration) / n,
-                        1e3 * (after->polar_refresh - before.polar_refresh) / n);
+                        name, 1e3 * (after.deformation_gradient - before.deformation_gradient) / n,
+                        1e3 * (after.svd_polar - before.svd_polar) / n,
+                        1e3 * (after.pk1 - before.pk1) / n,
+                        1e3 * (after.scatter - before.scatter) / n,
+                        1e3 * (after.integration - before.integration) / n,
+                        1e3 * (after.polar_refresh - before.polar_refresh) / n);
       }
       ek_sim_destroy(ctx.sim);
     }
