@@ -100,6 +100,7 @@ static double force_ns_per_tet(const ek_scene *scene, const ek_mesh *mesh, const
                      .isa = scene->svd.isa,
                      .svd_sweeps = scene->svd.sweeps,
                      .svd_exact_rsqrt = scene->svd.exact_rsqrt,
+                     .svd_refine = scene->svd.refine,
                      .R = R};
     int ok = 1;
     for (int i = 0; i < FORCE_CALLS && ok; i++) {

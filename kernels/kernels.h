@@ -11,7 +11,7 @@
 // Knobs of the SVD kernel, resolved from ek_svd3_opts by the driver.
 typedef struct {
   int sweeps;      // Jacobi sweeps on A^T A (1..8)
-  int refine;      // one-sided Jacobi sweeps on B = A V (0..2)
+  int refine;      // one-sided Jacobi sweeps on B = A V (0..EK_SVD3_MAX_REFINE)
   int exact_rsqrt; // 1: 1/sqrt, 0: estimate + Newton
   int polar;       // 0: write U, S, V; 1: write R = U V^T into U and
                    // Ssym = V S V^T into V (S untouched)
@@ -20,10 +20,12 @@ typedef struct {
 // Defaults of the SVD knobs per precision (what opts zeroed means).
 ek_svd3_knobs ek_svd3_default_knobs_f32(void);
 ek_svd3_knobs ek_svd3_default_knobs_f64(void);
-// Knobs from the sweeps / exact_rsqrt options (0 = default), after the one
-// range check they share: EK_EINVAL with a message naming fn.
-int ek_svd3_knobs_from_f32(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k);
-int ek_svd3_knobs_from_f64(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k);
+// Knobs from the sweeps / exact_rsqrt / refine options (0 = default), after
+// the one range check they share: EK_EINVAL with a message naming fn.
+int ek_svd3_knobs_from_f32(const char *fn, int sweeps, int exact_rsqrt, int refine,
+                           ek_svd3_knobs *k);
+int ek_svd3_knobs_from_f64(const char *fn, int sweeps, int exact_rsqrt, int refine,
+                           ek_svd3_knobs *k);
 
 // svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes.
 typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, float *S, float *V,

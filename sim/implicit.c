@@ -96,6 +96,7 @@ static int implicit_create(ek_sim *s, void **data) {
                            .isa = sc->svd.isa,
                            .svd_sweeps = sc->svd.sweeps,
                            .svd_exact_rsqrt = sc->svd.exact_rsqrt,
+                           .svd_refine = sc->svd.refine,
                            .projection = sc->implicit.projection,
                            .precision = sc->precision};
   if (s->cloth) {

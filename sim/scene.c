@@ -702,12 +702,15 @@ static int parse_kernels(parse_ctx *c, const cJSON *root, ek_scene *s) {
   if (!svd)
     return 0;
   if ((rc = want_object(c, svd, "svd")) ||
-      (rc = check_keys(c, svd, "svd", (const char *const[]){"sweeps", "rsqrt", NULL})))
+      (rc = check_keys(c, svd, "svd", (const char *const[]){"sweeps", "rsqrt", "refine", NULL})))
     return rc;
-  long sweeps = 0;
-  if ((rc = get_count(c, svd, "svd", "sweeps", 0, 0, EK_SVD3_MAX_SWEEPS, &sweeps)))
+  long sweeps = 0, refine = -1;
+  if ((rc = get_count(c, svd, "svd", "sweeps", 0, 0, EK_SVD3_MAX_SWEEPS, &sweeps)) ||
+      (rc = get_count(c, svd, "svd", "refine", 0, 0, EK_SVD3_MAX_REFINE, &refine)))
     return rc;
   s->svd.sweeps = (int)sweeps;
+  // In a scene "refine" counts sweeps (0 = none); absent is the default.
+  s->svd.refine = refine < 0 ? 0 : refine == 0 ? EK_SVD3_REFINE_NONE : (int)refine;
   str = NULL;
   if ((rc = get_string(c, svd, "svd", "rsqrt", 0, &str, &node)))
     return rc;

@@ -336,6 +336,7 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   s->fvm.isa = scene->svd.isa;
   s->fvm.svd_sweeps = scene->svd.sweeps;
   s->fvm.svd_exact_rsqrt = scene->svd.exact_rsqrt;
+  s->fvm.svd_refine = scene->svd.refine;
   s->fvm.R = s->R;
   if (s->mat.model == EK_MODEL_COROTATED_LINEAR) {
     s->R_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64);

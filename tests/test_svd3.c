@@ -336,9 +336,11 @@ static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *
 // ---- Invalid options ----
 static void invalid_options(void) {
   const ek_svd3_opts bad_opts[] = {
-      {.sweeps = 9}, {.sweeps = -1}, {.exact_rsqrt = 2}, {.exact_rsqrt = -2}, {.isa = (ek_isa)99},
+      {.sweeps = 9},       {.sweeps = -1}, {.exact_rsqrt = 2}, {.exact_rsqrt = -2},
+      {.isa = (ek_isa)99}, {.refine = 4},  {.refine = -2},
   };
-  const char *names[] = {"sweeps 9", "sweeps -1", "exact_rsqrt 2", "exact_rsqrt -2", "isa 99"};
+  const char *names[] = {"sweeps 9", "sweeps -1", "exact_rsqrt 2", "exact_rsqrt -2",
+                         "isa 99",   "refine 4",  "refine -2"};
   int nbad = 0;
   float a32[9 * 17], u32[9 * 17], s32[3 * 17], v32[9 * 17];
   double a64[9 * 17], u64[9 * 17], s64[3 * 17], v64[9 * 17];
@@ -467,6 +469,10 @@ int main(int argc, char **argv) {
       {"sweeps=2", {.sweeps = 2}},
       {"sweeps=4", {.sweeps = 4}},
       {"sweeps=8 rsqrt=approx", {.sweeps = 8, .exact_rsqrt = -1}},
+      {"McAdams (sweeps=4 refine=none)",
+       {.sweeps = 4, .exact_rsqrt = -1, .refine = EK_SVD3_REFINE_NONE}},
+      {"refine=1", {.refine = 1}},
+      {"refine=3", {.refine = 3}},
   };
   for (int bits = 32; bits <= 64; bits += 32) {
     int nsets = 0;

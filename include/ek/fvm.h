@@ -97,7 +97,7 @@ typedef struct {
 // Options; zero means default.
 //   scatter: strategy (AUTO = THREAD_BUFFERS).
 //   isa: EK_ISA_AUTO or a forced target (one the CPU lacks gives EK_EISA).
-//   svd_sweeps, svd_exact_rsqrt: as in ek_svd3_opts (used by models that
+//   svd_sweeps, svd_exact_rsqrt, svd_refine: as in ek_svd3_opts (used by models that
 //     take an SVD: fixed corotated, ARAP, clamped models).
 //   R: ntets x 9 row-major rotations in caller tet order; read only for
 //     EK_MODEL_COROTATED_LINEAR (required there, seed 000, unless R_state).
@@ -116,6 +116,7 @@ typedef struct {
   ek_isa isa;
   int svd_sweeps;
   int svd_exact_rsqrt;
+  int svd_refine;
   const double *R;
   const ek_tet_state *R_state;
   double *J;

@@ -46,7 +46,7 @@ extern "C" {
 typedef struct ek_fvm_hessian ek_fvm_hessian;
 
 // Options; zero means default.
-//   scatter, isa, svd_sweeps, svd_exact_rsqrt: as in ek_fvm_opts.
+//   scatter, isa, svd_sweeps, svd_exact_rsqrt, svd_refine: as in ek_fvm_opts.
 //   projection: how each element Hessian is made positive semi-definite
 //     (what Newton needs: a descent direction, CG on an SPD system), in
 //     its eigensystem (the U, V frame's 3x3 block and flip/twist pairs):
@@ -77,6 +77,7 @@ typedef struct {
   ek_isa isa;
   int svd_sweeps;
   int svd_exact_rsqrt;
+  int svd_refine;
   ek_projection projection;
   int precision;
 } ek_fvm_hessian_opts;

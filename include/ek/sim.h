@@ -53,7 +53,9 @@
 //   precision     "f32" | "f64" (default f64)
 //   isa           "auto" | "scalar" | "avx2" | "avx512" (all kernels)
 //   scatter       "auto" | "colored" | "thread_buffers" | "gather" | "atomic"
-//   svd           {"sweeps": 0..8, "rsqrt": "default"|"exact"|"approximate"}
+//   svd           {"sweeps": 0..8, "rsqrt": "default"|"exact"|"approximate",
+//                 "refine": 0..3 (exact one-sided sweeps; 0 = none, i.e.
+//                 McAdams et al. 2011 as published; absent = default)}
 //   boundary      [{"type": "pin"|"twist"|"stretch", "region": {"min": [3],
 //                 "max": [3]}, twist: "axis", "center", "rate"; stretch:
 //                 "velocity"; both: "until", "release"}]

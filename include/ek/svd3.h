@@ -29,6 +29,10 @@ extern "C" {
 
 // Most Jacobi sweeps on A^T A an option may ask for.
 #define EK_SVD3_MAX_SWEEPS 8
+// Most exact one-sided refinement sweeps an option may ask for, and the
+// option value that asks for none (zero already means the default).
+#define EK_SVD3_MAX_REFINE 3
+#define EK_SVD3_REFINE_NONE (-1)
 
 // Options; zero means default.
 //   sweeps: Jacobi sweeps on A^T A, 0 = default for the precision,
@@ -37,11 +41,18 @@ extern "C" {
 //   exact_rsqrt: 0 = default (approximate for f32, exact for f64), 1 = exact
 //           1/sqrt, -1 = approximate
 //           (hardware estimate refined by Newton steps).
+//   refine: exact one-sided Jacobi sweeps on B = A V after the sweeps on
+//           A^T A: 0 = default for the precision, 1..EK_SVD3_MAX_REFINE as
+//           given, EK_SVD3_REFINE_NONE = none. With none, 4 sweeps and the
+//           approximate rsqrt this is the algorithm of McAdams et al. 2011
+//           as published (plus ek's scaling), so that setting can be
+//           measured with ek's own code.
 //   isa: EK_ISA_AUTO or a forced target; one the CPU lacks gives EK_EISA.
 typedef struct {
   int sweeps;
   int exact_rsqrt;
   ek_isa isa;
+  int refine;
 } ek_svd3_opts;
 
 // Sweeps and rsqrt mode (1 exact, 0 approximate) used when the option is 0
@@ -50,6 +61,8 @@ int ek_svd3_default_sweeps_f32(void);
 int ek_svd3_default_sweeps_f64(void);
 int ek_svd3_default_exact_rsqrt_f32(void);
 int ek_svd3_default_exact_rsqrt_f64(void);
+int ek_svd3_default_refine_f32(void);
+int ek_svd3_default_refine_f64(void);
 
 // A, U, V: n row-major 3x3 matrices; S: n x 3. opts may be NULL. U or V may
 // be NULL when not wanted. 0 on success, < 0 on error. Arrays aligned to

@@ -230,7 +230,7 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
     return EK_EINVAL;
   }
   ek_svd3_knobs knobs;
-  if ((rc = EK_P(svd3_knobs_from)(fn, o.svd_sweeps, o.svd_exact_rsqrt, &knobs)) < 0)
+  if ((rc = EK_P(svd3_knobs_from)(fn, o.svd_sweeps, o.svd_exact_rsqrt, o.svd_refine, &knobs)) < 0)
     return rc;
   ek_isa isa;
   rc = ek_isa_resolve(o.isa, &isa);
@@ -249,7 +249,10 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                 .svd = &knobs,
                 .x = x};
   if (o.phase_times) {
-    ek_svd3_opts so = {.sweeps = o.svd_sweeps, .exact_rsqrt = o.svd_exact_rsqrt, .isa = isa};
+    ek_svd3_opts so = {.sweeps = o.svd_sweeps,
+                       .exact_rsqrt = o.svd_exact_rsqrt,
+                       .refine = o.svd_refine,
+                       .isa = isa};
     rc = phased(kt, el, mat, a, f, s, &so, isa, o.phase_times);
   } else {
     rc = run_strategy(kt, el, a, f, s);

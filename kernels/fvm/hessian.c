@@ -146,7 +146,7 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
     return NULL;
   }
   ek_svd3_knobs knobs;
-  if (ek_svd3_knobs_from_f64(fn, o.svd_sweeps, o.svd_exact_rsqrt, &knobs) < 0)
+  if (ek_svd3_knobs_from_f64(fn, o.svd_sweeps, o.svd_exact_rsqrt, o.svd_refine, &knobs) < 0)
     return NULL;
   ek_isa isa;
   if (ek_isa_resolve(o.isa, &isa) < 0)

@@ -38,10 +38,13 @@ int EK_P(svd3_default_sweeps)(void) { return DEFAULT_SWEEPS; }
 
 int EK_P(svd3_default_exact_rsqrt)(void) { return DEFAULT_EXACT_RSQRT; }
 
+int EK_P(svd3_default_refine)(void) { return DEFAULT_REFINE; }
+
 // The one check of the SVD options every entry point shares (ek_svd3_*,
-// ek_polar3_*, the FVM force's svd_sweeps / svd_exact_rsqrt), then the
-// knobs: the defaults with the non-zero options applied.
-int EK_P(svd3_knobs_from)(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_knobs *k) {
+// ek_polar3_*, the FVM force's svd_sweeps / svd_exact_rsqrt / svd_refine),
+// then the knobs: the defaults with the non-zero options applied.
+int EK_P(svd3_knobs_from)(const char *fn, int sweeps, int exact_rsqrt, int refine,
+                          ek_svd3_knobs *k) {
   *k = EK_P(svd3_default_knobs)();
   if (sweeps < 0 || sweeps > EK_SVD3_MAX_SWEEPS) {
     ek_set_error("%s: sweeps = %d, must be 0 (default) or 1..%d", fn, sweeps, EK_SVD3_MAX_SWEEPS);
@@ -52,8 +55,15 @@ int EK_P(svd3_knobs_from)(const char *fn, int sweeps, int exact_rsqrt, ek_svd3_k
                  exact_rsqrt);
     return EK_EINVAL;
   }
+  if (refine < EK_SVD3_REFINE_NONE || refine > EK_SVD3_MAX_REFINE) {
+    ek_set_error("%s: refine = %d, must be 0 (default), 1..%d or %d (none)", fn, refine,
+                 EK_SVD3_MAX_REFINE, EK_SVD3_REFINE_NONE);
+    return EK_EINVAL;
+  }
   if (sweeps)
     k->sweeps = sweeps;
+  if (refine)
+    k->refine = refine == EK_SVD3_REFINE_NONE ? 0 : refine;
   if (exact_rsqrt)
     k->exact_rsqrt = exact_rsqrt > 0;
   return EK_OK;
@@ -64,7 +74,7 @@ static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_kno
   static const ek_svd3_opts zero_opts;
   if (!o)
     o = &zero_opts;
-  int rc = EK_P(svd3_knobs_from)(fn, o->sweeps, o->exact_rsqrt, k);
+  int rc = EK_P(svd3_knobs_from)(fn, o->sweeps, o->exact_rsqrt, o->refine, k);
   if (rc < 0)
     return rc;
   k->polar = polar;
