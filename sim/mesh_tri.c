@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "mesh_build.h"
+#include "mesh_read.h"
 #include "text_escape.h"
 
 struct ek_trimesh {
@@ -230,161 +232,55 @@ ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *pl
 }
 
 // ------------------------------------------------------------------ readers
+// The line reader, the growable arrays and the Gmsh parser are the
+// tetrahedral readers' (mesh_read.h).
 
-typedef struct {
-  FILE *fp;
-  const char *path;
-  char *line;
-  size_t cap;
-  long lineno;
-  char *err;
-  size_t errlen;
-  // growing arrays
-  double *X;
-  long *vline;
-  size_t nv, vcap;
-  int32_t *T;
-  long *tline;
-  size_t nt, tcap;
-} tm_reader;
-
-static int rd_getline(tm_reader *r) {
-  ssize_t n = getline(&r->line, &r->cap, r->fp);
-  if (n < 0)
-    return -1;
-  r->lineno++;
-  return 0;
+static int push_failed(mesh_reader *r) {
+  mesh_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
+  return -1;
 }
 
-// Room for one more item: `items` (item_bytes each) and their line numbers
-// grow together, doubling from 1024.
-static int grow(tm_reader *r, void *items_p, size_t item_bytes, long **lines, size_t *cap) {
-  void **items = items_p;
-  size_t c = *cap ? 2 * *cap : 1024;
-  void *a = realloc(*items, c * item_bytes);
-  if (a)
-    *items = a;
-  long *l = realloc(*lines, c * sizeof(long));
-  if (l)
-    *lines = l;
-  if (!a || !l) {
-    tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-    return -1;
-  }
-  *cap = c;
-  return 0;
+// Builds from the arrays, which give up X and T to tm_build.
+static ek_trimesh *build_from(mesh_reader *r, mesh_arrays *a, long base) {
+  tm_origin o = {r->path, a->vline, a->tline, base};
+  ek_trimesh *m = tm_build(a->nv, a->X, a->nt, a->T, &o, r->err, r->errlen);
+  a->X = NULL, a->T = NULL;
+  return m;
 }
 
-static int push_vertex(tm_reader *r, const double p[3]) {
-  void *X = r->X;
-  int rc = r->nv == r->vcap ? grow(r, &X, 3 * sizeof(double), &r->vline, &r->vcap) : 0;
-  r->X = X; // moved by realloc even when the line numbers' realloc failed
-  if (rc)
-    return -1;
-  memcpy(r->X + 3 * r->nv, p, 3 * sizeof(double));
-  r->vline[r->nv++] = r->lineno;
-  return 0;
-}
-
-static int push_tri(tm_reader *r, const int32_t q[3]) {
-  void *T = r->T;
-  int rc = r->nt == r->tcap ? grow(r, &T, 3 * sizeof(int32_t), &r->tline, &r->tcap) : 0;
-  r->T = T;
-  if (rc)
-    return -1;
-  memcpy(r->T + 3 * r->nt, q, 3 * sizeof(int32_t));
-  r->tline[r->nt++] = r->lineno;
-  return 0;
-}
-
-static void rd_free(tm_reader *r) {
-  if (r->fp)
-    fclose(r->fp);
-  free(r->line);
-  free(r->X);
-  free(r->vline);
-  free(r->T);
-  free(r->tline);
-}
-
-static char *next_tok(char **cur) {
-  char *p = *cur;
-  while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')
-    p++;
-  if (!*p)
-    return NULL;
-  char *s = p;
-  while (*p && *p != ' ' && *p != '\t' && *p != '\r' && *p != '\n')
-    p++;
-  if (*p)
-    *p++ = 0;
-  *cur = p;
-  return s;
-}
-
-static int parse_double(tm_reader *r, char **cur, const char *what, double *out) {
-  char *tok = next_tok(cur), *end;
-  if (!tok) {
-    tm_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
-    return -1;
-  }
-  errno = 0;
-  *out = strtod(tok, &end);
-  if (*end || (errno && errno != ERANGE)) {
-    tm_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
-    return -1;
-  }
-  return 0;
-}
-
-static int parse_long(tm_reader *r, char **cur, const char *what, long *out) {
-  char *tok = next_tok(cur), *end;
-  if (!tok) {
-    tm_error(r->err, r->errlen, "%s:%ld: truncated line: missing %s", r->path, r->lineno, what);
-    return -1;
-  }
-  errno = 0;
-  *out = strtol(tok, &end, 10);
-  if (*end || errno) {
-    tm_error(r->err, r->errlen, "%s:%ld: bad number '%s' for %s", r->path, r->lineno, tok, what);
-    return -1;
-  }
-  return 0;
-}
-
-static ek_trimesh *read_obj(tm_reader *r) {
-  while (rd_getline(r) == 0) {
-    char *h = strchr(r->line, '#');
-    if (h)
-      *h = 0;
-    char *cur = r->line, *kw = next_tok(&cur);
-    if (!kw)
-      continue;
+static ek_trimesh *read_obj(mesh_reader *r, mesh_arrays *a) {
+  int rc;
+  while ((rc = mesh_rd_line_or_eof(r)) == 0) {
+    char *kw = mesh_rd_token(r);
     if (strcmp(kw, "v") == 0) {
       double p[3];
-      if (parse_double(r, &cur, "x", &p[0]) || parse_double(r, &cur, "y", &p[1]) ||
-          parse_double(r, &cur, "z", &p[2]) || push_vertex(r, p))
+      if (mesh_rd_double(r, "x", &p[0]) || mesh_rd_double(r, "y", &p[1]) ||
+          mesh_rd_double(r, "z", &p[2]))
         return NULL;
+      if (mesh_arrays_push_vert(a, p, r->lineno)) {
+        push_failed(r);
+        return NULL;
+      }
     } else if (strcmp(kw, "f") == 0) {
       int32_t first = -1, prev = -1;
       int k = 0;
-      for (char *tok; (tok = next_tok(&cur)); ++k) {
+      for (char *tok; (tok = mesh_rd_token(r)); ++k) {
         // "i", "i/t", "i//n", "i/t/n": the vertex index is before the first '/'.
-        char *end;
+        char *end, text[128];
         errno = 0;
         long i = strtol(tok, &end, 10);
         if (end == tok || (*end && *end != '/') || errno) {
-          tm_error(r->err, r->errlen, "%s:%ld: bad vertex index '%s' in face", r->path, r->lineno,
-                   tok);
+          mesh_error(r->err, r->errlen, "%s:%ld: bad vertex index '%s' in face", r->path, r->lineno,
+                     text_escape(text, sizeof text, tok, 40, 1));
           return NULL;
         }
         // 1-based; negative relative to the vertices defined so far.
-        long v = i > 0 ? i - 1 : (long)r->nv + i;
-        if (i == 0 || v < 0 || v >= (long)r->nv) {
-          tm_error(r->err, r->errlen,
-                   "%s:%ld: vertex index %ld out of range (%zu vertices defined so far; indices "
-                   "are 1..%zu or -1..-%zu)",
-                   r->path, r->lineno, i, r->nv, r->nv, r->nv);
+        long v = i > 0 ? i - 1 : (long)a->nv + i;
+        if (i == 0 || v < 0 || v >= (long)a->nv) {
+          mesh_error(r->err, r->errlen,
+                     "%s:%ld: vertex index %ld out of range (%zu vertices defined so far; "
+                     "indices are 1..%zu or -1..-%zu)",
+                     r->path, r->lineno, i, a->nv, a->nv, a->nv);
           return NULL;
         }
         if (k == 0)
@@ -392,296 +288,32 @@ static ek_trimesh *read_obj(tm_reader *r) {
         else if (k >= 2) {
           // Fan triangulation from the first vertex.
           int32_t q[3] = {first, prev, (int32_t)v};
-          if (push_tri(r, q))
+          if (mesh_arrays_push_elem(a, q, r->lineno)) {
+            push_failed(r);
             return NULL;
+          }
         }
         prev = (int32_t)v;
       }
       if (k < 3) {
-        tm_error(r->err, r->errlen, "%s:%ld: face with %d vertices: need at least 3", r->path,
-                 r->lineno, k);
+        mesh_error(r->err, r->errlen, "%s:%ld: face with %d vertices: need at least 3", r->path,
+                   r->lineno, k);
         return NULL;
       }
     }
     // Every other statement is ignored (trimesh.h).
   }
-  tm_origin o = {r->path, r->vline, r->tline, 1};
-  ek_trimesh *m = tm_build(r->nv, r->X, r->nt, r->T, &o, r->err, r->errlen);
-  r->X = NULL, r->T = NULL;
-  return m;
+  return rc < 0 ? NULL : build_from(r, a, 1);
 }
 
-// Node tags -> index: sorted (tag, index) pairs and binary search.
-typedef struct {
-  long tag;
-  int32_t idx;
-} tag_pair;
-static int tag_cmp(const void *a, const void *b) {
-  long x = ((const tag_pair *)a)->tag, y = ((const tag_pair *)b)->tag;
-  return (x > y) - (x < y);
-}
-
-static int expect_line(tm_reader *r, const char *what) {
-  do {
-    if (rd_getline(r)) {
-      tm_error(r->err, r->errlen, "%s:%ld: truncated file: end of file while reading %s", r->path,
-               r->lineno + 1, what);
-      return -1;
-    }
-  } while (strspn(r->line, " \t\r\n") == strlen(r->line));
-  return 0;
-}
-
-static ek_trimesh *read_msh(tm_reader *r) {
-  double version = 0;
-  tag_pair *tags = NULL;
-  size_t ntags = 0, tcap = 0;
-  long *node_tags = NULL; // v4 block: the tags before their coordinates
-  ek_trimesh *m = NULL;
-  int have_nodes = 0, have_elems = 0;
-  // Triangles read with node tags; mapped once nodes are sorted.
-  while (rd_getline(r) == 0) {
-    char *cur = r->line, *kw = next_tok(&cur);
-    if (!kw)
-      continue;
-    if (strcmp(kw, "$MeshFormat") == 0) {
-      if (expect_line(r, "the mesh format"))
-        goto done;
-      cur = r->line;
-      long ftype;
-      if (parse_double(r, &cur, "version", &version) || parse_long(r, &cur, "file type", &ftype))
-        goto done;
-      if (ftype != 0) {
-        tm_error(r->err, r->errlen, "%s:%ld: file type %ld: only ASCII (0) is read", r->path,
-                 r->lineno, ftype);
-        goto done;
-      }
-      if (!(version >= 2 && version < 3) && !(version >= 4 && version < 5)) {
-        tm_error(r->err, r->errlen, "%s:%ld: version %g: only 2.x and 4.x are read", r->path,
-                 r->lineno, version);
-        goto done;
-      }
-    } else if (strcmp(kw, "$Nodes") == 0) {
-      if (version == 0) {
-        tm_error(r->err, r->errlen, "%s:%ld: $Nodes before $MeshFormat", r->path, r->lineno);
-        goto done;
-      }
-      if (expect_line(r, "the node count"))
-        goto done;
-      cur = r->line;
-      long nblocks = 1, nnodes;
-      if (version >= 4 && parse_long(r, &cur, "number of entity blocks", &nblocks))
-        goto done;
-      if (parse_long(r, &cur, "number of nodes", &nnodes))
-        goto done;
-      if (nnodes < 0 || nblocks < 0) {
-        tm_error(r->err, r->errlen, "%s:%ld: negative count %ld", r->path, r->lineno,
-                 nnodes < 0 ? nnodes : nblocks);
-        goto done;
-      }
-      long seen = 0;
-      for (long b = 0; b < nblocks; ++b) {
-        long in_block = nnodes;
-        if (version >= 4) {
-          long dim, ent, param;
-          if (expect_line(r, "a node block header"))
-            goto done;
-          cur = r->line;
-          if (parse_long(r, &cur, "entity dimension", &dim) ||
-              parse_long(r, &cur, "entity tag", &ent) ||
-              parse_long(r, &cur, "parametric flag", &param) ||
-              parse_long(r, &cur, "nodes in block", &in_block))
-            goto done;
-          if (param != 0) {
-            tm_error(r->err, r->errlen, "%s:%ld: parametric nodes (%ld) are not read", r->path,
-                     r->lineno, param);
-            goto done;
-          }
-          if (in_block < 0 || in_block > nnodes - seen) {
-            tm_error(r->err, r->errlen, "%s:%ld: %ld nodes in block: more than the %ld declared",
-                     r->path, r->lineno, in_block, nnodes);
-            goto done;
-          }
-        }
-        // v4: tags first, then coordinates; grown as they arrive.
-        size_t ncap = 0;
-        for (long i = 0; i < in_block; ++i) {
-          long tag;
-          double p[3];
-          if (expect_line(r, "a node"))
-            goto done;
-          cur = r->line;
-          if (parse_long(r, &cur, "node tag", &tag))
-            goto done;
-          if (version < 4) {
-            if (parse_double(r, &cur, "x", &p[0]) || parse_double(r, &cur, "y", &p[1]) ||
-                parse_double(r, &cur, "z", &p[2]) || push_vertex(r, p))
-              goto done;
-          } else {
-            if ((size_t)i == ncap) {
-              ncap = ncap ? 2 * ncap : 256;
-              long *nt = realloc(node_tags, ncap * sizeof(long));
-              if (!nt) {
-                tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-                goto done;
-              }
-              node_tags = nt;
-            }
-            node_tags[i] = tag;
-            continue;
-          }
-          if (ntags == tcap) {
-            tcap = tcap ? 2 * tcap : 1024;
-            tag_pair *t = realloc(tags, tcap * sizeof *t);
-            if (!t) {
-              tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-              goto done;
-            }
-            tags = t;
-          }
-          tags[ntags++] = (tag_pair){tag, (int32_t)(r->nv - 1)};
-        }
-        if (version >= 4)
-          for (long i = 0; i < in_block; ++i) {
-            double p[3];
-            if (expect_line(r, "node coordinates"))
-              goto done;
-            cur = r->line;
-            if (parse_double(r, &cur, "x", &p[0]) || parse_double(r, &cur, "y", &p[1]) ||
-                parse_double(r, &cur, "z", &p[2]) || push_vertex(r, p))
-              goto done;
-            if (ntags == tcap) {
-              tcap = tcap ? 2 * tcap : 1024;
-              tag_pair *t = realloc(tags, tcap * sizeof *t);
-              if (!t) {
-                tm_error(r->err, r->errlen, "%s:%ld: out of memory", r->path, r->lineno);
-                goto done;
-              }
-              tags = t;
-            }
-            tags[ntags++] = (tag_pair){node_tags[i], (int32_t)(r->nv - 1)};
-          }
-        seen += in_block;
-      }
-      if (seen != nnodes) {
-        tm_error(r->err, r->errlen, "%s:%ld: %ld nodes read, %ld declared", r->path, r->lineno,
-                 seen, nnodes);
-        goto done;
-      }
-      if (ntags) // no nodes: tags is NULL, which qsort must not be given
-        qsort(tags, ntags, sizeof *tags, tag_cmp);
-      for (size_t i = 1; i < ntags; ++i)
-        if (tags[i].tag == tags[i - 1].tag) {
-          tm_error(r->err, r->errlen, "%s:%ld: node tag %ld defined twice", r->path,
-                   r->vline[tags[i].idx > tags[i - 1].idx ? tags[i].idx : tags[i - 1].idx],
-                   tags[i].tag);
-          goto done;
-        }
-      have_nodes = 1;
-    } else if (strcmp(kw, "$Elements") == 0) {
-      if (!have_nodes) {
-        tm_error(r->err, r->errlen, "%s:%ld: $Elements before $Nodes", r->path, r->lineno);
-        goto done;
-      }
-      if (expect_line(r, "the element count"))
-        goto done;
-      cur = r->line;
-      long nblocks = 1, nelem;
-      if (version >= 4 && parse_long(r, &cur, "number of entity blocks", &nblocks))
-        goto done;
-      if (parse_long(r, &cur, "number of elements", &nelem))
-        goto done;
-      if (nelem < 0 || nblocks < 0) {
-        tm_error(r->err, r->errlen, "%s:%ld: negative count %ld", r->path, r->lineno,
-                 nelem < 0 ? nelem : nblocks);
-        goto done;
-      }
-      long seen = 0;
-      for (long b = 0; b < nblocks; ++b) {
-        long in_block = nelem, type = -1;
-        if (version >= 4) {
-          long dim, ent;
-          if (expect_line(r, "an element block header"))
-            goto done;
-          cur = r->line;
-          if (parse_long(r, &cur, "entity dimension", &dim) ||
-              parse_long(r, &cur, "entity tag", &ent) ||
-              parse_long(r, &cur, "element type", &type) ||
-              parse_long(r, &cur, "elements in block", &in_block))
-            goto done;
-          if (in_block < 0 || in_block > nelem - seen) {
-            tm_error(r->err, r->errlen, "%s:%ld: %ld elements in block: more than the %ld declared",
-                     r->path, r->lineno, in_block, nelem);
-            goto done;
-          }
-        }
-        for (long i = 0; i < in_block; ++i) {
-          long tag, ty = type, ntg = 0, dummy;
-          if (expect_line(r, "an element"))
-            goto done;
-          cur = r->line;
-          if (parse_long(r, &cur, "element tag", &tag))
-            goto done;
-          if (version < 4) {
-            if (parse_long(r, &cur, "element type", &ty) ||
-                parse_long(r, &cur, "number of tags", &ntg))
-              goto done;
-            if (ntg < 0 || ntg > 64) {
-              tm_error(r->err, r->errlen, "%s:%ld: number of tags %ld out of range [0, 64]",
-                       r->path, r->lineno, ntg);
-              goto done;
-            }
-            for (long k = 0; k < ntg; ++k)
-              if (parse_long(r, &cur, "element tag value", &dummy))
-                goto done;
-          }
-          if (ty != 2)
-            continue; // not a 3-node triangle: skipped
-          int32_t q[3];
-          for (int c = 0; c < 3; ++c) {
-            long nt;
-            if (parse_long(r, &cur, "triangle node", &nt))
-              goto done;
-            tag_pair key = {nt, 0};
-            tag_pair *hit = ntags ? bsearch(&key, tags, ntags, sizeof *tags, tag_cmp) : NULL;
-            if (!hit) {
-              tm_error(r->err, r->errlen, "%s:%ld: node %ld of element %ld is not defined", r->path,
-                       r->lineno, nt, tag);
-              goto done;
-            }
-            q[c] = hit->idx;
-          }
-          if (push_tri(r, q))
-            goto done;
-        }
-        seen += in_block;
-      }
-      if (seen != nelem) {
-        tm_error(r->err, r->errlen, "%s:%ld: %ld elements read, %ld declared", r->path, r->lineno,
-                 seen, nelem);
-        goto done;
-      }
-      have_elems = 1;
-    }
+static ek_trimesh *read_msh(mesh_reader *r, mesh_arrays *a) {
+  if (mesh_read_gmsh(r, 2, a)) // type 2: the 3-node triangle
+    return NULL;
+  if (a->nt == 0) {
+    mesh_error(r->err, r->errlen, "%s: no 3-node triangles (element type 2)", r->path);
+    return NULL;
   }
-  if (!have_elems) {
-    tm_error(r->err, r->errlen, "%s:%ld: truncated file: no $Elements section", r->path,
-             r->lineno + 1);
-    goto done;
-  }
-  if (r->nt == 0) {
-    tm_error(r->err, r->errlen, "%s: no 3-node triangles (element type 2)", r->path);
-    goto done;
-  }
-  {
-    tm_origin o = {r->path, r->vline, r->tline, 0};
-    m = tm_build(r->nv, r->X, r->nt, r->T, &o, r->err, r->errlen);
-    r->X = NULL, r->T = NULL;
-  }
-done:
-  free(tags);
-  free(node_tags);
-  return m;
+  return build_from(r, a, 0);
 }
 
 ek_trimesh *ek_trimesh_load(const char *path, char *err, size_t errlen) {
@@ -698,17 +330,12 @@ ek_trimesh *ek_trimesh_load(const char *path, char *err, size_t errlen) {
     tm_error(err, errlen, "%s: unknown triangle mesh format (expected .obj or .msh)", path);
     return NULL;
   }
-  tm_reader r;
-  memset(&r, 0, sizeof r);
-  r.path = path;
-  r.err = err;
-  r.errlen = errlen;
-  r.fp = fopen(path, "r");
-  if (!r.fp) {
-    tm_error(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+  mesh_reader r;
+  if (mesh_rd_open(&r, path, obj, err, errlen)) // '#' starts an OBJ comment
     return NULL;
-  }
-  ek_trimesh *m = obj ? read_obj(&r) : read_msh(&r);
-  rd_free(&r);
+  mesh_arrays a = {.npe = 3};
+  ek_trimesh *m = obj ? read_obj(&r, &a) : read_msh(&r, &a);
+  mesh_rd_close(&r);
+  mesh_arrays_free(&a);
   return m;
 }

@@ -157,15 +157,15 @@ int main(int argc, char **argv) {
   expect_error("d. OBJ without faces", "d9.obj", "v 0 0 0\n",
                (const char *const[]){"d9.obj", "no triangles", NULL});
   expect_error("d. Gmsh: fewer nodes than declared (truncated)", "e1.msh",
-               "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n1000000000\n1 0 0 0\n",
+               "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n",
                (const char *const[]){"e1.msh:7", "truncated", NULL});
   expect_error("d. Gmsh: undefined node", "e2.msh",
                "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n"
                "$EndNodes\n$Elements\n1\n1 2 0 1 2 9\n$EndElements\n",
-               (const char *const[]){"e2.msh:12", "node 9", NULL});
+               (const char *const[]){"e2.msh:12", "node tag 9", NULL});
   expect_error("d. Gmsh: v4 block larger than declared", "e3.msh",
                "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 3 1 3\n2 1 0 5\n",
-               (const char *const[]){"e3.msh:6", "5 nodes in block", NULL});
+               (const char *const[]){"e3.msh:6", "block of 5 nodes", NULL});
   expect_error("d. Gmsh: no triangles", "e4.msh",
                "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2\n1 0 0 0\n2 1 0 0\n"
                "$EndNodes\n$Elements\n1\n1 1 0 1 2\n$EndElements\n",
