@@ -20,6 +20,13 @@
 // products). XPBD is not run: its constraint is StVK's energy only
 // (xpbd.h), which the table below does not expect to recover from a crush.
 //
+// --quick (CI) runs the rows whose model, case and loop are all marked
+// quick: rest, both crushes and the plane crush at E = 1e9 Pa and L = 1e-4
+// m, explicit at 0.5x and 2x CFL and implicit, for StVK, fixed corotated +
+// clamp, neo-Hookean and stable neo-Hookean + clamp, in f32 and f64 (120
+// rows): each kind of verdict (PASS, xfail,
+// broke) appears, none of the full run's known failures does.
+//
 // Time scales: tc = L / c_s, c_s = sqrt(mu / rho) the shear wave speed. A
 // crush runs 30 tc with mass-proportional damping c = 2 / tc (each mode
 // of frequency omega decays at min(c / 2, omega^2 / c) >= ~1 / tc), so the
@@ -70,11 +77,11 @@ static const ext_case cases[] = {
     {"crush_point", CASE_CRUSH_POINT, 0, 0, 0, 1},
     {"crush_plane nu=0.45", CASE_CRUSH_PLANE, 0, 0.45, 0, 0},
     {"crush_plane nu=0.49", CASE_CRUSH_PLANE, 0, 0.49, 0, 0},
-    {"crush_plane nu=0.499", CASE_CRUSH_PLANE, 0, 0.499, 0, 1},
+    {"crush_plane nu=0.499", CASE_CRUSH_PLANE, 0, 0.499, 0, 0},
     {"crush_plane E=1e3", CASE_CRUSH_PLANE, 1e3, 0, 0, 0},
     {"crush_plane E=1e7", CASE_CRUSH_PLANE, 1e7, 0, 0, 0},
-    {"crush_plane E=1e9", CASE_CRUSH_PLANE, 1e9, 0, 0, 0},
-    {"crush_plane L=1e-4", CASE_CRUSH_PLANE, 0, 0, 1e-4, 0},
+    {"crush_plane E=1e9", CASE_CRUSH_PLANE, 1e9, 0, 0, 1},
+    {"crush_plane L=1e-4", CASE_CRUSH_PLANE, 0, 0, 1e-4, 1},
     {"crush_plane L=1e-2", CASE_CRUSH_PLANE, 0, 0, 1e-2, 0},
     {"crush_plane L=1", CASE_CRUSH_PLANE, 0, 0, 1.0, 0},
 };
@@ -91,8 +98,8 @@ typedef struct {
 } ext_loop;
 
 static const ext_loop loops[] = {
-    {"explicit 0.5cfl", LOOP_EXPLICIT, 0.5, 0},
-    {"explicit 1cfl", LOOP_EXPLICIT, 1.0, 1},
+    {"explicit 0.5cfl", LOOP_EXPLICIT, 0.5, 1},
+    {"explicit 1cfl", LOOP_EXPLICIT, 1.0, 0},
     {"explicit 2cfl", LOOP_EXPLICIT, 2.0, 1},
     {"implicit 1/30", LOOP_IMPLICIT, 0, 1},
 };
@@ -150,9 +157,9 @@ static const ext_variant variants[] = {
     {"nh+clamp", EK_MODEL_NEO_HOOKEAN, 1, 0, EXPECT_NONE, EXPECT_SURVIVE,
      "Irving 2004 sec. 5: finite, restoring; explicit NONE: its stiffness at the clamp is "
      "~(1/clamp)^2 the rest stiffness, so the rest CFL step does not bound it"},
-    {"snh", EK_MODEL_STABLE_NEO_HOOKEAN, 0, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
+    {"snh", EK_MODEL_STABLE_NEO_HOOKEAN, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "Smith et al. 2018 sec. 3-4: finite, restoring under inversion, bounded stiffness"},
-    {"snh+clamp", EK_MODEL_STABLE_NEO_HOOKEAN, 1, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+    {"snh+clamp", EK_MODEL_STABLE_NEO_HOOKEAN, 1, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "Smith 2018 with Irving 2004 sec. 5's clamp"},
 };
 #define NVARIANTS (int)(sizeof variants / sizeof variants[0])
@@ -357,6 +364,46 @@ static const char *status_of(expectation e, int survived, int setup_error) {
   return survived ? "ok" : "broke";
 }
 
+// One line per model, one column per loop: how many of its rows ended in
+// each status (from the rows already emitted).
+static void print_summary(struct cJSON *rows_json) {
+  static const char *const statuses[] = {"PASS", "FAIL", "xfail", "xpass", "ok", "broke", "ERROR"};
+  enum { NSTATUS = sizeof statuses / sizeof statuses[0] };
+  printf("\nsummary (rows per status):\n%-18s", "model");
+  for (int li = 0; li < NLOOPS; li++)
+    printf(" | %-24s", loops[li].name);
+  printf("\n");
+  for (int vi = 0; vi < NVARIANTS; vi++) {
+    int counts[NLOOPS][NSTATUS] = {{0}}, any = 0;
+    cJSON *row;
+    cJSON_ArrayForEach(row, rows_json) {
+      if (strcmp(cJSON_GetObjectItem(row, "model")->valuestring, variants[vi].name) != 0)
+        continue;
+      const char *loop = cJSON_GetObjectItem(row, "loop")->valuestring;
+      const char *status = cJSON_GetObjectItem(row, "status")->valuestring;
+      for (int li = 0; li < NLOOPS; li++)
+        for (int k = 0; k < NSTATUS && strcmp(loop, loops[li].name) == 0; k++)
+          if (strcmp(status, statuses[k]) == 0) {
+            counts[li][k]++;
+            any = 1;
+          }
+    }
+    if (!any)
+      continue;
+    printf("%-18s", variants[vi].name);
+    for (int li = 0; li < NLOOPS; li++) {
+      char cell[64] = "";
+      size_t used = 0;
+      for (int k = 0; k < NSTATUS; k++)
+        if (counts[li][k] && used < sizeof cell)
+          used += (size_t)snprintf(cell + used, sizeof cell - used, "%s%d %s", used ? " " : "",
+                                   counts[li][k], statuses[k]);
+      printf(" | %-24s", cell[0] ? cell : "-");
+    }
+    printf("\n");
+  }
+}
+
 static double now_s(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -496,6 +543,7 @@ int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *k
             last_progress = t;
           }
         }
+  print_summary(rows_json);
   int nknown = cJSON_GetArraySize(known_json);
   if (nknown) {
     printf("\nknown failures (an expectation from the literature that did not hold):\n");
