@@ -3,10 +3,10 @@
 // and see each verdict fail. Nothing here runs a simulation.
 //
 // The three verdicts of a stability scene (Irving et al. 2004, "Invertible
-// finite elements for robust simulation of large deformation", sec. 7: a
-// body crushed to a plane or a point and released must come back; Smith et
-// al. 2018, "Stable neo-Hookean flesh simulation", sec. 3.3: a mesh at rest
-// must stay at rest):
+// finite elements for robust simulation of large deformation": a body
+// crushed to a plane or a point and released must come back; Smith et al.
+// 2018, "Stable neo-Hookean flesh simulation": a mesh at rest must stay at
+// rest):
 //   finite     every coordinate finite and within EK_STAB_BLOWUP_FACTOR
 //              body sizes of the rest shape's centre (an explicit loop past
 //              its stable step grows geometrically long before it
@@ -35,7 +35,7 @@ extern "C" {
 // rest is rounding: in f64 about 1e-16 of the stress scale per evaluation,
 // in f32 about 6e-8 (float F of float x); the bounds are about 1e6 (f64)
 // and 170 (f32) unit roundoffs, so a model whose P(I) is not 0 (a rest
-// state that is not an equilibrium, Smith 2018 sec. 3.3: a strain of 1e-3
+// state that is not an equilibrium, Smith et al. 2018: a strain of 1e-3
 // moves the body by 1e-3 of its size) misses them by orders of magnitude.
 #define EK_STAB_REST_TOL_F64 1e-10
 #define EK_STAB_REST_TOL_F32 1e-5

@@ -6,13 +6,13 @@
 // verdicts of check_stability.h:
 //   rest         the rest shape, undamped, no load: it must stay at rest
 //                (Smith et al. 2018, "Stable neo-Hookean flesh simulation",
-//                sec. 3.3: rest stability);
+//                rest stability);
 //   crush_plane  every vertex projected onto the mid-plane z = L / 2, plus
 //                noise, then let go (damped, no load);
 //   crush_point  every vertex moved to the centre, plus noise, then let go
 //                (Irving et al. 2004, "Invertible finite elements for
-//                robust simulation of large deformation", sec. 7: the
-//                body crushed to a plane and to a point recovers);
+//                robust simulation of large deformation": the body
+//                crushed to a plane and to a point recovers);
 //   crush_plane at nu = 0.45 / 0.49 / 0.499, E = 1e3 / 1e7 / 1e9 Pa and cube
 //                edges L = 1e-4 / 1e-2 / 1 m (base: nu 0.3, E 1e5, L 0.2).
 // Loops: explicit at 0.5x, 1x and 2x ek_sim_cfl_dt, implicit at 1/30 s.
@@ -122,8 +122,8 @@ typedef struct {
   int quick;
   // Crush scenes (plane, point and the sweeps): explicit at <= 1x CFL,
   // implicit. Rest is SURVIVE for every model at <= 1x CFL and implicit
-  // (Smith et al. 2018 sec. 3.3: P(I) = 0 is required of every model; ek
-  // takes stable neo-Hookean's a = 1 + 3 mu / (4 lambda), their eq. 14).
+  // (Smith et al. 2018: P(I) = 0 is required of every model; ek takes
+  // stable neo-Hookean's a = 1 + 3 mu / (4 lambda), material.h).
   // Explicit at 2x CFL is NONE everywhere: symplectic Euler is stable for
   // dt omega_max <= 2 and ek_sim_cfl_dt = h_min / c is that limit's
   // estimate (sim.h), so 2x is expected to blow up; the row says so.
@@ -134,33 +134,33 @@ typedef struct {
 static const ext_variant variants[] = {
     {"linear", EK_MODEL_LINEAR, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "linear in x: f = -K (x - X), K constant and PSD, so a damped body returns to X whatever "
-     "the crush (no inversion exists for it; it is not rotation-invariant, Irving 2004 sec. 1)"},
+     "the crush (no inversion exists for it; it is not rotation-invariant)"},
     {"stvk", EK_MODEL_STVK, 0, 1, EXPECT_NOT, EXPECT_NOT,
-     "Irving 2004 sec. 1 and fig. 2: StVK's restoring force vanishes as an element flattens "
-     "and its reflection F = diag(1,1,-1) has zero energy: it can stay inverted"},
+     "Irving et al. 2004: StVK's restoring force vanishes as an element flattens and its "
+     "reflection F = diag(1,1,-1) has zero energy: it can stay inverted"},
     {"corot_linear", EK_MODEL_COROTATED_LINEAR, 0, 0, EXPECT_NONE, EXPECT_NONE,
      "no published claim for linear elasticity about a lagged R^n = polar(F^n) under "
      "inversion (seed 000); reported only"},
     {"fixed_corot", EK_MODEL_FIXED_COROTATED, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
-     "Stomakhin et al. 2012 sec. 4-5: fixed corotated with the rotation-variant R is finite "
+     "Stomakhin et al. 2012: fixed corotated with the rotation-variant R is finite "
      "and restoring for inverted and flat elements"},
     {"fixed_corot+clamp", EK_MODEL_FIXED_COROTATED, 1, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "Irving 2004 sec. 5 (clamped singular values) on fixed corotated (Stomakhin 2012)"},
     {"arap", EK_MODEL_ARAP, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "fixed corotated with lambda = 0: its mu |F - R(F)|^2 term is the one Stomakhin 2012 "
-     "sec. 4 shows restoring under inversion"},
+     "shows restoring under inversion"},
     {"arap+clamp", EK_MODEL_ARAP, 1, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "Irving 2004 sec. 5 on ARAP"},
     {"psi_r", EK_MODEL_PSI_R, 0, 0, EXPECT_NOT, EXPECT_NOT,
-     "a function of F^T F like StVK: the reflection has zero energy (Irving 2004 sec. 1)"},
+     "a function of F^T F like StVK: the reflection has zero energy (Irving et al. 2004)"},
     {"nh", EK_MODEL_NEO_HOOKEAN, 0, 1, EXPECT_NOT, EXPECT_NOT,
-     "log J is undefined for J <= 0 (Smith 2018 sec. 1; material.h): an inverted start is "
+     "log J is undefined for J <= 0 (Smith et al. 2018; material.h): an inverted start is "
      "refused (EK_SIM_EINVERTED)"},
     {"nh+clamp", EK_MODEL_NEO_HOOKEAN, 1, 0, EXPECT_NONE, EXPECT_SURVIVE,
      "Irving 2004 sec. 5: finite, restoring; explicit NONE: its stiffness at the clamp is "
      "~(1/clamp)^2 the rest stiffness, so the rest CFL step does not bound it"},
     {"snh", EK_MODEL_STABLE_NEO_HOOKEAN, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
-     "Smith et al. 2018 sec. 3-4: finite, restoring under inversion, bounded stiffness"},
+     "Smith et al. 2018: finite, restoring under inversion, bounded stiffness"},
     {"snh+clamp", EK_MODEL_STABLE_NEO_HOOKEAN, 1, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
      "Smith 2018 with Irving 2004 sec. 5's clamp"},
 };
@@ -521,7 +521,7 @@ int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *k
           cJSON_AddStringToObject(j, "expect_source",
                                   e == EXPECT_NONE && l->cfl_factor > 1.0
                                       ? "2x the CFL step: past symplectic Euler's limit"
-                                  : c->kind == CASE_REST ? "Smith 2018 sec. 3.3: rest stability"
+                                  : c->kind == CASE_REST ? "Smith et al. 2018: rest stability"
                                                          : v->source);
           cJSON_AddBoolToObject(j, "finite", !setup && r.finite);
           cJSON_AddBoolToObject(j, "restoring", !setup && r.restoring);
