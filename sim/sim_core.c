@@ -506,6 +506,18 @@ const double *ek_sim_velocities(const ek_sim *s) { return s->v; }
 const double *ek_sim_masses(const ek_sim *s) { return s->mass; }
 double ek_sim_cfl_dt(const ek_sim *s) { return s->cfl_dt; }
 
+int ek_sim_set_state(ek_sim *s, const double *x, const double *v) {
+  size_t n3 = 3 * s->nv;
+  for (size_t i = 0; i < n3; ++i)
+    if (!isfinite(x[i]) || (v && !isfinite(v[i])))
+      return sim_fail(s, "ek_sim_set_state: vertex %zu: non-finite %s (%g)", i / 3,
+                      isfinite(x[i]) ? "velocity" : "position", isfinite(x[i]) ? v[i] : x[i]);
+  memcpy(s->x, x, n3 * sizeof(double));
+  if (v)
+    memcpy(s->v, v, n3 * sizeof(double));
+  return 0;
+}
+
 size_t ek_sim_constrained_count(const ek_sim *s) {
   size_t n = 0;
   for (size_t i = 0; i < s->nv; ++i)

@@ -4,6 +4,8 @@
 // non-zero if a default-option row misses its budget, a finite input gives
 // a non-finite output, or a NaN leaks into a neighbour. `ek-verify --help`
 // lists the options; exit status as in sim/cli.h (0 pass, 1 fail, 2 usage).
+// `ek-verify --extremes` runs the stability scenes instead
+// (verify_extremes.c): exit 0 when every row expected to survive did.
 #include <cjson/cJSON.h>
 #include <ek/ek.h>
 #include <errno.h>
@@ -13,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "check.h"
 #include "cli.h"
@@ -134,13 +137,70 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
   cJSON_AddItemToArray(ctx->rows, j);
 }
 
+// Write a report's JSON root to path; 0, or 1 with a message.
+static int write_json(cJSON *root, const char *path) {
+  char *text = cJSON_Print(root);
+  FILE *fp = fopen(path, "w");
+  int bad = !text || !fp || fputs(text, fp) < 0;
+  if (fp && fclose(fp) != 0)
+    bad = 1;
+  free(text);
+  if (bad) {
+    fprintf(stderr, "ek-verify: cannot write --json file '%s'\n", path);
+    return 1;
+  }
+  return 0;
+}
+
+// ek-verify --extremes: the stability table (verify_extremes.c) and its
+// JSON, shaped like the families' report with "mode": "extremes" and the
+// known failures.
+static int run_extremes(ek_verify_ctx *ctx, const char *json_path, const char *filter) {
+  printf("ek-verify --extremes: seed %llu%s%s%s\n", (unsigned long long)ctx->seed,
+         ctx->quick ? ", quick" : "", filter ? ", filter " : "", filter ? filter : "");
+  struct timespec t0, t1;
+  clock_gettime(CLOCK_MONOTONIC, &t0);
+  cJSON *known = cJSON_CreateArray();
+  int failures = verify_extremes(ctx, ctx->rows, known);
+  clock_gettime(CLOCK_MONOTONIC, &t1);
+  double elapsed = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+  int rc = failures != 0 ? 1 : 0;
+  printf("\nek-verify --extremes: %d rows, %d failing%s, %.1f s -> %s\n",
+         cJSON_GetArraySize(ctx->rows), failures < 0 ? 0 : failures,
+         failures < 0 ? ", setup errors" : "", elapsed, rc ? "FAIL" : "PASS");
+  cJSON *root = cJSON_CreateObject();
+  cJSON_AddStringToObject(root, "tool", "ek-verify");
+  cJSON_AddStringToObject(root, "mode", "extremes");
+  cJSON_AddNumberToObject(root, "seed", (double)ctx->seed);
+  cJSON_AddBoolToObject(root, "quick", ctx->quick);
+  if (filter)
+    cJSON_AddStringToObject(root, "filter", filter);
+  cJSON_AddItemToObject(root, "notes", ctx->notes);
+  cJSON_AddItemToObject(root, "rows", ctx->rows);
+  cJSON_AddItemToObject(root, "known_failures", known);
+  cJSON_AddNumberToObject(root, "failures", failures < 0 ? 0 : failures);
+  cJSON_AddBoolToObject(root, "setup_errors", failures < 0);
+  cJSON_AddNumberToObject(root, "elapsed_s", elapsed);
+  cJSON_AddStringToObject(root, "result", rc ? "FAIL" : "PASS");
+  if (json_path && write_json(root, json_path) != 0)
+    rc = 1;
+  cJSON_Delete(root);
+  if (ctx->has_filter)
+    regfree(&ctx->filter);
+  return rc;
+}
+
 static void usage(FILE *out) {
   fputs("usage: ek-verify [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]\n"
+        "       ek-verify --extremes [--seed N] [--json FILE] [--filter REGEX] [--quick]\n"
         "  --seed N       seed of every input set (default 1)\n"
         "  --n N          size of the random set, >= 1 (default 100000; --quick 10000)\n"
         "  --json FILE    also write the rows as JSON\n"
         "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
-        "  --quick        fewer matrices and variants\n"
+        "  --quick        fewer matrices and variants (--extremes: a CI-sized subset)\n"
+        "  --extremes     stability at the extremes: crush to a plane and a point,\n"
+        "                 rest, nu, E and element size sweeps per model and loop;\n"
+        "                 --filter matches \"model loop precision case\"\n"
         "  -h, --help     this text\n"
         "  --version      print the version\n"
         "Every ISA this CPU runs is verified by name; EK_ISA picks what 'auto' means.\n",
@@ -162,7 +222,7 @@ int main(int argc, char **argv) {
   ek_verify_ctx ctx = {.seed = 1, .n_random = 0, .n_family = 0};
   const char *json_path = NULL, *filter = NULL;
   unsigned long long n_opt = 0;
-  int have_n = 0;
+  int have_n = 0, extremes = 0;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     int has_value = i + 1 < argc;
@@ -170,6 +230,8 @@ int main(int argc, char **argv) {
     ek_cli_common("ek-verify", a, usage);
     if (strcmp(a, "--quick") == 0)
       ctx.quick = 1;
+    else if (strcmp(a, "--extremes") == 0)
+      extremes = 1;
     else if (strcmp(a, "--seed") == 0 && has_value) {
       if (parse_count(a, argv[++i], 0, &v))
         return EK_EXIT_USAGE;
@@ -203,6 +265,8 @@ int main(int argc, char **argv) {
     return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
+  if (extremes)
+    return run_extremes(&ctx, json_path, filter);
 
   printf("ek-verify: seed %llu, random set %zu, %zu per extremes family%s%s%s\n",
          (unsigned long long)ctx.seed, ctx.n_random, ctx.n_family, ctx.quick ? ", quick" : "",

@@ -62,4 +62,11 @@ int verify_xpbd(ek_verify_ctx *ctx);
 int verify_cloth_force(ek_verify_ctx *ctx);
 int verify_cloth(ek_verify_ctx *ctx);
 
+// ek-verify --extremes (verify_extremes.c): the stability scenes per model
+// and loop. Prints its table, appends one object per row to rows_json and
+// one line per failing row to known_json (cJSON arrays); returns the number
+// of failing rows, or -1 when a scene could not be set up.
+struct cJSON;
+int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *known_json);
+
 #endif

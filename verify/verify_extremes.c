@@ -1,0 +1,576 @@
+// ek-verify --extremes: stability at the extremes, per model and loop.
+//
+// Each row runs one scene on a small cube (4 x 4 x 4 cells, 384 tets) built
+// from a shipped scene (crush.json for the explicit loop, crush_implicit.json
+// for the implicit one) with overrides, and judges the end state with the
+// verdicts of check_stability.h:
+//   rest         the rest shape, undamped, no load: it must stay at rest
+//                (Smith et al. 2018, "Stable neo-Hookean flesh simulation",
+//                rest stability);
+//   crush_plane  every vertex projected onto the mid-plane z = L / 2, plus
+//                noise, then let go (damped, no load);
+//   crush_point  every vertex moved to the centre, plus noise, then let go
+//                (Irving et al. 2004, "Invertible finite elements for
+//                robust simulation of large deformation": the body
+//                crushed to a plane and to a point recovers);
+//   crush_plane at nu = 0.45 / 0.49 / 0.499, E = 1e3 / 1e7 / 1e9 Pa and cube
+//                edges L = 1e-4 / 1e-2 / 1 m (base: nu 0.3, E 1e5, L 0.2).
+// Loops: explicit at 0.5x, 1x and 2x ek_sim_cfl_dt, implicit at 1/30 s.
+// Precisions f32 and f64 (the force kernel's; the implicit loop's Hessian
+// products). XPBD is not run: its constraint is StVK's energy only
+// (xpbd.h), which the table below does not expect to recover from a crush.
+//
+// --quick (CI) runs the rows whose model, case and loop are all marked
+// quick: rest, both crushes and the plane crush at E = 1e9 Pa and L = 1e-4
+// m, explicit at 0.5x and 2x CFL and implicit, for StVK, fixed corotated +
+// clamp, neo-Hookean and stable neo-Hookean + clamp, in f32 and f64 (120
+// rows): each kind of verdict (PASS, xfail,
+// broke) appears, none of the full run's known failures does.
+//
+// Time scales: tc = L / c_s, c_s = sqrt(mu / rho) the shear wave speed. A
+// crush runs 30 tc with mass-proportional damping c = 2 / tc (each mode
+// of frequency omega decays at min(c / 2, omega^2 / c) >= ~1 / tc), so the
+// explicit rows take the same number of steps at every E and L, and the
+// implicit rows at least 30 steps. The rest scene runs as long, undamped.
+// A row stops early when a step fails (ek_sim_step's error is printed) or
+// the state leaves EK_STAB_BLOWUP_FACTOR body sizes.
+#include <cjson/cJSON.h>
+#include <ek/ek.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "check_stability.h"
+#include "scene_find.h"
+#include "verify.h"
+
+// ---- The scenes ----
+
+typedef enum { CASE_REST, CASE_CRUSH_PLANE, CASE_CRUSH_POINT } case_kind;
+
+typedef struct {
+  const char *name;
+  case_kind kind;
+  double E, nu, L; // 0: the base value
+  int quick;       // in --quick
+} ext_case;
+
+#define BASE_E 1e5
+#define BASE_NU 0.3
+#define BASE_L 0.2
+#define CELLS 4
+// Crush noise: uniform in [-a, a] per coordinate, a = NOISE * L, so about
+// half the tets start inverted.
+#define NOISE 1e-4
+// Durations in shear crossing times tc, damping c = DAMPING_TC / tc.
+#define DURATION_TC 30.0
+#define DAMPING_TC 2.0
+#define IMPLICIT_DT (1.0 / 30.0)
+#define IMPLICIT_MIN_STEPS 30
+
+static const ext_case cases[] = {
+    {"rest", CASE_REST, 0, 0, 0, 1},
+    {"crush_plane", CASE_CRUSH_PLANE, 0, 0, 0, 1},
+    {"crush_point", CASE_CRUSH_POINT, 0, 0, 0, 1},
+    {"crush_plane nu=0.45", CASE_CRUSH_PLANE, 0, 0.45, 0, 0},
+    {"crush_plane nu=0.49", CASE_CRUSH_PLANE, 0, 0.49, 0, 0},
+    {"crush_plane nu=0.499", CASE_CRUSH_PLANE, 0, 0.499, 0, 0},
+    {"crush_plane E=1e3", CASE_CRUSH_PLANE, 1e3, 0, 0, 0},
+    {"crush_plane E=1e7", CASE_CRUSH_PLANE, 1e7, 0, 0, 0},
+    {"crush_plane E=1e9", CASE_CRUSH_PLANE, 1e9, 0, 0, 1},
+    {"crush_plane L=1e-4", CASE_CRUSH_PLANE, 0, 0, 1e-4, 1},
+    {"crush_plane L=1e-2", CASE_CRUSH_PLANE, 0, 0, 1e-2, 0},
+    {"crush_plane L=1", CASE_CRUSH_PLANE, 0, 0, 1.0, 0},
+};
+#define NCASES (int)(sizeof cases / sizeof cases[0])
+
+// ---- The loops ----
+
+typedef enum { LOOP_EXPLICIT, LOOP_IMPLICIT } loop_kind;
+typedef struct {
+  const char *name;
+  loop_kind kind;
+  double cfl_factor; // explicit: dt = factor * ek_sim_cfl_dt
+  int quick;
+} ext_loop;
+
+static const ext_loop loops[] = {
+    {"explicit 0.5cfl", LOOP_EXPLICIT, 0.5, 1},
+    {"explicit 1cfl", LOOP_EXPLICIT, 1.0, 0},
+    {"explicit 2cfl", LOOP_EXPLICIT, 2.0, 1},
+    {"implicit 1/30", LOOP_IMPLICIT, 0, 1},
+};
+#define NLOOPS (int)(sizeof loops / sizeof loops[0])
+
+// ---- Expectations: what the literature says each model survives ----
+//
+// SURVIVE rows fail the run when they do not survive; NOT rows are expected
+// not to survive (reported, and an unexpected survival is noted); NONE rows
+// make no claim (reported only).
+typedef enum { EXPECT_NONE, EXPECT_SURVIVE, EXPECT_NOT } expectation;
+static const char *const expect_names[] = {"none", "survive", "not"};
+
+typedef struct {
+  const char *name; // row label
+  ek_model model;
+  int clamp; // 1: the base scene's clamp (Irving et al. 2004 sec. 5)
+  int quick;
+  // Crush scenes (plane, point and the sweeps): explicit at <= 1x CFL,
+  // implicit. Rest is SURVIVE for every model at <= 1x CFL and implicit
+  // (Smith et al. 2018: P(I) = 0 is required of every model; ek takes
+  // stable neo-Hookean's a = 1 + 3 mu / (4 lambda), material.h).
+  // Explicit at 2x CFL is NONE everywhere: symplectic Euler is stable for
+  // dt omega_max <= 2 and ek_sim_cfl_dt = h_min / c is that limit's
+  // estimate (sim.h), so 2x is expected to blow up; the row says so.
+  expectation crush_explicit, crush_implicit;
+  const char *source;
+} ext_variant;
+
+static const ext_variant variants[] = {
+    {"linear", EK_MODEL_LINEAR, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "linear in x: f = -K (x - X), K constant and PSD, so a damped body returns to X whatever "
+     "the crush (no inversion exists for it; it is not rotation-invariant)"},
+    {"stvk", EK_MODEL_STVK, 0, 1, EXPECT_NOT, EXPECT_NOT,
+     "Irving et al. 2004: StVK's restoring force vanishes as an element flattens and its "
+     "reflection F = diag(1,1,-1) has zero energy: it can stay inverted"},
+    {"corot_linear", EK_MODEL_COROTATED_LINEAR, 0, 0, EXPECT_NONE, EXPECT_NONE,
+     "no published claim for linear elasticity about a lagged R^n = polar(F^n) under "
+     "inversion (seed 000); reported only"},
+    {"fixed_corot", EK_MODEL_FIXED_COROTATED, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "Stomakhin et al. 2012: fixed corotated with the rotation-variant R is finite "
+     "and restoring for inverted and flat elements"},
+    {"fixed_corot+clamp", EK_MODEL_FIXED_COROTATED, 1, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "Irving 2004 sec. 5 (clamped singular values) on fixed corotated (Stomakhin 2012)"},
+    {"arap", EK_MODEL_ARAP, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "fixed corotated with lambda = 0: its mu |F - R(F)|^2 term is the one Stomakhin 2012 "
+     "shows restoring under inversion"},
+    {"arap+clamp", EK_MODEL_ARAP, 1, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "Irving 2004 sec. 5 on ARAP"},
+    {"psi_r", EK_MODEL_PSI_R, 0, 0, EXPECT_NOT, EXPECT_NOT,
+     "a function of F^T F like StVK: the reflection has zero energy (Irving et al. 2004)"},
+    {"nh", EK_MODEL_NEO_HOOKEAN, 0, 1, EXPECT_NOT, EXPECT_NOT,
+     "log J is undefined for J <= 0 (Smith et al. 2018; material.h): an inverted start is "
+     "refused (EK_SIM_EINVERTED)"},
+    {"nh+clamp", EK_MODEL_NEO_HOOKEAN, 1, 0, EXPECT_NONE, EXPECT_SURVIVE,
+     "Irving 2004 sec. 5: finite, restoring; explicit NONE: its stiffness at the clamp is "
+     "~(1/clamp)^2 the rest stiffness, so the rest CFL step does not bound it"},
+    {"snh", EK_MODEL_STABLE_NEO_HOOKEAN, 0, 0, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "Smith et al. 2018: finite, restoring under inversion, bounded stiffness"},
+    {"snh+clamp", EK_MODEL_STABLE_NEO_HOOKEAN, 1, 1, EXPECT_SURVIVE, EXPECT_SURVIVE,
+     "Smith 2018 with Irving 2004 sec. 5's clamp"},
+};
+#define NVARIANTS (int)(sizeof variants / sizeof variants[0])
+
+static expectation expect_for(const ext_variant *v, const ext_case *c, const ext_loop *l) {
+  if (l->kind == LOOP_EXPLICIT && l->cfl_factor > 1.0)
+    return EXPECT_NONE;
+  if (c->kind == CASE_REST)
+    return EXPECT_SURVIVE;
+  return l->kind == LOOP_EXPLICIT ? v->crush_explicit : v->crush_implicit;
+}
+
+// ---- One row ----
+
+typedef struct {
+  int finite, restoring, volume; // verdicts (1 / 0)
+  double measure;                // crush: shape error; rest: max displacement (/ L diag)
+  double volume_ratio;
+  size_t inverted;
+  long steps, planned;
+  double dt, dt_cfl;
+  long unconverged; // implicit steps above newton_tol
+  char error[200];
+  double seconds;
+} ext_result;
+
+// A message on one line (truncated to n - 1 bytes); dst may be src.
+static void copy_error(char *dst, size_t n, const char *src) {
+  size_t i = 0;
+  for (; i + 1 < n && src[i]; i++)
+    dst[i] = src[i] == '\n' || src[i] == '"' ? ' ' : src[i];
+  dst[i] = '\0';
+}
+
+// Set the crushed start state: every vertex projected onto the mid-plane
+// (plane) or onto the centre (point), plus noise from a stream that depends
+// on the seed and the case only, so every model starts from the same state.
+static void crush_state(const ext_case *c, uint64_t seed, size_t nv, const double *X, double L,
+                        double *x) {
+  ek_rng rng;
+  ek_rng_seed(&rng, ek_check_stream_seed(seed, c->name));
+  double a = NOISE * L;
+  for (size_t i = 0; i < nv; i++)
+    for (int k = 0; k < 3; k++) {
+      double centre = 0.5 * L;
+      int flatten = c->kind == CASE_CRUSH_POINT || k == 2;
+      x[3 * i + k] = (flatten ? centre : X[3 * i + k]) + a * (2.0 * ek_rng_uniform(&rng) - 1.0);
+    }
+}
+
+static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c, const ext_loop *l,
+                   int precision, uint64_t seed, ext_result *r) {
+  memset(r, 0, sizeof *r);
+  struct timespec ts0, ts1;
+  clock_gettime(CLOCK_MONOTONIC, &ts0);
+  ek_scene s = *base;
+  double L = c->L > 0 ? c->L : BASE_L, E = c->E > 0 ? c->E : BASE_E,
+         nu = c->nu > 0 ? c->nu : BASE_NU;
+  s.mesh_file[0] = '\0';
+  for (int k = 0; k < 3; k++) {
+    s.box_cells[k] = CELLS;
+    s.box_size[k] = L;
+    s.init_scale[k] = 1;
+    s.init_translate[k] = 0;
+    s.init_velocity[k] = 0;
+    s.gravity[k] = 0;
+  }
+  s.nbc = 0;
+  s.has_ground = 0;
+  s.output_file[0] = '\0';
+  s.material.model = v->model;
+  s.material.clamp = v->clamp ? base->material.clamp : 0.0;
+  s.young = E;
+  s.poisson = nu;
+  if (ek_lame_from_young_poisson(E, nu, &s.material.mu, &s.material.lambda) != 0) {
+    copy_error(r->error, sizeof r->error, ek_last_error());
+    return -1;
+  }
+  snprintf(s.model_name, sizeof s.model_name, "%s", ek_scene_model_name(v->model));
+  s.precision = precision;
+  double c_s = sqrt(s.material.mu / s.density), tc = L / c_s, duration = DURATION_TC * tc;
+  s.damping = c->kind == CASE_REST ? 0.0 : DAMPING_TC / tc;
+
+  char err[512];
+  ek_mesh *mesh = ek_scene_mesh(&s, err, sizeof err);
+  if (!mesh) {
+    copy_error(r->error, sizeof r->error, err);
+    return -1;
+  }
+  // The CFL step is the sim's (ek_sim_cfl_dt); a first sim at a small dt
+  // reads it, the row's sim is built at its multiple.
+  if (l->kind == LOOP_EXPLICIT) {
+    s.dt = 1e-30;
+    ek_sim *probe = ek_sim_create(&s, mesh, err, sizeof err);
+    if (!probe) {
+      copy_error(r->error, sizeof r->error, err);
+      ek_mesh_destroy(mesh);
+      return -1;
+    }
+    r->dt_cfl = ek_sim_cfl_dt(probe);
+    ek_sim_destroy(probe);
+    s.dt = l->cfl_factor * r->dt_cfl;
+    r->planned = (long)ceil(duration / s.dt);
+  } else {
+    s.dt = IMPLICIT_DT;
+    r->planned = (long)fmax(ceil(duration / s.dt), IMPLICIT_MIN_STEPS);
+  }
+  s.steps = r->planned;
+  r->dt = s.dt;
+  // The explicit loop warns on stderr when dt is above the CFL step; the 2x
+  // rows ask for that on purpose (their dt is in the JSON), so the warning
+  // is silenced for them and stderr keeps the progress lines.
+  int quiet = l->kind == LOOP_EXPLICIT && l->cfl_factor > 1.0;
+  int saved_stderr = -1;
+  if (quiet) {
+    fflush(stderr);
+    int devnull = open("/dev/null", O_WRONLY);
+    saved_stderr = devnull >= 0 ? dup(STDERR_FILENO) : -1;
+    if (saved_stderr >= 0)
+      dup2(devnull, STDERR_FILENO);
+    if (devnull >= 0)
+      close(devnull);
+  }
+  ek_sim *sim = ek_sim_create(&s, mesh, err, sizeof err);
+  if (saved_stderr >= 0) {
+    fflush(stderr);
+    dup2(saved_stderr, STDERR_FILENO);
+    close(saved_stderr);
+  }
+  if (!sim) {
+    copy_error(r->error, sizeof r->error, err);
+    ek_mesh_destroy(mesh);
+    return -1;
+  }
+  if (l->kind == LOOP_IMPLICIT)
+    r->dt_cfl = ek_sim_cfl_dt(sim);
+
+  size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
+  const double *X = ek_mesh_rest_positions(mesh);
+  const int32_t *T = ek_mesh_tets(mesh);
+  double size = sqrt(3.0) * L, centre[3] = {0.5 * L, 0.5 * L, 0.5 * L};
+  double V0 = ek_stab_volume(nt, T, X);
+  int rc = 0;
+  if (c->kind != CASE_REST) {
+    double *x = malloc(3 * nv * sizeof(double));
+    if (!x) {
+      ek_sim_destroy(sim);
+      ek_mesh_destroy(mesh);
+      snprintf(r->error, sizeof r->error, "out of memory");
+      return -1;
+    }
+    crush_state(c, seed, nv, X, L, x);
+    rc = ek_sim_set_state(sim, x, NULL);
+    free(x);
+    if (rc) {
+      copy_error(r->error, sizeof r->error, ek_sim_last_error(sim));
+      ek_sim_destroy(sim);
+      ek_mesh_destroy(mesh);
+      return -1;
+    }
+  }
+
+  r->finite = 1;
+  for (long n = 0; n < r->planned; n++) {
+    rc = ek_sim_step(sim);
+    if (rc) {
+      char msg[160];
+      snprintf(msg, sizeof msg, "%s", ek_sim_last_error(sim));
+      snprintf(r->error, sizeof r->error, "%s%s",
+               rc == EK_SIM_EINVERTED ? "inverted: " : "step failed: ", msg);
+      copy_error(r->error, sizeof r->error, r->error);
+      // A non-finite force is a blow-up; an inverted element outside the
+      // model's domain is a refusal with the state still finite.
+      if (rc != EK_SIM_EINVERTED)
+        r->finite = 0;
+      break;
+    }
+    r->steps = n + 1;
+    if (!ek_stab_finite(3 * nv, ek_sim_positions(sim), centre, size)) {
+      r->finite = 0;
+      snprintf(r->error, sizeof r->error, "diverged at step %ld (t = %.3g s)", n + 1,
+               ek_sim_time(sim));
+      break;
+    }
+  }
+  const double *x = ek_sim_positions(sim);
+  r->finite = r->finite && ek_stab_finite(3 * nv, x, centre, size);
+  r->inverted = ek_stab_inverted(nt, T, x);
+  r->volume_ratio = ek_stab_volume(nt, T, x) / V0;
+  r->volume =
+      r->finite && ek_stab_volume_recovered(ek_stab_volume(nt, T, x), V0, EK_SIM_VOLUME_TOL);
+  if (c->kind == CASE_REST) {
+    r->measure = ek_stab_max_displacement(nv, X, x, size);
+    r->restoring = r->finite && r->measure <= ek_stab_rest_tol(precision);
+  } else {
+    r->measure = ek_stab_shape_error(nv, X, x, ek_sim_masses(sim), size);
+    r->restoring = r->finite && r->inverted == 0 && r->measure <= EK_STAB_SHAPE_TOL;
+  }
+  r->unconverged = ek_sim_timings(sim)->unconverged_steps;
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(mesh);
+  clock_gettime(CLOCK_MONOTONIC, &ts1);
+  r->seconds = (double)(ts1.tv_sec - ts0.tv_sec) + 1e-9 * (double)(ts1.tv_nsec - ts0.tv_nsec);
+  return 0;
+}
+
+static const char *yes_no(int v) { return v ? "yes" : "no"; }
+
+// The row's status from its expectation and whether it survived.
+static const char *status_of(expectation e, int survived, int setup_error) {
+  if (setup_error)
+    return "ERROR";
+  switch (e) {
+  case EXPECT_SURVIVE:
+    return survived ? "PASS" : "FAIL";
+  case EXPECT_NOT:
+    return survived ? "xpass" : "xfail";
+  case EXPECT_NONE:
+    break;
+  }
+  return survived ? "ok" : "broke";
+}
+
+// One line per model, one column per loop: how many of its rows ended in
+// each status (from the rows already emitted).
+static void print_summary(struct cJSON *rows_json) {
+  static const char *const statuses[] = {"PASS", "FAIL", "xfail", "xpass", "ok", "broke", "ERROR"};
+  enum { NSTATUS = sizeof statuses / sizeof statuses[0] };
+  printf("\nsummary (rows per status):\n%-18s", "model");
+  for (int li = 0; li < NLOOPS; li++)
+    printf(" | %-24s", loops[li].name);
+  printf("\n");
+  for (int vi = 0; vi < NVARIANTS; vi++) {
+    int counts[NLOOPS][NSTATUS] = {{0}}, any = 0;
+    cJSON *row;
+    cJSON_ArrayForEach(row, rows_json) {
+      if (strcmp(cJSON_GetObjectItem(row, "model")->valuestring, variants[vi].name) != 0)
+        continue;
+      const char *loop = cJSON_GetObjectItem(row, "loop")->valuestring;
+      const char *status = cJSON_GetObjectItem(row, "status")->valuestring;
+      for (int li = 0; li < NLOOPS; li++)
+        for (int k = 0; k < NSTATUS && strcmp(loop, loops[li].name) == 0; k++)
+          if (strcmp(status, statuses[k]) == 0) {
+            counts[li][k]++;
+            any = 1;
+          }
+    }
+    if (!any)
+      continue;
+    printf("%-18s", variants[vi].name);
+    for (int li = 0; li < NLOOPS; li++) {
+      char cell[64] = "";
+      size_t used = 0;
+      for (int k = 0; k < NSTATUS; k++)
+        if (counts[li][k] && used < sizeof cell)
+          used += (size_t)snprintf(cell + used, sizeof cell - used, "%s%d %s", used ? " " : "",
+                                   counts[li][k], statuses[k]);
+      printf(" | %-24s", cell[0] ? cell : "-");
+    }
+    printf("\n");
+  }
+}
+
+static double now_s(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *known_json) {
+  int quick = ek_verify_quick(ctx);
+  uint64_t seed = ek_verify_seed(ctx);
+  ek_scene base[2];
+  const char *base_names[2] = {"crush", "crush_implicit"};
+  for (int b = 0; b < 2; b++) {
+    char path[1024], err[1024];
+    if (ek_shipped_scene(base_names[b], path, sizeof path, err, sizeof err) != 0 ||
+        ek_scene_load(path, &base[b], err, sizeof err) != 0) {
+      fprintf(stderr, "ek-verify --extremes: base scene %s: %s\n", base_names[b], err);
+      return -1;
+    }
+  }
+  ek_verify_note(ctx,
+                 "extremes: cube of %d^3 cells x 6 tets from scenes crush.json (explicit) and "
+                 "crush_implicit.json (implicit); crush noise %g L; %g shear crossing times, "
+                 "damping %g / tc; rest undamped",
+                 CELLS, NOISE, DURATION_TC, DAMPING_TC);
+  ek_verify_note(ctx,
+                 "extremes: restoring = no inverted tet and shape error (Kabsch-aligned max "
+                 "vertex distance / body diagonal) <= %g; rest: max displacement / body "
+                 "diagonal <= %g (f64), %g (f32); volume: |V/V0 - 1| <= %g",
+                 EK_STAB_SHAPE_TOL, EK_STAB_REST_TOL_F64, EK_STAB_REST_TOL_F32, EK_SIM_VOLUME_TOL);
+  ek_verify_note(ctx, "extremes: XPBD not run (StVK constraint only: not expected to recover "
+                      "from a crush, Irving 2004)");
+
+  // Count the rows first, for the progress line.
+  int total = 0;
+  for (int vi = 0; vi < NVARIANTS; vi++)
+    for (int ci = 0; ci < NCASES; ci++)
+      for (int li = 0; li < NLOOPS; li++)
+        for (int p = 0; p < 2; p++) {
+          const ext_variant *v = &variants[vi];
+          const ext_case *c = &cases[ci];
+          const ext_loop *l = &loops[li];
+          char var[64];
+          snprintf(var, sizeof var, "%s %s", l->name, p ? "f32" : "f64");
+          if ((!quick || (v->quick && c->quick && l->quick)) &&
+              ek_verify_selected(ctx, v->name, var, c->name))
+            total++;
+        }
+
+  printf("\n%-18s %-16s %-4s %-21s %-8s %-7s %-6s %-9s %-6s %-9s %-8s %-11s %-6s %s\n", "model",
+         "loop", "prec", "case", "expect", "finite", "restor", "measure", "volume", "V/V0",
+         "inverted", "steps", "status", "note");
+  int done = 0, failures = 0, setup_errors = 0;
+  double t0 = now_s(), last_progress = t0;
+  for (int vi = 0; vi < NVARIANTS; vi++)
+    for (int ci = 0; ci < NCASES; ci++)
+      for (int li = 0; li < NLOOPS; li++)
+        for (int p = 0; p < 2; p++) {
+          const ext_variant *v = &variants[vi];
+          const ext_case *c = &cases[ci];
+          const ext_loop *l = &loops[li];
+          int precision = p ? 32 : 64;
+          char var[64];
+          snprintf(var, sizeof var, "%s %s", l->name, p ? "f32" : "f64");
+          if ((quick && !(v->quick && c->quick && l->quick)) ||
+              !ek_verify_selected(ctx, v->name, var, c->name))
+            continue;
+          ext_result r;
+          const ek_scene *b = &base[l->kind == LOOP_IMPLICIT];
+          int setup = run_row(b, v, c, l, precision, seed, &r) != 0;
+          expectation e = expect_for(v, c, l);
+          int survived = !setup && r.finite && r.restoring && r.volume;
+          const char *status = status_of(e, survived, setup);
+          int failed = setup || (e == EXPECT_SURVIVE && !survived);
+          failures += failed;
+          setup_errors += setup;
+          char steps[32];
+          snprintf(steps, sizeof steps, "%ld/%ld", r.steps, r.planned);
+          printf("%-18s %-16s %-4s %-21s %-8s %-7s %-6s %9.2e %-6s %9.3g %-8zu %-11s %-6s", v->name,
+                 l->name, p ? "f32" : "f64", c->name, expect_names[e],
+                 setup ? "-" : yes_no(r.finite), setup ? "-" : yes_no(r.restoring), r.measure,
+                 setup ? "-" : yes_no(r.volume), r.volume_ratio, r.inverted, steps, status);
+          if (r.unconverged)
+            printf(" [%ld steps above newton_tol]", r.unconverged);
+          if (r.error[0])
+            printf(" %s", r.error);
+          printf("\n");
+
+          cJSON *j = cJSON_CreateObject();
+          cJSON_AddStringToObject(j, "model", v->name);
+          cJSON_AddStringToObject(j, "loop", l->name);
+          cJSON_AddStringToObject(j, "precision", p ? "f32" : "f64");
+          cJSON_AddStringToObject(j, "case", c->name);
+          cJSON_AddStringToObject(j, "expect", expect_names[e]);
+          cJSON_AddStringToObject(j, "expect_source",
+                                  e == EXPECT_NONE && l->cfl_factor > 1.0
+                                      ? "2x the CFL step: past symplectic Euler's limit"
+                                  : c->kind == CASE_REST ? "Smith et al. 2018: rest stability"
+                                                         : v->source);
+          cJSON_AddBoolToObject(j, "finite", !setup && r.finite);
+          cJSON_AddBoolToObject(j, "restoring", !setup && r.restoring);
+          cJSON_AddBoolToObject(j, "volume_recovered", !setup && r.volume);
+          cJSON_AddStringToObject(j, "measure_name",
+                                  c->kind == CASE_REST ? "max_displacement" : "shape_error");
+          cJSON_AddNumberToObject(j, "measure", isfinite(r.measure) ? r.measure : 1e308);
+          cJSON_AddNumberToObject(
+              j, "bound", c->kind == CASE_REST ? ek_stab_rest_tol(precision) : EK_STAB_SHAPE_TOL);
+          cJSON_AddNumberToObject(j, "volume_ratio",
+                                  isfinite(r.volume_ratio) ? r.volume_ratio : 1e308);
+          cJSON_AddNumberToObject(j, "inverted", (double)r.inverted);
+          cJSON_AddNumberToObject(j, "steps", (double)r.steps);
+          cJSON_AddNumberToObject(j, "steps_planned", (double)r.planned);
+          cJSON_AddNumberToObject(j, "dt", r.dt);
+          cJSON_AddNumberToObject(j, "dt_cfl", r.dt_cfl);
+          cJSON_AddNumberToObject(j, "unconverged_steps", (double)r.unconverged);
+          cJSON_AddNumberToObject(j, "seconds", r.seconds);
+          if (r.error[0])
+            cJSON_AddStringToObject(j, "error", r.error);
+          cJSON_AddStringToObject(j, "status", status);
+          cJSON_AddItemToArray(rows_json, j);
+          if (failed) {
+            char line[400];
+            snprintf(line, sizeof line, "%s | %s %s | %s: %s%s%s", v->name, l->name,
+                     p ? "f32" : "f64", c->name,
+                     setup       ? "setup error"
+                     : !r.finite ? "not finite"
+                     : !r.restoring
+                         ? (c->kind == CASE_REST ? "did not stay at rest" : "not restored")
+                         : "volume not recovered",
+                     r.error[0] ? " - " : "", r.error);
+            cJSON_AddItemToArray(known_json, cJSON_CreateString(line));
+          }
+
+          done++;
+          double t = now_s();
+          if (t - last_progress > 5.0 || done == total) {
+            fprintf(stderr, "ek-verify --extremes: %d/%d rows, %.0f s\n", done, total, t - t0);
+            last_progress = t;
+          }
+        }
+  print_summary(rows_json);
+  int nknown = cJSON_GetArraySize(known_json);
+  if (nknown) {
+    printf("\nknown failures (an expectation from the literature that did not hold):\n");
+    for (int k = 0; k < nknown; k++)
+      printf("  %s\n", cJSON_GetArrayItem(known_json, k)->valuestring);
+  }
+  printf("\nextremes: %d rows, %d failing, %.1f s\n", done, failures, now_s() - t0);
+  return setup_errors ? -1 : failures;
+}
