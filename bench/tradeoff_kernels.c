@@ -367,11 +367,17 @@ int ek_tradeoff_polar_warm(ek_tradeoff *t) {
 
 int ek_tradeoff_kernels(ek_tradeoff *t) {
   const ek_tradeoff_opts *o = ek_tradeoff_options(t);
+  // The default setting runs on what EK_ISA_AUTO resolves to (EK_ISA may
+  // force it); when --isas leaves that ISA out, the best one mapped.
   ek_isa auto_isa;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK) {
     fprintf(stderr, "ek tradeoff: %s\n", ek_last_error());
     return -1;
   }
+  if (!isa_selected(o, auto_isa))
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
+      if (isa_selected(o, isa))
+        auto_isa = (ek_isa)isa; // ascending: the last one selected is the best
   int nisa = count_isas(o);
   ek_tradeoff_expect(t, 2 * 2 * nisa * MAX_SWEEPS * 2 * (EK_SVD3_MAX_REFINE + 1) +
                             2 * EK_MODEL_COUNT * nisa);
