@@ -72,10 +72,11 @@ fi
 
 cmake --preset release >/dev/null
 cmake --build --preset release
-# The tests read the frames' XDMF with meshio (PyPI): a virtual environment
-# in build/venv holds it and h5py (tests/requirements-venv.txt).
-if [ "$mode" = test ] && ! build/venv/bin/python -c "import meshio, h5py" 2>/dev/null; then
-  echo "creating build/venv (meshio, h5py from PyPI, for the XDMF test)"
+# The tests read the frames' XDMF with meshio (PyPI) and plot the tradeoff
+# map (tools/plot_tradeoff.py): a virtual environment in build/venv holds
+# meshio, h5py and matplotlib (tests/requirements-venv.txt).
+if [ "$mode" = test ] && ! build/venv/bin/python -c "import meshio, h5py, matplotlib" 2>/dev/null; then
+  echo "creating build/venv (meshio, h5py, matplotlib from PyPI, for the XDMF and plot tests)"
   python3 -m venv build/venv
   build/venv/bin/python -m pip install -q --disable-pip-version-check -r tests/requirements-venv.txt
 fi

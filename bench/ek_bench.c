@@ -20,6 +20,7 @@
 #include "omp_env.h"
 #include "results.h"
 #include "timer.h"
+#include "tradeoff.h"
 
 // ---- family table ------------------------------------------------------
 // One prototype and one line per bench/bench_<family>.c.
@@ -55,8 +56,11 @@ struct ek_bench {
   unsigned long long seed;
   int list_only;
   int min_time_given;
-  int json_samples;  // --samples: per-sample entries in the JSON
-  unsigned isa_mask; // --isas: bit i set = ISA i may be timed (default all)
+  int json_samples;   // --samples: per-sample entries in the JSON
+  unsigned isa_mask;  // --isas: bit i set = ISA i may be timed (default all)
+  int suite_tradeoff; // --suite tradeoff
+  long tradeoff_n;    // --n (tradeoff suite): matrices per error distribution
+  int quick;          // --quick (tradeoff suite)
   // state
   int listing; // 1 during the listing pass
   int total;   // rows selected (from the listing pass)
@@ -396,12 +400,15 @@ static void print_table(const ek_bench *b) {
 
 static void usage(FILE *f) {
   fprintf(f, "usage: ek-bench [options]\n"
+             "  --suite NAME    default (the rows below) or tradeoff (the speed/accuracy\n"
+             "                  map: error vs time per knob setting, README)\n"
              "  --filter REGEX  only rows whose name matches (POSIX extended regex)\n"
              "  --threads N     only N threads (default: 1 and 2)\n"
              "  --min-time S    seconds of samples per row (default 0.5, scaled down to\n"
              "                  fit 140 s of samples over all selected rows, >= 0.1)\n"
              "  --seed N        seed of the random inputs (default 1)\n"
-             "  --out FILE.h5   HDF5 results (default results/ek-bench-YYYYmmdd-HHMMSS.h5)\n"
+             "  --out FILE.h5   HDF5 results (default results/ek-bench-YYYYmmdd-HHMMSS.h5;\n"
+             "                  tradeoff suite: results/ek-tradeoff-YYYYmmdd-HHMMSS.h5)\n"
              "  --json FILE     JSON results, Google Benchmark schema (default: the .h5 name "
              "with .json)\n"
              "  --force         overwrite existing output files\n"
@@ -409,6 +416,9 @@ static void usage(FILE *f) {
              "  --isas LIST     only these of the available ISAs, comma-separated (e.g.\n"
              "                  scalar,avx2: the rows of an AVX2 machine)\n"
              "  --list          print the row names and run nothing\n"
+             "  --n N           tradeoff suite: matrices per error distribution (default\n"
+             "                  100000, ek-verify's random set; --quick 2000)\n"
+             "  --quick         tradeoff suite: small sets, short timings (a test run)\n"
              "  -h, --help      this text\n"
              "  --version       print the version\n"
              "OMP_PROC_BIND / OMP_PLACES default to close / cores; EK_ISA is ignored for rows\n"
@@ -443,7 +453,8 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
     ek_cli_common("ek-bench", a, usage);
     int needs_value = !strcmp(a, "--filter") || !strcmp(a, "--threads") ||
                       !strcmp(a, "--min-time") || !strcmp(a, "--seed") || !strcmp(a, "--out") ||
-                      !strcmp(a, "--json") || !strcmp(a, "--isas");
+                      !strcmp(a, "--json") || !strcmp(a, "--isas") || !strcmp(a, "--suite") ||
+                      !strcmp(a, "--n");
     const char *v = NULL;
     if (needs_value) {
       if (i + 1 >= argc)
@@ -452,6 +463,15 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
     }
     if (!strcmp(a, "--list")) {
       b->list_only = 1;
+    } else if (!strcmp(a, "--suite")) {
+      if (strcmp(v, "default") && strcmp(v, "tradeoff"))
+        return bad_arg(a, v, "unknown suite (default, tradeoff)");
+      b->suite_tradeoff = !strcmp(v, "tradeoff");
+    } else if (!strcmp(a, "--n")) {
+      if (parse_long(v, 1, 100000000, &b->tradeoff_n))
+        return bad_arg(a, v, "must be an integer in 1..1e8");
+    } else if (!strcmp(a, "--quick")) {
+      b->quick = 1;
     } else if (!strcmp(a, "--force")) {
       o->force = 1;
     } else if (!strcmp(a, "--samples")) {
@@ -520,7 +540,92 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
       return bad_arg(a, NULL, "unknown option");
     }
   }
+  // Options of one suite only.
+  if (!b->suite_tradeoff && (b->tradeoff_n || b->quick))
+    return bad_arg(b->quick ? "--quick" : "--n", NULL, "only with --suite tradeoff");
+  if (b->suite_tradeoff && (b->has_filter || b->list_only || b->json_samples))
+    return bad_arg(b->has_filter  ? "--filter"
+                   : b->list_only ? "--list"
+                                  : "--samples",
+                   NULL, "not with --suite tradeoff (it has no rows)");
   return 0;
+}
+
+// ---- the tradeoff suite ----------------------------------------------------
+
+// `--suite tradeoff`: the speed/accuracy map (bench/tradeoff.h): the kernel
+// families (bench/tradeoff_kernels.c), then the loops
+// (bench/tradeoff_loops.c); the fronts are marked as the files are written.
+static int run_tradeoff(ek_bench *b, int argc, char **argv, const char *out, const char *json,
+                        int force) {
+  double start = ek_now_ns();
+  ek_tradeoff_opts o = {
+      .seed = b->seed,
+      .n = b->tradeoff_n ? b->tradeoff_n
+           : b->quick    ? 2000
+                         : 100000,
+      .quick = b->quick,
+      .min_time = b->min_time_given ? b->timer.min_time
+                  : b->quick        ? 0.005
+                                    : 0.05,
+      .isa_mask = b->isa_mask,
+  };
+  for (int i = 0; i < b->nthread_counts && i < EK_TRADEOFF_MAX_THREAD_COUNTS; i++)
+    o.thread_counts[o.nthread_counts++] = b->thread_counts[i];
+  ek_tradeoff *t = ek_tradeoff_create(&o);
+  if (!t) {
+    fprintf(stderr, "ek-bench: out of memory\n");
+    return EK_EXIT_FAILED;
+  }
+  fprintf(stderr,
+          "ek-bench --suite tradeoff: seed %llu, %ld matrices per distribution, "
+          "min-time %.3g s per point\n",
+          b->seed, o.n, o.min_time);
+  int rc = ek_tradeoff_kernels(t);
+  double kernels_s = (ek_now_ns() - start) * 1e-9;
+  if (rc == 0)
+    rc = ek_tradeoff_loops(t);
+  double elapsed_s = (ek_now_ns() - start) * 1e-9;
+  if (b->tty)
+    fputc('\n', stderr);
+  ek_results meta;
+  ek_results_init(&meta);
+  ek_results_collect_metadata(&meta, argv[0]);
+  ek_results_meta_text(&meta, "suite", "tradeoff");
+  ek_results_meta_number(&meta, "seed", (double)b->seed);
+  ek_results_meta_number(&meta, "n", (double)o.n);
+  ek_results_meta_bool(&meta, "quick", o.quick);
+  ek_results_meta_number(&meta, "min_time_s", o.min_time);
+  char buf[512] = "";
+  for (int i = 0; i < o.nthread_counts; i++)
+    snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%d", i ? "," : "", o.thread_counts[i]);
+  ek_results_meta_text(&meta, "thread_counts", buf);
+  ek_results_meta_text(&meta, "percentiles",
+                       "nearest rank: p_q = the smallest error with at least q of the errors at "
+                       "or below it; over_budget: errors above the budget (or NaN)");
+  ek_results_meta_text(&meta, "front",
+                       "on_front_p99 (on_front_max): no other point of the same family and "
+                       "thread count has both a lower time_median and a lower err_p99 (err_max)");
+  ek_results_meta_number(&meta, "elapsed_kernels_s", kernels_s);
+  ek_results_meta_number(&meta, "elapsed_s", elapsed_s);
+  buf[0] = 0;
+  for (int i = 1; i < argc; i++)
+    snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s ", argv[i]);
+  ek_results_meta_text(&meta, "arguments", buf);
+  int werr = 0;
+  if (rc == 0) {
+    werr |= ek_tradeoff_write_h5(t, &meta, out, force) != 0;
+    werr |= ek_tradeoff_write_json(t, &meta, json, force) != 0;
+    if (!werr)
+      printf("wrote %s and %s (%zu points)\n", out, json, ek_tradeoff_count(t));
+  } else {
+    fprintf(stderr, "ek-bench: the tradeoff suite failed; no files written\n");
+  }
+  printf("tradeoff suite: %.1f s (kernels %.1f s, loops %.1f s)\n", elapsed_s, kernels_s,
+         elapsed_s - kernels_s);
+  ek_results_free(&meta);
+  ek_tradeoff_free(t);
+  return rc || werr ? EK_EXIT_FAILED : 0;
 }
 
 int main(int argc, char **argv) {
@@ -568,7 +673,8 @@ int main(int argc, char **argv) {
         fprintf(stderr, "ek-bench: cannot create directory 'results': %s\n", strerror(errno));
         return EK_EXIT_FAILED;
       }
-      snprintf(out, sizeof out, "results/ek-bench-%s.h5", stamp);
+      snprintf(out, sizeof out, "results/ek-%s-%s.h5", b->suite_tradeoff ? "tradeoff" : "bench",
+               stamp);
     }
     if (o.json) {
       snprintf(json, sizeof json, "%s", o.json);
@@ -600,6 +706,9 @@ int main(int argc, char **argv) {
       }
     }
   }
+
+  if (b->suite_tradeoff)
+    return run_tradeoff(b, argc, argv, out, json, o.force);
 
   ek_results_init(&b->results);
   ek_machine_init(&b->machine);

@@ -381,7 +381,7 @@ int ek_results_file_exists(const char *path) {
 // Put a finished temp file under its final name: without force, link()
 // fails if the name exists (so an existing file is never touched); with
 // force, rename() replaces it atomically.
-static int publish(const char *tmp, const char *path, int force) {
+int ek_results_publish(const char *tmp, const char *path, int force) {
   if (force) {
     if (rename(tmp, path) != 0) {
       fprintf(stderr, "ek results: cannot rename '%s' to '%s': %s\n", tmp, path, strerror(errno));
@@ -418,7 +418,7 @@ static int refuse_existing(const char *path, int force) {
   return 0;
 }
 
-static void temp_name(char *buf, size_t cap, const char *path) {
+void ek_results_temp_name(char *buf, size_t cap, const char *path) {
   snprintf(buf, cap, "%s.tmp.%ld", path, (long)getpid());
 }
 
@@ -540,16 +540,8 @@ static int write_row_h5(hid_t benchmarks, const ek_result_row *row) {
   return rc ? -1 : 0;
 }
 
-int ek_results_write_h5(const ek_results *r, const char *path, int force) {
-  if (refuse_existing(path, force))
-    return -1;
-  char tmp[4096];
-  temp_name(tmp, sizeof tmp, path);
-  hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
-  if (f < 0) {
-    fprintf(stderr, "ek results: cannot create HDF5 file '%s'\n", tmp);
-    return -1;
-  }
+int ek_results_write_meta_h5(const ek_results *r, long long loc) {
+  hid_t f = (hid_t)loc;
   int rc = 0;
   for (size_t i = 0; i < r->nmeta; i++) {
     const ek_meta *m = &r->meta[i];
@@ -569,6 +561,20 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
       H5Aclose(attr);
     H5Sclose(space);
   }
+  return rc ? -1 : 0;
+}
+
+int ek_results_write_h5(const ek_results *r, const char *path, int force) {
+  if (refuse_existing(path, force))
+    return -1;
+  char tmp[4096];
+  ek_results_temp_name(tmp, sizeof tmp, path);
+  hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) {
+    fprintf(stderr, "ek results: cannot create HDF5 file '%s'\n", tmp);
+    return -1;
+  }
+  int rc = ek_results_write_meta_h5(r, f);
   hid_t caches = H5Gcreate2(f, "caches", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (caches < 0)
     rc = -1;
@@ -601,7 +607,7 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
     unlink(tmp);
     return -1;
   }
-  return publish(tmp, path, force);
+  return ek_results_publish(tmp, path, force);
 }
 
 // ---- JSON (Google Benchmark schema) -------------------------------------
@@ -849,7 +855,7 @@ int ek_results_write_json(const ek_results *r, const char *path, int force, int 
     return -1;
   }
   char tmp[4096];
-  temp_name(tmp, sizeof tmp, path);
+  ek_results_temp_name(tmp, sizeof tmp, path);
   FILE *f = fopen(tmp, "wx");
   if (!f) {
     fprintf(stderr, "ek results: cannot create '%s': %s\n", tmp, strerror(errno));
@@ -865,5 +871,5 @@ int ek_results_write_json(const ek_results *r, const char *path, int force, int 
     unlink(tmp);
     return -1;
   }
-  return publish(tmp, path, force);
+  return ek_results_publish(tmp, path, force);
 }

@@ -169,6 +169,15 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force);
 // has ~1e5 samples); 0 writes the aggregates only.
 int ek_results_write_json(const ek_results *r, const char *path, int force, int samples);
 
+// For other writers of a run (the tradeoff suite, bench/tradeoff.c): the
+// metadata as attributes of an open HDF5 file or group (loc: its hid_t),
+// 0 or < 0; the temp name a file is written under, "<path>.tmp.<pid>"; and
+// putting it in place as the writers above do (without force an existing
+// path is left untouched and is an error; tmp is removed either way).
+int ek_results_write_meta_h5(const ek_results *r, long long loc);
+void ek_results_temp_name(char *buf, size_t cap, const char *path);
+int ek_results_publish(const char *tmp, const char *path, int force);
+
 #ifdef __cplusplus
 }
 #endif

@@ -5,6 +5,10 @@
 #ifndef EK_BENCH_TRADEOFF_H
 #define EK_BENCH_TRADEOFF_H
 
+#include <stddef.h>
+
+#include "results.h" // the run metadata the writers record
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -47,6 +51,54 @@ void ek_tradeoff_distribution(double *err, long n, ek_tradeoff_point *p);
 // settings on the scenes, deviation from the most accurate setting after
 // the simulated time. 0, or < 0 on error.
 int ek_tradeoff_loops(ek_tradeoff *t);
+
+// ---- The suite side (bench/tradeoff.c; added with the kernel part) -------
+// What `ek-bench --suite tradeoff` was asked for; the families read it.
+#define EK_TRADEOFF_MAX_THREAD_COUNTS 8
+typedef struct {
+  unsigned long long seed; // of every input set (--seed)
+  long n;                  // matrices / elements per error distribution (--n)
+  int quick;               // --quick: small sets, short timings (tests)
+  double min_time;         // seconds of samples per timed point
+  int thread_counts[EK_TRADEOFF_MAX_THREAD_COUNTS];
+  int nthread_counts;
+  unsigned isa_mask; // bit i set: ISA i may be mapped
+} ek_tradeoff_opts;
+
+ek_tradeoff *ek_tradeoff_create(const ek_tradeoff_opts *opts);
+void ek_tradeoff_free(ek_tradeoff *t);
+const ek_tradeoff_opts *ek_tradeoff_options(const ek_tradeoff *t);
+
+// Progress on stderr, "[k/N] text" as the default suite prints it: a family
+// announces how many steps it will take (ek_tradeoff_expect), then reports
+// each one as it starts (ek_tradeoff_progress).
+void ek_tradeoff_expect(ek_tradeoff *t, int steps);
+void ek_tradeoff_progress(ek_tradeoff *t, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+size_t ek_tradeoff_count(const ek_tradeoff *t);
+const ek_tradeoff_point *ek_tradeoff_get(const ek_tradeoff *t, size_t i);
+
+// Pareto front of n points: front[i] = 1 when no other point has both a
+// lower time[i] and a lower err[i] (strictly); a point with a NaN time or
+// error is never on the front and hides no other point.
+void ek_tradeoff_pareto(size_t n, const double *time, const double *err, unsigned char *front);
+// The fronts of every family, among the points of the same thread count:
+// on err_p99 and on err_max. Called by the writers; 1 if point i is on it.
+int ek_tradeoff_on_front(ek_tradeoff *t, size_t i, int on_max);
+
+// Write the points and the run metadata (results.h: cpu, ISAs, threads,
+// revision ...). HDF5: /tradeoff/<family>/points, one compound row per
+// point; JSON: {"suite", "metadata", "points": [...]}. Written to a temp
+// name and renamed; without force an existing file is an error. 0 or < 0
+// (message on stderr naming the file).
+int ek_tradeoff_write_h5(ek_tradeoff *t, const ek_results *meta, const char *path, int force);
+int ek_tradeoff_write_json(ek_tradeoff *t, const ek_results *meta, const char *path, int force);
+
+// The kernel families (bench/tradeoff_kernels.c): svd3, polar3 and
+// pk1/<model>; and the hook of the warm-started polar decomposition.
+int ek_tradeoff_kernels(ek_tradeoff *t);
+int ek_tradeoff_polar_warm(ek_tradeoff *t);
 
 #ifdef __cplusplus
 }

@@ -63,6 +63,9 @@ done
 expect "ek-verify --n 0" 2 "$bin/ek-verify" --n 0 && one_error "ek-verify --n 0"
 expect "ek-verify --seed x" 2 "$bin/ek-verify" --seed x && one_error "ek-verify --seed x"
 expect "ek-bench --threads 0" 2 "$bin/ek-bench" --threads 0 && one_error "ek-bench --threads 0"
+expect "ek-bench --suite bogus" 2 "$bin/ek-bench" --suite bogus && one_error "ek-bench --suite bogus"
+expect "ek-bench --quick (default suite)" 2 "$bin/ek-bench" --quick &&
+  one_error "ek-bench --quick (default suite)"
 expect "ek-sim --steps -1" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps -1 &&
   one_error "ek-sim --steps -1"
 expect "ek-sim without a scene" 2 "$bin/ek-sim" && one_error "ek-sim without a scene"

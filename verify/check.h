@@ -131,6 +131,12 @@ int ek_check_run_svd3(int bits, int polar, size_t n, const double *A, double *U,
 // malloc that exits with a message when memory runs out.
 void *ek_check_malloc(size_t bytes);
 
+// ---- Material input set ----
+// ek-verify's material set (verify/check_material.c): n elements' F, R and
+// dF (n x 9 each) for `seed`, rounded to float when f32 (the reference then
+// sees exactly the float input).
+void ek_check_material_inputs(uint64_t seed, int f32, size_t n, double *F, double *R, double *dF);
+
 // ---- Verdict ----
 // PASS at or below half the budget, MARGINAL above half (reported, not a
 // failure), FAIL above the budget or not a number.

@@ -2,10 +2,10 @@
 // 0.3) of ek_material_eval_* (psi, P, dP and the Hessian, each unprojected
 // and projected) against the double reference (reference/material/) on a
 // seeded random set of F (near identity, large, inverted, near-flat,
-// rotations; singular values in [0.2, 5]). Budgets EK_PK1_TOL_F32 / _F64 in
-// the norms of include/ek/material.h. Elements outside a model's domain
-// (neo-Hookean without clamp, J <= 0) must give NaN / +inf exactly where the
-// reference does; a mismatch counts as an isolation error.
+// rotations; singular values in [0.2, 5]: verify/check_material.c). Budgets EK_PK1_TOL_F32 / _F64
+// in the norms of include/ek/material.h. Elements outside a model's domain (neo-Hookean without
+// clamp, J <= 0) must give NaN / +inf exactly where the reference does; a mismatch counts as an
+// isolation error.
 #include <ek/ek.h>
 #include <math.h>
 #include <stdio.h>
@@ -18,32 +18,6 @@
 
 // The reference Hessian (LAPACK dsyev per element) bounds the set size.
 #define MATERIAL_SET_MAX 2000
-
-static void make_F(ek_rng *rng, int kind, double F[9]) {
-  double s[3];
-  switch (kind) {
-  case 0: // near identity
-    for (int k = 0; k < 9; k++)
-      F[k] = (k % 4 == 0) + 0.4 * (ek_rng_uniform(rng) - 0.5);
-    return;
-  case 1: // large
-    for (int i = 0; i < 3; i++)
-      s[i] = 0.2 + 4.8 * ek_rng_uniform(rng);
-    break;
-  case 2: // inverted, away from sigma_i + sigma_j = 0
-    s[0] = 0.8 + 1.2 * ek_rng_uniform(rng), s[1] = 0.8 + 1.2 * ek_rng_uniform(rng);
-    s[2] = -(0.1 + 0.4 * ek_rng_uniform(rng));
-    break;
-  case 3: // near-flat
-    s[0] = 0.8 + 1.2 * ek_rng_uniform(rng), s[1] = 0.8 + 1.2 * ek_rng_uniform(rng);
-    s[2] = 0.2 + 0.05 * ek_rng_uniform(rng);
-    break;
-  default: // rotation
-    s[0] = s[1] = s[2] = 1;
-    break;
-  }
-  ek_rng_with_sigma(rng, s, F);
-}
 
 static double amax(const double *a, size_t n) {
   double m = 0;
@@ -88,18 +62,7 @@ int verify_material(ek_verify_ctx *ctx) {
   const double clamps[2] = {0, 0.3};
 
   for (int f32 = 1; f32 >= 0; f32--) {
-    ek_rng rng;
-    ek_rng_seed(&rng,
-                ek_check_stream_seed(ek_verify_seed(ctx), f32 ? "material f32" : "material f64"));
-    for (size_t e = 0; e < n; e++) {
-      make_F(&rng, (int)(5 * ek_rng_uniform(&rng)), F + 9 * e);
-      ek_rng_rotation(&rng, R + 9 * e);
-      for (int k = 0; k < 9; k++)
-        dF[9 * e + k] = 2 * ek_rng_uniform(&rng) - 1;
-    }
-    if (f32) // the reference sees exactly the float input
-      for (size_t i = 0; i < n * 9; i++)
-        F[i] = (float)F[i], R[i] = (float)R[i], dF[i] = (float)dF[i];
+    ek_check_material_inputs(ek_verify_seed(ctx), f32, n, F, R, dF);
     for (int model = 0; model < EK_MODEL_COUNT; model++)
       for (int c = 0; c < 2; c++) {
         ek_material m = {(ek_model)model, 1.3, 2.1, clamps[c]};

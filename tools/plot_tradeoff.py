@@ -1,0 +1,287 @@
+#!/usr/bin/env python3
+"""Plot the speed/accuracy map of `ek-bench --suite tradeoff`.
+
+usage: plot_tradeoff.py TRADEOFF.h5 OUTDIR [--bench BENCH.h5] [--threads N]
+
+One PNG per family of the map (OUTDIR/tradeoff_<family>.png, '/' in the
+family name as '_'): error vs time per point, log-log, the p99 error as the
+marker and the maximum as a whisker above it, the Pareto front on p99 drawn
+as a line, the default and McAdams et al. 2011 settings labelled. Points are
+those of one thread count (--threads, default the most the file has).
+
+With --bench BENCH.h5 (a default-suite file of ek-bench), one roofline per
+kernel family as well (OUTDIR/roofline_<family>.png): left, each row's
+achieved GFLOP/s against its arithmetic intensity (declared flops / declared
+bytes) under the roofs of that run, the measured FMA peak per ISA and
+precision and the measured triad bandwidth (rows that declare flops); right,
+each row's achieved GB/s against the triad (rows that declare bytes); at the
+same thread count.
+
+Needs h5py and matplotlib (installed into build/venv by ./quickstart.sh test,
+tests/requirements-venv.txt); the build never needs them.
+"""
+import argparse
+import math
+import os
+import sys
+
+PROG = "plot_tradeoff"
+ERR_FLOOR = 1e-18  # an error of exactly 0 is drawn here (log axes)
+
+
+def fail(msg):
+    sys.exit(f"{PROG}: {msg}")
+
+
+def text(v):
+    return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
+
+
+def knobs_of(setting):
+    out = {}
+    for kv in setting.split(";"):
+        if kv:
+            k, _, v = kv.partition("=")
+            out[k] = v
+    return out
+
+
+def open_h5(path, what, group):
+    import h5py
+    if not os.path.exists(path):
+        fail(f"{path}: no such file ({what})")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        fail(f"{path}: not an HDF5 file ({e})")
+    if group not in f:
+        f.close()
+        fail(f"{path}: not {what}: no /{group} group")
+    return f
+
+
+def read_points(f, path):
+    """{family: [point dict]} from every /tradeoff/.../points dataset."""
+    families = {}
+
+    def visit(name, obj):
+        if name.endswith("points") and hasattr(obj, "dtype") and obj.dtype.names:
+            needed = {"family", "setting", "time_median", "err_p99", "err_max", "threads"}
+            missing = needed - set(obj.dtype.names)
+            if missing:
+                fail(f"{path}: /tradeoff/{name}: missing fields {sorted(missing)}")
+            for row in obj[()]:
+                p = {k: (text(row[k]) if obj.dtype[k].kind == "S" else row[k].item())
+                     for k in obj.dtype.names}
+                families.setdefault(p["family"], []).append(p)
+
+    f["tradeoff"].visititems(visit)
+    if not families:
+        fail(f"{path}: /tradeoff holds no points")
+    return families
+
+
+def front_line(points):
+    """The p99 front's points, by time."""
+    sel = [p for p in points if p.get("on_front_p99")]
+    return sorted(sel, key=lambda p: p["time_median"])
+
+
+def plot_family(plt, family, points, threads, outdir, meta):
+    pts = [p for p in points if p["threads"] == threads]
+    if not pts:
+        return None
+    fig, ax = plt.subplots(figsize=(8, 6))
+    groups = {}
+    for p in pts:
+        k = knobs_of(p["setting"])
+        groups.setdefault((k.get("precision", "?"), k.get("isa", "?")), []).append(p)
+    markers = {"scalar": "s", "avx2": "^", "avx512": "o"}
+    colors = {"f32": "tab:blue", "f64": "tab:orange"}
+    nonfinite = 0
+    for (prec, isa), sel in sorted(groups.items()):
+        xs, ys, tops = [], [], []
+        for p in sel:
+            t, e, m = p["time_median"], p["err_p99"], p["err_max"]
+            if not (math.isfinite(t) and math.isfinite(e)):
+                nonfinite += 1
+                continue
+            xs.append(t)
+            ys.append(max(e, ERR_FLOOR))
+            tops.append(max(m, e, ERR_FLOOR) if math.isfinite(m) else None)
+        if not xs:
+            continue
+        ax.scatter(xs, ys, s=18, marker=markers.get(isa, "D"), color=colors.get(prec, "gray"),
+                   label=f"{prec} {isa} (p99)", alpha=0.8, zorder=3)
+        for x, y, top in zip(xs, ys, tops):
+            if top is not None and top > y:
+                ax.plot([x, x], [y, top], color=colors.get(prec, "gray"), lw=0.6, alpha=0.5)
+                ax.plot([x], [top], marker="_", color=colors.get(prec, "gray"), ms=6, alpha=0.7)
+    front = [p for p in front_line(pts)
+             if math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"])]
+    if front:
+        ax.step([p["time_median"] for p in front], [max(p["err_p99"], ERR_FLOOR) for p in front],
+                where="post", color="black", lw=1.2, label="Pareto front (p99)", zorder=2)
+    for p in pts:
+        k = knobs_of(p["setting"])
+        label = None
+        if p.get("is_default"):
+            label = f"default {k.get('precision', '')}"
+        elif k.get("label") == "mcadams2011" and k.get("isa") == best_isa(pts):
+            label = f"McAdams 2011 {k.get('precision', '')}"
+        if label and math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"]):
+            # f32 labels above right, f64 below right: the two McAdams points
+            # sit at the same error.
+            ax.annotate(label, (p["time_median"], max(p["err_p99"], ERR_FLOOR)),
+                        xytext=(8, 8 if k.get("precision") != "f64" else -16),
+                        textcoords="offset points", fontsize=8,
+                        arrowprops={"arrowstyle": "-", "lw": 0.5})
+            ax.scatter([p["time_median"]], [max(p["err_p99"], ERR_FLOOR)], s=60,
+                       facecolors="none", edgecolors="red", zorder=4)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    unit = pts[0].get("time_unit", "ns")
+    ax.set_xlabel(f"time, median ({unit}), {threads} thread{'s' if threads > 1 else ''}")
+    ax.set_ylabel("error p99 (marker) to max (whisker)")
+    budgets = sorted({p["budget"] for p in pts if math.isfinite(p.get("budget", math.nan))})
+    for b in budgets:
+        ax.axhline(b, color="gray", ls=":", lw=0.8)
+        ax.annotate(f"budget {b:g}", (ax.get_xlim()[0], b), fontsize=7, color="gray",
+                    xytext=(2, 2), textcoords="offset points")
+    title = f"{family}: error vs time ({meta.get('cpu_model', '?')}, git {meta.get('git_revision', '?')[:10]})"
+    if nonfinite:
+        title += f"\n{nonfinite} points with a non-finite error not drawn"
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", alpha=0.2)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    out = os.path.join(outdir, "tradeoff_" + family.replace("/", "_") + ".png")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def best_isa(points):
+    isas = {knobs_of(p["setting"]).get("isa") for p in points}
+    for isa in ("avx512", "avx2", "scalar"):
+        if isa in isas:
+            return isa
+    return None
+
+
+def roofline(plt, bench_path, outdir, threads_opt):
+    f = open_h5(bench_path, "an ek-bench default-suite file", "benchmarks")
+    attrs = {k: (text(v) if isinstance(v, (bytes, str)) else v) for k, v in f.attrs.items()}
+    rows = []
+
+    def visit(name, obj):
+        if "flops_per_item" in obj.attrs and "gflops" in obj.attrs:
+            a = obj.attrs
+            rows.append({"name": text(a["name"]), "family": text(a["family"]),
+                         "isa": text(a["isa"]), "precision": text(a["precision"]),
+                         "threads": int(a["threads"]), "flops": float(a["flops_per_item"]),
+                         "bytes": float(a["bytes_per_item"]), "gflops": float(a["gflops"]),
+                         "gbs": float(a["gbytes_per_second"])})
+
+    f["benchmarks"].visititems(visit)
+    f.close()
+    if not rows:
+        fail(f"{bench_path}: no rows under /benchmarks")
+    threads = threads_opt or max(r["threads"] for r in rows)
+    triad = attrs.get(f"triad_gbs.threads:{threads}", math.nan)
+    outs = []
+    for family in sorted({r["family"] for r in rows}):
+        here = [r for r in rows if r["family"] == family and r["threads"] == threads]
+        sel = [r for r in here if r["flops"] > 0 and r["bytes"] > 0 and math.isfinite(r["gflops"])]
+        bw = [r for r in here if r["bytes"] > 0 and math.isfinite(r["gbs"])]
+        if not sel and not bw:
+            continue
+        fig, (ax, axb) = plt.subplots(1, 2, figsize=(14, max(5, 0.16 * len(bw) + 1.5)),
+                                      gridspec_kw={"width_ratios": [3, 2]})
+        markers = {"scalar": "s", "avx2": "^", "avx512": "o"}
+        colors = {"f32": "tab:blue", "f64": "tab:orange"}
+        if sel:
+            ai = [r["flops"] / r["bytes"] for r in sel]
+            lo, hi = min(ai) / 4, max(ai) * 4
+            xs = [lo * (hi / lo) ** (i / 200) for i in range(201)]
+            for isa in ("scalar", "avx2", "avx512"):
+                for prec in ("f32", "f64"):
+                    peak = attrs.get(f"peak_gflops.{isa}.{prec}.threads:{threads}")
+                    if peak is None or not math.isfinite(float(peak)) or not any(
+                            r["isa"] == isa and r["precision"] == prec for r in sel):
+                        continue
+                    peak = float(peak)
+                    ys = [min(peak, x * triad) if math.isfinite(triad) else peak for x in xs]
+                    ax.plot(xs, ys, lw=1, label=f"roof {isa} {prec}: FMA peak {peak:.0f} GFLOP/s")
+            if math.isfinite(triad):
+                ax.plot(xs, [x * triad for x in xs], color="gray", ls="--", lw=0.8,
+                        label=f"triad {triad:.1f} GB/s x intensity")
+            for r, x in zip(sel, ai):
+                ax.scatter([x], [r["gflops"]], marker=markers.get(r["isa"], "D"),
+                           color=colors.get(r["precision"], "gray"), s=16, alpha=0.8, zorder=3)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.legend(fontsize=7, loc="lower right")
+        else:
+            ax.text(0.5, 0.5, "no row of this family declares its flops", ha="center",
+                    transform=ax.transAxes)
+        ax.set_xlabel("arithmetic intensity (declared flops / declared bytes)")
+        ax.set_ylabel("achieved GFLOP/s (declared flops / median time)")
+        ax.grid(True, which="both", alpha=0.2)
+        # Achieved bandwidth per row against the triad.
+        names = [r["name"].replace(f"/threads:{threads}", "") for r in bw]
+        axb.barh(range(len(bw)), [r["gbs"] for r in bw],
+                 color=[colors.get(r["precision"], "gray") for r in bw])
+        axb.set_yticks(range(len(bw)), names, fontsize=5)
+        axb.invert_yaxis()
+        if math.isfinite(triad):
+            axb.axvline(triad, color="black", ls="--", lw=0.8, label=f"triad {triad:.1f} GB/s")
+            axb.legend(fontsize=7)
+        axb.set_xlabel("achieved GB/s (declared bytes / median time)")
+        fig.suptitle(f"roofline: {family}, {threads} thread{'s' if threads > 1 else ''} "
+                     f"({attrs.get('cpu_model', '?')}, git {str(attrs.get('git_revision', '?'))[:10]})",
+                     fontsize=9)
+        fig.tight_layout()
+        out = os.path.join(outdir, "roofline_" + family.replace("/", "_") + ".png")
+        fig.savefig(out, dpi=120)
+        plt.close(fig)
+        outs.append(out)
+    return outs
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("tradeoff", help="HDF5 file of ek-bench --suite tradeoff")
+    ap.add_argument("outdir", help="folder for the PNG files (created)")
+    ap.add_argument("--bench", help="HDF5 file of the default suite, for the rooflines")
+    ap.add_argument("--threads", type=int, help="thread count to plot (default: the most)")
+    args = ap.parse_args()
+    try:
+        import h5py  # noqa: F401
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        fail(f"needs h5py and matplotlib ({e}); ./quickstart.sh test installs them into "
+             "build/venv (build/venv/bin/python tools/plot_tradeoff.py ...)")
+    f = open_h5(args.tradeoff, "a tradeoff file (ek-bench --suite tradeoff)", "tradeoff")
+    meta = {k: text(v) for k, v in f.attrs.items()}
+    families = read_points(f, args.tradeoff)
+    f.close()
+    os.makedirs(args.outdir, exist_ok=True)
+    written = []
+    for family, points in sorted(families.items()):
+        threads = args.threads or max(p["threads"] for p in points)
+        out = plot_family(plt, family, points, threads, args.outdir, meta)
+        if out:
+            written.append(out)
+    if args.bench:
+        written += roofline(plt, args.bench, args.outdir, args.threads)
+    if not written:
+        fail("nothing to plot (no points at that thread count)")
+    for w in written:
+        print(w)
+
+
+if __name__ == "__main__":
+    main()
