@@ -501,13 +501,13 @@ int main(int argc, char **argv) {
   t_setup = now() - t_setup;
   if (cloth)
     printf("ek-sim %s: %zu vertices, %zu triangles, %zu hinges, membrane %s, integrator %s, f%d, "
-           "%d threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+           "%d threads, dt %g (CFL limit %g), %ld steps\n",
            scene.path, nv, nt, ek_cloth_nhinges(ek_trimesh_cloth(trimesh)), scene.model_name,
            ek_sim_integrator_name(sim), scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim),
            steps);
   else
     printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
-           "threads, dt %g (CFL h_min/c = %g), %ld steps\n",
+           "threads, dt %g (CFL limit %g), %ld steps\n",
            scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
            scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;

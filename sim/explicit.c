@@ -23,20 +23,23 @@ static int explicit_explain(const ek_scene *s, FILE *out, int number) {
   (void)s; // nothing scene-specific beyond what ek-sim prints
   fprintf(out, "  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n",
           number);
-  fprintf(out, "       CFL check at start: dt vs h_min / sqrt((lambda + 2 mu) / rho)\n");
+  fprintf(out, "       CFL check at start: dt vs 2 / omega_max (element eigenvalue bound; "
+               "cloth: h_min / c)\n");
   return number + 1;
 }
 
 // Above the CFL limit an explicit step may outrun the fastest wave. The
-// limit is an estimate, so the scene is warned about, not refused.
+// limit is for the model linearised at rest, so the scene is warned about,
+// not refused.
 static int explicit_create(ek_sim *s, void **data) {
   *data = NULL;
   if (s->scene.dt > s->cfl_dt)
     fprintf(stderr,
-            "ek-sim: warning: %s: dt = %g is above the CFL limit h_min / c = %g "
-            "(h_min = %g, c = sqrt((lambda + 2 mu) / rho) = %g): the explicit loop may be "
+            "ek-sim: warning: %s: dt = %g is above the CFL limit %g (h_min = %g, c = "
+            "sqrt((lambda + 2 mu) / rho) = %g, h_min / c = %g): the explicit loop may be "
             "unstable\n",
-            s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed);
+            s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed,
+            s->h_min / s->wave_speed);
   return 0;
 }
 

@@ -78,7 +78,7 @@ static void energy_test(const char *model, int precision) {
     return;
   }
   // The bound EK_SIM_ENERGY_TOL is stated for dt = EK_SIM_ENERGY_DT_CFL *
-  // h_min / c.
+  // ek_sim_cfl_dt.
   s.dt = EK_SIM_ENERGY_DT_CFL * ek_sim_cfl_dt(sim);
   ek_sim_destroy(sim);
   sim = ek_sim_create(&s, m, err, sizeof err);

@@ -125,8 +125,8 @@ typedef struct {
   // (Smith et al. 2018: P(I) = 0 is required of every model; ek takes
   // stable neo-Hookean's a = 1 + 3 mu / (4 lambda), material.h).
   // Explicit at 2x CFL is NONE everywhere: symplectic Euler is stable for
-  // dt omega_max <= 2 and ek_sim_cfl_dt = h_min / c is that limit's
-  // estimate (sim.h), so 2x is expected to blow up; the row says so.
+  // dt omega_max <= 2 and ek_sim_cfl_dt is that limit by the element
+  // eigenvalue bound (sim.h), so 2x is expected to blow up; the row says so.
   expectation crush_explicit, crush_implicit;
   const char *source;
 } ext_variant;
