@@ -399,35 +399,38 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
            ek_trial_uses_svd(s) ? ", the step takes an SVD" : ", no SVD in the step");
   }
   int n = 0;
-  printf("drops     ");
+  printf("drops      what the scene's step runs and the pick's does not:");
   if (ek_trial_uses_svd(scene) && !ek_trial_uses_svd(pick))
-    n += printf(" the SVD3 kernel (%s);",
+    n += printf("\n             the SVD3 kernel (%s)",
                 ek_model_need(scene->material.model, scene->material.clamp) == EK_NEEDS_POLAR
                     ? "polar R(F) = U V^T"
                     : "singular values and rotations") > 0;
   else if (ek_trial_uses_svd(pick) &&
            (pick->svd.sweeps != scene->svd.sweeps || pick->svd.refine != scene->svd.refine ||
             pick->svd.exact_rsqrt != scene->svd.exact_rsqrt))
-    n += printf(" SVD sweeps: %d%s -> %d%s (0 = the precision's default);", scene->svd.sweeps,
+    n += printf("\n             SVD sweeps: %d%s -> %d%s (0 = the precision's default)",
+                scene->svd.sweeps,
                 scene->svd.refine == EK_SVD3_REFINE_NONE ? " without refinement" : "",
                 pick->svd.sweeps,
                 pick->svd.refine == EK_SVD3_REFINE_NONE ? " without refinement" : "") > 0;
   if (scene->integrator == EK_INTEGRATOR_IMPLICIT && pick->integrator != EK_INTEGRATOR_IMPLICIT)
-    n += printf(" Newton: the gradient + eigensystem passes, Hessian products, PCG and line "
-                "search;") > 0;
+    n += printf("\n             Newton: the gradient + eigensystem passes, Hessian products, PCG "
+                "and line "
+                "search") > 0;
   if (scene->integrator == EK_INTEGRATOR_XPBD && pick->integrator != EK_INTEGRATOR_XPBD)
-    n += printf(" the XPBD constraint sweeps;") > 0;
+    n += printf("\n             the XPBD constraint sweeps") > 0;
   if (scene->integrator == EK_INTEGRATOR_EXPLICIT && pick->integrator != EK_INTEGRATOR_EXPLICIT)
-    n += printf(" the %g s explicit steps (%.0f per simulated s -> %.0f);", scene->dt,
+    n += printf("\n             the %g s explicit steps (%.0f per simulated s -> %.0f)", scene->dt,
                 1 / scene->dt, 1 / pick->dt) > 0;
   if (scene->precision == 64 && pick->precision == 32)
-    n += printf(" the f64 kernels (f32 variants instead);") > 0;
+    n += printf("\n             the f64 kernels (f32 variants instead)") > 0;
   if (scene->precision == 32 && pick->precision == 64)
-    n += printf(" (adds: f64 kernels instead of f32);") > 0;
+    n += printf("\n             (adds: f64 kernels instead of f32)") > 0;
   if (pick->integrator == EK_INTEGRATOR_IMPLICIT && scene->integrator == EK_INTEGRATOR_IMPLICIT &&
       pick->implicit.max_newton < scene->implicit.max_newton)
-    n += printf(" Newton iterations beyond %ld per step;", pick->implicit.max_newton) > 0;
-  printf("%s\n", n ? "" : " nothing: the pick runs the scene's kernels");
+    n += printf("\n             Newton iterations beyond %ld per step", pick->implicit.max_newton) >
+         0;
+  printf("%s\n", n ? "" : " nothing (the pick runs the scene's kernels)");
 }
 
 // ek-sim SCENE --advise: the table and the pick (sim/advise.h); 0 or
