@@ -2,6 +2,7 @@
 #include "trial.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -131,37 +132,47 @@ int ek_trial_uses_svd(const ek_scene *s) {
   return need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD;
 }
 
+// Append to out[0 .. outlen) at *n (snprintf's truncation: *n may pass
+// outlen, then nothing more is written).
+__attribute__((format(printf, 4, 5))) static void append(char *out, size_t outlen, size_t *n,
+                                                         const char *fmt, ...) {
+  if (*n >= outlen)
+    return;
+  va_list ap;
+  va_start(ap, fmt);
+  int k = vsnprintf(out + *n, outlen - *n, fmt, ap);
+  va_end(ap);
+  if (k > 0)
+    *n += (size_t)k;
+}
+
 void ek_trial_setting_text(const ek_scene *s, char *out, size_t outlen) {
   size_t n = 0;
-#define PUT(...)                                                                                   \
-  do {                                                                                             \
-    if (n < outlen)                                                                                \
-      n += (size_t)snprintf(out + n, outlen - n, __VA_ARGS__);                                     \
-  } while (0)
-  PUT("model=%s;precision=f%d", ek_scene_model_name(s->material.model), s->precision);
+  if (outlen == 0)
+    return;
+  out[0] = '\0';
+  append(out, outlen, &n, "model=%s;precision=f%d", ek_scene_model_name(s->material.model),
+         s->precision);
   if (s->material.clamp > 0)
-    PUT(";clamp=%g", s->material.clamp);
+    append(out, outlen, &n, ";clamp=%g", s->material.clamp);
   if (ek_trial_uses_svd(s)) {
     if (s->svd.sweeps)
-      PUT(";sweeps=%d", s->svd.sweeps);
+      append(out, outlen, &n, ";sweeps=%d", s->svd.sweeps);
     else
-      PUT(";sweeps=default");
+      append(out, outlen, &n, ";sweeps=default");
     if (s->svd.refine == EK_SVD3_REFINE_NONE)
-      PUT(";refine=0");
+      append(out, outlen, &n, ";refine=0");
     else if (s->svd.refine)
-      PUT(";refine=%d", s->svd.refine);
+      append(out, outlen, &n, ";refine=%d", s->svd.refine);
     if (s->svd.exact_rsqrt)
-      PUT(";rsqrt=%s", s->svd.exact_rsqrt > 0 ? "exact" : "approx");
+      append(out, outlen, &n, ";rsqrt=%s", s->svd.exact_rsqrt > 0 ? "exact" : "approx");
   }
-  PUT(";loop=%s;dt=%.4g", ek_scene_integrator_name(s->integrator), s->dt);
+  append(out, outlen, &n, ";loop=%s;dt=%.4g", ek_scene_integrator_name(s->integrator), s->dt);
   if (s->integrator == EK_INTEGRATOR_IMPLICIT)
-    PUT(";newton_tol=%g;cg_tol=%g;max_newton=%ld", s->implicit.newton_tol, s->implicit.cg_tol,
-        s->implicit.max_newton);
+    append(out, outlen, &n, ";newton_tol=%g;cg_tol=%g;max_newton=%ld", s->implicit.newton_tol,
+           s->implicit.cg_tol, s->implicit.max_newton);
   if (s->integrator == EK_INTEGRATOR_XPBD)
-    PUT(";substeps=%ld;iterations=%ld", s->xpbd.substeps, s->xpbd.iterations);
-#undef PUT
-  if (n >= outlen && outlen > 0)
-    out[outlen - 1] = '\0';
+    append(out, outlen, &n, ";substeps=%ld;iterations=%ld", s->xpbd.substeps, s->xpbd.iterations);
 }
 
 // Monitor state: R of the previous sample per tet.
