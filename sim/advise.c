@@ -149,8 +149,11 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
     snprintf(base.model_name, sizeof base.model_name, "%s", ek_scene_model_name(m));
     return add_row(b, &base, excluded);
   }
+  // XPBD's constraint is StVK's energy (sim/xpbd.c): another model runs
+  // only in the other loops.
+  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || m == EK_MODEL_STVK;
   static const int precisions[] = {64, 32};
-  for (int p = 0; p < 2; ++p) {
+  for (int p = 0; p < 2 && own_loop; ++p) {
     ek_scene s = base;
     s.precision = precisions[p];
     if (add_row(b, &s, NULL))
