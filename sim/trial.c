@@ -153,7 +153,7 @@ void ek_trial_setting_text(const ek_scene *s, char *out, size_t outlen) {
   out[0] = '\0';
   append(out, outlen, &n, "model=%s;precision=f%d", ek_scene_model_name(s->material.model),
          s->precision);
-  if (s->material.clamp > 0)
+  if (ek_model_need(s->material.model, s->material.clamp) == EK_NEEDS_SVD) // clamp in use
     append(out, outlen, &n, ";clamp=%g", s->material.clamp);
   if (ek_trial_uses_svd(s)) {
     if (s->svd.sweeps)
