@@ -105,13 +105,12 @@ static int push_new(setting_list *l, const ek_scene *s, int is_default, int is_r
 // (f32 products), f64, newton_tol 1e-8 / 1e-4 / 1e-3, cg_tol 1e-2, one
 // Newton iteration per step (Baraff and Witkin 1998); no SVD variant: with
 // 2 sweeps and no refinement in the gradient pass the cantilever's implicit
-// second took 242 s (median step; 10-15 s with the default SVD), over the
-// suite's budget by itself; XPBD: substeps x sweeps (README: at equal
-// sweeps per step one sweep per substep wins) in f32 up to max_substeps,
-// the finest also in f64. The bar stops at 500 substeps: its XPBD
-// deviation levels off at 2.5e-3 from 100 substeps on (StVK against
-// stable neo-Hookean), and 1000 and 2000 substeps took 9 and 17 s per
-// simulated s.
+// second took 242 s (median step, at a load average of 10 on 2 cores,
+// when the default SVD took 15 s), over the suite's budget by itself; XPBD: substeps x sweeps
+// (README: at equal sweeps per step one sweep per substep wins) in f32 up to max_substeps, the
+// finest also in f64. The bar stops at 500 substeps: its XPBD deviation levels off at 2.5e-3 from
+// 100 substeps on (StVK against stable neo-Hookean), and 1000 and 2000 substeps took 9 and 17 s per
+// simulated s at that load.
 static int family_settings(setting_list *l, const char *const names[3], int coarse,
                            long max_substeps) {
   ek_scene ex, im, xp;
