@@ -2,11 +2,16 @@
 //
 //   ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] [--force]
 //          [--explain]
+//   ek-sim SCENE --advise [--tol X] [--time S] [--threads N] [--explain]
 //
 // Prints a progress line, and at the end the time per step split by phase,
 // the median, 95th percentile and minimum of the steps' wall times, tets
 // per second and the energies at start and end. --explain prints the
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
+// --advise runs the scene's first S simulated seconds with each candidate
+// setting (sim/advise.h), prints the table it decided from and the
+// cheapest candidate within X of the body size; with --explain also the
+// kernels that choice drops and its pipeline.
 // Exit status (sim/cli.h, the same in every ek program): 0 done, 1 the run
 // failed (a bad scene or mesh, an element inverted with a model undefined
 // there, unwritable output), 2 bad usage. SIGINT or SIGTERM stops the run
@@ -24,6 +29,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "advise.h"
 #include "cli.h"
 #include "omp_env.h"
 #include "scene_find.h"
@@ -53,6 +59,7 @@ static void usage(FILE *out) {
   fprintf(out,
           "usage: ek-sim SCENE [--steps N] [--threads N] [--out FILE.h5 | --no-output] "
           "[--force] [--explain] [--residuals]\n"
+          "       ek-sim SCENE --advise [--tol X] [--time S] [--threads N] [--explain]\n"
           "  SCENE         a scene file, or a shipped scene's name (e.g. drop), looked up in\n"
           "                EK_SCENES_DIR if set, else the installed or the source tree's scenes/\n"
           "  --steps N     override the scene's step count\n"
@@ -64,6 +71,16 @@ static void usage(FILE *out) {
           "  --residuals   XPBD: print each step's constraint residual (max |C + alpha~ "
           "lambda|\n"
           "                after the last sweep) and its largest C\n"
+          "  --advise      run the scene's first S simulated seconds with each candidate\n"
+          "                setting (model valid for the strains, rotations and J the scene\n"
+          "                reaches, precision, SVD sweeps, loop and its iterations), print the\n"
+          "                table (deviation from the most accurate setting over the body size,\n"
+          "                cost in s per simulated s) and the cheapest one within --tol;\n"
+          "                progress on stderr. With --explain: the kernels that choice drops\n"
+          "  --tol X       advise: largest deviation accepted, fraction of the body size\n"
+          "                (>= 0, default 0.01)\n"
+          "  --time S      advise: simulated seconds per candidate (> 0, default 0.5 or the\n"
+          "                scene's duration if shorter)\n"
           "  -h, --help    this text\n"
           "  --version     print the version\n"
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
@@ -100,6 +117,19 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
   if (!s || errno || end == s || *end || v < lo || v > hi) {
     return ek_cli_usage_error("ek-sim", "%s %s: expected a whole number in [%ld, %ld]", opt,
                               s ? s : "(missing)", lo, hi);
+  }
+  *out = v;
+  return 0;
+}
+
+// A finite number >= lo (> lo when strict).
+static int parse_double(const char *opt, const char *s, double lo, int strict, double *out) {
+  char *end = NULL;
+  errno = 0;
+  double v = s ? strtod(s, &end) : 0;
+  if (!s || errno || end == s || *end || !isfinite(v) || (strict ? !(v > lo) : !(v >= lo))) {
+    return ek_cli_usage_error("ek-sim", "%s %s: expected a finite number %s %g", opt,
+                              s ? s : "(missing)", strict ? ">" : ">=", lo);
   }
   *out = v;
   return 0;
@@ -357,11 +387,96 @@ static void print_xpbd_times(const ek_sim_times *tm, long done, size_t ncons, do
   }
 }
 
+// --advise --explain: what the pick leaves out of the scene's own step.
+static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
+  const ek_scene *both[2] = {scene, pick};
+  const char *who[2] = {"scene", "pick"};
+  for (int i = 0; i < 2; ++i) {
+    const ek_scene *s = both[i];
+    printf("%-10s %s (%s), %s loop, f%d, dt %g%s\n", who[i], s->model_name,
+           need_text(ek_model_need(s->material.model, s->material.clamp)),
+           ek_scene_integrator_name(s->integrator), s->precision, s->dt,
+           ek_trial_uses_svd(s) ? ", the step takes an SVD" : ", no SVD in the step");
+  }
+  int n = 0;
+  printf("drops      what the scene's step runs and the pick's does not:");
+  if (ek_trial_uses_svd(scene) && !ek_trial_uses_svd(pick))
+    n += printf("\n             the SVD3 kernel (%s)",
+                ek_model_need(scene->material.model, scene->material.clamp) == EK_NEEDS_POLAR
+                    ? "polar R(F) = U V^T"
+                    : "singular values and rotations") > 0;
+  else if (ek_trial_uses_svd(pick) &&
+           (pick->svd.sweeps != scene->svd.sweeps || pick->svd.refine != scene->svd.refine ||
+            pick->svd.exact_rsqrt != scene->svd.exact_rsqrt))
+    n += printf("\n             SVD sweeps: %d%s -> %d%s (0 = the precision's default)",
+                scene->svd.sweeps,
+                scene->svd.refine == EK_SVD3_REFINE_NONE ? " without refinement" : "",
+                pick->svd.sweeps,
+                pick->svd.refine == EK_SVD3_REFINE_NONE ? " without refinement" : "") > 0;
+  if (scene->integrator == EK_INTEGRATOR_IMPLICIT && pick->integrator != EK_INTEGRATOR_IMPLICIT)
+    n += printf("\n             Newton: the gradient + eigensystem passes, Hessian products, PCG "
+                "and line "
+                "search") > 0;
+  if (scene->integrator == EK_INTEGRATOR_XPBD && pick->integrator != EK_INTEGRATOR_XPBD)
+    n += printf("\n             the XPBD constraint sweeps") > 0;
+  if (scene->integrator == EK_INTEGRATOR_EXPLICIT && pick->integrator != EK_INTEGRATOR_EXPLICIT)
+    n += printf("\n             the %g s explicit steps (%.0f per simulated s -> %.0f)", scene->dt,
+                1 / scene->dt, 1 / pick->dt) > 0;
+  if (scene->precision == 64 && pick->precision == 32)
+    n += printf("\n             the f64 kernels (f32 variants instead)") > 0;
+  if (scene->precision == 32 && pick->precision == 64)
+    n += printf("\n             (adds: f64 kernels instead of f32)") > 0;
+  if (pick->integrator == EK_INTEGRATOR_IMPLICIT && scene->integrator == EK_INTEGRATOR_IMPLICIT &&
+      pick->implicit.max_newton < scene->implicit.max_newton)
+    n += printf("\n             Newton iterations beyond %ld per step", pick->implicit.max_newton) >
+         0;
+  printf("%s\n", n ? "" : " nothing (the pick runs the scene's kernels)");
+}
+
+// ek-sim SCENE --advise: the table and the pick (sim/advise.h); 0 or
+// EK_EXIT_FAILED.
+static int run_advise(const ek_scene *scene, double tol, double sim_time, int do_explain,
+                      int threads) {
+  if (scene->triangles) {
+    fprintf(stderr, "ek-sim: %s: --advise takes tet scenes only (this is a cloth)\n", scene->path);
+    return EK_EXIT_FAILED;
+  }
+  char err[1024];
+  ek_mesh *mesh = ek_scene_mesh(scene, err, sizeof err);
+  if (!mesh) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return EK_EXIT_FAILED;
+  }
+  printf("ek-sim %s --advise: %zu vertices, %zu tets, model %s, integrator %s, f%d, dt %g\n",
+         scene->path, ek_mesh_nverts(mesh), ek_mesh_ntets(mesh), scene->model_name,
+         ek_scene_integrator_name(scene->integrator), scene->precision, scene->dt);
+  fflush(stdout);
+  ek_advise_opts o = {tol, sim_time, stderr};
+  ek_advice a;
+  if (ek_advise(scene, mesh, &o, &a, err, sizeof err) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    ek_mesh_destroy(mesh);
+    return EK_EXIT_FAILED;
+  }
+  ek_advice_print(&a, stdout);
+  if (do_explain && a.pick >= 0) {
+    const ek_scene *pick = &a.rows[a.pick].setting;
+    explain_drops(scene, pick);
+    printf("the pick's pipeline:\n");
+    explain(pick, (long)ceil(sim_time / pick->dt - 1e-9), NULL, threads);
+  }
+  ek_advice_free(&a);
+  ek_mesh_destroy(mesh);
+  return 0;
+}
+
 int main(int argc, char **argv) {
   omp_env_defaults("ek-sim", argv);
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
-  int force = 0, do_explain = 0, no_output = 0, residuals = 0;
+  int force = 0, do_explain = 0, no_output = 0, residuals = 0, advise = 0;
+  double tol = EK_ADVISE_TOL_DEFAULT, sim_time = NAN;
+  const char *tol_arg = NULL;
   for (int i = 1; i < argc; ++i) {
     const char *a = argv[i];
     ek_cli_common("ek-sim", a, usage);
@@ -383,6 +498,15 @@ int main(int argc, char **argv) {
       do_explain = 1;
     } else if (strcmp(a, "--residuals") == 0) {
       residuals = 1;
+    } else if (strcmp(a, "--advise") == 0) {
+      advise = 1;
+    } else if (strcmp(a, "--tol") == 0) {
+      tol_arg = a;
+      if (parse_double(a, i + 1 < argc ? argv[++i] : NULL, 0, 0, &tol))
+        return EK_EXIT_USAGE;
+    } else if (strcmp(a, "--time") == 0) {
+      if (parse_double(a, i + 1 < argc ? argv[++i] : NULL, 0, 1, &sim_time))
+        return EK_EXIT_USAGE;
     } else if (a[0] == '-' || scene_path) {
       return ek_cli_usage_error("ek-sim", "unexpected argument \"%s\"", a);
     } else {
@@ -393,6 +517,15 @@ int main(int argc, char **argv) {
     return ek_cli_usage_error("ek-sim", "no SCENE given");
   if (out && no_output)
     return ek_cli_usage_error("ek-sim", "--out and --no-output exclude each other");
+  if (!advise && (tol_arg || !isnan(sim_time)))
+    return ek_cli_usage_error("ek-sim", "%s is an option of --advise",
+                              tol_arg ? "--tol" : "--time");
+  if (advise && (out || steps >= 0 || force || residuals))
+    return ek_cli_usage_error("ek-sim", "--advise writes no frames and runs by --time: drop %s",
+                              out          ? "--out"
+                              : steps >= 0 ? "--steps"
+                              : force      ? "--force"
+                                           : "--residuals");
   char err[1024];
   // SCENE is a file, or the name of a shipped scene ("drop"), found in the
   // build or the installed tree (scene_find.h).
@@ -424,6 +557,12 @@ int main(int argc, char **argv) {
   if (threads > 0)
     omp_set_num_threads((int)threads);
   int nthreads = omp_get_max_threads();
+  if (advise) {
+    const double duration = scene.dt * (double)scene.steps;
+    if (isnan(sim_time))
+      sim_time = duration < EK_ADVISE_TIME_DEFAULT ? duration : EK_ADVISE_TIME_DEFAULT;
+    return run_advise(&scene, tol, sim_time, do_explain, nthreads);
+  }
   if (do_explain) {
     explain(&scene, steps, out, nthreads);
     return 0;

@@ -78,6 +78,16 @@ expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantileve
 # A scene that cannot be read is a failed run (1), not a usage error.
 expect "ek-sim on a missing scene" 1 "$bin/ek-sim" "$scenes/no-such-scene.json" --no-output &&
   one_error "ek-sim on a missing scene"
+# ek-sim --advise: bad --tol / --time values and options that do not go with it.
+for args in "--tol -0.1" "--tol nan" "--tol x" "--time 0" "--time -1" "--time inf" "--time"; do
+  # shellcheck disable=SC2086
+  expect "ek-sim --advise $args" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise $args &&
+    one_error "ek-sim --advise $args"
+done
+expect "ek-sim --tol without --advise" 2 "$bin/ek-sim" "$scenes/small_strain.json" --tol 0.1 &&
+  one_error "ek-sim --tol without --advise"
+expect "ek-sim --advise --steps" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise --steps 5 &&
+  one_error "ek-sim --advise --steps"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

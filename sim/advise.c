@@ -1,0 +1,382 @@
+// The scene advisor (advise.h): candidates, their trials, the table, the
+// pick.
+#include "advise.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+// Why a model cannot represent what the reference run reached (NULL: it
+// can), from the monitor of trial.h. The rules and their sources:
+// - linear: small strain and small rotation (advise.h,
+//   EK_ADVISE_SMALL_STRAIN: the dropped quadratic strain term, and a
+//   rotation's ghost strain 1 - cos theta, each within half of it).
+// - corotated linear: linear about R^n, the rotation at the step's start
+//   (seed 000; Muller and Gross 2004, "Interactive Virtual Materials",
+//   sec. 4): small strain, and the rotation within one step small enough
+//   that its ghost strain 1 - cos(dtheta) stays within the same bound.
+// - StVK and Psi_R (Psi_R is StVK's shear term, mu/4 |F^T F - I|^2): no
+//   inversion and no compression past sigma = 1/sqrt(3). In 1-D,
+//   P(s) = k s (s^2 - 1) / 2 peaks in compression at s = 1/sqrt(3) and falls
+//   to 0 at s = 0 (dP/ds = k (3 s^2 - 1) / 2): beyond it the material
+//   softens and can collapse (Irving et al. 2004, sec. 5; material.h: "no
+//   resistance at a flat element").
+// - neo-Hookean without clamp: defined for J > 0 only (material.h: psi =
+//   +inf at J <= 0).
+// - fixed corotated, ARAP, stable neo-Hookean: finite for every F (with
+//   clamp for inversion, Stomakhin et al. 2012; Smith et al. 2018); ARAP
+//   and Psi_R also need a scene without a volume term (ek_trial_set_model).
+static const char *model_excluded(ek_model m, double clamp, const ek_trial_monitor *r, char *why,
+                                  size_t len) {
+  const double eps = EK_ADVISE_SMALL_STRAIN;
+  const double ghost_limit = eps / 2; // 1 - cos theta
+  switch (m) {
+  case EK_MODEL_LINEAR:
+    if (r->max_strain > eps)
+      snprintf(why, len, "large strain: max |F^T F - I| = %.3g > %g (small-strain model)",
+               r->max_strain, eps);
+    else if (1 - cos(r->max_rotation) > ghost_limit)
+      snprintf(why, len,
+               "large rotation: %.3g rad, ghost strain 1 - cos = %.3g > %g (not rotation "
+               "invariant)",
+               r->max_rotation, 1 - cos(r->max_rotation), ghost_limit);
+    else
+      return NULL;
+    return why;
+  case EK_MODEL_COROTATED_LINEAR:
+    if (r->max_strain > eps)
+      snprintf(why, len, "large strain: max |F^T F - I| = %.3g > %g (small-strain model)",
+               r->max_strain, eps);
+    else if (1 - cos(r->max_rotation_step) > ghost_limit)
+      snprintf(why, len, "rotation per step %.3g rad: ghost strain %.3g > %g (R^n lags the step)",
+               r->max_rotation_step, 1 - cos(r->max_rotation_step), ghost_limit);
+    else
+      return NULL;
+    return why;
+  case EK_MODEL_STVK:
+  case EK_MODEL_PSI_R:
+    if (r->min_sigma <= 1 / sqrt(3.0)) {
+      snprintf(why, len,
+               "compressed to sigma_min = %.3g <= 1/sqrt(3): past the peak of its compressive "
+               "stress (softens, can invert)",
+               r->min_sigma);
+      return why;
+    }
+    return NULL;
+  case EK_MODEL_NEO_HOOKEAN:
+    if (clamp <= 0 && r->min_J <= 0) {
+      snprintf(why, len, "inverted (min J = %.3g): undefined at J <= 0 without clamp", r->min_J);
+      return why;
+    }
+    return NULL;
+  case EK_MODEL_FIXED_COROTATED:
+  case EK_MODEL_ARAP:
+  case EK_MODEL_STABLE_NEO_HOOKEAN:
+    return NULL;
+  }
+  return NULL;
+}
+
+typedef struct {
+  ek_advice *a;
+  size_t cap;
+} rows_buf;
+
+// Append a row unless one with the same setting text is there already.
+static int add_row(rows_buf *b, const ek_scene *s, const char *skip_reason) {
+  ek_advise_row r;
+  memset(&r, 0, sizeof r);
+  r.setting = *s;
+  ek_trial_setting_text(s, r.text, sizeof r.text);
+  for (size_t i = 0; i < b->a->n; ++i)
+    if (strcmp(b->a->rows[i].text, r.text) == 0)
+      return 0;
+  if (b->a->n == b->cap) {
+    size_t cap = b->cap ? 2 * b->cap : 64;
+    ek_advise_row *rows = realloc(b->a->rows, cap * sizeof *rows);
+    if (!rows)
+      return -1;
+    b->a->rows = rows;
+    b->cap = cap;
+  }
+  r.uses_svd = ek_trial_uses_svd(s);
+  r.deviation = r.cost = r.cost_min = r.drift = NAN;
+  if (skip_reason) {
+    r.skipped = 1;
+    snprintf(r.reason, sizeof r.reason, "%s", skip_reason);
+  }
+  b->a->rows[b->a->n++] = r;
+  return 0;
+}
+
+static long row_of(const ek_advice *a, const ek_scene *s) {
+  char text[384];
+  ek_trial_setting_text(s, text, sizeof text);
+  for (size_t i = 0; i < a->n; ++i)
+    if (strcmp(a->rows[i].text, text) == 0)
+      return (long)i;
+  return -1;
+}
+
+// The CFL estimate of a setting (ek_sim_cfl_dt) from an explicit sim that
+// is built and not stepped.
+static double cfl_dt(const ek_scene *s, const ek_mesh *mesh) {
+  ek_scene e = *s;
+  e.integrator = EK_INTEGRATOR_EXPLICIT;
+  e.dt = 1e-30; // below any CFL limit: no warning
+  e.output_file[0] = '\0';
+  char err[256];
+  ek_sim *sim = ek_sim_create(&e, mesh, err, sizeof err);
+  double dt = sim ? ek_sim_cfl_dt(sim) : NAN;
+  ek_sim_destroy(sim);
+  return dt;
+}
+
+// The candidates of one model (advise.h).
+static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek_model m,
+                     const ek_trial_monitor *reach, double sim_time) {
+  ek_scene base = *scene;
+  char why[400];
+  const char *excluded = NULL;
+  if (ek_trial_set_model(&base, m, why, sizeof why) != 0)
+    excluded = why;
+  else
+    excluded = model_excluded(m, base.material.clamp, reach, why, sizeof why);
+  if (excluded) {
+    base.material.model = m;
+    snprintf(base.model_name, sizeof base.model_name, "%s", ek_scene_model_name(m));
+    return add_row(b, &base, excluded);
+  }
+  // XPBD's constraint is StVK's energy (sim/xpbd.c): another model runs
+  // only in the other loops.
+  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || m == EK_MODEL_STVK;
+  static const int precisions[] = {64, 32};
+  for (int p = 0; p < 2 && own_loop; ++p) {
+    ek_scene s = base;
+    s.precision = precisions[p];
+    if (add_row(b, &s, NULL))
+      return -1;
+    if (ek_trial_uses_svd(&s)) {
+      // McAdams et al. 2011 as published; the cheapest setting.
+      const ek_svd3_opts svd[] = {{4, -1, s.svd.isa, EK_SVD3_REFINE_NONE},
+                                  {2, -1, s.svd.isa, EK_SVD3_REFINE_NONE}};
+      for (int k = 0; k < 2; ++k) {
+        ek_scene v = s;
+        v.svd = svd[k];
+        if (add_row(b, &v, NULL))
+          return -1;
+      }
+    }
+    if (s.integrator == EK_INTEGRATOR_IMPLICIT) {
+      ek_scene v = s;
+      v.implicit.newton_tol = 1e-4;
+      ek_scene w = s;
+      w.implicit.cg_tol = 1e-2;
+      ek_scene one = s; // Baraff and Witkin 1998: one linearised solve per step
+      one.implicit.max_newton = 1;
+      if (add_row(b, &v, NULL) || add_row(b, &w, NULL) || add_row(b, &one, NULL))
+        return -1;
+    } else if (s.integrator == EK_INTEGRATOR_XPBD) {
+      ek_scene v = s, w = s, u = s;
+      v.xpbd.substeps = s.xpbd.substeps > 1 ? s.xpbd.substeps / 2 : 1;
+      w.xpbd.iterations = s.xpbd.iterations > 1 ? s.xpbd.iterations / 2 : 1;
+      u.xpbd.substeps = s.xpbd.substeps * 2 <= 100000 ? s.xpbd.substeps * 2 : 100000;
+      if (add_row(b, &v, NULL) || add_row(b, &w, NULL) || add_row(b, &u, NULL))
+        return -1;
+    }
+  }
+  // The other loops at their usual step, the scene's precision, their
+  // default knobs (those of a scene that names none: parsed once).
+  static const char defaults_text[] =
+      "{\"mesh\": {\"box\": [1, 1, 1], \"size\": [1, 1, 1]}, \"material\": {\"model\": "
+      "\"stvk\", \"E\": 1, \"nu\": 0, \"density\": 1}, \"dt\": 1, \"steps\": 1}";
+  ek_scene defaults;
+  char err[256];
+  if (ek_scene_parse(defaults_text, "defaults", NULL, &defaults, err, sizeof err) != 0)
+    return -1;
+  const double frame_dt = fmax(scene->dt, fmin(1.0 / 60, sim_time / 5));
+  for (int L = 0; L < EK_INTEGRATOR_COUNT; ++L) {
+    if (L == (int)scene->integrator || (L == EK_INTEGRATOR_XPBD && m != EK_MODEL_STVK))
+      continue;
+    ek_scene v = base;
+    v.integrator = (ek_integrator_type)L;
+    v.implicit = defaults.implicit;
+    v.xpbd = defaults.xpbd;
+    if (L == EK_INTEGRATOR_EXPLICIT) {
+      v.dt = 0.5 * cfl_dt(&v, mesh);
+      if (!(v.dt > 0))
+        continue;
+    } else {
+      v.dt = frame_dt;
+    }
+    if (add_row(b, &v, NULL))
+      return -1;
+  }
+  return 0;
+}
+
+long ek_advice_pick(const ek_advice *a, double tol) {
+  long best = -1;
+  for (size_t i = 0; i < a->n; ++i) {
+    const ek_advise_row *r = &a->rows[i];
+    if (r->skipped || r->failed || !(r->deviation <= tol))
+      continue;
+    if (best < 0 || r->cost < a->rows[best].cost)
+      best = (long)i;
+  }
+  return best;
+}
+
+int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *o, ek_advice *a,
+              char *err, size_t errlen) {
+  memset(a, 0, sizeof *a);
+  a->scene_row = a->pick = -1;
+  if (scene->triangles || !mesh) {
+    snprintf(err, errlen, "%s: the advisor takes tet scenes only", scene->path);
+    return EK_EINVAL;
+  }
+  if (!(o->tol >= 0) || !(o->sim_time > 0)) {
+    snprintf(err, errlen, "advise: tol %g must be >= 0 and the simulated time %g > 0", o->tol,
+             o->sim_time);
+    return EK_EINVAL;
+  }
+  a->tol = o->tol;
+  a->sim_time = o->sim_time;
+  a->body_size = ek_trial_body_size(mesh);
+  a->threads = omp_get_max_threads();
+  rows_buf b = {a, 0};
+
+  // The reference (advise.h), run first with the monitor.
+  ek_scene ref = *scene;
+  ref.precision = 64;
+  ref.svd = (ek_svd3_opts){0, 0, scene->svd.isa, 0};
+  ref.implicit.newton_tol = fmin(ref.implicit.newton_tol, 1e-8);
+  ref.implicit.cg_tol = fmin(ref.implicit.cg_tol, 1e-6);
+  ref.xpbd.substeps = ref.xpbd.substeps * 4 <= 100000 ? ref.xpbd.substeps * 4 : 100000;
+  if (add_row(&b, &ref, NULL)) {
+    snprintf(err, errlen, "advise: out of memory");
+    return EK_ENOMEM;
+  }
+  if (o->progress)
+    fprintf(o->progress, "advise: reference run, %g s simulated (monitoring J, strain, rotation)\n",
+            o->sim_time);
+  ek_trial rt;
+  if (ek_trial_run(&ref, mesh, o->sim_time, 1, &rt) != 0 || rt.failed) {
+    snprintf(err, errlen, "%s: the reference setting (%s) failed: %s", scene->path, a->rows[0].text,
+             rt.error);
+    ek_trial_free(&rt);
+    ek_advice_free(a);
+    return EK_EINVAL;
+  }
+  a->reach = rt.monitor;
+  ek_advise_row *r0 = &a->rows[0];
+  r0->deviation = 0;
+  r0->cost = rt.cost_median;
+  r0->cost_min = rt.cost_min;
+  r0->drift = rt.energy_drift;
+  r0->steps = rt.steps;
+
+  // Candidates: the scene's own setting first, then every model.
+  if (add_row(&b, scene, NULL) != 0)
+    goto oom;
+  if (add_model(&b, scene, mesh, scene->material.model, &a->reach, o->sim_time))
+    goto oom;
+  for (int m = 0; m < EK_MODEL_COUNT; ++m)
+    if (m != (int)scene->material.model &&
+        add_model(&b, scene, mesh, (ek_model)m, &a->reach, o->sim_time))
+      goto oom;
+  a->scene_row = row_of(a, scene);
+
+  size_t nrun = 0, k = 0;
+  for (size_t i = 1; i < a->n; ++i)
+    nrun += !a->rows[i].skipped;
+  for (size_t i = 1; i < a->n; ++i) {
+    ek_advise_row *r = &a->rows[i];
+    if (r->skipped)
+      continue;
+    if (o->progress)
+      fprintf(o->progress, "advise: candidate %zu of %zu: %s\n", ++k, nrun, r->text);
+    ek_trial t;
+    if (ek_trial_run(&r->setting, mesh, o->sim_time, 0, &t) != 0) {
+      snprintf(err, errlen, "advise: %s", t.error);
+      ek_trial_free(&t);
+      ek_trial_free(&rt);
+      ek_advice_free(a);
+      return EK_ENOMEM;
+    }
+    r->failed = t.failed;
+    if (t.failed)
+      snprintf(r->reason, sizeof r->reason, "%s", t.error);
+    r->deviation = ek_trial_deviation(mesh, t.x, rt.x);
+    r->cost = t.cost_median;
+    r->cost_min = t.cost_min;
+    r->drift = t.energy_drift;
+    r->steps = t.steps;
+    ek_trial_free(&t);
+  }
+  ek_trial_free(&rt);
+  a->pick = ek_advice_pick(a, o->tol);
+  return 0;
+oom:
+  ek_trial_free(&rt);
+  ek_advice_free(a);
+  snprintf(err, errlen, "advise: out of memory");
+  return EK_ENOMEM;
+}
+
+void ek_advice_print(const ek_advice *a, FILE *out) {
+  const ek_trial_monitor *m = &a->reach;
+  fprintf(out,
+          "advise     %g s simulated per candidate, tol %g of the body size (%.4g m), %d "
+          "threads; cost = median step wall time x steps per simulated second\n",
+          a->sim_time, a->tol, a->body_size, a->threads);
+  fprintf(out,
+          "reached    (reference run) min J %.4g, min sigma %.4g, max |F^T F - I| %.3g, max "
+          "rotation %.3g rad, max rotation per step %.3g rad\n",
+          m->min_J, m->min_sigma, m->max_strain, m->max_rotation, m->max_rotation_step);
+  fprintf(out, "%4s  %-10s  %-12s  %-9s  %-4s  %-10s  %s\n", "#", "deviation", "cost s/sim-s",
+          "drift", "svd", "verdict", "setting");
+  for (size_t i = 0; i < a->n; ++i) {
+    const ek_advise_row *r = &a->rows[i];
+    const char *verdict = r->skipped               ? "skipped"
+                          : r->failed              ? "failed"
+                          : (long)i == a->pick     ? "PICK"
+                          : i == a->reference      ? "reference"
+                          : r->deviation <= a->tol ? "within"
+                                                   : "over tol";
+    char dev[32] = "-", cost[32] = "-", drift[32] = "-";
+    if (!r->skipped && !r->failed) {
+      snprintf(dev, sizeof dev, "%.3e", r->deviation);
+      snprintf(cost, sizeof cost, "%.4g", r->cost);
+      snprintf(drift, sizeof drift, "%+.3g", r->drift);
+    }
+    fprintf(out, "%4zu  %-10s  %-12s  %-9s  %-4s  %-10s  %s%s%s%s%s\n", i + 1, dev, cost, drift,
+            r->skipped    ? "-"
+            : r->uses_svd ? "yes"
+                          : "no",
+            verdict, r->text, i == a->reference ? " (reference)" : "",
+            (long)i == a->scene_row ? " (the scene's)" : "", r->skipped || r->failed ? ": " : "",
+            r->skipped || r->failed ? r->reason : "");
+  }
+  if (a->pick < 0) {
+    fprintf(out, "pick       none within tol %g\n", a->tol);
+    return;
+  }
+  const ek_advise_row *p = &a->rows[a->pick];
+  fprintf(out, "pick       #%ld %s: deviation %.3e <= %g at %.4g s per simulated s", a->pick + 1,
+          p->text, p->deviation, a->tol, p->cost);
+  if (a->scene_row >= 0 && a->rows[a->scene_row].cost > 0 && !a->rows[a->scene_row].failed)
+    fprintf(out, " (%.2fx the scene's own setting, #%ld)", p->cost / a->rows[a->scene_row].cost,
+            a->scene_row + 1);
+  fprintf(out, "\n");
+}
+
+void ek_advice_free(ek_advice *a) {
+  if (!a)
+    return;
+  free(a->rows);
+  a->rows = NULL;
+  a->n = 0;
+}
