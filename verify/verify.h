@@ -61,5 +61,6 @@ int verify_fvm(ek_verify_ctx *ctx);
 int verify_xpbd(ek_verify_ctx *ctx);
 int verify_cloth_force(ek_verify_ctx *ctx);
 int verify_cloth(ek_verify_ctx *ctx);
+int verify_polar_warm(ek_verify_ctx *ctx);
 
 #endif
