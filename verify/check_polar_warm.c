@@ -29,11 +29,16 @@ void ek_check_warm_cases(ek_rng *rng, size_t n, double s_min, double s_max, doub
     double Rs[9], Q[9], QS[9], S[9], E[9], axis[3], s[3];
     ek_rng_rotation(rng, Rs);
     ek_rng_rotation(rng, Q);
-    double lo = fabs(s_min);
+    double lo = fabs(s_min), hi = fabs(s_max);
     for (int i = 0; i < 3; i++)
-      s[i] = lo + (s_max - lo) * ek_rng_uniform(rng);
-    if (s_min < 0)
-      s[2] = -s[2];
+      s[i] = lo + (hi - lo) * ek_rng_uniform(rng);
+    if (s_min < 0) { // negate the smallest: then R* is A's SVD polar (svd3.h convention)
+      int k = s[0] < s[1] ? (s[0] < s[2] ? 0 : 2) : (s[1] < s[2] ? 1 : 2);
+      s[k] = -s[k];
+    } else if (s_max < 0) { // negate the largest: the SVD polar is R* turned by 180 degrees
+      int k = s[0] > s[1] ? (s[0] > s[2] ? 0 : 2) : (s[1] > s[2] ? 1 : 2);
+      s[k] = -s[k];
+    }
     for (int i = 0; i < 3; i++)
       for (int j = 0; j < 3; j++)
         QS[i * 3 + j] = Q[i * 3 + j] * s[j];

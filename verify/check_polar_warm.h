@@ -19,8 +19,10 @@ extern "C" {
 void ek_check_axis_angle(const double n[3], double angle, double R[9]);
 
 // n cases: A = R* S with R* uniform on SO(3), S = Q diag(s) Q^T (Q uniform,
-// s_i uniform in [s_min, s_max]; s_min < 0 flips the sign of s_3, an
-// inverted A), and the guess G = E R* with E a rotation about a uniform axis
+// s_i uniform in [|s_min|, |s_max|]; s_min < 0 negates the smallest, an
+// inverted A whose SVD polar is still R*; s_max < 0 negates the largest, an
+// inverted A whose SVD polar is R* turned by 180 degrees, so the guess sits
+// at a saddle of tr(R^T A)), and the guess G = E R* with E a rotation about a uniform axis
 // by an angle uniform in [deg_min, deg_max] degrees. A, G: n x 9.
 void ek_check_warm_cases(ek_rng *rng, size_t n, double s_min, double s_max, double deg_min,
                          double deg_max, double *A, double *G);

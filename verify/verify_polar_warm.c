@@ -8,7 +8,9 @@
 //              the first 400 (quick: 100), R chained from sample to sample
 //              as the loop keeps it, best ISA: budgeted (max; the p99 is
 //              the second metric)
-//   far 90..180 deg, inverted, inverted near-flat: the extremes; trade rows
+//   far 90..180 deg, inverted (the smallest stretch negated), inverted
+//              near-flat, inverted with the largest negated (the SVD polar
+//              180 degrees from the guess): the extremes; trade rows
 //              (printed, not judged against the budget), with the count of
 //              matrices beyond it; the output must still be a rotation
 //              (orthogonality and det as metrics; a NaN is a failure).
@@ -81,7 +83,8 @@ int verify_polar_warm(ek_verify_ctx *ctx) {
               {"near", 0.9, 1.1, 0, 1, 0},
               {"far_90_180deg", 0.5, 2, 90, 180, 1},
               {"inverted", -0.5, 2, 0, 10, 1},
-              {"inverted_near_flat", -0.9, 1.1, 0, 10, 1}};
+              {"inverted_near_flat", -0.9, 1.1, 0, 10, 1},
+              {"inverted_largest_negated", 0.5, -2, 0, 10, 1}};
   ek_isa best = EK_ISA_SCALAR;
   for (ek_isa isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
     if (!ek_isa_available(isa))
