@@ -10,8 +10,10 @@
 // inverted, rank-deficient and zero A, A at 1e+-30; a NaN matrix gives NaN
 // in its own R only; AoS and AoSoA entry points agree bit for bit (tails
 // included), as do 1 and 2 threads; bad options and arguments give
-// EK_EINVAL and write nothing; a scene with "polar": "warm" stays within
-// EK_POLAR_WARM_LOOP_TOL of the same scene with "polar": "svd".
+// EK_EINVAL and write nothing; the scene key parses; the cantilever and
+// twist with "polar": "warm" (fixed corotated, and corotated linear's R^n)
+// stay within the EK_POLAR_WARM_LOOP_* bounds of "polar": "svd", and give
+// the same bits at 1 and 2 threads.
 //
 // Usage: test_polar_warm [--seed N] [--scenes DIR]
 #include <ek/ek.h>
@@ -332,7 +334,8 @@ static void simulation(int bits, ek_isa isa) {
 // positions after N steps. f32: no further apart than
 // EK_POLAR_WARM_LOOP_F32_FACTOR x the f32 and f64 SVD runs are (the f32
 // force's own rounding); f64: EK_POLAR_WARM_LOOP_TOL_F64 x the body size.
-static int loop_start(run *r, const char *scene, int prec, ek_polar_method polar) {
+static int loop_start_model(run *r, const char *scene, int prec, ek_polar_method polar,
+                            ek_model model) {
   char path[1200], err[1024];
   snprintf(path, sizeof path, "%s/%s.json", scenes_dir, scene);
   memset(r, 0, sizeof *r);
@@ -343,7 +346,7 @@ static int loop_start(run *r, const char *scene, int prec, ek_polar_method polar
   }
   r->scene.output_file[0] = '\0';
   r->scene.precision = prec;
-  r->scene.material.model = EK_MODEL_FIXED_COROTATED;
+  r->scene.material.model = model;
   r->scene.polar = polar;
   r->mesh = ek_scene_mesh(&r->scene, err, sizeof err);
   r->sim = r->mesh ? ek_sim_create(&r->scene, r->mesh, err, sizeof err) : NULL;
@@ -354,6 +357,10 @@ static int loop_start(run *r, const char *scene, int prec, ek_polar_method polar
     return -1;
   }
   return 0;
+}
+
+static int loop_start(run *r, const char *scene, int prec, ek_polar_method polar) {
+  return loop_start_model(r, scene, prec, polar, EK_MODEL_FIXED_COROTATED);
 }
 
 static double max_diff(size_t n, const double *a, const double *b) {
@@ -431,6 +438,40 @@ static void loop(void) {
   }
 }
 
+// Corotated linear's R^n refresh by the warm polar (double, from R^(n-1))
+// against the SVD's: twist, f64, 300 steps, EK_POLAR_WARM_LOOP_TOL_F64 x
+// the body's length.
+static void loop_corot_linear(void) {
+  run r[2];
+  int started = 0, ok = 1;
+  for (; started < 2; started++)
+    if (loop_start_model(&r[started], "twist", 64, started ? EK_POLAR_WARM : EK_POLAR_SVD,
+                         EK_MODEL_COROTATED_LINEAR) != 0)
+      break;
+  for (long s = 0; started == 2 && s < 300 && ok; s++)
+    for (int w = 0; w < 2; w++)
+      ok &= ek_sim_step(r[w].sim) == 0;
+  if (started == 2) {
+    size_t n3 = 3 * ek_mesh_nverts(r[0].mesh);
+    const double *x0 = ek_sim_positions(r[0].sim), *x1 = ek_sim_positions(r[1].sim);
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < n3; i += 3)
+      lo = fmin(lo, x0[i]), hi = fmax(hi, x0[i]);
+    if (!ok) {
+      printf("FAIL loop twist corotated linear: a step failed\n");
+      failures++;
+    } else {
+      report("loop twist f64 corotated linear R^n warm vs svd, 300 steps",
+             max_diff(n3, x0, x1) / (hi - lo), EK_POLAR_WARM_LOOP_TOL_F64,
+             "max |x_warm - x_svd| / length along x");
+    }
+  }
+  for (int w = 0; w < started; w++) {
+    ek_sim_destroy(r[w].sim);
+    ek_mesh_destroy(r[w].mesh);
+  }
+}
+
 // The warm path of the force at 1 and 2 threads: the same bits (cantilever,
 // f32 and f64, 50 steps; its 6000 tets run on both threads).
 static void loop_threads(void) {
@@ -481,6 +522,7 @@ int main(int argc, char **argv) {
   bad_input();
   scene_key();
   loop();
+  loop_corot_linear();
   loop_threads();
   printf("%s\n", failures ? "FAIL" : "PASS");
   return failures ? 1 : 0;
