@@ -16,9 +16,11 @@
 //     thread buffers, best ISA, ~1e5 tets: the speed-up column is the
 //     neo-Hookean row of the same precision, size and threads divided by
 //     it (the "<= 1.5x the neo-Hookean force per tet" reads as a
-//     speed-up >= 0.67). The per-tet rotations start at the identity and
-//     are the converged ones after the harness's warm-up calls; the work
-//     per call does not depend on the guess (a fixed iteration count).
+//     speed-up >= 0.67); fvm/fixed_corot_warm_it1/... the same with one
+//     iteration (polar_iterations = 1: in the scenes, from a guess one
+//     step old, one iteration is as accurate as two). The per-tet rotations start at the identity
+//     and are the converged ones after the harness's warm-up calls; the work per call does not
+//     depend on the guess (a fixed iteration count).
 //   - fixed corotated f32, thread buffers, ~1e5 tets on every other
 //     available ISA (scalar, ...), for the vectorisation gain.
 //   - the Hessian of the implicit loop (include/ek/hessian.h), thread
@@ -167,10 +169,13 @@ static const struct {
     {"nh", {EK_MODEL_NEO_HOOKEAN, 1e5, 4e5, 0}},
     {"snh", {EK_MODEL_STABLE_NEO_HOOKEAN, 1e5, 4e5, 0}},
     {"fixed_corot_warm", {EK_MODEL_FIXED_COROTATED, 1e5, 4e5, 0}},
+    {"fixed_corot_warm_it1", {EK_MODEL_FIXED_COROTATED, 1e5, 4e5, 0}},
 };
 #define FIXED_COROT 3
 #define NEO_HOOKEAN 6
 #define FIXED_COROT_WARM 8
+#define FIXED_COROT_WARM_IT1 9
+#define IS_WARM(m) ((m) == FIXED_COROT_WARM || (m) == FIXED_COROT_WARM_IT1)
 
 static const ek_scatter scatters[] = {EK_SCATTER_ATOMIC, EK_SCATTER_COLORED,
                                       EK_SCATTER_THREAD_BUFFERS, EK_SCATTER_GATHER};
@@ -186,9 +191,9 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
   snprintf(name, sizeof name, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
            ek_scatter_name(s), ek_isa_name(isa), prec, ntets, threads);
   snprintf(base, sizeof base, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d",
-           models[model == FIXED_COROT_WARM ? NEO_HOOKEAN : model].name,
-           ek_scatter_name(model == FIXED_COROT_WARM ? s : EK_SCATTER_ATOMIC), ek_isa_name(isa),
-           prec, ntets, threads);
+           models[IS_WARM(model) ? NEO_HOOKEAN : model].name,
+           ek_scatter_name(IS_WARM(model) ? s : EK_SCATTER_ATOMIC), ek_isa_name(isa), prec, ntets,
+           threads);
   if (!ek_bench_wants(b, name))
     return 0;
   static fvm_ctx ctx;
@@ -202,8 +207,10 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
     ctx.opts.isa = isa;
     if (ctx.mat.model == EK_MODEL_COROTATED_LINEAR)
       ctx.opts.R_state = f32 ? mc->R32 : mc->R64;
-    if (model == FIXED_COROT_WARM)
+    if (IS_WARM(model))
       ctx.opts.polar_state = f32 ? mc->W32 : mc->W64;
+    if (model == FIXED_COROT_WARM_IT1)
+      ctx.opts.polar_iterations = 1;
     ctx.f32 = f32;
     ctx.b = b;
   }
@@ -520,8 +527,7 @@ int bench_fvm(ek_bench *b) {
     for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
       for (int f32 = 1; f32 >= 0; f32--)
         if (!(m == FIXED_COROT))
-          rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, f32, 1, counts[t],
-                        m == FIXED_COROT_WARM);
+          rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, f32, 1, counts[t], IS_WARM(m));
     // The SVD-free neo-Hookean pair at 1e6, f32: the bandwidth-bound rows.
     for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
       if (models[m].mat.model == EK_MODEL_NEO_HOOKEAN ||
@@ -533,7 +539,7 @@ int bench_fvm(ek_bench *b) {
     // The implicit loop's Hessian: products per model x precision, and
     // the caching gradient pass.
     for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
-      for (int f32 = 1; f32 >= 0 && m != FIXED_COROT_WARM; f32--) {
+      for (int f32 = 1; f32 >= 0 && !IS_WARM(m); f32--) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
       }

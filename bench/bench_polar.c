@@ -22,10 +22,14 @@
 // no branch). A note per input and precision gives the error of the first
 // call against the SVD polar (LAPACK), max over the batch.
 //
-// Declared work per matrix (add, sub, mul, div = 1, fma = 2; compares,
-// selects, abs not counted), kernels/polar/polar_warm_core.h: scaling 10,
-// quaternion of the guess 22, per iteration M = A R^T 45 + the step 84
-// (+ R from q 22 after the first), the final R 38: 48 + 151 K (- 22).
+// Declared work per matrix (add, sub, mul, div, rsqrt estimate = 1, fma =
+// 2; compares, selects, abs, max, negation not counted), as
+// kernels/polar/polar_warm_core.h performs it: scaling 1 div + 9 mul = 10;
+// the guess's quaternion 18; first step M = A R^T 45 + the step 81 (g 3,
+// tr 2, H 9, adj(H) 18, det 5, denominator 1 + 1 div, H^-1 g 15, v 3,
+// quaternion product 24); each later step adds the rough normalisation 12,
+// R from q 29, M 45 and the step 81; the final R 46 (R from q 29, |q|^2 7,
+// 1 div, 9 mul): 200 + 167 (K - 1).
 #include <ek/batch.h>
 #include <ek/polar.h>
 #include <ek/svd3.h>
@@ -41,7 +45,7 @@
 
 #define NEAR_BATCH 4096
 
-static double warm_flops(int k) { return 48.0 + 151.0 * k - 22.0; }
+static double warm_flops(int k) { return 200.0 + 167.0 * (k - 1); }
 
 typedef struct {
   int f64;

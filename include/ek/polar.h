@@ -5,8 +5,8 @@
 // decomposition, Kugelstadt et al. 2018, "Fast corotated FEM using operator
 // splitting"). The SVD-based polar (ek_polar3_*, svd3.h) needs no guess and
 // is the reference: the answer here is the same R = U V^T of the
-// rotation-variant SVD (det R = +1, the rotation maximising tr(R^T A), also
-// for det A < 0), reached in a few cheap iterations when the guess is close.
+// rotation-variant SVD (det R = +1, the rotation maximising tr(R^T A)),
+// reached in a few cheap iterations when the guess is close to it.
 //
 // Contract:
 //   - R is read as the guess and overwritten with the result (row-major, in
@@ -22,9 +22,14 @@
 //     answer); elsewhere each iteration takes Mueller's always-ascending
 //     step, so a guess far off (a rotation of more than 90 degrees between
 //     two steps) needs more iterations, and a guess exactly 180 degrees off
-//     (a saddle) does not move. Inverted A (det < 0) converge to the SVD
-//     polar too, more slowly as s2 + s3 -> 0 (the Hessian's smallest
-//     eigenvalue). A = 0 leaves the guess's rotation. README "Warm-started
+//     (a saddle) does not move. Inverted A (det < 0) = R* Q diag(s) Q^T with
+//     one s_i < 0 and a guess near R*: when the negated stretch is the
+//     smallest in magnitude, R* is the SVD polar and the iteration converges
+//     (slowly as s2 - |s3| -> 0, the Hessian's smallest eigenvalue); when a
+//     larger one is negated, the SVD polar is R* turned by 180 degrees, the
+//     guess sits at a saddle, and R stays near the guess (continuous from
+//     step to step where the SVD polar jumps). A = 0 leaves the guess's
+//     rotation. README "Warm-started
 //     polar" has the measured errors.
 //   - A or guess with a NaN or infinity: NaN in all of that matrix's R; the
 //     other matrices are untouched by it.
