@@ -61,8 +61,9 @@
 //                 linear its R^n refresh): the SVD polar, or the
 //                 warm-started polar (polar.h) from each tet's rotation of
 //                 the step before, kept per element (the SVD polar at the
-//                 first step). The implicit loop's Hessian still takes the
-//                 SVD (it needs the singular values).
+//                 first step). The implicit loop's gradient and Hessian
+//                 still take the SVD (they need the singular values);
+//                 other models, and a clamp > 0, ignore the key.
 //   boundary      [{"type": "pin"|"twist"|"stretch", "region": {"min": [3],
 //                 "max": [3]}, twist: "axis", "center", "rate"; stretch:
 //                 "velocity"; both: "until", "release"}]
