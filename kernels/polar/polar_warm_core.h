@@ -152,6 +152,48 @@ EK_INLINE void polar_warm_ART(const vreal A[9], const vreal R[9], vreal M[9]) {
                           vmla(A[i * 3 + 1], R[j * 3 + 1], vmul(A[i * 3 + 2], R[j * 3 + 2])));
 }
 
+// n (1 or 2, a compile-time constant at the call) independent matrices
+// stage by stage, so their dependency chains interleave (the SVD kernel's
+// svd3_core_n idea); per lane the same operations as polar_warm_core.
+#define POLAR_WARM_MAX_N 2
+EK_INLINE void polar_warm_core_n(int n, const vreal A_in[][9], vreal R[][9], int iters) {
+  vreal A[POLAR_WARM_MAX_N][9], q[POLAR_WARM_MAX_N][4], M[POLAR_WARM_MAX_N][9];
+  for (int j = 0; j < n; j++) {
+    vreal amax = vabs(A_in[j][0]);
+    for (int i = 1; i < 9; i++)
+      amax = vmax(amax, vabs(A_in[j][i]));
+    vreal inv = vdiv(vset(1), vsel(vgt(amax, vzero()), amax, vset(1)));
+    for (int i = 0; i < 9; i++)
+      A[j][i] = vmul(A_in[j][i], inv);
+    polar_warm_quat_from(R[j], q[j]);
+    polar_warm_ART(A[j], R[j], M[j]);
+  }
+  for (int j = 0; j < n; j++)
+    polar_warm_step(M[j], q[j]);
+  for (int it = 1; it < iters; it++) {
+    for (int j = 0; j < n; j++) {
+      vreal Rq[9];
+      vreal n2 = vmla(q[j][0], q[j][0],
+                      vmla(q[j][1], q[j][1], vmla(q[j][2], q[j][2], vmul(q[j][3], q[j][3]))));
+      vreal rn = vrsqrt_est(n2);
+      for (int i = 0; i < 4; i++)
+        q[j][i] = vmul(q[j][i], rn);
+      polar_warm_quat_matrix(q[j], Rq);
+      polar_warm_ART(A[j], Rq, M[j]);
+    }
+    for (int j = 0; j < n; j++)
+      polar_warm_step(M[j], q[j]);
+  }
+  for (int j = 0; j < n; j++) {
+    polar_warm_quat_matrix(q[j], R[j]);
+    vreal n2 = vmla(q[j][0], q[j][0],
+                    vmla(q[j][1], q[j][1], vmla(q[j][2], q[j][2], vmul(q[j][3], q[j][3]))));
+    vreal rn2 = vdiv(vset(1), n2);
+    for (int i = 0; i < 9; i++)
+      R[j][i] = vmul(R[j][i], rn2);
+  }
+}
+
 // R: in, the guess; out, the rotation of A after `iters` steps (>= 1).
 EK_INLINE void polar_warm_core(const vreal A_in[9], vreal R[9], int iters) {
   // [ek] Scale A by 1 / max |a_ij| (1 for A = 0; a non-finite entry stays
