@@ -113,24 +113,17 @@ EK_INLINE void fvm_blocks(ek_model model, int sigma, int exact, int warm, const 
       }
       if (warm) {
         // Step 3c: R by the warm polar from the state's rotation (stored
-        // back; both vectors' chains side by side), then P from F and R.
-        vreal R[2][9];
-        real *Rsrc[2];
+        // back), then P from F and R.
         for (int j = 0; j < nv; j++) {
           const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
-          Rsrc[j] = (a->R_direct ? a->R_warm + (b + (size_t)g) * 9 * L : Rb[g]) + o;
+          real *Rsrc = (a->R_direct ? a->R_warm + (b + (size_t)g) * 9 * L : Rb[g]) + o;
+          vreal R[9];
           for (int k = 0; k < 9; k++)
-            R[j][k] = vload(Rsrc[j] + k * L);
-        }
-        if (nv == 2 && warm > 1)
-          polar_warm_core_n(2, (const vreal(*)[9])F, R, warm);
-        else
-          for (int j = 0; j < nv; j++)
-            polar_warm_core(F[j], R[j], warm);
-        for (int j = 0; j < nv; j++) {
+            R[k] = vload(Rsrc + k * L);
+          polar_warm_core(F[j], R, warm);
           for (int k = 0; k < 9; k++)
-            vstore(Rsrc[j] + k * L, R[j][k]);
-          material_pk1_rotation(&mp, F[j], R[j], P[j]);
+            vstore(Rsrc + k * L, R[k]);
+          material_pk1_rotation(&mp, F[j], R, P[j]);
         }
       } else if (sigma) {
         // Step 3a: the SVD of both vectors side by side, then P from it.
