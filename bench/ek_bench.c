@@ -29,13 +29,14 @@ ek_bench_family_fn bench_fvm;
 ek_bench_family_fn bench_material;
 ek_bench_family_fn bench_sim;
 ek_bench_family_fn bench_cloth;
+ek_bench_family_fn bench_polar;
 
 static const struct {
   const char *name;
   ek_bench_family_fn *fn;
 } families[] = {
     {"svd3", bench_svd3}, {"fvm", bench_fvm},     {"material", bench_material},
-    {"sim", bench_sim},   {"cloth", bench_cloth},
+    {"sim", bench_sim},   {"cloth", bench_cloth}, {"polar", bench_polar},
 };
 enum { NFAMILIES = sizeof families / sizeof families[0] };
 

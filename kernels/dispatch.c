@@ -12,6 +12,8 @@
 #define EK_DECLARE_TARGET(t)                                                                       \
   ek_svd3_block_f32_fn ek_svd3_block_##t##_f32;                                                    \
   ek_svd3_block_f64_fn ek_svd3_block_##t##_f64;                                                    \
+  ek_polar_warm_block_f32_fn ek_polar_warm_block_##t##_f32;                                        \
+  ek_polar_warm_block_f64_fn ek_polar_warm_block_##t##_f64;                                        \
   ek_fma_probe_fn ek_fma_probe_##t##_f32;                                                          \
   ek_fma_probe_fn ek_fma_probe_##t##_f64;                                                          \
   ek_material_block_f32_fn ek_material_block_##t##_f32;                                            \
@@ -37,8 +39,11 @@
 #define EK_ROW(t, isa_, w32, w64)                                                                  \
   {                                                                                                \
     .isa = isa_, .lanes_f32 = w32, .lanes_f64 = w64, .svd3_block_f32 = ek_svd3_block_##t##_f32,    \
-    .svd3_block_f64 = ek_svd3_block_##t##_f64, .fma_probe_f32 = ek_fma_probe_##t##_f32,            \
-    .fma_probe_f64 = ek_fma_probe_##t##_f64, .material_block_f32 = ek_material_block_##t##_f32,    \
+    .svd3_block_f64 = ek_svd3_block_##t##_f64,                                                     \
+    .polar_warm_block_f32 = ek_polar_warm_block_##t##_f32,                                         \
+    .polar_warm_block_f64 = ek_polar_warm_block_##t##_f64,                                         \
+    .fma_probe_f32 = ek_fma_probe_##t##_f32, .fma_probe_f64 = ek_fma_probe_##t##_f64,              \
+    .material_block_f32 = ek_material_block_##t##_f32,                                             \
     .material_block_f64 = ek_material_block_##t##_f64, .fvm_block_f32 = ek_fvm_block_##t##_f32,    \
     .fvm_block_f64 = ek_fvm_block_##t##_f64, .fvm_F_block_f32 = ek_fvm_F_block_##t##_f32,          \
     .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \

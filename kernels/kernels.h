@@ -32,6 +32,14 @@ typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, floa
                                   const ek_svd3_knobs *k);
 typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, double *S, double *V,
                                   const ek_svd3_knobs *k);
+// polar_warm_block: nblocks AoSoA blocks; A 9 planes, R 9 planes (in: the
+// guess, out: the rotation), `iters` >= 1 iterations (polar_warm_core.h).
+typedef void ek_polar_warm_block_f32_fn(size_t nblocks, const float *A, float *R, int iters);
+typedef void ek_polar_warm_block_f64_fn(size_t nblocks, const double *A, double *R, int iters);
+// Iterations from the option (0 = the precision's default), after the
+// range check every entry point shares: EK_EINVAL with a message naming fn.
+int ek_polar_warm_iterations_from_f32(const char *fn, int iterations, int *out);
+int ek_polar_warm_iterations_from_f64(const char *fn, int iterations, int *out);
 // fma_probe: `iters` rounds of independent FMA chains; returns a value that
 // depends on every chain (so nothing is optimised away) and sets *flops.
 typedef double ek_fma_probe_fn(long iters, double *flops);
@@ -100,6 +108,8 @@ typedef struct {
   int lanes_f32, lanes_f64; // EK_W of the target
   ek_svd3_block_f32_fn *svd3_block_f32;
   ek_svd3_block_f64_fn *svd3_block_f64;
+  ek_polar_warm_block_f32_fn *polar_warm_block_f32;
+  ek_polar_warm_block_f64_fn *polar_warm_block_f64;
   ek_fma_probe_fn *fma_probe_f32;
   ek_fma_probe_fn *fma_probe_f64;
   ek_material_block_f32_fn *material_block_f32;

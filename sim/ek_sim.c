@@ -17,6 +17,7 @@
 // there, unwritable output), 2 bad usage. SIGINT or SIGTERM stops the run
 // at the next step: the frames are closed, their count printed, and ek-sim
 // dies of that signal.
+#include <ek/polar.h>
 #include <ek/sim.h>
 
 #include <errno.h>
@@ -256,7 +257,13 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
          ek_scene_integrator_description(s->integrator));
   printf("pipeline   per step:\n");
   int k = 1;
-  if (need == EK_NEEDS_R_INPUT)
+  const int warm = s->polar == EK_POLAR_WARM;
+  if (need == EK_NEEDS_R_INPUT && warm)
+    printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
+           "(ek_fvm_deformation_gradients_f64), R = polar(F) by the warm polar from R^(n-1) "
+           "(ek_polar3_warm_f64, %d iterations; the SVD polar at the first step)\n",
+           k++, ek_polar_warm_default_iterations_f64());
+  else if (need == EK_NEEDS_R_INPUT)
     printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
            "(ek_fvm_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
            k++, s->svd.sweeps ? s->svd.sweeps : ek_svd3_default_sweeps_f64(),
@@ -281,7 +288,12 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
            k++, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, s->precision);
   printf("       gather x of 4 corners -> F = Ds Dm^-1 -> ");
   const int prec = implicit ? 64 : s->precision;
-  if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD || (implicit && iso))
+  if (warm && need == EK_NEEDS_POLAR && !implicit)
+    printf("warm polar from the tet's R of the last call (polar.h, %d iterations; kept per "
+           "tet) -> ",
+           prec == 32 ? ek_polar_warm_default_iterations_f32()
+                      : ek_polar_warm_default_iterations_f64());
+  else if (need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD || (implicit && iso))
     printf("SVD3 (%d sweeps, %s rsqrt) -> ",
            s->svd.sweeps
                ? s->svd.sweeps
@@ -300,7 +312,10 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   } else {
     printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
   }
-  printf("       %s: %s\n", s->model_name, need_text(need));
+  printf("       %s: %s\n", s->model_name,
+         warm && need == EK_NEEDS_POLAR && !implicit
+             ? "no SVD: R(F) by the warm-started polar, P = 2 mu (F - R) + lambda (J - 1) J F^-T"
+             : need_text(need));
   ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : s->scatter;
   static const char *why[] = {
       "", "tets of one colour share no vertex: blocks add straight into f, deterministic",

@@ -698,6 +698,17 @@ static int parse_kernels(parse_ctx *c, const cJSON *root, ek_scene *s) {
       return bad(c, "scatter", node,
                  "must be one of auto, colored, thread_buffers, gather, atomic");
   }
+  str = NULL;
+  if ((rc = get_string(c, root, "", "polar", 0, &str, &node)))
+    return rc;
+  if (str) {
+    if (strcmp(str, "svd") == 0)
+      s->polar = EK_POLAR_SVD;
+    else if (strcmp(str, "warm") == 0)
+      s->polar = EK_POLAR_WARM;
+    else
+      return bad(c, "polar", node, "must be \"svd\" or \"warm\"");
+  }
   const cJSON *svd = cJSON_GetObjectItemCaseSensitive(root, "svd");
   if (!svd)
     return 0;
@@ -1033,9 +1044,9 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
   if (!rc)
     rc = check_keys(&c, root, "",
                     (const char *const[]){"description", "mesh", "initial", "material", "precision",
-                                          "isa", "scatter", "svd", "boundary", "gravity", "ground",
-                                          "damping", "dt", "steps", "integrator", "output", "cloth",
-                                          NULL});
+                                          "isa", "scatter", "svd", "polar", "boundary", "gravity",
+                                          "ground", "damping", "dt", "steps", "integrator",
+                                          "output", "cloth", NULL});
   if (!rc) {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (d && !cJSON_IsString(d))

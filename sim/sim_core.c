@@ -8,6 +8,7 @@
 // start of each step (seed 000). Vertices under a boundary condition follow
 // it exactly; the ground is friction-free.
 #include "sim_internal.h"
+#include <ek/polar.h>
 
 #include <math.h>
 #include <stdarg.h>
@@ -226,10 +227,15 @@ static int refresh_rotations(ek_sim *s) {
     return 0;
   double t0 = sim_now();
   int rc = ek_fvm_deformation_gradients_f64(s->mesh, s->x, s->F);
-  if (rc == 0) {
+  if (rc == 0 && s->scene.polar == EK_POLAR_WARM && s->R_ready) {
+    // The warm polar from R^(n-1) (polar.h), in double like the SVD path.
+    ek_polar_warm_opts o = {.isa = s->scene.svd.isa};
+    rc = ek_polar3_warm_f64(s->nt, s->F, s->R, &o);
+  } else if (rc == 0) {
     ek_svd3_opts o = s->scene.svd;
     rc = ek_polar3_f64(s->nt, s->F, s->R, NULL, &o);
   }
+  s->R_ready = rc == 0;
   if (rc == 0)
     rc = ek_tet_state_set_f64(s->R_state, s->R);
   s->times.polar_refresh += sim_now() - t0;
@@ -258,6 +264,7 @@ void ek_sim_destroy(ek_sim *s) {
   free(s->F);
   free(s->R);
   ek_tet_state_destroy(s->R_state);
+  ek_tet_state_destroy(s->polar_state);
   free(s->psi_rest);
   free(s->x_next);
   free(s->v_next);
@@ -432,6 +439,30 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     }
     s->fvm.R_state = s->R_state;
   }
+  if (mesh && scene->polar == EK_POLAR_WARM &&
+      (s->mat.model == EK_MODEL_FIXED_COROTATED || s->mat.model == EK_MODEL_ARAP)) {
+    // The force's per-tet rotations, started at the SVD polar of the
+    // initial F (the identity at rest).
+    double *F = malloc(18 * nt * sizeof(double));
+    int rc = F ? ek_fvm_deformation_gradients_f64(mesh, s->x, F) : EK_ENOMEM;
+    ek_svd3_opts so = scene->svd;
+    if (rc == 0)
+      rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
+    if (rc == 0 &&
+        !(s->polar_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64)))
+      rc = EK_ENOMEM;
+    if (rc == 0)
+      rc = ek_tet_state_set_f64(s->polar_state, F + 9 * nt);
+    free(F);
+    if (rc != 0) {
+      if (err && errlen)
+        snprintf(err, errlen, "%s: polar \"warm\": initial rotations: %s", scene->path,
+                 rc == EK_ENOMEM ? "out of memory" : ek_last_error());
+      ek_sim_destroy(s);
+      return NULL;
+    }
+    s->fvm.polar_state = s->polar_state;
+  }
   if (refresh_rotations(s) != 0) {
     if (err && errlen)
       snprintf(err, errlen, "%s: %s", scene->path, s->error);
@@ -448,6 +479,7 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     s->elastic_rest = ek_fvm_energy_f64(mesh, &s->mat, X);
     ek_fvm_opts o = s->fvm;
     o.psi = s->psi_rest;
+    o.polar_state = NULL; // a double pass: the SVD (the state is in the scene's precision)
     if (ek_fvm_forces_ex_f64(mesh, &s->mat, X, s->f, &o) != 0) {
       if (err && errlen)
         snprintf(err, errlen, "%s: energy density at rest: %s", scene->path, ek_last_error());
@@ -666,6 +698,7 @@ int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
   o.psi = psi;
   o.phase_times = NULL;
   o.R_state = NULL; // in the scene's precision; this pass is double and has R
+  o.polar_state = NULL;
   int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
   free(scratch);
   // Measured from the rest shape, like ek_sim_energy's elastic energy:

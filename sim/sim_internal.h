@@ -72,6 +72,10 @@ struct ek_sim {
   float *xf, *ff;          // f32 force path
   double *F, *R;           // nt x 9, corotated linear only: R^n
   ek_tet_state *R_state;   // R^n again, as the force kernel reads it (elements.h)
+  int R_ready;             // R^n holds a step's rotations (the warm polar's guess)
+  // "polar": "warm" with fixed corotated / ARAP: each tet's rotation, kept
+  // by the force kernel from call to call (fvm.h polar_state); NULL else.
+  ek_tet_state *polar_state;
   // Energy density at the rest shape per tet, subtracted from the frames'
   // field; NULL for corotated linear, which is 0 there.
   double *psi_rest;

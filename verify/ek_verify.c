@@ -35,6 +35,9 @@ static const ek_verify_family families[] = {
      "LAPACK)"},
     {"cloth", verify_cloth,
      "polar32, Kabsch, triangle velocity gradient vs LAPACK (dgesvd) references"},
+    {"polar_warm", verify_polar_warm,
+     "warm-started polar vs the SVD polar (LAPACK): random, near, far guesses, inverted, and "
+     "over the cantilever and twist runs"},
 };
 
 struct ek_verify_ctx {

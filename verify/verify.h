@@ -61,6 +61,7 @@ int verify_fvm(ek_verify_ctx *ctx);
 int verify_xpbd(ek_verify_ctx *ctx);
 int verify_cloth_force(ek_verify_ctx *ctx);
 int verify_cloth(ek_verify_ctx *ctx);
+int verify_polar_warm(ek_verify_ctx *ctx);
 
 // ek-verify --extremes (verify_extremes.c): the stability scenes per model
 // and loop. Prints its table, appends one object per row to rows_json and

@@ -9,6 +9,7 @@
 #include "hessian.h"
 #include "material.h"
 #include "mesh.h"
+#include "polar.h"
 #include "sim.h"
 #include "svd3.h"
 #include "xpbd.h"

@@ -106,6 +106,17 @@ typedef struct {
 //     reads it instead of R (a plane load per block in the Morton order
 //     instead of a per-lane gather of caller-order doubles). The per-tet
 //     psi output still reads R.
+//   polar_state: fixed corotated and ARAP without clamp take R = polar(F)
+//     from the warm-started polar (polar.h) seeded with these per-element
+//     rotations (a 9-plane state of these elements in the call's precision,
+//     elements.h) and write the new rotations back, so the next call starts
+//     from them; P = 2 mu (F - R) + lambda (J - 1) J F^-T needs no SVD.
+//     Start the state at the SVD polar of the first F (or the identity at
+//     rest). Other models and a clamp > 0 ignore it (the SVD as before);
+//     with phase_times the call runs fused all the same (the split's
+//     passes take the SVD), its time in phase_times->pk1.
+//   polar_iterations: iterations of the warm polar, 0 = default
+//     (polar.h; 1..EK_POLAR_WARM_MAX_ITERATIONS, else EK_EINVAL).
 //   J, sigma_min, psi: optional per-tet outputs (ntets each, caller tet
 //     order): det F, the smallest signed singular value of F, and the
 //     energy density Psi(F) (per unit rest volume). Computed in double from
@@ -119,6 +130,8 @@ typedef struct {
   int svd_refine;
   const double *R;
   const ek_tet_state *R_state;
+  ek_tet_state *polar_state;
+  int polar_iterations;
   double *J;
   double *sigma_min;
   double *psi;

@@ -56,6 +56,14 @@
 //   svd           {"sweeps": 0..8, "rsqrt": "default"|"exact"|"approximate",
 //                 "refine": 0..3 (exact one-sided sweeps; 0 = none, i.e.
 //                 McAdams et al. 2011 as published; absent = default)}
+//   polar         "svd" (default) | "warm": how fixed corotated and ARAP
+//                 take the rotation of F in the force (and corotated
+//                 linear its R^n refresh): the SVD polar, or the
+//                 warm-started polar (polar.h) from each tet's rotation of
+//                 the step before, kept per element (the SVD polar at the
+//                 first step). The implicit loop's gradient and Hessian
+//                 still take the SVD (they need the singular values);
+//                 other models, and a clamp > 0, ignore the key.
 //   boundary      [{"type": "pin"|"twist"|"stretch", "region": {"min": [3],
 //                 "max": [3]}, twist: "axis", "center", "rate"; stretch:
 //                 "velocity"; both: "until", "release"}]
@@ -219,6 +227,18 @@ typedef struct {
   ek_xpbd_elements elements;
 } ek_scene_xpbd;
 
+// The scene's "polar" key.
+typedef enum { EK_POLAR_SVD = 0, EK_POLAR_WARM } ek_polar_method;
+
+// tests/test_polar_warm.c: the cantilever and twist scenes (fixed
+// corotated) with "polar": "warm" against "svd" after 300 steps. The warm
+// polar's rotations are within EK_POLAR_WARM_TOL_* of the SVD's, far below
+// the f32 force's own rounding, so in f32 the two runs may differ by no
+// more than FACTOR x the distance between the f32 and f64 SVD runs
+// (max |dx| over vertices), and in f64 by TOL x the body's length.
+#define EK_POLAR_WARM_LOOP_F32_FACTOR 2
+#define EK_POLAR_WARM_LOOP_TOL_F64 1e-12
+
 typedef enum {
   EK_BC_PIN,     // held at the initial position
   EK_BC_TWIST,   // rotated about an axis at `rate` rad/s
@@ -269,6 +289,7 @@ typedef struct {
   int precision;    // 32 or 64
   ek_svd3_opts svd; // svd.isa is the scene's "isa": every kernel's target
   ek_scatter scatter;
+  ek_polar_method polar; // "polar": "svd" (default) or "warm"
   // Loads and constraints.
   int nbc;
   ek_scene_bc bc[EK_SCENE_MAX_BC];

@@ -83,6 +83,8 @@ int ek_svd3_aosoa_f64(size_t nblocks, const double *A, double *U, double *S, dou
 // det +1, so R is the closest rotation to A even when det A < 0) and
 // Ssym = V diag(S) V^T (symmetric; indefinite for inverted A). Ssym may be
 // NULL. Same options, errors and NaN behaviour as ek_svd3_*.
+// For R alone from a guess (e.g. the previous time step's rotation), the
+// warm-started polar (ek_polar3_warm_*, polar.h) is several times cheaper.
 int ek_polar3_f32(size_t n, const float *A, float *R, float *Ssym, const ek_svd3_opts *opts);
 int ek_polar3_f64(size_t n, const double *A, double *R, double *Ssym, const ek_svd3_opts *opts);
 int ek_polar3_aosoa_f32(size_t nblocks, const float *A, float *R, float *Ssym,

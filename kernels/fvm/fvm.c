@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include <ek/fvm.h>
+#include <ek/polar.h>
 #include <ek/svd3.h>
 
 #include "../elements/tets.h"
@@ -122,7 +123,7 @@ static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl)
   a.dm_inv = BL_DMI(bl);
   a.v0 = BL_V0(bl);
   a.slot_tet = bl->slot_tet;
-  a.R_direct = a.R_planes && bl == &el->morton;
+  a.R_direct = (a.R_planes || a.R_warm) && bl == &el->morton;
   return a;
 }
 
@@ -225,6 +226,18 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                  fn, st->planes, st->f64 ? "f64" : "f32", st->el == el ? "these" : "other");
     return EK_EINVAL;
   }
+  ek_tet_state *ws = o.polar_state;
+  int warm = ws && (mat->model == EK_MODEL_FIXED_COROTATED || mat->model == EK_MODEL_ARAP) &&
+             !(mat->clamp > 0);
+  if (ws && (ws->el != el || ws->planes != 9 || ws->f64 != (sizeof(real) == 8))) {
+    ek_set_error("%s: opts->polar_state must be a 9-plane state of these elements in the call's "
+                 "precision (got %d planes, %s, %s elements)",
+                 fn, ws->planes, ws->f64 ? "f64" : "f32", ws->el == el ? "these" : "other");
+    return EK_EINVAL;
+  }
+  int polar_iters = 0;
+  if ((rc = EK_P(polar_warm_iterations_from)(fn, o.polar_iterations, &polar_iters)) < 0)
+    return rc;
   if ((unsigned)o.scatter >= EK_SCATTER_COUNT) {
     ek_set_error("%s: scatter strategy %d is not a valid ek_scatter", fn, (int)o.scatter);
     return EK_EINVAL;
@@ -247,13 +260,21 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                 .morton_slot = el->morton_slot,
                 .mat = mat,
                 .svd = &knobs,
+                .R_warm = warm ? ws->data : NULL,
+                .polar_iters = polar_iters,
                 .x = x};
-  if (o.phase_times) {
+  if (o.phase_times && !warm) {
     ek_svd3_opts so = {.sweeps = o.svd_sweeps,
                        .exact_rsqrt = o.svd_exact_rsqrt,
                        .refine = o.svd_refine,
                        .isa = isa};
     rc = phased(kt, el, mat, a, f, s, &so, isa, o.phase_times);
+  } else if (o.phase_times) {
+    // Warm polar: fused (fvm.h), the whole call reported as the P phase.
+    memset(o.phase_times, 0, sizeof *o.phase_times);
+    double t0 = now();
+    rc = run_strategy(kt, el, a, f, s);
+    o.phase_times->pk1 = now() - t0;
   } else {
     rc = run_strategy(kt, el, a, f, s);
   }

@@ -13,6 +13,10 @@
 // What one call does for blocks [b0, b1):
 //   P_in == NULL: gather x, F = Ds Dm^-1, P = material_pk1(F);
 //   P_in != NULL: read P from P_in (9 planes per block; phase-split mode);
+//   R_warm != NULL (fixed corotated, ARAP, no clamp): R from the warm polar
+//   of F seeded with the tet's state rotation, written back to the state
+//   (each tet's state is touched by the one call that owns its block), and
+//   P = 2 mu (F - R) + lambda (J - 1) cof(F): no SVD;
 //   then H = -V0 P Dm^-T (Teran et al. 2003 sec. 4) and
 //   f != NULL:      add h1..h3 and -(h1+h2+h3) into f (caller vertex order,
 //                   nverts x 3), lane by lane in lane order; the caller
@@ -43,6 +47,11 @@ struct ek_fvm_args_f32 {
   int R_direct;
   const ek_material *mat;
   const ek_svd3_knobs *svd;
+  // Fixed corotated / ARAP with the warm-started polar: per-element
+  // rotations (9 planes, Morton slots like R_planes), read as the guess and
+  // overwritten with the new rotation; NULL: the SVD. polar_iters >= 1.
+  float *R_warm;
+  int polar_iters;
   const float *x;
   const float *P_in;
   float *f;
@@ -60,6 +69,8 @@ struct ek_fvm_args_f64 {
   int R_direct;
   const ek_material *mat;
   const ek_svd3_knobs *svd;
+  double *R_warm;
+  int polar_iters;
   const double *x;
   const double *P_in;
   double *f;

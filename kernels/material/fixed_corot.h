@@ -49,6 +49,24 @@ static inline void fixed_corot_sigma_grad(const ek_material_lanes *m, const vrea
   fixed_corot_sigma_grad_l(m->mu, m->lambda, s, g);
 }
 
+// P from F and its rotation R = polar(F) (the warm-started polar's path,
+// kernels/polar/polar_warm_core.h; no SVD): U diag(g) V^T with the g above
+// is 2 mu (F - R) + lambda (J - 1) cof(F), cof(F) = J F^-T = U diag(s_j s_k)
+// V^T (Stomakhin et al. 2012, eq. 1's derivative).
+static inline void fixed_corot_pk1_R_l(real mu, real lambda, const vreal F[9], const vreal R[9],
+                                       vreal P[9]) {
+  vreal two_mu = vset(2 * mu);
+  for (int i = 0; i < 9; i++)
+    P[i] = vmul(two_mu, vsub(F[i], R[i]));
+  if (lambda != 0) {
+    vreal C[9];
+    vm3_cof(F, C);
+    vreal lJm1 = vmul(vset(lambda), vsub(vm3_det_cof(F, C), vset(1)));
+    for (int i = 0; i < 9; i++)
+      P[i] = vmla(lJm1, C[i], P[i]);
+  }
+}
+
 static inline void fixed_corot_sigma(const ek_material_lanes *m, const vreal s[3],
                                      mat_sigma_terms *t) {
   fixed_corot_sigma_l(m->mu, m->lambda, s, t);

@@ -113,6 +113,14 @@ EK_INLINE void material_pk1_svd(const ek_material_lanes *m, const vreal U[9], co
   mat_udvt(U, g, V, P);
 }
 
+// P(F) from F and R = polar(F) given (the warm-started polar), for fixed
+// corotated and ARAP without clamp: 2 mu (F - R) + lambda (J - 1) cof(F),
+// lambda = 0 for ARAP (fixed_corot.h).
+EK_INLINE void material_pk1_rotation(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                                     vreal P[9]) {
+  fixed_corot_pk1_R_l(m->mu, m->model == EK_MODEL_ARAP ? 0 : m->lambda, F, R, P);
+}
+
 // P(F) in F, for the parameters without material_uses_sigma() (those go
 // through an SVD of their caller's, material_pk1_svd). R is read only for
 // corotated linear.

@@ -1,0 +1,56 @@
+// Warm-started polar decomposition of whole AoSoA blocks (layout in
+// include/ek/batch.h; algorithm in polar_warm_core.h): A read, R read as
+// the guess and overwritten with the rotation, vector by vector.
+#include "../simd/simd.h"
+
+#include "polar_warm_core.h"
+
+// Offset of vector j's entry 0 in a batch of 9-plane blocks.
+static inline size_t vec_offset(size_t j) {
+  return (j / EK_VPB) * 9 * (size_t)EK_LANES + (j % EK_VPB) * EK_W;
+}
+
+// nv (a compile-time constant at the calls below) vectors from vector j0,
+// side by side.
+EK_INLINE void polar_warm_vectors(int nv, size_t j0, const real *A, real *R, int iters) {
+  vreal Av[POLAR_WARM_MAX_N][9], Rv[POLAR_WARM_MAX_N][9];
+  for (int j = 0; j < nv; j++)
+    for (int i = 0; i < 9; i++) {
+      Av[j][i] = vload(A + vec_offset(j0 + (size_t)j) + (size_t)i * EK_LANES);
+      Rv[j][i] = vload(R + vec_offset(j0 + (size_t)j) + (size_t)i * EK_LANES);
+    }
+  polar_warm_core_n(nv, (const vreal(*)[9])Av, Rv, iters);
+  for (int j = 0; j < nv; j++)
+    for (int i = 0; i < 9; i++)
+      vstore(R + vec_offset(j0 + (size_t)j) + (size_t)i * EK_LANES, Rv[j][i]);
+}
+
+// iters is a compile-time constant at each call below (the common counts
+// get their own unrolled code; others take the loop).
+EK_INLINE void polar_warm_blocks(size_t nblocks, const real *A, real *R, int iters) {
+  size_t nvec = nblocks * EK_VPB, j = 0;
+  // One iteration is short enough that a second chain only adds register
+  // pressure (measured: 3.2 vs 3.4 ns per f32 matrix on Zen 4).
+  const int nv = iters == 1 ? 1 : POLAR_WARM_MAX_N;
+  for (; j + (size_t)nv <= nvec; j += (size_t)nv)
+    polar_warm_vectors(nv, j, A, R, iters);
+  for (; j < nvec; j++)
+    polar_warm_vectors(1, j, A, R, iters);
+}
+
+void EK_SYM(polar_warm_block)(size_t nblocks, const real *A, real *R, int iters) {
+  switch (iters) {
+  case 1:
+    polar_warm_blocks(nblocks, A, R, 1);
+    break;
+  case 2:
+    polar_warm_blocks(nblocks, A, R, 2);
+    break;
+  case 3:
+    polar_warm_blocks(nblocks, A, R, 3);
+    break;
+  default:
+    polar_warm_blocks(nblocks, A, R, iters);
+    break;
+  }
+}
