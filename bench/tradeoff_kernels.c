@@ -30,6 +30,8 @@
 #include <string.h>
 
 #include "check.h"
+#include "check_polar_warm.h"
+#include "svd3/svd3_ref.h"
 #include "material/material_ref.h"
 #include "timer.h"
 #include "tradeoff.h"
@@ -129,20 +131,21 @@ static void *zeroed(size_t bytes) {
 
 // Times fn at every thread count and adds one point per count (p's other
 // fields already filled). 0 or < 0.
-static int time_and_add(ek_tradeoff *t, ek_bench_fn *fn, kernel_ctx *c, size_t items,
+// ctx is fn's context and *rc the kernel's return code it stores.
+static int time_and_add(ek_tradeoff *t, ek_bench_fn *fn, void *ctx, const int *rc, size_t items,
                         ek_tradeoff_point *p) {
   const ek_tradeoff_opts *o = ek_tradeoff_options(t);
   ek_timer_opts topts = timer_opts(o);
-  fn(c);
-  if (c->rc < 0) { // > 0: elements outside a model's domain, counted
-    fprintf(stderr, "ek tradeoff: %s %s: kernel returned %d: %s\n", p->family, p->setting, c->rc,
+  fn(ctx);
+  if (*rc < 0) { // > 0: elements outside a model's domain, counted
+    fprintf(stderr, "ek tradeoff: %s %s: kernel returned %d: %s\n", p->family, p->setting, *rc,
             ek_last_error());
     return -1;
   }
   for (int k = 0; k < o->nthread_counts; k++) {
     omp_set_num_threads(o->thread_counts[k]);
     ek_timing timing;
-    if (ek_time(fn, c, items, &topts, &timing) != 0)
+    if (ek_time(fn, ctx, items, &topts, &timing) != 0)
       return -1;
     p->threads = o->thread_counts[k];
     p->time_median = timing.stats.median;
@@ -251,7 +254,7 @@ static int map_svd(ek_tradeoff *t, int bits, const ek_svd3_set *set, ek_isa auto
             ek_tradeoff_distribution(err, m, &p);
             c.polar = polar;
             c.opts = opts;
-            rc = time_and_add(t, call_svd, &c, nt, &p);
+            rc = time_and_add(t, call_svd, &c, &c.rc, nt, &p);
           }
     }
   ek_free(c.A), ek_free(c.U), ek_free(c.S), ek_free(c.V);
@@ -346,7 +349,7 @@ static int map_pk1(ek_tradeoff *t, int bits, ek_isa auto_isa) {
       ek_tradeoff_distribution(err, m, &p);
       c.mat = &mat;
       c.isa = (ek_isa)isa;
-      rc = time_and_add(t, call_pk1, &c, nt, &p);
+      rc = time_and_add(t, call_pk1, &c, &c.rc, nt, &p);
     }
   }
   free(F), free(R), free(dF), free(ref), free(out), free(err);
@@ -357,12 +360,130 @@ static int map_pk1(ek_tradeoff *t, int bits, ek_isa auto_isa) {
 
 // ---- the kernel part -------------------------------------------------------
 
+// ---- rotation: the SVD polar vs the warm-started polar ------------------------
+
+static const char *const rotation_metric =
+    "max_ij |R - R_ref|, R_ref the LAPACK polar of A rounded to the precision (ek-verify's "
+    "polar_warm rdiff)";
+
+typedef struct {
+  int f64;
+  size_t nblocks;
+  void *A, *R;
+  ek_polar_warm_opts opts;
+  int rc;
+} warm_ctx;
+
+static void call_warm(void *p) {
+  warm_ctx *c = p;
+  // R is the guess and the answer: a fixed number of iterations, so the
+  // cost does not depend on how close the guess already is.
+  c->rc = c->f64 ? ek_polar3_warm_aosoa_f64(c->nblocks, c->A, c->R, &c->opts)
+                 : ek_polar3_warm_aosoa_f32(c->nblocks, c->A, c->R, &c->opts);
+  ek_do_not_optimize(c->R);
+}
+
+// Errors of n rotations R against the LAPACK polar of A rounded to bits.
+static long rotation_errors(int bits, size_t n, const double *A, const double *R, double *err) {
+  for (size_t e = 0; e < n; e++) {
+    double a[9], Rr[9];
+    for (int i = 0; i < 9; i++)
+      a[i] = bits == 32 ? (double)(float)A[e * 9 + i] : A[e * 9 + i];
+    ek_polar3_ref(a, Rr, NULL);
+    double d = ek_check_rdiff9(R + e * 9, Rr);
+    err[e] = d == d ? d : INFINITY;
+  }
+  return (long)n;
+}
+
+#define WARM_MAX_ITERATIONS 4
+
+// One family "rotation": on ek-verify's polar_warm "random" inputs (A = R*
+// S, s in [0.5, 2], a guess within 10 degrees of R*), the SVD polar at its
+// default and at McAdams' setting (no guess needed) and the warm polar at
+// 1..WARM_MAX_ITERATIONS iterations from the guess, per precision and ISA.
 int ek_tradeoff_polar_warm(ek_tradeoff *t) {
-  // Polar from the SVD vs a warm-started rotation (the fast polar path of
-  // the performance issue): lands from another branch; this hook adds its
-  // points then ("polar3_warm", error against the same LAPACK reference).
-  (void)t;
-  return 0;
+  const ek_tradeoff_opts *o = ek_tradeoff_options(t);
+  ek_isa auto_isa;
+  if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
+    return -1;
+  const size_t n = (size_t)o->n, nt = n < CACHE_BATCH ? n : CACHE_BATCH;
+  double *A = malloc(n * 9 * sizeof *A), *G = malloc(n * 9 * sizeof *G);
+  double *R = malloc(n * 9 * sizeof *R), *S = malloc(n * 9 * sizeof *S);
+  double *err = malloc(n * sizeof *err);
+  int rc = A && G && R && S && err ? 0 : -1;
+  if (rc)
+    fprintf(stderr, "ek tradeoff: out of memory (rotation, %zu matrices)\n", n);
+  else {
+    ek_rng rng;
+    ek_rng_seed(&rng, ek_check_stream_seed(o->seed, "random"));
+    ek_check_warm_cases(&rng, n, 0.5, 2, 0, 10, A, G);
+  }
+  for (int bits = 32; bits <= 64 && rc == 0; bits += 32) {
+    const int f64 = bits == 64;
+    const size_t lanes = f64 ? EK_LANES_F64 : EK_LANES_F32, sz = f64 ? 8 : 4;
+    const size_t nblocks = (nt + lanes - 1) / lanes;
+    const int def_it =
+        f64 ? ek_polar_warm_default_iterations_f64() : ek_polar_warm_default_iterations_f32();
+    const double budget = f64 ? EK_POLAR_WARM_TOL_F64 : EK_POLAR_WARM_TOL_F32;
+    kernel_ctx c = {.f64 = f64, .polar = 1, .nblocks = nblocks};
+    warm_ctx w = {.f64 = f64, .nblocks = nblocks};
+    c.A = w.A = pack(f64, nt, A);
+    w.R = pack(f64, nt, G);
+    c.U = zeroed(nblocks * lanes * 9 * sz), c.V = zeroed(nblocks * lanes * 9 * sz);
+    if (!c.A || !w.R || !c.U || !c.V) {
+      fprintf(stderr, "ek tradeoff: out of memory (rotation)\n");
+      rc = -1;
+    }
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT && rc == 0; isa++) {
+      if (!isa_selected(o, isa))
+        continue;
+      // -2: the SVD polar, McAdams' setting; -1: the SVD polar, default;
+      // 1..: the warm polar at that many iterations.
+      for (int it = -2; it <= WARM_MAX_ITERATIONS && rc == 0; it++) {
+        if (it == 0)
+          continue;
+        char setting[256];
+        ek_tradeoff_point p = {.family = "rotation",
+                               .setting = setting,
+                               .time_unit = "ns/matrix",
+                               .error_metric = rotation_metric,
+                               .budget = budget,
+                               .energy_drift = NAN};
+        int krc;
+        if (it < 0) {
+          ek_svd3_opts so = {.isa = (ek_isa)isa};
+          if (it == -2)
+            so.sweeps = 4, so.exact_rsqrt = -1, so.refine = EK_SVD3_REFINE_NONE;
+          snprintf(setting, sizeof setting, "precision=f%d;method=svd;isa=%s;label=%s", bits,
+                   ek_isa_name((ek_isa)isa), it == -2 ? "mcadams2011" : "svd_default");
+          ek_tradeoff_progress(t, "rotation %s", setting);
+          krc = ek_check_run_svd3(bits, 1, n, A, R, NULL, S, &so);
+          c.opts = so;
+        } else {
+          snprintf(setting, sizeof setting, "precision=f%d;method=warm;iterations=%d;isa=%s%s",
+                   bits, it, ek_isa_name((ek_isa)isa), it == def_it ? ";label=default" : "");
+          ek_tradeoff_progress(t, "rotation %s", setting);
+          memcpy(R, G, n * 9 * sizeof *R);
+          krc = ek_check_run_polar_warm(bits, 1, n, A, R, (ek_isa)isa, it);
+          w.opts = (ek_polar_warm_opts){.iterations = it, .isa = (ek_isa)isa};
+          p.is_default = it == def_it && isa == (int)auto_isa;
+        }
+        if (krc) {
+          fprintf(stderr, "ek tradeoff: rotation %s: kernel returned %d: %s\n", setting, krc,
+                  ek_last_error());
+          rc = -1;
+          break;
+        }
+        ek_tradeoff_distribution(err, rotation_errors(bits, n, A, R, err), &p);
+        rc = it < 0 ? time_and_add(t, call_svd, &c, &c.rc, nt, &p)
+                    : time_and_add(t, call_warm, &w, &w.rc, nt, &p);
+      }
+    }
+    ek_free(c.A), ek_free(w.R), ek_free(c.U), ek_free(c.V);
+  }
+  free(A), free(G), free(R), free(S), free(err);
+  return rc;
 }
 
 int ek_tradeoff_kernels(ek_tradeoff *t) {
@@ -380,7 +501,7 @@ int ek_tradeoff_kernels(ek_tradeoff *t) {
         auto_isa = (ek_isa)isa; // ascending: the last one selected is the best
   int nisa = count_isas(o);
   ek_tradeoff_expect(t, 2 * 2 * nisa * MAX_SWEEPS * 2 * (EK_SVD3_MAX_REFINE + 1) +
-                            2 * EK_MODEL_COUNT * nisa);
+                            2 * EK_MODEL_COUNT * nisa + 2 * nisa * (2 + WARM_MAX_ITERATIONS));
   int rc = 0;
   for (int bits = 32; bits <= 64 && rc == 0; bits += 32) {
     // ek-verify's random set of this precision, with its LAPACK reference.
