@@ -358,6 +358,12 @@ static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *
       e = fmax(e, fabs(S[3 * i + j] - Sr[j]) / s1);
     const double *Sx = s->S_ref + 3 * i;
     double gap = fmin(Sx[0] - Sx[1], Sx[1] - fabs(Sx[2]));
+    // Without refinement the kernel is Jacobi on A^T A alone: its S, U and V
+    // carry the rounding differences times the squared condition number
+    // (seen: 8e-11 on two_small, 1.6e-12 on ill_cond_1e3), so the replica
+    // check holds there only for s3 >= 1e-2 s1 (kappa^2 eps <= 2e-12).
+    if (k.refine == 0 && fabs(Sx[2]) < 1e-2 * s1)
+      continue;
     if (gap > EK_SVD3_REPLICA_GAP * s1)
       for (int j = 0; j < 9; j++)
         e = fmax(e, fmax(fabs(U[9 * i + j] - Ur[j]), fabs(V[9 * i + j] - Vr[j])));
