@@ -15,6 +15,8 @@ typedef struct {
   int exact_rsqrt; // 1: 1/sqrt, 0: estimate + Newton
   int polar;       // 0: write U, S, V; 1: write R = U V^T into U and
                    // Ssym = V S V^T into V (S untouched)
+  int aos;         // 0: AoSoA blocks; 1: AoS matrices (svd3_block's count
+                   // is then the number of matrices, U and V may be NULL)
 } ek_svd3_knobs;
 
 // Defaults of the SVD knobs per precision (what opts zeroed means).
@@ -27,7 +29,8 @@ int ek_svd3_knobs_from_f32(const char *fn, int sweeps, int exact_rsqrt, int refi
 int ek_svd3_knobs_from_f64(const char *fn, int sweeps, int exact_rsqrt, int refine,
                            ek_svd3_knobs *k);
 
-// svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes.
+// svd3_block: nblocks AoSoA blocks; A, U, V 9 planes, S 3 planes (with
+// knobs.aos: nblocks AoS matrices, 9 + 9 + 3 + 9 reals each).
 typedef void ek_svd3_block_f32_fn(size_t nblocks, const float *A, float *U, float *S, float *V,
                                   const ek_svd3_knobs *k);
 typedef void ek_svd3_block_f64_fn(size_t nblocks, const double *A, double *U, double *S, double *V,

@@ -6,7 +6,9 @@
 // result of a matrix does not depend on its position or on the batch size
 // (AoS and AoSoA entry points agree bit for bit, tails included); ISAs agree
 // within the budget and the f64 kernels agree with the scalar replica of the
-// algorithm (ek_svd3_mcadams_ref, same knobs) within EK_SVD3_REPLICA_TOL;
+// algorithm (ek_svd3_mcadams_ref, same knobs) within EK_SVD3_REPLICA_TOL,
+// at the default refine and at refine none, 1 and 3; U and V not wanted
+// (NULL) leave S's bits as they are, and so does a NULL Ssym for R;
 // ek_polar3_* gives a rotation R and a symmetric Ssym with R Ssym = A; an
 // invalid option returns rc < 0 and writes nothing; 1 and 2 threads give the
 // same bits. Non-default options (approximate rsqrt, other sweeps) are the
@@ -143,6 +145,30 @@ static int same_bits(const double *a, const double *b, size_t n) {
   return memcmp(a, b, n * sizeof *a) == 0 || n == 0;
 }
 
+// AoS entry points on double data with U, S, V (polar: R, -, Ssym) that
+// may be NULL (f32 converted).
+static int run_svd3_some(int bits, int polar, size_t n, const double *A, double *U, double *S,
+                         double *V, const ek_svd3_opts *o) {
+  if (bits == 64)
+    return polar ? ek_polar3_f64(n, A, U, V, o) : ek_svd3_f64(n, A, U, S, V, o);
+  float *a = ek_check_malloc(9 * n * sizeof(float) + 1);
+  float *u = U ? ek_check_malloc(9 * n * sizeof(float) + 1) : NULL;
+  float *s = S ? ek_check_malloc(3 * n * sizeof(float) + 1) : NULL;
+  float *v = V ? ek_check_malloc(9 * n * sizeof(float) + 1) : NULL;
+  ek_check_to_f32(9 * n, A, a);
+  int rc = polar ? ek_polar3_f32(n, a, u, v, o) : ek_svd3_f32(n, a, u, s, v, o);
+  if (rc == 0) {
+    if (U)
+      ek_check_from_f32(9 * n, u, U);
+    if (S)
+      ek_check_from_f32(3 * n, s, S);
+    if (V)
+      ek_check_from_f32(9 * n, v, V);
+  }
+  free(a), free(u), free(s), free(v);
+  return rc;
+}
+
 // AoSoA entry point on double data: pack, run, unpack (f32 converted).
 static int run_aosoa(int bits, size_t n, const double *A, double *U, double *S, double *V,
                      const ek_svd3_opts *o, double *pad_worst) {
@@ -237,6 +263,22 @@ static void tails(int bits, ek_isa isa, const ek_svd3_set *random) {
     }
     pad_worst_all = fmax(pad_worst_all, pad_worst);
   }
+  // U and V not wanted (NULL): S the same bits; polar without Ssym: R the
+  // same bits as with it.
+  {
+    size_t n = n_full;
+    int ok =
+        run_svd3_some(bits, 0, n, random->A, NULL, S, NULL, &o) == 0 && same_bits(S, S0, 3 * n);
+    double *R0 = ek_check_malloc(9 * n * sizeof(double)),
+           *P0 = ek_check_malloc(9 * n * sizeof(double));
+    ok &= ek_check_run_svd3(bits, 1, n, random->A, R0, NULL, P0, &o) == 0 &&
+          run_svd3_some(bits, 1, n, random->A, U, NULL, NULL, &o) == 0 && same_bits(U, R0, 9 * n);
+    if (!ok) {
+      printf("FAIL tails %s f%d: NULL outputs change the others\n", ek_isa_name(isa), bits);
+      bad++;
+    }
+    free(R0), free(P0);
+  }
   printf("tails %s f%d: sizes 0 1 %zu %zu %zu %zu 17 %zu, AoS and AoSoA bit-identical to one "
          "batch: %s\n",
          ek_isa_name(isa), bits, W - 1, W + 1, L - 1, L + 1, n_full, bad ? "FAIL" : "PASS");
@@ -288,21 +330,24 @@ static void nan_isolation(int bits, ek_isa isa, const ek_svd3_set *random) {
 }
 
 // ---- ISA agreement, and f64 kernels vs the replica ----
-static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *S_scalar, double *U,
-                      double *S, double *V) {
-  ek_svd3_opts o = {.isa = isa};
+// refine: the option (0 = default); S_scalar: NULL to skip the ISA check.
+static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *S_scalar,
+                      int refine, double *U, double *S, double *V) {
+  ek_svd3_opts o = {.isa = isa, .refine = refine};
   if (ek_check_run_svd3(bits, 0, s->n, s->A, U, S, V, &o) != 0) {
     failures++;
     return;
   }
   double worst = 0, worst_rep = 0;
   ek_svd3_knobs k = ek_svd3_default_knobs_f64();
+  if (refine)
+    k.refine = refine == EK_SVD3_REFINE_NONE ? 0 : refine;
   int shown = 0;
   for (size_t i = 0; i < s->n; i++) {
     if (s->bad[i])
       continue;
     double s1 = s->S_ref[3 * i] > 0 ? s->S_ref[3 * i] : 1;
-    for (int j = 0; j < 3; j++)
+    for (int j = 0; j < 3 && S_scalar; j++)
       worst = fmax(worst, fabs(S[3 * i + j] - S_scalar[3 * i + j]) / s1);
     if (bits != 64)
       continue;
@@ -313,6 +358,12 @@ static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *
       e = fmax(e, fabs(S[3 * i + j] - Sr[j]) / s1);
     const double *Sx = s->S_ref + 3 * i;
     double gap = fmin(Sx[0] - Sx[1], Sx[1] - fabs(Sx[2]));
+    // Without refinement the kernel is Jacobi on A^T A alone: its S, U and V
+    // carry the rounding differences times the squared condition number
+    // (seen: 8e-11 on two_small, 1.6e-12 on ill_cond_1e3), so the replica
+    // check holds there only for s3 >= 1e-2 s1 (kappa^2 eps <= 2e-12).
+    if (k.refine == 0 && fabs(Sx[2]) < 1e-2 * s1)
+      continue;
     if (gap > EK_SVD3_REPLICA_GAP * s1)
       for (int j = 0; j < 9; j++)
         e = fmax(e, fmax(fabs(U[9 * i + j] - Ur[j]), fabs(V[9 * i + j] - Vr[j])));
@@ -325,10 +376,18 @@ static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *
     worst_rep = fmax(worst_rep, isnan(e) ? INFINITY : e);
   }
   char label[128];
-  snprintf(label, sizeof label, "S agreement %s vs scalar f%d %s", ek_isa_name(isa), bits, s->name);
-  failures += ek_check_report(label, worst, budget_of(bits));
+  if (S_scalar) {
+    snprintf(label, sizeof label, "S agreement %s vs scalar f%d %s", ek_isa_name(isa), bits,
+             s->name);
+    failures += ek_check_report(label, worst, budget_of(bits));
+  }
   if (bits == 64) {
-    snprintf(label, sizeof label, "replica agreement %s f64 %s", ek_isa_name(isa), s->name);
+    char knob[32] = "";
+    if (refine == EK_SVD3_REFINE_NONE)
+      snprintf(knob, sizeof knob, " refine=none");
+    else if (refine > 0)
+      snprintf(knob, sizeof knob, " refine=%d", refine);
+    snprintf(label, sizeof label, "replica agreement %s f64%s %s", ek_isa_name(isa), knob, s->name);
     failures += ek_check_report(label, worst_rep, EK_SVD3_REPLICA_TOL);
   }
 }
@@ -512,7 +571,13 @@ int main(int argc, char **argv) {
           accuracy(bits, (ek_isa)isa, &sets[k], &o, trades[t].name, 1, 0, U, S, V);
         }
       for (int k = 0; k < nsets; k++)
-        agreement(bits, (ek_isa)isa, &sets[k], S_scalar[k], U, S, V);
+        agreement(bits, (ek_isa)isa, &sets[k], S_scalar[k], 0, U, S, V);
+      // The refine knob against the replica run with the same knobs (f64:
+      // the replica is exact to ~1e-12 only in double).
+      static const int refine_knobs[] = {EK_SVD3_REFINE_NONE, 1, 3};
+      for (size_t r = 0; bits == 64 && r < sizeof refine_knobs / sizeof refine_knobs[0]; r++)
+        for (int k = 0; k < nsets; k++)
+          agreement(bits, (ek_isa)isa, &sets[k], NULL, refine_knobs[r], U, S, V);
       tails(bits, (ek_isa)isa, &sets[0]);
       nan_isolation(bits, (ek_isa)isa, &sets[0]);
       threads(bits, (ek_isa)isa, &sets[0]);

@@ -1,5 +1,6 @@
 // ek-verify family "svd3": every ISA x precision x sweeps x rsqrt variant of
-// ek_svd3_* and the default and approximate ek_polar3_* against LAPACK
+// ek_svd3_*, the refine knob (none, 1, 3) at the default sweeps, and the
+// default and approximate ek_polar3_* against LAPACK
 // dgesvd (reference/svd3/svd3_ref.c) on a random set and every family of
 // the extremes catalogue. Budgets: EK_SVD3_TOL_F32 / _F64, for the default
 // options; the other rows are the speed/accuracy trade.
@@ -104,13 +105,17 @@ static void row_add(ek_verify_row *row, const set_result *r, size_t count, const
 // One variant (sweeps, rsqrt) of svd3 or polar3 on one ISA and precision.
 // Default options: one row per input set. Others: a "random" row and an
 // "extremes" row (worst family named).
+// refine: the option (0 = default; EK_SVD3_REFINE_NONE, 1..3), named in the
+// variant when not the default.
 static int run_variant(ek_verify_ctx *ctx, int bits, ek_isa isa, int polar, int sweeps, int rsqrt,
-                       ek_svd3_set *sets, int nsets, double *U, double *S, double *V) {
+                       int refine, ek_svd3_set *sets, int nsets, double *U, double *S, double *V) {
   const char *kernel = polar ? "polar3" : "svd3";
   double budget = bits == 32 ? EK_SVD3_TOL_F32 : EK_SVD3_TOL_F64;
   // Judged: the default sweeps with either rsqrt mode (both are meant to
-  // meet the budget); other sweep counts are the reported trade.
-  int is_default = sweeps == 0;
+  // meet the budget), with the default refinement or more; other sweep
+  // counts and less refinement are the reported trade.
+  int def_refine = bits == 32 ? ek_svd3_default_refine_f32() : ek_svd3_default_refine_f64();
+  int is_default = sweeps == 0 && (refine == 0 || refine >= def_refine);
   char variant[96], sw[16];
   if (sweeps)
     snprintf(sw, sizeof sw, "%d", sweeps);
@@ -119,9 +124,14 @@ static int run_variant(ek_verify_ctx *ctx, int bits, ek_isa isa, int polar, int 
   int exact =
       rsqrt ? rsqrt > 0
             : (bits == 32 ? ek_svd3_default_exact_rsqrt_f32() : ek_svd3_default_exact_rsqrt_f64());
-  snprintf(variant, sizeof variant, "%s f%d sweeps=%s rsqrt=%s%s", ek_isa_name(isa), bits, sw,
-           exact ? "exact" : "approx", rsqrt ? "" : "(def)");
-  ek_svd3_opts o = {.sweeps = sweeps, .exact_rsqrt = rsqrt, .isa = isa};
+  char rf[24] = "";
+  if (refine == EK_SVD3_REFINE_NONE)
+    snprintf(rf, sizeof rf, " refine=none");
+  else if (refine)
+    snprintf(rf, sizeof rf, " refine=%d", refine);
+  snprintf(variant, sizeof variant, "%s f%d sweeps=%s rsqrt=%s%s%s", ek_isa_name(isa), bits, sw,
+           exact ? "exact" : "approx", rsqrt ? "" : "(def)", rf);
+  ek_svd3_opts o = {.sweeps = sweeps, .exact_rsqrt = rsqrt, .isa = isa, .refine = refine};
   int errors = 0;
   ek_verify_row agg[2];
   fill_row(&agg[0], kernel, variant, "random", polar, budget, !is_default);
@@ -129,7 +139,7 @@ static int run_variant(ek_verify_ctx *ctx, int bits, ek_isa isa, int polar, int 
   int used[2] = {0, 0};
   for (int k = 0; k < nsets; k++) {
     int which = k == 0 ? 0 : 1;
-    int per_set = is_default && !polar;
+    int per_set = is_default && !polar && !refine;
     const char *label = per_set || which == 0 ? sets[k].name : "extremes";
     if (!ek_verify_selected(ctx, kernel, variant, label))
       continue;
@@ -192,10 +202,15 @@ int verify_svd3(ek_verify_ctx *ctx) {
       for (int si = 0; si < nsw; si++) {
         int sweeps = quick ? quick_sweeps[si] : si;
         for (int rsqrt = 1; rsqrt >= -1; rsqrt--)
-          errors += run_variant(ctx, bits, (ek_isa)isa, 0, sweeps, rsqrt, sets, nsets, U, S, V);
+          errors += run_variant(ctx, bits, (ek_isa)isa, 0, sweeps, rsqrt, 0, sets, nsets, U, S, V);
       }
+      // The refine knob at the default sweeps and rsqrt: none (McAdams et
+      // al. 2011's algorithm at these sweeps), 1, and the most (judged).
+      static const int refines[] = {EK_SVD3_REFINE_NONE, 1, EK_SVD3_MAX_REFINE};
+      for (int r = 0; r < 3; r++)
+        errors += run_variant(ctx, bits, (ek_isa)isa, 0, 0, 0, refines[r], sets, nsets, U, S, V);
       for (int rsqrt = 1; rsqrt >= -1; rsqrt--)
-        errors += run_variant(ctx, bits, (ek_isa)isa, 1, 0, rsqrt, sets, nsets, U, S, V);
+        errors += run_variant(ctx, bits, (ek_isa)isa, 1, 0, rsqrt, 0, sets, nsets, U, S, V);
     }
     free(U), free(S), free(V);
     for (int k = 0; k < nsets; k++)

@@ -30,6 +30,7 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_ps(a, 
 static inline vreal vrsqrt(vreal a) {
   return _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(a));
 }
+static inline vreal vrsqrt_raw(vreal a) { return _mm256_rsqrt_ps(a); }
 static inline vreal vrsqrt_est(vreal a) {
   // One Newton step y' = y (1.5 - 0.5 a y^2) on the 12-bit estimate.
   vreal y = _mm256_rsqrt_ps(a);
@@ -73,6 +74,10 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_pd(a, 
 static inline vreal vrsqrt(vreal a) {
   return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a));
 }
+// The double "raw" estimate is the refined one: a 12-bit double estimate
+// would cost as much as the Newton steps it saves.
+static inline vreal vrsqrt_est(vreal a);
+static inline vreal vrsqrt_raw(vreal a) { return vrsqrt_est(a); }
 static inline vreal vrsqrt_est(vreal a) {
   // AVX2 has no double estimate: take the 12-bit float one on a = m 2^(2k),
   // m in [1, 4) (so any positive normal double works, not only float's
@@ -116,6 +121,16 @@ static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm256_fmsub_pd(a, 
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm256_fnmadd_pd(a, b, c); }
 #endif
 static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
+static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return vsel(m, vneg(a), b); }
+#if defined(EK_REAL_F32)
+static inline vreal vxorsign(vreal y, vreal x) {
+  return _mm256_xor_ps(y, _mm256_and_ps(x, _mm256_set1_ps(-0.0f)));
+}
+#else
+static inline vreal vxorsign(vreal y, vreal x) {
+  return _mm256_xor_pd(y, _mm256_and_pd(x, _mm256_set1_pd(-0.0)));
+}
+#endif
 
 // vmant_exp(x, &e): x = m 2^e with m in [1, 2) and e an integer (as a
 // vreal), for positive normal x only (subnormal, zero, negative, inf, NaN

@@ -30,6 +30,7 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_ps(a, 
 static inline vreal vrsqrt(vreal a) {
   return _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(a));
 }
+static inline vreal vrsqrt_raw(vreal a) { return _mm512_rsqrt14_ps(a); }
 static inline vreal vrsqrt_est(vreal a) {
   // One Newton step on the 14-bit estimate.
   vreal y = _mm512_rsqrt14_ps(a);
@@ -66,6 +67,7 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_pd(a, 
 static inline vreal vrsqrt(vreal a) {
   return _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_sqrt_pd(a));
 }
+static inline vreal vrsqrt_raw(vreal a) { return _mm512_rsqrt14_pd(a); }
 static inline vreal vrsqrt_est(vreal a) {
   // Two Newton steps on the 14-bit estimate (14 -> 28 -> 56 bits).
   vreal y = _mm512_rsqrt14_pd(a);
@@ -92,6 +94,25 @@ static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_pd(a, 
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_pd(a, b, c); }
 #endif
 static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
+// One masked XOR each: -a where m, else b; y with its sign flipped where x has
+// its sign bit set (vpternlog (s & x) ^ y, truth table 0x6a).
+#if defined(EK_REAL_F32)
+static inline vreal vsel_neg(vmask m, vreal a, vreal b) {
+  return _mm512_mask_xor_ps(b, m, a, _mm512_set1_ps(-0.0f));
+}
+static inline vreal vxorsign(vreal y, vreal x) {
+  return _mm512_castsi512_ps(_mm512_ternarylogic_epi32(
+      _mm512_set1_epi32(INT32_MIN), _mm512_castps_si512(x), _mm512_castps_si512(y), 0x6a));
+}
+#else
+static inline vreal vsel_neg(vmask m, vreal a, vreal b) {
+  return _mm512_mask_xor_pd(b, m, a, _mm512_set1_pd(-0.0));
+}
+static inline vreal vxorsign(vreal y, vreal x) {
+  return _mm512_castsi512_pd(_mm512_ternarylogic_epi64(
+      _mm512_set1_epi64(INT64_MIN), _mm512_castpd_si512(x), _mm512_castpd_si512(y), 0x6a));
+}
+#endif
 static inline vmask vmand(vmask a, vmask b) { return a & b; }
 static inline vmask vmor(vmask a, vmask b) { return a | b; }
 static inline vmask vmnot(vmask a) { return (vmask)~a; }

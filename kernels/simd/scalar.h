@@ -38,6 +38,7 @@ static inline vreal vmls(vreal a, vreal b, vreal c) { return a * b - c; }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return c - a * b; }
 static inline vreal vrsqrt(vreal a) { return 1 / vsqrt(a); }
 static inline vreal vrsqrt_est(vreal a) { return 1 / vsqrt(a); }
+static inline vreal vrsqrt_raw(vreal a) { return 1 / vsqrt(a); }
 
 static inline vmask vlt(vreal a, vreal b) { return a < b; }
 static inline vmask vle(vreal a, vreal b) { return a <= b; }
@@ -49,6 +50,8 @@ static inline vmask vmand(vmask a, vmask b) { return a && b; }
 static inline vmask vmor(vmask a, vmask b) { return a || b; }
 static inline vmask vmnot(vmask a) { return !a; }
 static inline vreal vsel(vmask m, vreal a, vreal b) { return m ? a : b; }
+static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return m ? -a : b; }
+static inline vreal vxorsign(vreal y, vreal x) { return signbit(x) ? -y : y; }
 static inline int vany(vmask m) { return m; }
 static inline int vall(vmask m) { return m; }
 

@@ -14,12 +14,21 @@
 //   vrsqrt_est(x) = hardware estimate + Newton steps (1 for float, 2 for
 //                   double); relative error ~1e-7 (f32) / ~1e-14 (f64);
 //                   valid for positive normal x; exact on the scalar target
+//   vrsqrt_raw(x) = the hardware estimate alone: relative error <= 2^-14
+//                   (AVX-512), 1.5 2^-12 (AVX2 float); vrsqrt_est where the
+//                   target has no cheaper one (AVX2 double), exact on scalar
+//   vsel_neg(m, a, b) = m ? -a : b
+//   vxorsign(y, x) = y with its sign flipped where x's sign bit is set
 //   vlt vle vgt vge veq (-> vmask), visfinite(x), vmand vmor vmnot
 //   vsel(m, a, b) = m ? a : b,  vany(m), vall(m)
 //   vmant_exp(x, &e) = m with x = m 2^e, m in [1, 2) (positive normal x)
 //   vgather_points(x, idx, p) = the 3 coordinates of points x[idx[l]]
 //                 (n x 3 array, int32 indices); mask: lanes with idx < 0
 //   vgather(x, idx) = x[idx[l]] per lane (x[0] where idx < 0)
+//   vload_records(p, np, planes) / vstore_records(p, np, planes): EK_W
+//                 consecutive records of np reals (AoS, np <= 9) from / to
+//                 np vectors, one per field (the AoS <-> AoSoA transpose of
+//                 one vector of records, through L1)
 //
 // EK_SYM(name) names a kernel for this build: ek_<name>_<isa>_<prec>.
 #ifndef EK_SIMD_H
@@ -46,5 +55,29 @@
 
 // Vectors per AoSoA plane: narrower targets walk a 64-byte plane in steps.
 #define EK_VPB (EK_LANES / EK_W)
+
+// The record transposes, written once for every target through a tile of
+// np planes in L1: the records are copied field by field between p and the
+// tile, the planes move as whole vectors. (Measured on Zen 4, AVX-512 float:
+// 16-lane gathers for the loads cost as much as this; gathering the output
+// runs from a just-stored tile cost 2x more: the gathers wait for the
+// stores; README, "The AoS API".)
+#define EK_RECORD_MAX 9
+static inline void vload_records(const real *p, int np, vreal *planes) {
+  real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
+  for (int l = 0; l < EK_W; l++)
+    for (int k = 0; k < np; k++)
+      tile[k * EK_W + l] = p[l * np + k];
+  for (int k = 0; k < np; k++)
+    planes[k] = vload(tile + k * EK_W);
+}
+static inline void vstore_records(real *p, int np, const vreal *planes) {
+  real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
+  for (int k = 0; k < np; k++)
+    vstore(tile + k * EK_W, planes[k]);
+  for (int l = 0; l < EK_W; l++)
+    for (int k = 0; k < np; k++)
+      p[l * np + k] = tile[k * EK_W + l];
+}
 
 #endif

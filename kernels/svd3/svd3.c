@@ -25,8 +25,9 @@ typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define DEFAULT_EXACT_RSQRT 1 // the estimate leaves ~1e-13, too close to 1e-12
 #endif
 
-// Blocks per OpenMP work item, and per AoS staging chunk: 32 blocks of
-// 16 float matrices keep A, U, S, V of one chunk (~60 KB) in L2.
+// Blocks per OpenMP work item (AoSoA), and matrices per AoS work item
+// (32 blocks' worth): 32 blocks of 16 float matrices keep A, U, S, V of one
+// chunk (~60 KB) in L2.
 #define CHUNK_BLOCKS 32
 
 ek_svd3_knobs EK_P(svd3_default_knobs)(void) {
@@ -96,45 +97,21 @@ static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real
   }
 }
 
-// AoS path: each thread packs a chunk into its own AoSoA staging buffers,
-// runs the kernel there and unpacks, so no batch-sized copy is ever made.
+// AoS path: the kernel reads and writes the AoS arrays itself, transposing
+// in registers (svd3_block.c, k->aos), so nothing is staged or copied.
+// Chunks of whole blocks (a multiple of EK_W): every vector of a chunk is
+// full except at the very end of the batch.
 static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real *S, real *V,
                    const ek_svd3_knobs *k) {
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *a = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    real *u = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    real *s = ek_alloc(CHUNK_BLOCKS * 3 * EK_LANES * sizeof(real));
-    real *v = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    int ok = a && u && s && v;
-    if (!ok) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-        size_t nb = (m + EK_LANES - 1) / EK_LANES;
-        EK_P(aosoa_pack)(m, 9, A + 9 * i0, a);
-        block(nb, a, u, s, v, k);
-        if (U)
-          EK_P(aosoa_unpack)(m, 9, u, U + 9 * i0);
-        if (S && !k->polar)
-          EK_P(aosoa_unpack)(m, 3, s, S + 3 * i0);
-        if (V)
-          EK_P(aosoa_unpack)(m, 9, v, V + 9 * i0);
-      }
-    }
-    ek_free(a), ek_free(u), ek_free(s), ek_free(v);
-  }
-  if (failed) {
-    ek_set_error("ek_svd3: out of memory for staging buffers");
-    return EK_ENOMEM;
+  ek_svd3_knobs ka = *k;
+  ka.aos = 1;
+#pragma omp parallel for schedule(static) if (nchunks > 1)
+  for (size_t c = 0; c < nchunks; c++) {
+    size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
+    block(m, A + 9 * i0, U ? U + 9 * i0 : NULL, S && !k->polar ? S + 3 * i0 : NULL,
+          V ? V + 9 * i0 : NULL, &ka);
   }
   return EK_OK;
 }

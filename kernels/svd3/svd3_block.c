@@ -1,44 +1,60 @@
 // SVD / polar decomposition of whole AoSoA blocks (layout in
-// include/ek/batch.h). The blocks are a sequence of vectors of EK_W lanes
-// (EK_VPB per block); SVD3_IL vectors go through the SVD side by side.
+// include/ek/batch.h), or of AoS matrices (k->aos). The blocks are a
+// sequence of vectors of EK_W lanes (EK_VPB per block); SVD3_IL vectors go
+// through the SVD side by side. A lane's result depends on its matrix only,
+// so both layouts give the same bits.
 #include "simd/simd.h"
 #include "svd3/svd3_core.h"
 
 // Independent vectors in flight (see svd3_core_n).
+#ifndef SVD3_IL
 #define SVD3_IL 2
+#endif
 
 // Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
 static inline size_t vec_offset(size_t j, int planes) {
   return (j / EK_VPB) * (size_t)planes * EK_LANES + (j % EK_VPB) * EK_W;
 }
 
-// n, exact and polar are compile-time constants at each call below, so
-// every combination gets its own straight-line code.
-EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V, int sweeps,
-                            int refine, int exact, int polar) {
-  vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9], scale[SVD3_MAX_N];
-  for (int j = 0; j < n; j++)
-    for (int i = 0; i < 9; i++)
-      a[j][i] = vload(A + vec_offset(j0 + j, 9) + (size_t)i * EK_LANES);
-  svd3_core_n(n, (const vreal(*)[9])a, u, s, w, scale, sweeps, refine, exact);
+// The SVD (polar: R and Ssym) of n vectors of matrices, outputs in
+// registers: u = U or R, s = S scaled back, w = V or Ssym. n, exact and
+// polar are compile-time constants at each call below, so every
+// combination gets its own straight-line code.
+EK_INLINE void svd3_solve(int n, const vreal (*a)[9], vreal (*u)[9], vreal (*s)[3], vreal (*w)[9],
+                          int sweeps, int refine, int exact, int polar) {
+  vreal scale[SVD3_MAX_N];
+  svd3_core_n(n, a, u, s, w, scale, sweeps, refine, exact);
   for (int j = 0; j < n; j++) {
-    size_t m9 = vec_offset(j0 + j, 9), m3 = vec_offset(j0 + j, 3);
     if (polar) {
       vreal r[9], p[9];
       svd3_polar(u[j], s[j], w[j], scale[j], r, p);
-      for (int i = 0; i < 9; i++) {
-        vstore(U + m9 + (size_t)i * EK_LANES, r[i]);
-        if (V)
-          vstore(V + m9 + (size_t)i * EK_LANES, p[i]);
-      }
+      for (int i = 0; i < 9; i++)
+        u[j][i] = r[i], w[j][i] = p[i];
     } else {
-      for (int i = 0; i < 9; i++) {
-        vstore(U + m9 + (size_t)i * EK_LANES, u[j][i]);
-        vstore(V + m9 + (size_t)i * EK_LANES, w[j][i]);
-      }
       for (int i = 0; i < 3; i++)
-        vstore(S + m3 + (size_t)i * EK_LANES, vmul(s[j][i], scale[j]));
+        s[j][i] = vmul(s[j][i], scale[j]);
     }
+  }
+}
+
+// AoSoA: vectors j0 .. j0 + n - 1 of the batch.
+EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V, int sweeps,
+                            int refine, int exact, int polar) {
+  vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
+  for (int j = 0; j < n; j++)
+    for (int i = 0; i < 9; i++)
+      a[j][i] = vload(A + vec_offset(j0 + j, 9) + (size_t)i * EK_LANES);
+  svd3_solve(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
+  for (int j = 0; j < n; j++) {
+    size_t m9 = vec_offset(j0 + j, 9), m3 = vec_offset(j0 + j, 3);
+    for (int i = 0; i < 9; i++) {
+      vstore(U + m9 + (size_t)i * EK_LANES, u[j][i]);
+      if (V)
+        vstore(V + m9 + (size_t)i * EK_LANES, w[j][i]);
+    }
+    if (!polar)
+      for (int i = 0; i < 3; i++)
+        vstore(S + m3 + (size_t)i * EK_LANES, s[j][i]);
   }
 }
 
@@ -51,17 +67,75 @@ EK_INLINE void svd3_blocks(size_t nblocks, const real *A, real *U, real *S, real
     svd3_vectors(1, j, A, U, S, V, sweeps, refine, exact, polar);
 }
 
-void EK_SYM(svd3_block)(size_t nblocks, const real *A, real *U, real *S, real *V,
+// AoS: the n * EK_W matrices from m0 on, transposed to and from registers
+// on the way in and out (vload_records, vstore_records). U, V (R, Ssym) may
+// be NULL; S is written in SVD mode only.
+EK_INLINE void svd3_aos_vectors(int n, size_t m0, const real *A, real *U, real *S, real *V,
+                                int sweeps, int refine, int exact, int polar) {
+  vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
+  for (int j = 0; j < n; j++)
+    vload_records(A + 9 * (m0 + (size_t)j * EK_W), 9, a[j]);
+  svd3_solve(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
+  for (int j = 0; j < n; j++) {
+    size_t m = m0 + (size_t)j * EK_W;
+    if (U)
+      vstore_records(U + 9 * m, 9, u[j]);
+    if (V)
+      vstore_records(V + 9 * m, 9, w[j]);
+    if (!polar)
+      vstore_records(S + 3 * m, 3, s[j]);
+  }
+}
+
+// AoS: n matrices; a last partial vector goes through a local copy padded
+// with the identity (so no lane reads or writes past the arrays).
+EK_INLINE void svd3_aos(size_t n, const real *A, real *U, real *S, real *V, int sweeps, int refine,
+                        int exact, int polar) {
+  size_t m = 0;
+  for (; m + SVD3_IL * EK_W <= n; m += SVD3_IL * EK_W)
+    svd3_aos_vectors(SVD3_IL, m, A, U, S, V, sweeps, refine, exact, polar);
+  for (; m + EK_W <= n; m += EK_W)
+    svd3_aos_vectors(1, m, A, U, S, V, sweeps, refine, exact, polar);
+  if (m == n)
+    return;
+  size_t tail = n - m;
+  real a[9 * EK_W], u[9 * EK_W], s[3 * EK_W], v[9 * EK_W];
+  for (size_t l = 0; l < EK_W; l++)
+    for (int i = 0; i < 9; i++)
+      a[9 * l + i] = l < tail ? A[9 * (m + l) + i] : (real)(i % 4 == 0);
+  svd3_aos_vectors(1, 0, a, u, s, v, sweeps, refine, exact, polar);
+  for (size_t l = 0; l < tail; l++) {
+    for (int i = 0; i < 9; i++) {
+      if (U)
+        U[9 * (m + l) + i] = u[9 * l + i];
+      if (V)
+        V[9 * (m + l) + i] = v[9 * l + i];
+    }
+    if (!polar)
+      for (int i = 0; i < 3; i++)
+        S[3 * (m + l) + i] = s[3 * l + i];
+  }
+}
+
+EK_INLINE void svd3_any(size_t count, const real *A, real *U, real *S, real *V, int sweeps,
+                        int refine, int exact, int polar, int aos) {
+  if (aos)
+    svd3_aos(count, A, U, S, V, sweeps, refine, exact, polar);
+  else
+    svd3_blocks(count, A, U, S, V, sweeps, refine, exact, polar);
+}
+
+void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
                         const ek_svd3_knobs *k) {
   if (k->polar) {
     if (k->exact_rsqrt)
-      svd3_blocks(nblocks, A, U, S, V, k->sweeps, k->refine, 1, 1);
+      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos);
     else
-      svd3_blocks(nblocks, A, U, S, V, k->sweeps, k->refine, 0, 1);
+      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
   } else {
     if (k->exact_rsqrt)
-      svd3_blocks(nblocks, A, U, S, V, k->sweeps, k->refine, 1, 0);
+      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 1, 0, k->aos);
     else
-      svd3_blocks(nblocks, A, U, S, V, k->sweeps, k->refine, 0, 0);
+      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
   }
 }

@@ -6,7 +6,8 @@
 // Singular Value Decomposition of 3x3 matrices with minimal branching and
 // elementary floating point operations", UW-Madison TR1690), with ek's
 // changes marked:
-//   0. non-finite lanes are computed as the identity and set to NaN at the end
+//   0. [ek] non-finite lanes are found from the trace of step 2 and set to
+//      NaN at the end
 //   1. [ek] scale A by 1/max|a_ij| (after a power-of-two prescale of tiny
 //      matrices) so A^T A neither overflows nor underflows
 //   2. S = A^T A
@@ -42,7 +43,32 @@
 #define SVD3_TINY2 ((real)1e-300)
 #endif
 
+// TINY = sqrt(TINY2), a normal number of the precision.
+#if defined(EK_REAL_F32)
+#define SVD3_TINY ((real)1e-18)
+#else
+#define SVD3_TINY ((real)1e-150)
+#endif
+
 EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt_est(x); }
+
+// 1/sqrt(x) where only the direction of a rotation depends on it, not its
+// orthogonality: the angle of a one-sided pair (step 5) and the Givens
+// half-angle of step 3 (whose rotations are accumulated in a quaternion
+// that step 4 normalises). In float with the approximate rsqrt the bare
+// hardware estimate is enough (relative error <= 2^-14 on AVX-512, 1.5 2^-12
+// on AVX2): an angle off by that fraction leaves an off-diagonal residue
+// that the following exact sweeps remove (measured: README, "Accuracy").
+#ifndef SVD3_ROUGH
+#define SVD3_ROUGH 1
+#endif
+EK_INLINE vreal svd3_rsq_angle(vreal x, int exact) {
+#if defined(EK_REAL_F32)
+  if (SVD3_ROUGH && !exact)
+    return vrsqrt_raw(x);
+#endif
+  return svd3_rsq(x, exact);
+}
 
 // Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
 // block of the symmetric S, conjugate S by it and append it to quaternion
@@ -60,7 +86,7 @@ EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k,
   vreal ch2 = vmul(ch, ch), sh2 = vmul(sh, sh), n2 = vadd(ch2, sh2);
   vmask exact_angle = vlt(vmul(vset(gamma), sh2), ch2);
   vmask negligible = vle(n2, vset(SVD3_TINY2));
-  vreal om = svd3_rsq(vmax(n2, vset(SVD3_TINY2)), exact);
+  vreal om = svd3_rsq_angle(vmax(n2, vset(SVD3_TINY2)), exact);
   ch = vsel(exact_angle, vmul(om, ch), vset(cstar));
   sh = vsel(exact_angle, vmul(om, sh), vset(sstar));
   ch = vsel(negligible, vset(1), ch);
@@ -115,13 +141,11 @@ EK_INLINE void svd3_rotate_cols(vreal M[9], int p, int q, vreal c, vreal s) {
   }
 }
 
-// Rotate rows i, j of a row-major 3x3 M by (c, s): M <- G M.
-EK_INLINE void svd3_rotate_rows(vreal M[9], int i, int j, vreal c, vreal s) {
-  for (int col = 0; col < 3; col++) {
-    vreal mi = M[3 * i + col], mj = M[3 * j + col];
-    M[3 * i + col] = vmla(c, mi, vmul(s, mj));
-    M[3 * j + col] = vmls(c, mj, vmul(s, mi));
-  }
+// Entry col of rows i, j of a row-major 3x3 M <- G M, G the rotation (c, s).
+EK_INLINE void svd3_rotate_row_pair(vreal M[9], int i, int j, int col, vreal c, vreal s) {
+  vreal mi = M[3 * i + col], mj = M[3 * j + col];
+  M[3 * i + col] = vmla(c, mi, vmul(s, mj));
+  M[3 * j + col] = vmls(c, mj, vmul(s, mi));
 }
 
 EK_INLINE vreal svd3_col_dot(const vreal M[9], int p, int q) {
@@ -132,18 +156,19 @@ EK_INLINE vreal svd3_col_dot(const vreal M[9], int p, int q) {
 // orthogonal (Hestenes' one-sided Jacobi), the small rotation |theta| <=
 // pi/4: tan(theta) = sgn(x) y / (|x| + sqrt(x^2 + y^2)) with x = |b_p|^2 -
 // |b_q|^2, y = 2 b_p.b_q, which solves tan(2 theta) = y / x without division.
+// [ek] t = |x| + sqrt(x^2 + y^2) + TINY > 0, so (c, s) = (t, u) / |(t, u)|
+// needs no test: a negligible pair (x, y ~ 0) gets c = 1, s = 0 (up to the
+// rounding of 1/sqrt), and TINY is far below any angle that matters.
 EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact) {
   vreal alpha = svd3_col_dot(B, p, p), beta = svd3_col_dot(B, q, q);
   vreal gam = svd3_col_dot(B, p, q);
-  vreal x = vsub(alpha, beta), y = vmul(vset(2), gam);
+  vreal x = vsub(alpha, beta), y = vadd(gam, gam);
   vreal z = vmla(x, x, vmul(y, y));
-  vreal r = vmul(z, svd3_rsq(vmax(z, vset(SVD3_TINY2)), exact)); // sqrt(z)
-  vreal t = vadd(vabs(x), r);
-  vreal u = vsel(vge(x, vzero()), y, vneg(y));
-  vreal n2 = vmla(t, t, vmul(u, u));
-  vmask ok = vgt(n2, vset(SVD3_TINY2));
-  vreal om = svd3_rsq(vmax(n2, vset(SVD3_TINY2)), exact);
-  vreal c = vsel(ok, vmul(t, om), vset(1)), s = vsel(ok, vmul(u, om), vzero());
+  vreal r = vmul(z, svd3_rsq_angle(vmax(z, vset(SVD3_TINY2)), exact)); // sqrt(z)
+  vreal t = vadd(vadd(vabs(x), vset(SVD3_TINY)), r);
+  vreal u = vxorsign(y, x); // x = alpha - beta is never -0
+  vreal om = svd3_rsq(vmla(t, t, vmul(u, u)), exact);
+  vreal c = vmul(t, om), s = vmul(u, om);
   svd3_rotate_cols(B, p, q, c, s);
   svd3_rotate_cols(V, p, q, c, s);
 }
@@ -155,9 +180,9 @@ EK_INLINE void svd3_sort_pair(vreal B[9], vreal V[9], vreal rho[3], int i, int j
   for (int r = 0; r < 3; r++) {
     vreal bi = B[3 * r + i], bj = B[3 * r + j], vi = V[3 * r + i], vj = V[3 * r + j];
     B[3 * r + i] = vsel(m, bj, bi);
-    B[3 * r + j] = vsel(m, vneg(bi), bj);
+    B[3 * r + j] = vsel_neg(m, bi, bj);
     V[3 * r + i] = vsel(m, vj, vi);
-    V[3 * r + j] = vsel(m, vneg(vi), vj);
+    V[3 * r + j] = vsel_neg(m, vi, vj);
   }
   vreal ri = rho[i];
   rho[i] = vsel(m, rho[j], ri);
@@ -193,26 +218,26 @@ typedef struct {
 #endif
 EK_INLINE void svd3_start(svd3_state *st, const vreal Ain[9]) {
   vreal one = vset(1), zero = vzero();
-  vmask finite = visfinite(Ain[0]);
-  for (int i = 1; i < 9; i++)
-    finite = vmand(finite, visfinite(Ain[i]));
   vreal amax = zero;
-  for (int i = 0; i < 9; i++) {
-    st->A[i] = vsel(finite, Ain[i], i % 4 == 0 ? one : zero);
-    amax = vmax(amax, vabs(st->A[i]));
-  }
+  for (int i = 0; i < 9; i++)
+    amax = vmax(amax, vabs(Ain[i]));
   vreal pre = vsel(vlt(amax, vset(SVD3_TINY_MATRIX)), vset(SVD3_PRESCALE), one);
   // The zero matrix gets sc = 1 (any finite value would do).
   vreal m = vmul(amax, pre);
   vreal sc = vsel(vgt(m, zero), vdiv(one, m), one);
   for (int i = 0; i < 9; i++)
-    st->A[i] = vmul(vmul(st->A[i], pre), sc);
+    st->A[i] = vmul(vmul(Ain[i], pre), sc);
   st->amax = amax;
   for (int i = 0; i < 3; i++)
     for (int j = i; j < 3; j++)
       st->s[i][j] = st->s[j][i] = svd3_col_dot(st->A, i, j);
   st->qt[0] = one, st->qt[1] = st->qt[2] = st->qt[3] = zero;
-  st->finite = finite;
+  // [ek] Step 0 without a test per entry: a finite A has a scaled Gram
+  // trace in [0, 9]. A NaN or infinity leaves a NaN or infinity in the
+  // scaled A (inf / inf, inf * 0, or the entry itself when max lost a NaN),
+  // hence in the trace. Such a lane runs on (lanes never mix) and every
+  // output of it is set to NaN at the end.
+  st->finite = visfinite(vadd(vadd(st->s[0][0], st->s[1][1]), st->s[2][2]));
 }
 
 // Step 4: V from the quaternion, B = A V.
@@ -236,18 +261,33 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], v
   svd3_sort_pair(B, st->V, rho, 0, 1);
   svd3_sort_pair(B, st->V, rho, 0, 2);
   svd3_sort_pair(B, st->V, rho, 1, 2);
-  // QR: B = U R with U = G1^T G2^T G3^T.
+  // QR: B = U R with U = G1^T G2^T G3^T. [ek] Only the entries read later
+  // are formed: each rotation's zeroed entry (b10, b20, b21) is not, nor
+  // are R's off-diagonal entries once no rotation reads them (S is R's
+  // diagonal); U's (2,1) entry, zero before G3^T, is folded in. Every
+  // entry formed is rounded as in the full rotations.
   vreal c1, s1, c2, s2, c3, s3;
   svd3_givens(B[0], B[3], &c1, &s1, exact);
-  svd3_rotate_rows(B, 0, 1, c1, s1);
+  B[0] = vmla(c1, B[0], vmul(s1, B[3]));
+  for (int col = 1; col < 3; col++)
+    svd3_rotate_row_pair(B, 0, 1, col, c1, s1);
   svd3_givens(B[0], B[6], &c2, &s2, exact);
-  svd3_rotate_rows(B, 0, 2, c2, s2);
+  B[0] = vmla(c2, B[0], vmul(s2, B[6]));
+  B[7] = vmls(c2, B[7], vmul(s2, B[1]));
+  B[8] = vmls(c2, B[8], vmul(s2, B[2]));
   svd3_givens(B[4], B[7], &c3, &s3, exact);
-  svd3_rotate_rows(B, 1, 2, c3, s3);
-  U[0] = vmul(c1, c2), U[1] = vneg(s1), U[2] = vneg(vmul(c1, s2));
-  U[3] = vmul(s1, c2), U[4] = c1, U[5] = vneg(vmul(s1, s2));
-  U[6] = s2, U[7] = vzero(), U[8] = c2;
-  svd3_rotate_cols(U, 1, 2, c3, s3);
+  B[4] = vmla(c3, B[4], vmul(s3, B[7]));
+  B[8] = vmls(c3, B[8], vmul(s3, B[5]));
+  vreal c1s2 = vmul(c1, s2), s1s2 = vmul(s1, s2);
+  U[0] = vmul(c1, c2);
+  U[1] = vneg(vmla(c3, s1, vmul(s3, c1s2))); // -s1 c3 - c1 s2 s3
+  U[2] = vnmla(c3, c1s2, vmul(s3, s1));      // s1 s3 - c1 s2 c3
+  U[3] = vmul(s1, c2);
+  U[4] = vmls(c3, c1, vmul(s3, s1s2));       // c1 c3 - s1 s2 s3
+  U[5] = vneg(vmla(c3, s1s2, vmul(s3, c1))); // -c1 s3 - s1 s2 c3
+  U[6] = s2;
+  U[7] = vmul(s3, c2);
+  U[8] = vmul(c3, c2);
   vreal nan = vset((real)NAN);
   for (int i = 0; i < 3; i++)
     S[i] = vsel(st->finite, B[4 * i], nan);
@@ -256,6 +296,25 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], v
     U[i] = vsel(st->finite, U[i], nan);
     V[i] = vsel(st->finite, st->V[i], nan);
   }
+}
+
+// One sweep of step 3 / step 5 over n vectors, pair by pair.
+EK_INLINE void svd3_jacobi_sweep(int n, svd3_state *st, int exact) {
+  for (int j = 0; j < n; j++)
+    svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, exact);
+  for (int j = 0; j < n; j++)
+    svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, exact);
+  for (int j = 0; j < n; j++)
+    svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, exact);
+}
+
+EK_INLINE void svd3_refine_sweep(int n, svd3_state *st, int exact) {
+  for (int j = 0; j < n; j++)
+    svd3_refine_pair(st[j].B, st[j].V, 0, 1, exact);
+  for (int j = 0; j < n; j++)
+    svd3_refine_pair(st[j].B, st[j].V, 1, 2, exact);
+  for (int j = 0; j < n; j++)
+    svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
 }
 
 // The SVD of n independent vectors of matrices (n a compile-time constant
@@ -268,24 +327,12 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
-  for (int sweep = 0; sweep < sweeps; sweep++) {
-    for (int j = 0; j < n; j++)
-      svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, exact);
-    for (int j = 0; j < n; j++)
-      svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, exact);
-    for (int j = 0; j < n; j++)
-      svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, exact);
-  }
+  for (int sweep = 0; sweep < sweeps; sweep++)
+    svd3_jacobi_sweep(n, st, exact);
   for (int j = 0; j < n; j++)
     svd3_form_B(&st[j], exact);
-  for (int sweep = 0; sweep < refine; sweep++) {
-    for (int j = 0; j < n; j++)
-      svd3_refine_pair(st[j].B, st[j].V, 0, 1, exact);
-    for (int j = 0; j < n; j++)
-      svd3_refine_pair(st[j].B, st[j].V, 1, 2, exact);
-    for (int j = 0; j < n; j++)
-      svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
-  }
+  for (int sweep = 0; sweep < refine; sweep++)
+    svd3_refine_sweep(n, st, exact);
   for (int j = 0; j < n; j++)
     svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
 }
