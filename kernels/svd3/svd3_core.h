@@ -168,7 +168,10 @@ EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact)
   vreal t = vadd(vadd(vabs(x), vset(SVD3_TINY)), r);
   vreal u = vxorsign(y, x); // x = alpha - beta is never -0
   vreal om = svd3_rsq(vmla(t, t, vmul(u, u)), exact);
-  vreal c = vmul(t, om), s = vmul(u, om);
+  // Columns already orthogonal (y = 0: the identity, diagonal and zero
+  // matrices) keep c exactly 1, so U and V stay exact there; the estimated
+  // 1/sqrt would leave c = 1 +- 1e-7.
+  vreal c = vsel(veq(u, vzero()), vset(1), vmul(t, om)), s = vmul(u, om);
   svd3_rotate_cols(B, p, q, c, s);
   svd3_rotate_cols(V, p, q, c, s);
 }
