@@ -109,7 +109,8 @@ def check_map(doc, h5):
 def verify_rows(ek_verify, tmp, seed, n):
     js = os.path.join(tmp, "verify.json")
     regex = (r"^((svd3|polar3) [a-z0-9]+ f(32|64) sweeps=def rsqrt=[a-z]+\(def\) random"
-             r"|material [a-z0-9]+ f(32|64) [a-z_]+ clamp=0 random mix)$")
+             r"|material [a-z0-9]+ f(32|64) [a-z_]+ clamp=0 random mix"
+             r"|polar_warm [a-z0-9]+ f(32|64) iterations=default random)$")
     cmd = [ek_verify, "--quick", "--seed", str(seed), "--n", str(n), "--filter", regex,
            "--json", js]
     r, secs = run(cmd)
@@ -130,8 +131,21 @@ def compare(points, rows):
     compared = 0
     for p in points:
         k = p["knobs"]
+        if "isa" not in k:  # the loop maps: no ek-verify counterpart
+            continue
         isa, prec = k["isa"], k["precision"]
-        if p["family"] in ("svd3", "polar3") and k.get("label") == "default":
+        if p["family"] == "rotation" and k.get("label") == "default":
+            variant = f"{isa} {prec} iterations=default"
+            match = [r for r in rows if r["kernel"] == "polar_warm" and r["variant"] == variant
+                     and r["inputs"] == "random"]
+            if len(match) != 1:
+                check(f"ek-verify row polar_warm {variant}", False, f"{len(match)} rows")
+                continue
+            want, got = match[0]["errors"]["rdiff"], num(p["err_max"])
+            check(f"rotation {isa} {prec} warm default: map max == ek-verify rdiff",
+                  same(got, want), f"map {got!r}, ek-verify {want!r}")
+            compared += 1
+        elif p["family"] in ("svd3", "polar3") and k.get("label") == "default":
             pat = re.compile(rf"^{isa} {prec} sweeps=def rsqrt=[a-z]+\(def\)$")
             match = [r for r in rows if r["kernel"] == p["family"] and pat.match(r["variant"])
                      and r["inputs"] == "random"]
