@@ -57,15 +57,16 @@ EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt
 // half-angle of step 3 (whose rotations are accumulated in a quaternion
 // that step 4 normalises). In float with the approximate rsqrt the bare
 // hardware estimate is enough (relative error <= 2^-14 on AVX-512, 1.5 2^-12
-// on AVX2): an angle off by that fraction leaves an off-diagonal residue
-// that the following exact sweeps remove (measured: README, "Accuracy").
-#ifndef SVD3_ROUGH
-#define SVD3_ROUGH 1
-#endif
-EK_INLINE vreal svd3_rsq_angle(vreal x, int exact) {
+// on AVX2) when exact one-sided sweeps follow (rough = 1): an angle off by
+// that fraction leaves an off-diagonal residue that they remove (measured:
+// README, "Accuracy"). Without them (refine none, McAdams et al. 2011 as
+// published) the estimate gets its Newton step, as in TR1690.
+EK_INLINE vreal svd3_rsq_angle(vreal x, int exact, int rough) {
 #if defined(EK_REAL_F32)
-  if (SVD3_ROUGH && !exact)
+  if (rough && !exact)
     return vrsqrt_raw(x);
+#else
+  (void)rough;
 #endif
   return svd3_rsq(x, exact);
 }
@@ -73,7 +74,8 @@ EK_INLINE vreal svd3_rsq_angle(vreal x, int exact) {
 // Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
 // block of the symmetric S, conjugate S by it and append it to quaternion
 // qt = (w, x, y, z). McAdams et al. 2011 (TR1690), sec. 2.
-EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k, int exact) {
+EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k, int exact,
+                                int rough) {
   const real gamma = (real)5.82842712474619009760; // 3 + 2 sqrt(2) = cot^2(pi/8)
   const real cstar = (real)0.92387953251128675613; // cos(pi/8)
   const real sstar = (real)0.38268343236508977173; // sin(pi/8)
@@ -86,7 +88,7 @@ EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k,
   vreal ch2 = vmul(ch, ch), sh2 = vmul(sh, sh), n2 = vadd(ch2, sh2);
   vmask exact_angle = vlt(vmul(vset(gamma), sh2), ch2);
   vmask negligible = vle(n2, vset(SVD3_TINY2));
-  vreal om = svd3_rsq_angle(vmax(n2, vset(SVD3_TINY2)), exact);
+  vreal om = svd3_rsq_angle(vmax(n2, vset(SVD3_TINY2)), exact, rough);
   ch = vsel(exact_angle, vmul(om, ch), vset(cstar));
   sh = vsel(exact_angle, vmul(om, sh), vset(sstar));
   ch = vsel(negligible, vset(1), ch);
@@ -164,7 +166,7 @@ EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact)
   vreal gam = svd3_col_dot(B, p, q);
   vreal x = vsub(alpha, beta), y = vadd(gam, gam);
   vreal z = vmla(x, x, vmul(y, y));
-  vreal r = vmul(z, svd3_rsq_angle(vmax(z, vset(SVD3_TINY2)), exact)); // sqrt(z)
+  vreal r = vmul(z, svd3_rsq_angle(vmax(z, vset(SVD3_TINY2)), exact, 1)); // sqrt(z)
   vreal t = vadd(vadd(vabs(x), vset(SVD3_TINY)), r);
   vreal u = vxorsign(y, x); // x = alpha - beta is never -0
   vreal om = svd3_rsq(vmla(t, t, vmul(u, u)), exact);
@@ -302,13 +304,13 @@ EK_INLINE void svd3_finish(svd3_state *st, vreal U[9], vreal S[3], vreal V[9], v
 }
 
 // One sweep of step 3 / step 5 over n vectors, pair by pair.
-EK_INLINE void svd3_jacobi_sweep(int n, svd3_state *st, int exact) {
+EK_INLINE void svd3_jacobi_sweep(int n, svd3_state *st, int exact, int rough) {
   for (int j = 0; j < n; j++)
-    svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, exact);
+    svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, exact, rough);
   for (int j = 0; j < n; j++)
-    svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, exact);
+    svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, exact, rough);
   for (int j = 0; j < n; j++)
-    svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, exact);
+    svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, exact, rough);
 }
 
 EK_INLINE void svd3_refine_sweep(int n, svd3_state *st, int exact) {
@@ -330,8 +332,13 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
-  for (int sweep = 0; sweep < sweeps; sweep++)
-    svd3_jacobi_sweep(n, st, exact);
+  // rough is a constant in each branch, so each gets its own code.
+  if (refine > 0)
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 1);
+  else
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 0);
   for (int j = 0; j < n; j++)
     svd3_form_B(&st[j], exact);
   for (int sweep = 0; sweep < refine; sweep++)
