@@ -93,10 +93,13 @@ def plot_family(plt, family, points, threads, outdir, meta):
         return None
     fig, ax = plt.subplots(figsize=(8, 6))
     groups = {}
+    # Kernel maps group by ISA; the loop maps (no ISA: the scene's) by loop.
     for p in pts:
         k = knobs_of(p["setting"])
-        groups.setdefault((k.get("precision", "?"), k.get("isa", "?")), []).append(p)
-    markers = {"scalar": "s", "avx2": "^", "avx512": "o"}
+        groups.setdefault((k.get("precision", "?"), k.get("isa", k.get("loop", "?"))),
+                          []).append(p)
+    markers = {"scalar": "s", "avx2": "^", "avx512": "o",
+               "explicit": "s", "implicit": "^", "xpbd": "o"}
     colors = {"f32": "tab:blue", "f64": "tab:orange"}
     nonfinite = 0
     for (prec, isa), sel in sorted(groups.items()):
@@ -125,8 +128,10 @@ def plot_family(plt, family, points, threads, outdir, meta):
     for p in pts:
         k = knobs_of(p["setting"])
         label = None
-        if p.get("is_default"):
-            label = f"default {k.get('precision', '')}"
+        if p.get("is_reference"):
+            label = f"reference {k.get('loop', '')} {k.get('precision', '')}"
+        elif p.get("is_default"):
+            label = f"default {k.get('loop', '')} {k.get('precision', '')}".replace("  ", " ")
         elif k.get("label") == "mcadams2011" and k.get("isa") == best_isa(pts):
             label = f"McAdams 2011 {k.get('precision', '')}"
         if label and math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"]):
