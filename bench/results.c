@@ -854,11 +854,15 @@ int ek_results_write_json(const ek_results *r, const char *path, int force, int 
     fprintf(stderr, "ek results: out of memory building JSON for '%s'\n", path);
     return -1;
   }
+  return ek_results_write_text("ek results", path, text, force);
+}
+
+int ek_results_write_text(const char *who, const char *path, char *text, int force) {
   char tmp[4096];
   ek_results_temp_name(tmp, sizeof tmp, path);
   FILE *f = fopen(tmp, "wx");
   if (!f) {
-    fprintf(stderr, "ek results: cannot create '%s': %s\n", tmp, strerror(errno));
+    fprintf(stderr, "%s: cannot create '%s': %s\n", who, tmp, strerror(errno));
     free(text);
     return -1;
   }
@@ -867,7 +871,7 @@ int ek_results_write_json(const ek_results *r, const char *path, int force, int 
   ok = (fclose(f) == 0) && ok;
   free(text);
   if (!ok) {
-    fprintf(stderr, "ek results: writing '%s' failed; nothing written\n", path);
+    fprintf(stderr, "%s: writing '%s' failed; nothing written\n", who, path);
     unlink(tmp);
     return -1;
   }

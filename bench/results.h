@@ -177,6 +177,9 @@ int ek_results_write_json(const ek_results *r, const char *path, int force, int 
 int ek_results_write_meta_h5(const ek_results *r, long long loc);
 void ek_results_temp_name(char *buf, size_t cap, const char *path);
 int ek_results_publish(const char *tmp, const char *path, int force);
+// Writes text (and a newline) to path's temporary name and publishes it;
+// frees text. Errors on stderr, prefixed with who. 0 or -1.
+int ek_results_write_text(const char *who, const char *path, char *text, int force);
 
 #ifdef __cplusplus
 }

@@ -490,22 +490,5 @@ int ek_tradeoff_write_json(ek_tradeoff *t, const ek_results *meta, const char *p
     fprintf(stderr, "ek tradeoff: out of memory building JSON for '%s'\n", path);
     return -1;
   }
-  char tmp[4096];
-  ek_results_temp_name(tmp, sizeof tmp, path);
-  FILE *f = fopen(tmp, "wx");
-  if (!f) {
-    fprintf(stderr, "ek tradeoff: cannot create '%s': %s\n", tmp, strerror(errno));
-    free(text);
-    return -1;
-  }
-  size_t len = strlen(text);
-  int ok = fwrite(text, 1, len, f) == len && fputc('\n', f) != EOF;
-  ok = (fclose(f) == 0) && ok;
-  free(text);
-  if (!ok) {
-    fprintf(stderr, "ek tradeoff: writing '%s' failed; nothing written\n", path);
-    unlink(tmp);
-    return -1;
-  }
-  return ek_results_publish(tmp, path, force);
+  return ek_results_write_text("ek tradeoff", path, text, force);
 }

@@ -31,8 +31,8 @@
 
 #include "check.h"
 #include "check_polar_warm.h"
-#include "svd3/svd3_ref.h"
 #include "material/material_ref.h"
+#include "svd3/svd3_ref.h"
 #include "timer.h"
 #include "tradeoff.h"
 
