@@ -24,20 +24,7 @@
 #include "results.h"
 #include "timer.h"
 
-static int failures;
-
-static void check(const char *what, int ok, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static void check(const char *what, int ok, const char *fmt, ...) {
-  char detail[1024];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(detail, sizeof detail, fmt, ap);
-  va_end(ap);
-  printf("%-5s %s (%s)\n", ok ? "PASS" : "FAIL", what, detail);
-  if (!ok)
-    failures++;
-}
+#include "test_check.h"
 
 // Readings of one ISA/precision at 1 and 2 threads on `cores` cores.
 static void readings(ek_machine *m, double one, double two, int cores) {

@@ -22,20 +22,7 @@
 #include "results.h"
 #include "tradeoff.h"
 
-static int failures;
-
-static void check(const char *what, int ok, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static void check(const char *what, int ok, const char *fmt, ...) {
-  char detail[512];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(detail, sizeof detail, fmt, ap);
-  va_end(ap);
-  printf("%-5s %s (%s)\n", ok ? "PASS" : "FAIL", what, detail);
-  if (!ok)
-    failures++;
-}
+#include "test_check.h"
 
 static void front_text(size_t n, const unsigned char *f, char *buf) {
   for (size_t i = 0; i < n; i++)
