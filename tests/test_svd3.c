@@ -6,8 +6,11 @@
 // result of a matrix does not depend on its position or on the batch size
 // (AoS and AoSoA entry points agree bit for bit, tails included); ISAs agree
 // within the budget and the f64 kernels agree with the scalar replica of the
-// algorithm (ek_svd3_mcadams_ref, same knobs) within EK_SVD3_REPLICA_TOL,
-// at the default refine and at refine none, 1 and 3; U and V not wanted
+// algorithm (ek_svd3_mcadams_ref, same knobs, exact 1/sqrt: the replica
+// has no hardware estimate, whose angles can take another valid path, e.g.
+// a sign pair, so the default approximate rsqrt is held to the LAPACK
+// budget above) within EK_SVD3_REPLICA_TOL, at the default refine and at
+// refine none, 1 and 3; U and V not wanted
 // (NULL) leave S's bits as they are, and so does a NULL Ssym for R;
 // ek_polar3_* gives a rotation R and a symmetric Ssym with R Ssym = A; an
 // invalid option returns rc < 0 and writes nothing; 1 and 2 threads give the
@@ -333,7 +336,7 @@ static void nan_isolation(int bits, ek_isa isa, const ek_svd3_set *random) {
 // refine: the option (0 = default); S_scalar: NULL to skip the ISA check.
 static void agreement(int bits, ek_isa isa, const ek_svd3_set *s, const double *S_scalar,
                       int refine, double *U, double *S, double *V) {
-  ek_svd3_opts o = {.isa = isa, .refine = refine};
+  ek_svd3_opts o = {.isa = isa, .refine = refine, .exact_rsqrt = bits == 64 ? 1 : 0};
   if (ek_check_run_svd3(bits, 0, s->n, s->A, U, S, V, &o) != 0) {
     failures++;
     return;

@@ -12,11 +12,12 @@
 //                 software routine there)
 //   vrsqrt(x)     = 1/sqrt(x), correctly rounded sqrt then divide
 //   vrsqrt_est(x) = hardware estimate + Newton steps (1 for float, 2 for
-//                   double); relative error ~1e-7 (f32) / ~1e-14 (f64);
+//                   double); relative error ~1e-7 (f32) / ~1e-16 (f64);
 //                   valid for positive normal x; exact on the scalar target
+//                   and for AVX2 double (no estimate there: avx2.h)
 //   vrsqrt_raw(x) = the hardware estimate alone: relative error <= 2^-14
-//                   (AVX-512), 1.5 2^-12 (AVX2 float); vrsqrt_est where the
-//                   target has no cheaper one (AVX2 double), exact on scalar
+//                   (AVX-512), 1.5 2^-12 (AVX2 float); exact where
+//                   vrsqrt_est is
 //   vsel_neg(m, a, b) = m ? -a : b
 //   vxorsign(y, x) = y with its sign flipped where x's sign bit is set
 //   vlt vle vgt vge veq (-> vmask), visfinite(x), vmand vmor vmnot
@@ -35,6 +36,8 @@
 #define EK_SIMD_H
 
 #include "../real.h"
+
+#define EK_RECORD_MAX 9 // fields per record in vload_records / vstore_records
 
 #if defined(EK_TARGET_AVX512)
 #include "avx512.h"
@@ -62,7 +65,7 @@
 // 16-lane gathers for the loads cost as much as this; gathering the output
 // runs from a just-stored tile cost 2x more: the gathers wait for the
 // stores; README, "The AoS API".)
-#define EK_RECORD_MAX 9
+#ifndef EK_HAVE_VRECORDS
 static inline void vload_records(const real *p, int np, vreal *planes) {
   real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
   for (int l = 0; l < EK_W; l++)
@@ -79,5 +82,6 @@ static inline void vstore_records(real *p, int np, const vreal *planes) {
     for (int k = 0; k < np; k++)
       p[l * np + k] = tile[k * EK_W + l];
 }
+#endif
 
 #endif

@@ -16,13 +16,13 @@ typedef ek_svd3_block_f32_fn svd3_block_fn;
 #define BLOCK_FN(t) ((t)->svd3_block_f32)
 #define DEFAULT_SWEEPS 2
 #define DEFAULT_REFINE 2
-#define DEFAULT_EXACT_RSQRT 0 // the estimate + one Newton step is enough
+#define DEFAULT_EXACT_RSQRT 0 // the estimates of svd3_core.h are enough
 #else
 typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define BLOCK_FN(t) ((t)->svd3_block_f64)
 #define DEFAULT_SWEEPS 3
 #define DEFAULT_REFINE 2
-#define DEFAULT_EXACT_RSQRT 1 // the estimate leaves ~1e-13, too close to 1e-12
+#define DEFAULT_EXACT_RSQRT 0 // the same (exact anyway on AVX2: no double estimate)
 #endif
 
 // Blocks per OpenMP work item (AoSoA), and matrices per AoS work item

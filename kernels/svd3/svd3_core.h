@@ -53,22 +53,34 @@
 EK_INLINE vreal svd3_rsq(vreal x, int exact) { return exact ? vrsqrt(x) : vrsqrt_est(x); }
 
 // 1/sqrt(x) where only the direction of a rotation depends on it, not its
-// orthogonality: the angle of a one-sided pair (step 5) and the Givens
-// half-angle of step 3 (whose rotations are accumulated in a quaternion
-// that step 4 normalises). In float with the approximate rsqrt the bare
-// hardware estimate is enough (relative error <= 2^-14 on AVX-512, 1.5 2^-12
-// on AVX2) when exact one-sided sweeps follow (rough = 1): an angle off by
-// that fraction leaves an off-diagonal residue that they remove (measured:
-// README, "Accuracy"). Without them (refine none, McAdams et al. 2011 as
-// published) the estimate gets its Newton step, as in TR1690.
+// orthogonality: the Givens half-angle of step 3 (whose rotations are
+// accumulated in a quaternion that step 4 normalises) and the angle of a
+// one-sided pair (step 5). With the approximate rsqrt, cheaper estimates
+// are enough when exact one-sided sweeps follow (rough = 1): an angle off
+// by a relative d leaves an off-diagonal residue of d times the pair's,
+// which the following sweeps remove. Step 3 takes the bare hardware
+// estimate (vrsqrt_raw: d <= 2^-14 AVX-512, 1.5 2^-12 AVX2 float). Step 5
+// takes it too in float; in double its last sweep's residue, d times the
+// pair's, must stay below 1e-12, so it takes one Newton step (d ~ 2^-28;
+// measured with ek-verify, AVX-512, worst of every family: bare 1.3e-9,
+// one step 7.3e-14, two steps 6.5e-14 for 2% more time). Without those
+// sweeps (refine none, McAdams et al. 2011 as published) the estimate gets
+// its Newton steps, as in TR1690.
 EK_INLINE vreal svd3_rsq_angle(vreal x, int exact, int rough) {
-#if defined(EK_REAL_F32)
   if (rough && !exact)
     return vrsqrt_raw(x);
-#else
-  (void)rough;
-#endif
   return svd3_rsq(x, exact);
+}
+
+EK_INLINE vreal svd3_rsq_onesided(vreal x, int exact) {
+#if defined(EK_REAL_F32)
+  return svd3_rsq_angle(x, exact, 1);
+#else
+  if (exact)
+    return vrsqrt(x);
+  vreal y = vrsqrt_raw(x); // y (1.5 - 0.5 x y^2): Newton on 1/sqrt
+  return vmul(y, vnmla(vmul(vmul(vset(0.5), x), y), y, vset(1.5)));
+#endif
 }
 
 // Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
@@ -166,7 +178,7 @@ EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact)
   vreal gam = svd3_col_dot(B, p, q);
   vreal x = vsub(alpha, beta), y = vadd(gam, gam);
   vreal z = vmla(x, x, vmul(y, y));
-  vreal r = vmul(z, svd3_rsq_angle(vmax(z, vset(SVD3_TINY2)), exact, 1)); // sqrt(z)
+  vreal r = vmul(z, svd3_rsq_onesided(vmax(z, vset(SVD3_TINY2)), exact)); // sqrt(z)
   vreal t = vadd(vadd(vabs(x), vset(SVD3_TINY)), r);
   vreal u = vxorsign(y, x); // x = alpha - beta is never -0
   vreal om = svd3_rsq(vmla(t, t, vmul(u, u)), exact);
