@@ -222,6 +222,34 @@ void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3
   }
 }
 
+// "polar": "warm" with fixed corotated / ARAP: the force kernel keeps each
+// tet's rotation from call to call (fvm.h polar_state).
+static int uses_warm_force_rotations(const ek_sim *s) {
+  return s->mesh && s->scene.polar == EK_POLAR_WARM &&
+         (s->mat.model == EK_MODEL_FIXED_COROTATED || s->mat.model == EK_MODEL_ARAP);
+}
+
+// (Re)start the force's per-tet rotations at the SVD polar of the current
+// F (the identity at rest): at creation, and when ek_sim_set_state replaces
+// the state (the last step's rotations may be far from the new ones, and
+// the warm polar converges in its few iterations only from a near guess).
+static int seed_warm_rotations(ek_sim *s) {
+  size_t nt = s->nt;
+  double *F = malloc(18 * nt * sizeof(double));
+  int rc = F ? ek_fvm_deformation_gradients_f64(s->mesh, s->x, F) : EK_ENOMEM;
+  ek_svd3_opts so = s->scene.svd;
+  if (rc == 0)
+    rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
+  if (rc == 0 && !s->polar_state &&
+      !(s->polar_state =
+            ek_tet_state_create(ek_mesh_elements(s->mesh), 9, s->scene.precision == 64)))
+    rc = EK_ENOMEM;
+  if (rc == 0)
+    rc = ek_tet_state_set_f64(s->polar_state, F + 9 * nt);
+  free(F);
+  return rc;
+}
+
 static int refresh_rotations(ek_sim *s) {
   if (s->mat.model != EK_MODEL_COROTATED_LINEAR)
     return 0;
@@ -439,21 +467,8 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     }
     s->fvm.R_state = s->R_state;
   }
-  if (mesh && scene->polar == EK_POLAR_WARM &&
-      (s->mat.model == EK_MODEL_FIXED_COROTATED || s->mat.model == EK_MODEL_ARAP)) {
-    // The force's per-tet rotations, started at the SVD polar of the
-    // initial F (the identity at rest).
-    double *F = malloc(18 * nt * sizeof(double));
-    int rc = F ? ek_fvm_deformation_gradients_f64(mesh, s->x, F) : EK_ENOMEM;
-    ek_svd3_opts so = scene->svd;
-    if (rc == 0)
-      rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
-    if (rc == 0 &&
-        !(s->polar_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64)))
-      rc = EK_ENOMEM;
-    if (rc == 0)
-      rc = ek_tet_state_set_f64(s->polar_state, F + 9 * nt);
-    free(F);
+  if (uses_warm_force_rotations(s)) {
+    int rc = seed_warm_rotations(s);
     if (rc != 0) {
       if (err && errlen)
         snprintf(err, errlen, "%s: polar \"warm\": initial rotations: %s", scene->path,
@@ -631,6 +646,14 @@ int ek_sim_set_state(ek_sim *s, const double *x, const double *v) {
   memcpy(s->x, x, n3 * sizeof(double));
   if (v)
     memcpy(s->v, v, n3 * sizeof(double));
+  // The rotations kept from the old state: corotated linear's R^n is the
+  // new state's, by the SVD polar (no warm guess); the warm force
+  // rotations restart there too.
+  s->R_ready = 0;
+  if (s->mesh && refresh_rotations(s) != 0)
+    return EK_EINVAL;
+  if (uses_warm_force_rotations(s) && seed_warm_rotations(s) != 0)
+    return sim_fail(s, "ek_sim_set_state: warm polar rotations: %s", ek_last_error());
   return 0;
 }
 

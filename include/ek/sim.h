@@ -426,8 +426,10 @@ const double *ek_sim_masses(const ek_sim *sim); // nverts
 // velocities (nverts x 3, caller order), for an initial state the scene's
 // keys cannot express (ek-verify --extremes: a body crushed to a point
 // with noise, Irving et al. 2004 sec. 7). Boundary conditions keep moving
-// from the initial positions the scene gave. EK_EINVAL (nothing changed,
-// message in ek_sim_last_error) for a non-finite entry.
+// from the initial positions the scene gave. Rotations kept between steps
+// (corotated linear's R^n, the "polar": "warm" force rotations) restart at
+// the SVD polar of the new state. EK_EINVAL (nothing changed, message in
+// ek_sim_last_error) for a non-finite entry.
 int ek_sim_set_state(ek_sim *sim, const double *x, const double *v);
 // The last implicit step's Newton history (all zero for other integrators).
 const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *sim);
