@@ -20,6 +20,21 @@ typedef struct {
 } ek_svd3_knobs;
 
 // Defaults of the SVD knobs per precision (what opts zeroed means).
+// AoS drivers' staging (kernels/batch/aosoa.c): OpenMP over chunks of
+// `chunk_blocks` AoSoA blocks; each thread allocates nbuf block buffers of
+// planes[k] planes (none where planes[k] = 0) and calls run(ctx, i0, m,
+// bufs) for the items i0 .. i0 + m - 1 of each of its chunks: run packs or
+// gathers its inputs into bufs, runs a block kernel, unpacks its outputs.
+// EK_ENOMEM (with "fn: out of memory for staging buffers") when a thread's
+// buffers cannot be had; nothing is run then.
+#define EK_STAGED_MAX_BUFS 5
+typedef void ek_staged_chunk_f32_fn(void *ctx, size_t i0, size_t m, float *const *bufs);
+typedef void ek_staged_chunk_f64_fn(void *ctx, size_t i0, size_t m, double *const *bufs);
+int ek_staged_chunks_f32(const char *fn, size_t n, size_t chunk_blocks, int nbuf, const int *planes,
+                         ek_staged_chunk_f32_fn *run, void *ctx);
+int ek_staged_chunks_f64(const char *fn, size_t n, size_t chunk_blocks, int nbuf, const int *planes,
+                         ek_staged_chunk_f64_fn *run, void *ctx);
+
 ek_svd3_knobs ek_svd3_default_knobs_f32(void);
 ek_svd3_knobs ek_svd3_default_knobs_f64(void);
 // Knobs from the sweeps / exact_rsqrt / refine options (0 = default), after

@@ -1,5 +1,6 @@
 // AoS <-> AoSoA conversion (layout in include/ek/batch.h). Built once per
 // precision; EK_P() gives the public names.
+#include <omp.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -79,4 +80,44 @@ real *EK_P(aosoa_alloc)(size_t n, int nplanes) {
       for (int l = 0; l < EK_LANES; l++)
         p[(b * nplanes + k) * EK_LANES + l] = b * EK_LANES + l < n ? 0 : pad_value(nplanes, k);
   return p;
+}
+
+#if defined(EK_REAL_F32)
+typedef ek_staged_chunk_f32_fn staged_chunk_fn;
+#else
+typedef ek_staged_chunk_f64_fn staged_chunk_fn;
+#endif
+
+int EK_P(staged_chunks)(const char *fn, size_t n, size_t chunk_blocks, int nbuf, const int *planes,
+                        staged_chunk_fn *run, void *ctx) {
+  const size_t chunk = chunk_blocks * EK_LANES;
+  size_t nchunks = (n + chunk - 1) / chunk;
+  int failed = 0;
+#pragma omp parallel if (nchunks > 1)
+  {
+    real *bufs[EK_STAGED_MAX_BUFS] = {0};
+    int ok = 1;
+    for (int k = 0; k < nbuf; k++)
+      if (planes[k] > 0)
+        ok = ok && (bufs[k] = ek_alloc(chunk * (size_t)planes[k] * sizeof(real)));
+    if (!ok) {
+#pragma omp atomic write
+      failed = 1;
+    }
+#pragma omp barrier
+    if (!failed) {
+#pragma omp for schedule(static)
+      for (size_t c = 0; c < nchunks; c++) {
+        size_t i0 = c * chunk;
+        run(ctx, i0, n - i0 < chunk ? n - i0 : chunk, bufs);
+      }
+    }
+    for (int k = 0; k < nbuf; k++)
+      ek_free(bufs[k]);
+  }
+  if (failed) {
+    ek_set_error("%s: out of memory for staging buffers", fn);
+    return EK_ENOMEM;
+  }
+  return EK_OK;
 }

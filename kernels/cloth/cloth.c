@@ -63,53 +63,32 @@ static int check_io(const char *fn, size_t count, size_t lanes, const io *a) {
 
 // AoS path: each thread packs a chunk into its own staging buffers, runs
 // the kernel there and unpacks the wanted outputs.
+typedef struct {
+  const io *a;
+  cloth_block_fn *block;
+} io_aos;
+
+static void io_aos_chunk(void *ctx, size_t i0, size_t m, real *const *buf) {
+  const io *a = ((const io_aos *)ctx)->a;
+  for (int k = 0; k < 2; k++)
+    if (buf[k])
+      EK_P(aosoa_pack)(m, a->in_planes[k], a->in[k] + (size_t)a->in_planes[k] * i0, buf[k]);
+  ((const io_aos *)ctx)->block(EK_P(aosoa_blocks)(m), buf[0], buf[1], buf[2], buf[3], buf[4]);
+  for (int k = 0; k < 3; k++)
+    if (buf[2 + k])
+      EK_P(aosoa_unpack)
+      (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
+}
+
 static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
   int rc = check_io(fn, n, 1, a);
   if (rc)
     return rc;
-  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *buf[5] = {0};
-    int ok = 1;
-    for (int k = 0; k < 5; k++) {
-      int planes = k < 2 ? a->in_planes[k] : a->out_planes[k - 2];
-      int used = k < 2 ? planes > 0 : a->out[k - 2] != NULL;
-      if (used) {
-        buf[k] = ek_alloc((size_t)CHUNK_BLOCKS * planes * EK_LANES * sizeof(real));
-        ok = ok && buf[k];
-      }
-    }
-    if (!ok) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-        size_t nb = (m + EK_LANES - 1) / EK_LANES;
-        for (int k = 0; k < 2; k++)
-          if (buf[k])
-            EK_P(aosoa_pack)(m, a->in_planes[k], a->in[k] + (size_t)a->in_planes[k] * i0, buf[k]);
-        block(nb, buf[0], buf[1], buf[2], buf[3], buf[4]);
-        for (int k = 0; k < 3; k++)
-          if (buf[2 + k])
-            EK_P(aosoa_unpack)
-        (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
-      }
-    }
-    for (int k = 0; k < 5; k++)
-      ek_free(buf[k]);
-  }
-  if (failed) {
-    ek_set_error("%s: out of memory for staging buffers", fn);
-    return EK_ENOMEM;
-  }
-  return EK_OK;
+  int planes[5];
+  for (int k = 0; k < 5; k++)
+    planes[k] = k < 2 ? a->in_planes[k] : a->out[k - 2] ? a->out_planes[k - 2] : 0;
+  io_aos c = {a, block};
+  return EK_P(staged_chunks)(fn, n, CHUNK_BLOCKS, 5, planes, io_aos_chunk, &c);
 }
 
 static int run_blocks(const char *fn, cloth_block_fn *block, size_t nblocks, const io *a) {
@@ -290,6 +269,36 @@ int EK_P(tri_velocity_gradient_aosoa)(size_t nblocks, const real *x, const real 
 // Caller tet order: each thread gathers a chunk's corner positions and
 // velocities into its staging blocks (12 planes each), runs the kernel and
 // unpacks L, D, W.
+typedef struct {
+  const int32_t *tets;
+  const real *x, *v;
+  real *out[3];
+  cloth_block_fn *block;
+} tet_velgrad_aos;
+
+static void tet_velgrad_chunk(void *ctx, size_t i0, size_t m, real *const *buf) {
+  const tet_velgrad_aos *c = ctx;
+  real *xs = buf[0], *vs = buf[1];
+  size_t nb = EK_P(aosoa_blocks)(m);
+  for (size_t l = 0; l < nb * EK_LANES; l++) {
+    size_t b = l / EK_LANES, lane = l % EK_LANES;
+    for (int k = 0; k < 4; k++)
+      for (int i = 0; i < 3; i++) {
+        size_t at = (b * 12 + 3 * k + i) * EK_LANES + lane;
+        if (l < m) {
+          size_t vtx = (size_t)c->tets[4 * (i0 + l) + k];
+          xs[at] = c->x[3 * vtx + i], vs[at] = c->v[3 * vtx + i];
+        } else { // padding: a unit right-angled tet at rest
+          xs[at] = (real)(k == i + 1), vs[at] = 0;
+        }
+      }
+  }
+  c->block(nb, xs, vs, buf[2], buf[3], buf[4]);
+  for (int k = 0; k < 3; k++)
+    if (buf[2 + k])
+      EK_P(aosoa_unpack)(m, 9, buf[2 + k], c->out[k] + 9 * i0);
+}
+
 int EK_P(tet_velocity_gradient)(const ek_tets *el, const real *x, const real *v, real *L, real *D,
                                 real *W, const ek_cloth_opts *opts) {
   const ek_kernel_table *t = table(opts);
@@ -301,62 +310,10 @@ int EK_P(tet_velocity_gradient)(const ek_tets *el, const real *x, const real *v,
   }
   if (!L && !D && !W)
     return EK_OK;
-  cloth_block_fn *block = FN(t, cloth_tet_velgrad_block);
-  size_t n = ek_tets_count(el);
-  const int32_t *tets = ek_tets_vertices(el);
-  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
-  real *out[3] = {L, D, W};
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *xs = ek_alloc((size_t)CHUNK_BLOCKS * 12 * EK_LANES * sizeof(real));
-    real *vs = ek_alloc((size_t)CHUNK_BLOCKS * 12 * EK_LANES * sizeof(real));
-    real *os[3] = {0};
-    int ok = xs && vs;
-    for (int k = 0; k < 3; k++)
-      if (out[k]) {
-        os[k] = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-        ok = ok && os[k];
-      }
-    if (!ok) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-        size_t nb = (m + EK_LANES - 1) / EK_LANES;
-        for (size_t l = 0; l < nb * EK_LANES; l++) {
-          size_t b = l / EK_LANES, lane = l % EK_LANES;
-          for (int k = 0; k < 4; k++)
-            for (int i = 0; i < 3; i++) {
-              size_t at = (b * 12 + 3 * k + i) * EK_LANES + lane;
-              if (l < m) {
-                size_t vtx = (size_t)tets[4 * (i0 + l) + k];
-                xs[at] = x[3 * vtx + i], vs[at] = v[3 * vtx + i];
-              } else { // padding: a unit right-angled tet at rest
-                xs[at] = (real)(k == i + 1), vs[at] = 0;
-              }
-            }
-        }
-        block(nb, xs, vs, os[0], os[1], os[2]);
-        for (int k = 0; k < 3; k++)
-          if (os[k])
-            EK_P(aosoa_unpack)(m, 9, os[k], out[k] + 9 * i0);
-      }
-    }
-    ek_free(xs), ek_free(vs);
-    for (int k = 0; k < 3; k++)
-      ek_free(os[k]);
-  }
-  if (failed) {
-    ek_set_error("ek_tet_velocity_gradient: out of memory for staging buffers");
-    return EK_ENOMEM;
-  }
-  return EK_OK;
+  tet_velgrad_aos c = {ek_tets_vertices(el), x, v, {L, D, W}, FN(t, cloth_tet_velgrad_block)};
+  const int planes[5] = {12, 12, L ? 9 : 0, D ? 9 : 0, W ? 9 : 0};
+  return EK_P(staged_chunks)("ek_tet_velocity_gradient", ek_tets_count(el), CHUNK_BLOCKS, 5, planes,
+                             tet_velgrad_chunk, &c);
 }
 
 // ---- Kabsch ---------------------------------------------------------------
@@ -443,6 +400,30 @@ static int kabsch_covariance(size_t k0, size_t k1, const real *P, const real *Q,
   return spread;
 }
 
+typedef struct {
+  const size_t *offsets;
+  const real *P, *Q, *w;
+  real *R;
+  svd3_block_fn *block;
+  ek_svd3_knobs knobs;
+} kabsch_aos;
+
+static void kabsch_chunk(void *ctx, size_t s0, size_t ns, real *const *buf) {
+  const kabsch_aos *c = ctx;
+  size_t nb = EK_P(aosoa_blocks)(ns);
+  for (size_t l = 0; l < nb * EK_LANES; l++) {
+    real *blk = buf[0] + (l / EK_LANES) * 9 * EK_LANES;
+    if (l < ns)
+      kabsch_covariance(c->offsets[s0 + l], c->offsets[s0 + l + 1], c->P, c->Q, c->w, blk,
+                        l % EK_LANES);
+    else
+      for (int i = 0; i < 9; i++)
+        blk[(size_t)i * EK_LANES + l % EK_LANES] = (real)(i % 4 == 0);
+  }
+  c->block(nb, buf[0], buf[1], NULL, NULL, &c->knobs);
+  EK_P(aosoa_unpack)(ns, 9, buf[1], c->R + 9 * s0);
+}
+
 int EK_P(kabsch_ex)(size_t nsets, const size_t *offsets, const real *P, const real *Q,
                     const real *w, real *R, const ek_cloth_opts *opts) {
   const ek_kernel_table *t = table(opts);
@@ -460,45 +441,10 @@ int EK_P(kabsch_ex)(size_t nsets, const size_t *offsets, const real *P, const re
     ek_set_error("ek_kabsch: R must not be NULL (nsets = %zu)", nsets);
     return EK_EINVAL;
   }
-  svd3_block_fn *block = FN(t, svd3_block);
-  ek_svd3_knobs knobs = EK_P(svd3_default_knobs)();
-  knobs.polar = 1;
-  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (nsets + chunk - 1) / chunk;
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *m = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    real *r = ek_alloc((size_t)CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    if (!m || !r) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t s0 = c * chunk, ns = nsets - s0 < chunk ? nsets - s0 : chunk;
-        size_t nb = (ns + EK_LANES - 1) / EK_LANES;
-        for (size_t l = 0; l < nb * EK_LANES; l++) {
-          real *blk = m + (l / EK_LANES) * 9 * EK_LANES;
-          if (l < ns)
-            kabsch_covariance(offsets[s0 + l], offsets[s0 + l + 1], P, Q, w, blk, l % EK_LANES);
-          else
-            for (int i = 0; i < 9; i++)
-              blk[(size_t)i * EK_LANES + l % EK_LANES] = (real)(i % 4 == 0);
-        }
-        block(nb, m, r, NULL, NULL, &knobs);
-        EK_P(aosoa_unpack)(ns, 9, r, R + 9 * s0);
-      }
-    }
-    ek_free(m), ek_free(r);
-  }
-  if (failed) {
-    ek_set_error("ek_kabsch: out of memory for staging buffers");
-    return EK_ENOMEM;
-  }
-  return EK_OK;
+  kabsch_aos c = {offsets, P, Q, w, R, FN(t, svd3_block), EK_P(svd3_default_knobs)()};
+  c.knobs.polar = 1;
+  return EK_P(staged_chunks)("ek_kabsch", nsets, CHUNK_BLOCKS, 2, (const int[]){9, 9}, kabsch_chunk,
+                             &c);
 }
 
 int EK_P(kabsch)(size_t nsets, const size_t *offsets, const real *P, const real *Q, const real *w,

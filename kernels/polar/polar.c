@@ -76,6 +76,21 @@ int EK_P(polar3_warm_aosoa)(size_t nblocks, const real *A, real *R,
 
 // AoS: each thread packs a chunk of A and R into its own staging blocks,
 // runs the kernel there and unpacks R.
+typedef struct {
+  const real *A;
+  real *R;
+  polar_warm_block_fn *block;
+  int iters;
+} warm_aos;
+
+static void warm_aos_chunk(void *ctx, size_t i0, size_t m, real *const *bufs) {
+  const warm_aos *c = ctx;
+  EK_P(aosoa_pack)(m, 9, c->A + 9 * i0, bufs[0]);
+  EK_P(aosoa_pack)(m, 9, c->R + 9 * i0, bufs[1]);
+  c->block(EK_P(aosoa_blocks)(m), bufs[0], bufs[1], c->iters);
+  EK_P(aosoa_unpack)(m, 9, bufs[1], c->R + 9 * i0);
+}
+
 int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts *opts) {
   static const char *fn = "ek_polar3_warm";
   int iters;
@@ -90,34 +105,6 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
   if ((rc = ek_batch_check(fn, n, 9 * sizeof(real), _Alignof(real), 2, (const void *[]){A, R},
                            (const char *const[]){"A", "R"})))
     return rc;
-  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *a = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    real *r = ek_alloc(CHUNK_BLOCKS * 9 * EK_LANES * sizeof(real));
-    if (!a || !r) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-        size_t nb = (m + EK_LANES - 1) / EK_LANES;
-        EK_P(aosoa_pack)(m, 9, A + 9 * i0, a);
-        EK_P(aosoa_pack)(m, 9, R + 9 * i0, r);
-        block(nb, a, r, iters);
-        EK_P(aosoa_unpack)(m, 9, r, R + 9 * i0);
-      }
-    }
-    ek_free(a), ek_free(r);
-  }
-  if (failed) {
-    ek_set_error("%s: out of memory for staging buffers", fn);
-    return EK_ENOMEM;
-  }
-  return EK_OK;
+  warm_aos c = {A, R, block, iters};
+  return EK_P(staged_chunks)(fn, n, CHUNK_BLOCKS, 2, (const int[]){9, 9}, warm_aos_chunk, &c);
 }
