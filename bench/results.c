@@ -381,7 +381,7 @@ int ek_results_file_exists(const char *path) {
 // Put a finished temp file under its final name: without force, link()
 // fails if the name exists (so an existing file is never touched); with
 // force, rename() replaces it atomically.
-int ek_results_publish(const char *tmp, const char *path, int force) {
+static int ek_results_publish(const char *tmp, const char *path, int force) {
   if (force) {
     if (rename(tmp, path) != 0) {
       fprintf(stderr, "ek results: cannot rename '%s' to '%s': %s\n", tmp, path, strerror(errno));
@@ -418,7 +418,7 @@ static int refuse_existing(const char *path, int force) {
   return 0;
 }
 
-void ek_results_temp_name(char *buf, size_t cap, const char *path) {
+static void ek_results_temp_name(char *buf, size_t cap, const char *path) {
   snprintf(buf, cap, "%s.tmp.%ld", path, (long)getpid());
 }
 
@@ -540,7 +540,7 @@ static int write_row_h5(hid_t benchmarks, const ek_result_row *row) {
   return rc ? -1 : 0;
 }
 
-int ek_results_write_meta_h5(const ek_results *r, long long loc) {
+static int ek_results_write_meta_h5(const ek_results *r, long long loc) {
   hid_t f = (hid_t)loc;
   int rc = 0;
   for (size_t i = 0; i < r->nmeta; i++) {
@@ -564,17 +564,37 @@ int ek_results_write_meta_h5(const ek_results *r, long long loc) {
   return rc ? -1 : 0;
 }
 
-int ek_results_write_h5(const ek_results *r, const char *path, int force) {
-  if (refuse_existing(path, force))
+int ek_results_write_h5_with(const char *who, const char *path, int force, const ek_results *meta,
+                             int (*body)(long long file, const void *ctx), const void *ctx) {
+  if (!force && ek_results_file_exists(path)) {
+    fprintf(stderr, "%s: '%s' exists; not overwritten (use --force)\n", who, path);
     return -1;
+  }
   char tmp[4096];
   ek_results_temp_name(tmp, sizeof tmp, path);
   hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
   if (f < 0) {
-    fprintf(stderr, "ek results: cannot create HDF5 file '%s'\n", tmp);
+    fprintf(stderr, "%s: cannot create HDF5 file '%s'\n", who, tmp);
     return -1;
   }
-  int rc = ek_results_write_meta_h5(r, f);
+  int rc = ek_results_write_meta_h5(meta, f);
+  rc |= body(f, ctx);
+  if (H5Fclose(f) < 0)
+    rc = -1;
+  if (rc) {
+    fprintf(stderr, "%s: writing '%s' failed; nothing written\n", who, path);
+    unlink(tmp);
+    return -1;
+  }
+  return ek_results_publish(tmp, path, force);
+}
+
+// The default suite's groups: /caches (one attribute per cache) and
+// /benchmarks (one group per row).
+static int write_rows_h5(long long file, const void *ctx) {
+  const ek_results *r = ctx;
+  hid_t f = (hid_t)file;
+  int rc = 0;
   hid_t caches = H5Gcreate2(f, "caches", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (caches < 0)
     rc = -1;
@@ -600,14 +620,11 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force) {
       rc |= write_row_h5(benchmarks, &r->rows[i]);
     H5Gclose(benchmarks);
   }
-  if (H5Fclose(f) < 0)
-    rc = -1;
-  if (rc) {
-    fprintf(stderr, "ek results: writing '%s' failed; nothing written\n", path);
-    unlink(tmp);
-    return -1;
-  }
-  return ek_results_publish(tmp, path, force);
+  return rc;
+}
+
+int ek_results_write_h5(const ek_results *r, const char *path, int force) {
+  return ek_results_write_h5_with("ek results", path, force, r, write_rows_h5, r);
 }
 
 // ---- JSON (Google Benchmark schema) -------------------------------------

@@ -169,16 +169,15 @@ int ek_results_write_h5(const ek_results *r, const char *path, int force);
 // has ~1e5 samples); 0 writes the aggregates only.
 int ek_results_write_json(const ek_results *r, const char *path, int force, int samples);
 
-// For other writers of a run (the tradeoff suite, bench/tradeoff.c): the
-// metadata as attributes of an open HDF5 file or group (loc: its hid_t),
-// 0 or < 0; the temp name a file is written under, "<path>.tmp.<pid>"; and
-// putting it in place as the writers above do (without force an existing
-// path is left untouched and is an error; tmp is removed either way).
-int ek_results_write_meta_h5(const ek_results *r, long long loc);
-void ek_results_temp_name(char *buf, size_t cap, const char *path);
-int ek_results_publish(const char *tmp, const char *path, int force);
-// Writes text (and a newline) to path's temporary name and publishes it;
-// frees text. Errors on stderr, prefixed with who. 0 or -1.
+// For other writers of a run (the tradeoff suite, bench/tradeoff.c). Every
+// file goes to "<path>.tmp.<pid>" and is put in place only when whole;
+// without force an existing path is left untouched and is an error.
+// Errors on stderr, prefixed with who. 0 or -1.
+// An HDF5 file: meta's attributes, then body(file, ctx) (file: its hid_t;
+// body returns 0 or < 0).
+int ek_results_write_h5_with(const char *who, const char *path, int force, const ek_results *meta,
+                             int (*body)(long long file, const void *ctx), const void *ctx);
+// A text file: text and a newline; frees text.
 int ek_results_write_text(const char *who, const char *path, char *text, int force);
 
 #ifdef __cplusplus

@@ -367,21 +367,11 @@ static int first_of_family(const ek_tradeoff *t, size_t i) {
   return 1;
 }
 
-int ek_tradeoff_write_h5(ek_tradeoff *t, const ek_results *meta, const char *path, int force) {
-  if (!force && ek_results_file_exists(path)) {
-    fprintf(stderr, "ek tradeoff: '%s' exists; not overwritten (use --force)\n", path);
-    return -1;
-  }
-  if (mark_fronts(t))
-    return -1;
-  char tmp[4096];
-  ek_results_temp_name(tmp, sizeof tmp, path);
-  hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
-  if (f < 0) {
-    fprintf(stderr, "ek tradeoff: cannot create HDF5 file '%s'\n", tmp);
-    return -1;
-  }
-  int rc = ek_results_write_meta_h5(meta, f);
+// /tradeoff: one group per family, and the family names.
+static int write_tradeoff_h5(long long file, const void *ctx) {
+  const ek_tradeoff *t = ctx;
+  hid_t f = (hid_t)file;
+  int rc = 0;
   hid_t top = H5Gcreate2(f, "tradeoff", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (top < 0) {
     rc = -1;
@@ -404,14 +394,13 @@ int ek_tradeoff_write_h5(ek_tradeoff *t, const ek_results *meta, const char *pat
     free(families);
     H5Gclose(top);
   }
-  if (H5Fclose(f) < 0)
-    rc = -1;
-  if (rc) {
-    fprintf(stderr, "ek tradeoff: writing '%s' failed; nothing written\n", path);
-    unlink(tmp);
+  return rc;
+}
+
+int ek_tradeoff_write_h5(ek_tradeoff *t, const ek_results *meta, const char *path, int force) {
+  if (mark_fronts(t))
     return -1;
-  }
-  return ek_results_publish(tmp, path, force);
+  return ek_results_write_h5_with("ek tradeoff", path, force, meta, write_tradeoff_h5, t);
 }
 
 // ---- JSON ----------------------------------------------------------------
