@@ -332,6 +332,23 @@ static int expect_end(mesh_reader *r, const char *name) {
   return 0;
 }
 
+// n lines "tag x y z" (Gmsh v2 and v4.0 nodes): 0, 1 on a parse error
+// (reported), 2 out of memory.
+static int read_tagged_nodes(mesh_reader *r, long n, tag_map *map, mesh_arrays *a) {
+  for (long i = 0; i < n; i++) {
+    long tag;
+    double x[3];
+    if (mesh_rd_line(r, "nodes") || mesh_rd_long(r, "node tag", &tag))
+      return 1;
+    for (int k = 0; k < 3; k++)
+      if (mesh_rd_double(r, "coordinate", &x[k]))
+        return 1;
+    if (map_push(map, tag) || mesh_arrays_push_vert(a, x, r->lineno))
+      return 2;
+  }
+  return 0;
+}
+
 int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
   const char *path = r->path;
   char *err = r->err;
@@ -361,6 +378,7 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
     goto done;
 
   long nnodes = 0;
+  int rc_nodes;
   double x[3];
   if (!v4) {
     // v2: "n", then "tag x y z" per node.
@@ -368,16 +386,10 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
         mesh_rd_check_count(r, nnodes, MESH_MAX_ITEMS, "node") ||
         mesh_rd_count_fits(r, nnodes, "node"))
       goto done;
-    for (long i = 0; i < nnodes; i++) {
-      long tag;
-      if (mesh_rd_line(r, "nodes") || mesh_rd_long(r, "node tag", &tag))
-        goto done;
-      for (int k = 0; k < 3; k++)
-        if (mesh_rd_double(r, "coordinate", &x[k]))
-          goto done;
-      if (map_push(&map, tag) || mesh_arrays_push_vert(a, x, r->lineno))
-        goto oom;
-    }
+    if ((rc_nodes = read_tagged_nodes(r, nnodes, &map, a)) == 1)
+      goto done;
+    if (rc_nodes)
+      goto oom;
   } else {
     // v4.1: "numBlocks numNodes minTag maxTag"; per block
     // "entityDim entityTag parametric n", n tag lines, n coordinate lines.
@@ -424,16 +436,10 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
             goto oom;
         }
       } else {
-        for (long i = 0; i < n; i++) {
-          long tag;
-          if (mesh_rd_line(r, "nodes") || mesh_rd_long(r, "node tag", &tag))
-            goto done;
-          for (int k = 0; k < 3; k++)
-            if (mesh_rd_double(r, "coordinate", &x[k]))
-              goto done;
-          if (map_push(&map, tag) || mesh_arrays_push_vert(a, x, r->lineno))
-            goto oom;
-        }
+        if ((rc_nodes = read_tagged_nodes(r, n, &map, a)) == 1)
+          goto done;
+        if (rc_nodes)
+          goto oom;
       }
       filled += n;
     }
