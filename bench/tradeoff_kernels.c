@@ -386,11 +386,7 @@ static void call_warm(void *p) {
 // Errors of n rotations R against the LAPACK polar of A rounded to bits.
 static long rotation_errors(int bits, size_t n, const double *A, const double *R, double *err) {
   for (size_t e = 0; e < n; e++) {
-    double a[9], Rr[9];
-    for (int i = 0; i < 9; i++)
-      a[i] = bits == 32 ? (double)(float)A[e * 9 + i] : A[e * 9 + i];
-    ek_polar3_ref(a, Rr, NULL);
-    double d = ek_check_rdiff9(R + e * 9, Rr);
+    double d = ek_check_polar_error(bits, A + e * 9, R + e * 9);
     err[e] = d == d ? d : INFINITY;
   }
   return (long)n;

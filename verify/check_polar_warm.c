@@ -68,6 +68,14 @@ double ek_check_rdiff9(const double R[9], const double R_ref[9]) {
   return d;
 }
 
+double ek_check_polar_error(int bits, const double A[9], const double R[9]) {
+  double a[9], Rr[9];
+  for (int i = 0; i < 9; i++)
+    a[i] = bits == 32 ? (double)(float)A[i] : A[i];
+  ek_polar3_ref(a, Rr, NULL);
+  return ek_check_rdiff9(R, Rr);
+}
+
 int ek_check_run_polar_warm(int bits, int aosoa, size_t n, const double *A, double *R, ek_isa isa,
                             int iterations) {
   ek_polar_warm_opts o = {.iterations = iterations, .isa = isa};

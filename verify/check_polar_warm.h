@@ -29,6 +29,10 @@ void ek_check_warm_cases(ek_rng *rng, size_t n, double s_min, double s_max, doub
 
 // max_ij |R - R_ref| of one matrix (NaN if either has a NaN).
 double ek_check_rdiff9(const double R[9], const double R_ref[9]);
+// max_ij |R - R_svd| with R_svd the LAPACK polar (ek_polar3_ref) of A as a
+// kernel of that precision saw it (bits 32: A rounded to float); NaN if R
+// has a NaN.
+double ek_check_polar_error(int bits, const double A[9], const double R[9]);
 
 // The warm polar kernel on double data (bits 32 rounds A and R to float and
 // back; aosoa 1 packs and calls the AoSoA entry point). R: in, guesses;

@@ -49,11 +49,7 @@ static void set_row(ek_verify_ctx *ctx, ek_isa isa, int bits, const char *inputs
   double rdiff = 0, orth = 0;
   long beyond = 0;
   for (size_t e = 0; e < n && rc == 0; e++) {
-    double a[9], Rr[9];
-    for (int i = 0; i < 9; i++)
-      a[i] = bits == 32 ? (double)(float)A[e * 9 + i] : A[e * 9 + i];
-    ek_polar3_ref(a, Rr, NULL);
-    double d = ek_check_rdiff9(R + e * 9, Rr), o = orth_det(R + e * 9);
+    double d = ek_check_polar_error(bits, A + e * 9, R + e * 9), o = orth_det(R + e * 9);
     if (!(o == o) || !(d == d))
       row.nonfinite++;
     else {
