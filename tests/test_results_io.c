@@ -231,24 +231,6 @@ static void check_h5(const ek_results *r, const char *path) {
 
 // ---- JSON read-back ----------------------------------------------------------
 
-static char *slurp(const char *path) {
-  FILE *f = fopen(path, "rb");
-  if (!f)
-    return NULL;
-  fseek(f, 0, SEEK_END);
-  long len = ftell(f);
-  fseek(f, 0, SEEK_SET);
-  char *buf = malloc((size_t)len + 1);
-  if (buf && fread(buf, 1, (size_t)len, f) == (size_t)len)
-    buf[len] = 0;
-  else {
-    free(buf);
-    buf = NULL;
-  }
-  fclose(f);
-  return buf;
-}
-
 // Every occurrence of "key": in the text is followed by an integer literal
 // (Google Benchmark writes these keys as int64): digits, optional minus,
 // then ',' / '}' / whitespace. The doubles are written in scientific

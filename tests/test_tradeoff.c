@@ -220,24 +220,6 @@ static void check_h5(const char *path) {
   H5Fclose(f);
 }
 
-static char *slurp(const char *path) {
-  FILE *f = fopen(path, "rb");
-  if (!f)
-    return NULL;
-  fseek(f, 0, SEEK_END);
-  long len = ftell(f);
-  fseek(f, 0, SEEK_SET);
-  char *s = malloc((size_t)len + 1);
-  size_t got = s ? fread(s, 1, (size_t)len, f) : 0;
-  fclose(f);
-  if (!s || got != (size_t)len) {
-    free(s);
-    return NULL;
-  }
-  s[len] = 0;
-  return s;
-}
-
 static double number_or_nan(const cJSON *o, const char *key) {
   const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
   if (cJSON_IsString(v) && !strcmp(v->valuestring, "inf"))
