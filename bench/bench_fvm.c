@@ -156,25 +156,35 @@ static int mesh_setup(ek_bench *b, fvm_mesh_case *mc) {
   return 0;
 }
 
-static const struct {
-  const char *name;
+// The force rows' materials: every model in ek_model order (from its
+// descriptor; lambda 0 where the model has no volume term), then fixed
+// corotated with the warm-started polar (default iterations and one).
+#define NMODELS (EK_MODEL_COUNT + 2)
+#define FIXED_COROT_WARM EK_MODEL_COUNT
+#define FIXED_COROT_WARM_IT1 (EK_MODEL_COUNT + 1)
+static struct {
+  char name[32];
   ek_material mat;
-} models[] = {
-    {"linear", {EK_MODEL_LINEAR, 1e5, 4e5, 0}},
-    {"stvk", {EK_MODEL_STVK, 1e5, 4e5, 0}},
-    {"corot_linear", {EK_MODEL_COROTATED_LINEAR, 1e5, 4e5, 0}},
-    {"fixed_corot", {EK_MODEL_FIXED_COROTATED, 1e5, 4e5, 0}},
-    {"arap", {EK_MODEL_ARAP, 1e5, 0, 0}},
-    {"psi_r", {EK_MODEL_PSI_R, 1e5, 0, 0}},
-    {"nh", {EK_MODEL_NEO_HOOKEAN, 1e5, 4e5, 0}},
-    {"snh", {EK_MODEL_STABLE_NEO_HOOKEAN, 1e5, 4e5, 0}},
-    {"fixed_corot_warm", {EK_MODEL_FIXED_COROTATED, 1e5, 4e5, 0}},
-    {"fixed_corot_warm_it1", {EK_MODEL_FIXED_COROTATED, 1e5, 4e5, 0}},
-};
-#define FIXED_COROT 3
-#define NEO_HOOKEAN 6
-#define FIXED_COROT_WARM 8
-#define FIXED_COROT_WARM_IT1 9
+} models[NMODELS];
+static int FIXED_COROT, NEO_HOOKEAN; // the headline row, the warm rows' baseline
+static int STVK;                     // the force rows the XPBD sweeps are compared with
+
+static void models_init(void) {
+  for (int m = 0; m < EK_MODEL_COUNT; m++) {
+    const ek_model_desc *d = ek_model_describe((ek_model)m);
+    snprintf(models[m].name, sizeof models[m].name, "%s", d->name);
+    models[m].mat = (ek_material){(ek_model)m, 1e5, d->volume_term ? 4e5 : 0, 0};
+  }
+  ek_model fc = EK_MODEL_COUNT, nh = EK_MODEL_COUNT;
+  ek_model_from_name("fixed_corot", &fc);
+  ek_model_from_name("nh", &nh);
+  FIXED_COROT = (int)fc, NEO_HOOKEAN = (int)nh, STVK = (int)EK_XPBD_MODEL;
+  for (int w = FIXED_COROT_WARM; w <= FIXED_COROT_WARM_IT1; w++) {
+    models[w].mat = models[FIXED_COROT].mat;
+    snprintf(models[w].name, sizeof models[w].name, "%s_warm%s", models[FIXED_COROT].name,
+             w == FIXED_COROT_WARM_IT1 ? "_it1" : "");
+  }
+}
 #define IS_WARM(m) ((m) == FIXED_COROT_WARM || (m) == FIXED_COROT_WARM_IT1)
 
 static const ek_scatter scatters[] = {EK_SCATTER_ATOMIC, EK_SCATTER_COLORED,
@@ -205,7 +215,7 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
     ctx.mat = models[model].mat;
     ctx.opts.scatter = s;
     ctx.opts.isa = isa;
-    if (ctx.mat.model == EK_MODEL_COROTATED_LINEAR)
+    if (ek_model_need(ctx.mat.model, 0) == EK_NEEDS_R_INPUT)
       ctx.opts.R_state = f32 ? mc->R32 : mc->R64;
     if (IS_WARM(model))
       ctx.opts.polar_state = f32 ? mc->W32 : mc->W64;
@@ -282,7 +292,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
     c->f32 = f32;
     c->gradient = gradient;
     c->b = b;
-    c->R = models[model].mat.model == EK_MODEL_COROTATED_LINEAR ? mc->R64 : NULL;
+    c->R = ek_model_need(models[model].mat.model, 0) == EK_NEEDS_R_INPUT ? mc->R64 : NULL;
     // The products need a cache: one gradient pass at the deformed state.
     if (!c->h || ek_fvm_hessian_gradient_f64(c->h, mc->x64, c->R, mc->f64, NULL, 1) < 0) {
       ek_bench_fail(b, "fvm: ek_fvm_hessian: %s", ek_last_error());
@@ -315,7 +325,6 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
 
 // ---- XPBD sweeps --------------------------------------------------------
 
-#define STVK 1      // models[STVK]: the force rows the sweeps are compared with
 #define XPBD_H 1e-3 // substep of ek_xpbd_begin: sets alpha~ = 1 / (V E h^2)
 #define XPBD_DENSITY 1000.0
 
@@ -408,10 +417,6 @@ static int xpbd_row(ek_bench *b, ek_xpbd_elements e, ek_xpbd_solver s, ek_isa is
   const ek_material *mat = &models[STVK].mat;
   const double mu = mat->mu, la = mat->lambda, young = mu * (3 * la + 2 * mu) / (la + mu);
   if (!ek_bench_listing(b)) {
-    if (mat->model != EK_MODEL_STVK) {
-      ek_bench_fail(b, "fvm: xpbd: models[STVK] is not the stvk model");
-      return -1;
-    }
     if (mesh_setup(b, mc))
       return -1;
     xpbd_ctx_free(c);
@@ -507,6 +512,7 @@ static void xpbd_note(ek_bench *b, ek_isa isa, const int *counts, int nth) {
 }
 
 int bench_fvm(ek_bench *b) {
+  models_init();
   ek_isa isas[EK_ISA_COUNT];
   int nisa = ek_bench_isas(b, isas);
   int counts[EK_BENCH_MAX_THREAD_COUNTS];
@@ -524,21 +530,20 @@ int bench_fvm(ek_bench *b) {
     for (size_t s = 0; s < sizeof scatters / sizeof scatters[0]; s++)
       rc |= one_row(b, FIXED_COROT, scatters[s], best, 0, 1, counts[t], 1);
     // Every model x precision, default strategy, 1e5.
-    for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
+    for (int m = 0; m < NMODELS; m++)
       for (int f32 = 1; f32 >= 0; f32--)
         if (!(m == FIXED_COROT))
           rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, f32, 1, counts[t], IS_WARM(m));
     // The SVD-free neo-Hookean pair at 1e6, f32: the bandwidth-bound rows.
-    for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
-      if (models[m].mat.model == EK_MODEL_NEO_HOOKEAN ||
-          models[m].mat.model == EK_MODEL_STABLE_NEO_HOOKEAN)
+    for (int m = 0; m < EK_MODEL_COUNT; m++)
+      if (ek_model_need(models[m].mat.model, 0) == EK_NEEDS_J)
         rc |= one_row(b, (int)m, EK_SCATTER_THREAD_BUFFERS, best, 1, 2, counts[t], 0);
     // The other ISAs.
     for (int i = 0; i < nisa - 1; i++)
       rc |= one_row(b, FIXED_COROT, EK_SCATTER_THREAD_BUFFERS, isas[i], 1, 1, counts[t], 0);
     // The implicit loop's Hessian: products per model x precision, and
     // the caching gradient pass.
-    for (size_t m = 0; m < sizeof models / sizeof models[0]; m++)
+    for (int m = 0; m < NMODELS; m++)
       for (int f32 = 1; f32 >= 0 && !IS_WARM(m); f32--) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);

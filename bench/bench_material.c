@@ -105,24 +105,31 @@ static int setup(ek_bench *b, material_ctx *c, int f64) {
 }
 
 typedef struct {
-  const char *name;
+  char name[32];
   ek_model model;
   double clamp;
   int svd_free; // baseline: fixed corotated of the same op
 } model_row;
 
-static const model_row models[] = {
-    {"linear", EK_MODEL_LINEAR, 0, 1},
-    {"stvk", EK_MODEL_STVK, 0, 1},
-    {"corot_linear", EK_MODEL_COROTATED_LINEAR, 0, 1},
-    {"fixed_corot", EK_MODEL_FIXED_COROTATED, 0, 0},
-    {"arap", EK_MODEL_ARAP, 0, 0},
-    {"psi_r", EK_MODEL_PSI_R, 0, 1},
-    {"nh", EK_MODEL_NEO_HOOKEAN, 0, 1},
-    {"snh", EK_MODEL_STABLE_NEO_HOOKEAN, 0, 1},
-    {"nh_clamp", EK_MODEL_NEO_HOOKEAN, 0.3, 0},
-    {"snh_clamp", EK_MODEL_STABLE_NEO_HOOKEAN, 0.3, 0},
-};
+// Every model in ek_model order (clamp 0), then, clamped at 0.3, each
+// clampable model whose clamp adds an SVD (neo-Hookean, stable neo-Hookean).
+static model_row models[2 * EK_MODEL_COUNT];
+
+static int models_init(void) {
+  int n = 0;
+  for (int pass = 0; pass < 2; pass++)
+    for (int m = 0; m < EK_MODEL_COUNT; m++) {
+      const ek_model_desc *d = ek_model_describe((ek_model)m);
+      const int svd_free = ek_model_need((ek_model)m, 0) != EK_NEEDS_POLAR;
+      if (pass == 1 && !(d->clampable && svd_free))
+        continue;
+      models[n] = (model_row){
+          .model = (ek_model)m, .clamp = pass ? 0.3 : 0, .svd_free = pass ? 0 : svd_free};
+      snprintf(models[n].name, sizeof models[n].name, "%s%s", d->name, pass ? "_clamp" : "");
+      n++;
+    }
+  return n;
+}
 
 static void run_row(ek_bench *b, const ek_bench_row *row, material_ctx *c) {
   if (ek_bench_listing(b)) {
@@ -145,6 +152,7 @@ int bench_material(ek_bench *b) {
   int counts[EK_BENCH_MAX_THREAD_COUNTS];
   int ncounts = ek_bench_thread_counts(b, counts);
   const int listing = ek_bench_listing(b);
+  const int nmodels = models_init();
   static const char *const op_names[3] = {"pk1", "diff", "diff_psd"};
   static const ek_material_op ops[3] = {EK_MAT_PK1, EK_MAT_PK1_DIFF, EK_MAT_PK1_DIFF};
   // Values moved per element: P reads F (9) and writes P (9); dP also reads
@@ -160,10 +168,10 @@ int bench_material(ek_bench *b) {
         const char *iname = ek_isa_name(isas[i]);
         char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], polar[EK_BENCH_NAME_MAX];
         snprintf(polar, sizeof polar, "material/polar/%s/%s/threads:%d", iname, prec, counts[t]);
-        for (int k = -2; k < 3 * (int)(sizeof models / sizeof models[0]); k++) {
+        for (int k = -2; k < 3 * nmodels; k++) {
           const int svd_row = k < 0;
-          const model_row *mr = svd_row ? NULL : &models[k % (sizeof models / sizeof models[0])];
-          const int op = svd_row ? 0 : k / (int)(sizeof models / sizeof models[0]);
+          const model_row *mr = svd_row ? NULL : &models[k % nmodels];
+          const int op = svd_row ? 0 : k / nmodels;
           if (k == -2)
             snprintf(name, sizeof name, "material/svd/%s/%s/threads:%d", iname, prec, counts[t]);
           else if (k == -1)

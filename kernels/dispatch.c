@@ -1,6 +1,7 @@
-// CPU feature detection, EK_ISA, and the kernel tables (BLIS bli_arch.c /
-// bli_cpuid.c play this part there).
+// CPU feature detection, EK_ISA, and the kernel table rows (BLIS
+// bli_arch.c / bli_cpuid.c / bli_cntx_init_<arch>.c play this part there).
 #include <cpuid.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -8,78 +9,59 @@
 
 #include "kernels.h"
 
-// Every kernel of one target; a target's row names its symbols.
-#define EK_DECLARE_TARGET(t)                                                                       \
-  ek_svd3_block_f32_fn ek_svd3_block_##t##_f32;                                                    \
-  ek_svd3_block_f64_fn ek_svd3_block_##t##_f64;                                                    \
-  ek_polar_warm_block_f32_fn ek_polar_warm_block_##t##_f32;                                        \
-  ek_polar_warm_block_f64_fn ek_polar_warm_block_##t##_f64;                                        \
-  ek_fma_probe_fn ek_fma_probe_##t##_f32;                                                          \
-  ek_fma_probe_fn ek_fma_probe_##t##_f64;                                                          \
-  ek_material_block_f32_fn ek_material_block_##t##_f32;                                            \
-  ek_material_block_f64_fn ek_material_block_##t##_f64;                                            \
-  ek_fvm_block_f32_fn ek_fvm_block_##t##_f32;                                                      \
-  ek_fvm_block_f64_fn ek_fvm_block_##t##_f64;                                                      \
-  ek_fvm_F_block_f32_fn ek_fvm_F_block_##t##_f32;                                                  \
-  ek_fvm_F_block_f64_fn ek_fvm_F_block_##t##_f64;                                                  \
-  ek_hessian_block_f32_fn ek_hessian_block_##t##_f32;                                              \
-  ek_hessian_block_f64_fn ek_hessian_block_##t##_f64;                                              \
-  ek_xpbd_block_f32_fn ek_xpbd_block_##t##_f32;                                                    \
-  ek_xpbd_block_f64_fn ek_xpbd_block_##t##_f64;                                                    \
-  ek_cloth_force_block_f32_fn ek_cloth_membrane_block_##t##_f32, ek_cloth_bending_block_##t##_f32; \
-  ek_cloth_force_block_f64_fn ek_cloth_membrane_block_##t##_f64, ek_cloth_bending_block_##t##_f64; \
-  ek_cloth_block_f32_fn ek_cloth_tri_F_block_##t##_f32;                                            \
-  ek_cloth_block_f64_fn ek_cloth_tri_F_block_##t##_f64;                                            \
-  ek_cloth_block_f32_fn ek_cloth_polar32_block_##t##_f32;                                          \
-  ek_cloth_block_f64_fn ek_cloth_polar32_block_##t##_f64;                                          \
-  ek_cloth_block_f32_fn ek_cloth_tri_velgrad_block_##t##_f32;                                      \
-  ek_cloth_block_f64_fn ek_cloth_tri_velgrad_block_##t##_f64;                                      \
-  ek_cloth_block_f32_fn ek_cloth_tet_velgrad_block_##t##_f32;                                      \
-  ek_cloth_block_f64_fn ek_cloth_tet_velgrad_block_##t##_f64;
-#define EK_ROW(t, isa_, w32, w64)                                                                  \
-  {                                                                                                \
-    .isa = isa_, .lanes_f32 = w32, .lanes_f64 = w64, .svd3_block_f32 = ek_svd3_block_##t##_f32,    \
-    .svd3_block_f64 = ek_svd3_block_##t##_f64,                                                     \
-    .polar_warm_block_f32 = ek_polar_warm_block_##t##_f32,                                         \
-    .polar_warm_block_f64 = ek_polar_warm_block_##t##_f64,                                         \
-    .fma_probe_f32 = ek_fma_probe_##t##_f32, .fma_probe_f64 = ek_fma_probe_##t##_f64,              \
-    .material_block_f32 = ek_material_block_##t##_f32,                                             \
-    .material_block_f64 = ek_material_block_##t##_f64, .fvm_block_f32 = ek_fvm_block_##t##_f32,    \
-    .fvm_block_f64 = ek_fvm_block_##t##_f64, .fvm_F_block_f32 = ek_fvm_F_block_##t##_f32,          \
-    .fvm_F_block_f64 = ek_fvm_F_block_##t##_f64, .hessian_block_f32 = ek_hessian_block_##t##_f32,  \
-    .hessian_block_f64 = ek_hessian_block_##t##_f64, .xpbd_block_f32 = ek_xpbd_block_##t##_f32,    \
-    .xpbd_block_f64 = ek_xpbd_block_##t##_f64,                                                     \
-    .cloth_membrane_block_f32 = ek_cloth_membrane_block_##t##_f32,                                 \
-    .cloth_bending_block_f32 = ek_cloth_bending_block_##t##_f32,                                   \
-    .cloth_membrane_block_f64 = ek_cloth_membrane_block_##t##_f64,                                 \
-    .cloth_bending_block_f64 = ek_cloth_bending_block_##t##_f64,                                   \
-    .cloth_tri_F_block_f32 = ek_cloth_tri_F_block_##t##_f32,                                       \
-    .cloth_tri_F_block_f64 = ek_cloth_tri_F_block_##t##_f64,                                       \
-    .cloth_polar32_block_f32 = ek_cloth_polar32_block_##t##_f32,                                   \
-    .cloth_polar32_block_f64 = ek_cloth_polar32_block_##t##_f64,                                   \
-    .cloth_tri_velgrad_block_f32 = ek_cloth_tri_velgrad_block_##t##_f32,                           \
-    .cloth_tri_velgrad_block_f64 = ek_cloth_tri_velgrad_block_##t##_f64,                           \
-    .cloth_tet_velgrad_block_f32 = ek_cloth_tet_velgrad_block_##t##_f32,                           \
-    .cloth_tet_velgrad_block_f64 = ek_cloth_tet_velgrad_block_##t##_f64                            \
-  }
-
-EK_DECLARE_TARGET(scalar)
-#ifdef EK_BUILT_AVX2
-EK_DECLARE_TARGET(avx2)
+// Each target's fill functions, from CMake: EK_FILLS_<ISA> lists
+// ek_<source>_fill_<isa>_<prec> for every kernel source built for that
+// target (kernels/CMakeLists.txt, EK_KERNEL_SOURCES_<isa>).
+extern ek_kernel_fill_fn EK_FILLS_SCALAR;
+static ek_kernel_fill_fn *const fills_scalar[] = {EK_FILLS_SCALAR};
+#ifdef EK_FILLS_AVX2
+extern ek_kernel_fill_fn EK_FILLS_AVX2;
+static ek_kernel_fill_fn *const fills_avx2[] = {EK_FILLS_AVX2};
 #endif
-#ifdef EK_BUILT_AVX512
-EK_DECLARE_TARGET(avx512)
+#ifdef EK_FILLS_AVX512
+extern ek_kernel_fill_fn EK_FILLS_AVX512;
+static ek_kernel_fill_fn *const fills_avx512[] = {EK_FILLS_AVX512};
 #endif
 
-static const ek_kernel_table rows[EK_ISA_COUNT] = {
-    [EK_ISA_SCALAR] = EK_ROW(scalar, EK_ISA_SCALAR, 1, 1),
-#ifdef EK_BUILT_AVX2
-    [EK_ISA_AVX2] = EK_ROW(avx2, EK_ISA_AVX2, 8, 4),
+#define EK_FILLS(f) f, sizeof f / sizeof *f
+static const struct {
+  ek_kernel_fill_fn *const *fills; // NULL: the target is not built
+  size_t n;
+  int lanes_f32, lanes_f64;
+} targets[EK_ISA_COUNT] = {
+    [EK_ISA_SCALAR] = {EK_FILLS(fills_scalar), 1, 1},
+#ifdef EK_FILLS_AVX2
+    [EK_ISA_AVX2] = {EK_FILLS(fills_avx2), 8, 4},
 #endif
-#ifdef EK_BUILT_AVX512
-    [EK_ISA_AVX512] = EK_ROW(avx512, EK_ISA_AVX512, 16, 8),
+#ifdef EK_FILLS_AVX512
+    [EK_ISA_AVX512] = {EK_FILLS(fills_avx512), 16, 8},
 #endif
 };
+
+// The rows, made once: the scalar kernels, then the target's own over them.
+static ek_kernel_table rows[EK_ISA_COUNT];
+static pthread_once_t rows_once = PTHREAD_ONCE_INIT;
+
+static void make_rows(void) {
+  for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++) {
+    if (!targets[i].fills)
+      continue;
+    ek_kernel_table *t = &rows[i];
+    for (size_t k = 0; k < targets[EK_ISA_SCALAR].n; k++)
+      targets[EK_ISA_SCALAR].fills[k](t);
+    if (i != EK_ISA_SCALAR)
+      for (size_t k = 0; k < targets[i].n; k++)
+        targets[i].fills[k](t);
+    t->isa = (ek_isa)i;
+    t->lanes_f32 = targets[i].lanes_f32;
+    t->lanes_f64 = targets[i].lanes_f64;
+  }
+}
+
+static const ek_kernel_table *row(ek_isa isa) {
+  pthread_once(&rows_once, make_rows);
+  return &rows[isa];
+}
 
 static const char *const isa_names[EK_ISA_COUNT] = {"auto", "scalar", "avx2", "avx512"};
 
@@ -129,7 +111,7 @@ static int cpu_runs(ek_isa isa) {
 }
 
 static int built(ek_isa isa) {
-  return isa > EK_ISA_AUTO && isa < EK_ISA_COUNT && rows[isa].svd3_block_f32 != NULL;
+  return isa > EK_ISA_AUTO && isa < EK_ISA_COUNT && targets[isa].fills != NULL;
 }
 
 int ek_isa_available(ek_isa isa) { return built(isa) && cpu_runs(isa); }
@@ -199,12 +181,12 @@ int ek_isa_resolve(ek_isa requested, ek_isa *resolved) {
 }
 
 const ek_kernel_table *ek_kernels_for(ek_isa isa) {
-  return ek_isa_available(isa) ? &rows[isa] : NULL;
+  return ek_isa_available(isa) ? row(isa) : NULL;
 }
 
 const ek_kernel_table *ek_kernels_resolve(ek_isa requested) {
   ek_isa isa;
   if (ek_isa_resolve(requested, &isa) != EK_OK)
     return NULL;
-  return &rows[isa];
+  return row(isa);
 }

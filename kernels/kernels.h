@@ -1,6 +1,6 @@
 // Internal: kernel signatures and the dispatch table. One row per ISA
-// target; every built row is complete (each kernel source is compiled for
-// every target), the scalar row is always there.
+// target, the scalar row always there; every entry of a built row is
+// callable (a target's row falls back to the scalar kernels it lacks).
 #ifndef EK_KERNELS_H
 #define EK_KERNELS_H
 
@@ -66,7 +66,6 @@ typedef double ek_fma_probe_fn(long iters, double *flops);
 // for op = energy / P / dP / Hessian (ek_material_op). Knobs resolved by
 // the driver (kernels/material/material.c) from ek_material.
 typedef struct {
-  ek_model model;
   ek_material_op op;
   int project;
   double mu, lambda, clamp;
@@ -121,6 +120,11 @@ typedef void ek_cloth_block_f32_fn(size_t nblocks, const float *a, const float *
 typedef void ek_cloth_block_f64_fn(size_t nblocks, const double *a, const double *b, double *o0,
                                    double *o1, double *o2);
 
+// A row of the kernel table: every kernel of one ISA target. A row starts
+// from the scalar kernels and the target's own kernels override them
+// (BLIS's context), so a target that lacks a kernel still has a callable
+// entry and a port can land one kernel at a time. The per-model entries
+// are indexed by ek_model (each model file fills its own, model_kernels.h).
 typedef struct {
   ek_isa isa;
   int lanes_f32, lanes_f64; // EK_W of the target
@@ -130,14 +134,16 @@ typedef struct {
   ek_polar_warm_block_f64_fn *polar_warm_block_f64;
   ek_fma_probe_fn *fma_probe_f32;
   ek_fma_probe_fn *fma_probe_f64;
-  ek_material_block_f32_fn *material_block_f32;
-  ek_material_block_f64_fn *material_block_f64;
-  ek_fvm_block_f32_fn *fvm_block_f32;
-  ek_fvm_block_f64_fn *fvm_block_f64;
+  ek_material_block_f32_fn *material_block_f32[EK_MODEL_COUNT];
+  ek_material_block_f64_fn *material_block_f64[EK_MODEL_COUNT];
+  ek_fvm_block_f32_fn *fvm_block_f32[EK_MODEL_COUNT];
+  ek_fvm_block_f64_fn *fvm_block_f64[EK_MODEL_COUNT];
+  ek_fvm_block_f32_fn *fvm_P_block_f32; // the phase split's pass from a stored P
+  ek_fvm_block_f64_fn *fvm_P_block_f64;
   ek_fvm_F_block_f32_fn *fvm_F_block_f32;
   ek_fvm_F_block_f64_fn *fvm_F_block_f64;
-  ek_hessian_block_f32_fn *hessian_block_f32;
-  ek_hessian_block_f64_fn *hessian_block_f64;
+  ek_hessian_block_f32_fn *hessian_block_f32[EK_MODEL_COUNT];
+  ek_hessian_block_f64_fn *hessian_block_f64[EK_MODEL_COUNT];
   ek_xpbd_block_f32_fn *xpbd_block_f32;
   ek_xpbd_block_f64_fn *xpbd_block_f64;
   ek_cloth_force_block_f32_fn *cloth_membrane_block_f32, *cloth_bending_block_f32;
@@ -151,6 +157,12 @@ typedef struct {
   ek_cloth_block_f32_fn *cloth_tet_velgrad_block_f32;
   ek_cloth_block_f64_fn *cloth_tet_velgrad_block_f64;
 } ek_kernel_table;
+
+// Each kernel source of each (ISA x precision) build ends with a fill
+// function, ek_<source>_fill_<isa>_<prec> (EK_SYM(<source>_fill)), that
+// enters its kernels in a row; CMake tells dispatch.c which exist per ISA
+// (EK_FILLS_<ISA>).
+typedef void ek_kernel_fill_fn(ek_kernel_table *t);
 
 // Table of a resolved target (see ek_isa_resolve), NULL if not available.
 const ek_kernel_table *ek_kernels_for(ek_isa isa);

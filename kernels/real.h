@@ -23,4 +23,10 @@ typedef double real;
 #define EK_P1_(name, p) EK_P2_(name, p)
 #define EK_P(name) EK_P1_(name, EK_PREC_TOKEN)
 
+// EK_FIELD(svd3_block) -> svd3_block_f32: this precision's entry of a
+// kernel table row (kernels.h).
+#define EK_F2_(name, p) name##_##p
+#define EK_F1_(name, p) EK_F2_(name, p)
+#define EK_FIELD(name) EK_F1_(name, EK_PREC_TOKEN)
+
 #endif

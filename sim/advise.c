@@ -9,74 +9,18 @@
 #include <string.h>
 
 // Why a model cannot represent what the reference run reached (NULL: it
-// can), from the monitor of trial.h. The rules and their sources:
-// - linear: small strain and small rotation (advise.h,
-//   EK_ADVISE_SMALL_STRAIN: the dropped quadratic strain term, and a
-//   rotation's ghost strain 1 - cos theta, each within half of it).
-// - corotated linear: linear about R^n, the rotation at the step's start
-//   (seed 000; Muller and Gross 2004, "Interactive Virtual Materials",
-//   sec. 4): small strain, and the rotation within one step small enough
-//   that its ghost strain 1 - cos(dtheta) stays within the same bound.
-// - StVK and Psi_R (Psi_R is StVK's shear term, mu/4 |F^T F - I|^2): no
-//   inversion and no compression past sigma = 1/sqrt(3). In 1-D,
-//   P(s) = k s (s^2 - 1) / 2 peaks in compression at s = 1/sqrt(3) and falls
-//   to 0 at s = 0 (dP/ds = k (3 s^2 - 1) / 2): beyond it the material
-//   softens and can collapse (Irving et al. 2004, sec. 5; material.h: "no
-//   resistance at a flat element").
-// - neo-Hookean without clamp: defined for J > 0 only (material.h: psi =
-//   +inf at J <= 0).
-// - fixed corotated, ARAP, stable neo-Hookean: finite for every F (with
-//   clamp for inversion, Stomakhin et al. 2012; Smith et al. 2018); ARAP
-//   and Psi_R also need a scene without a volume term (ek_trial_set_model).
+// can), from the monitor of trial.h: each model's rule, with its sources,
+// is its descriptor's `excluded` (kernels/material/<name>.c); models
+// without one are finite for every F (fixed corotated, ARAP, stable
+// neo-Hookean: with clamp for inversion, Stomakhin et al. 2012; Smith et
+// al. 2018). ARAP and Psi_R also need a scene without a volume term
+// (ek_trial_set_model).
 static const char *model_excluded(ek_model m, double clamp, const ek_trial_monitor *r, char *why,
                                   size_t len) {
-  const double eps = EK_ADVISE_SMALL_STRAIN;
-  const double ghost_limit = eps / 2; // 1 - cos theta
-  switch (m) {
-  case EK_MODEL_LINEAR:
-    if (r->max_strain > eps)
-      snprintf(why, len, "large strain: max |F^T F - I| = %.3g > %g (small-strain model)",
-               r->max_strain, eps);
-    else if (1 - cos(r->max_rotation) > ghost_limit)
-      snprintf(why, len,
-               "large rotation: %.3g rad, ghost strain 1 - cos = %.3g > %g (not rotation "
-               "invariant)",
-               r->max_rotation, 1 - cos(r->max_rotation), ghost_limit);
-    else
-      return NULL;
-    return why;
-  case EK_MODEL_COROTATED_LINEAR:
-    if (r->max_strain > eps)
-      snprintf(why, len, "large strain: max |F^T F - I| = %.3g > %g (small-strain model)",
-               r->max_strain, eps);
-    else if (1 - cos(r->max_rotation_step) > ghost_limit)
-      snprintf(why, len, "rotation per step %.3g rad: ghost strain %.3g > %g (R^n lags the step)",
-               r->max_rotation_step, 1 - cos(r->max_rotation_step), ghost_limit);
-    else
-      return NULL;
-    return why;
-  case EK_MODEL_STVK:
-  case EK_MODEL_PSI_R:
-    if (r->min_sigma <= 1 / sqrt(3.0)) {
-      snprintf(why, len,
-               "compressed to sigma_min = %.3g <= 1/sqrt(3): past the peak of its compressive "
-               "stress (softens, can invert)",
-               r->min_sigma);
-      return why;
-    }
-    return NULL;
-  case EK_MODEL_NEO_HOOKEAN:
-    if (clamp <= 0 && r->min_J <= 0) {
-      snprintf(why, len, "inverted (min J = %.3g): undefined at J <= 0 without clamp", r->min_J);
-      return why;
-    }
-    return NULL;
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_ARAP:
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    return NULL;
-  }
-  return NULL;
+  const ek_model_desc *d = ek_model_describe(m);
+  const ek_model_run_stats stats = {r->max_strain, r->max_rotation, r->max_rotation_step,
+                                    r->min_sigma, r->min_J};
+  return d->excluded ? d->excluded(&stats, clamp, EK_ADVISE_SMALL_STRAIN, why, len) : NULL;
 }
 
 typedef struct {
@@ -151,7 +95,7 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
   }
   // XPBD's constraint is StVK's energy (sim/xpbd.c): another model runs
   // only in the other loops.
-  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || m == EK_MODEL_STVK;
+  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || m == EK_XPBD_MODEL;
   static const int precisions[] = {64, 32};
   for (int p = 0; p < 2 && own_loop; ++p) {
     ek_scene s = base;
@@ -198,7 +142,7 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
     return -1;
   const double frame_dt = fmax(scene->dt, fmin(1.0 / 60, sim_time / 5));
   for (int L = 0; L < EK_INTEGRATOR_COUNT; ++L) {
-    if (L == (int)scene->integrator || (L == EK_INTEGRATOR_XPBD && m != EK_MODEL_STVK))
+    if (L == (int)scene->integrator || (L == EK_INTEGRATOR_XPBD && m != EK_XPBD_MODEL))
       continue;
     ek_scene v = base;
     v.integrator = (ek_integrator_type)L;

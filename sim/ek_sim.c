@@ -271,7 +271,7 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   // The implicit loop's pass is the gradient (hessian.h), which also
   // caches each tet's eigensystem: the isotropic models take an SVD there.
   const int implicit = s->integrator == EK_INTEGRATOR_IMPLICIT;
-  const int iso = m->model != EK_MODEL_LINEAR && m->model != EK_MODEL_COROTATED_LINEAR;
+  const int iso = ek_model_describe(m->model)->isotropic;
   if (s->integrator == EK_INTEGRATOR_XPBD) {
     // XPBD runs its own constraint kernel (xpbd.h), not the force.
     ek_scene_integrator_explain(s, stdout, k);
@@ -307,8 +307,8 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
     printf("P(F), psi, %s -> G = V0 P Dm^-T -> scatter\n",
            iso ? "U,V-frame eigensystem projected to PSD (20 planes per tet, cached in the "
                  "product's precision)"
-           : m->model == EK_MODEL_COROTATED_LINEAR ? "R^n cached for the products"
-                                                   : "(constant Hessian: nothing cached)");
+           : ek_model_need(m->model, 0) == EK_NEEDS_R_INPUT ? "R^n cached for the products"
+                                                            : "(constant Hessian: nothing cached)");
   } else {
     printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
   }

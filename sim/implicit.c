@@ -114,7 +114,7 @@ static int implicit_create(ek_sim *s, void **data) {
     data_free(d);
     return sim_fail(s, "%s", ek_last_error());
   }
-  if (s->mat.model == EK_MODEL_COROTATED_LINEAR && d->f32 &&
+  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT && d->f32 &&
       !(d->R64 = ek_tet_state_create(ek_mesh_elements(s->mesh), 9, 1))) {
     data_free(d);
     return sim_fail(s, "%s", ek_last_error());
@@ -183,9 +183,9 @@ static double residual(implicit_data *d, const ek_sim *s, const double *g, doubl
 static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, double *phi) {
   const ek_scene *sc = &s->scene;
   const double dt = sc->dt, c = sc->damping, *g = sc->gravity;
-  const ek_tet_state *R = s->mat.model != EK_MODEL_COROTATED_LINEAR ? NULL
-                          : d->R64                                  ? d->R64
-                                                                    : s->R_state;
+  const ek_tet_state *R = ek_model_need(s->mat.model, 0) != EK_NEEDS_R_INPUT ? NULL
+                          : d->R64                                           ? d->R64
+                                                                             : s->R_state;
   double E, t0 = sim_now();
   if (s->cloth) {
     // grad E = -f; the products are taken at this x (the accepted point is

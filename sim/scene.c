@@ -394,7 +394,7 @@ static int get_count(parse_ctx *c, const cJSON *obj, const char *parent, const c
 
 // ---------------------------------------------------------------- models
 
-// The names live in the model table (kernels/material/models.h): scenes
+// The names live in the model descriptors (kernels/material/<name>.c): scenes
 // take the long names or the short ones.
 const char *ek_scene_model_name(ek_model model) {
   return (unsigned)model < EK_MODEL_COUNT ? ek_model_long_name(model) : NULL;
@@ -527,7 +527,7 @@ static int parse_cloth(parse_ctx *c, const cJSON *root, ek_scene *s) {
       return bad(c, "cloth", cl, "only meaningful with a triangle mesh");
     return 0;
   }
-  if (s->material.model != EK_MODEL_STVK && s->material.model != EK_MODEL_ARAP)
+  if (!ek_model_describe(s->material.model)->has_membrane)
     return bad(c, "material.model",
                cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(root, "material"),
                                                 "model"),

@@ -226,7 +226,7 @@ void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3
 // tet's rotation from call to call (fvm.h polar_state).
 static int uses_warm_force_rotations(const ek_sim *s) {
   return s->mesh && s->scene.polar == EK_POLAR_WARM &&
-         (s->mat.model == EK_MODEL_FIXED_COROTATED || s->mat.model == EK_MODEL_ARAP);
+         ek_model_need(s->mat.model, 0) == EK_NEEDS_POLAR;
 }
 
 // (Re)start the force's per-tet rotations at the SVD polar of the current
@@ -251,7 +251,7 @@ static int seed_warm_rotations(ek_sim *s) {
 }
 
 static int refresh_rotations(ek_sim *s) {
-  if (s->mat.model != EK_MODEL_COROTATED_LINEAR)
+  if (ek_model_need(s->mat.model, 0) != EK_NEEDS_R_INPUT)
     return 0;
   double t0 = sim_now();
   int rc = ek_fvm_deformation_gradients_f64(s->mesh, s->x, s->F);
@@ -337,8 +337,8 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     double mu = s->mat.mu, lam = s->mat.lambda, h = scene->thickness;
     s->cloth = ek_trimesh_cloth(tm);
     s->cloth_p =
-        (ek_cloth_params){s->mat.model == EK_MODEL_ARAP ? EK_MEMBRANE_ARAP : EK_MEMBRANE_STVK,
-                          mu * h, 2 * mu * lam / (lam + 2 * mu) * h, scene->bending_stiffness};
+        (ek_cloth_params){(ek_membrane_model)ek_model_describe(s->mat.model)->membrane, mu * h,
+                          2 * mu * lam / (lam + 2 * mu) * h, scene->bending_stiffness};
   }
   s->x = malloc(3 * nv * sizeof(double));
   s->v = malloc(3 * nv * sizeof(double));
@@ -356,7 +356,7 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     s->ff = malloc(3 * nv * sizeof(float));
     ok = ok && s->xf && s->ff;
   }
-  if (s->mat.model == EK_MODEL_COROTATED_LINEAR) {
+  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
     s->F = malloc(9 * nt * sizeof(double));
     s->R = malloc(9 * nt * sizeof(double));
     ok = ok && s->F && s->R;
@@ -457,7 +457,7 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   s->fvm.svd_exact_rsqrt = scene->svd.exact_rsqrt;
   s->fvm.svd_refine = scene->svd.refine;
   s->fvm.R = s->R;
-  if (s->mat.model == EK_MODEL_COROTATED_LINEAR) {
+  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
     s->R_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64);
     if (!s->R_state) {
       if (err && errlen)

@@ -50,58 +50,16 @@ double ek_trial_deviation(const ek_mesh *mesh, const double *x, const double *xr
   return sqrt(worst) / ek_trial_body_size(mesh);
 }
 
-// The linearisation of each model at F = I as linear elasticity with
-// (mu', lambda') = (a_mu mu + b_mu lambda, a_l mu + b_l lambda): material.h
-// ("At F = I every model's dP is linear elasticity"): ARAP and Psi_R drop
-// lambda, stable neo-Hookean gives (3 mu / 4, lambda - 5 mu / 8) (Smith et
-// al. 2018 sec. 3.4, ek takes mu and lambda as given).
-static void linearised(ek_model m, double mu, double lambda, double *mu_lin, double *lambda_lin) {
-  switch (m) {
-  case EK_MODEL_LINEAR:
-  case EK_MODEL_STVK:
-  case EK_MODEL_COROTATED_LINEAR:
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_NEO_HOOKEAN:
-    *mu_lin = mu, *lambda_lin = lambda;
-    return;
-  case EK_MODEL_ARAP:
-  case EK_MODEL_PSI_R:
-    *mu_lin = mu, *lambda_lin = 0;
-    return;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    *mu_lin = 0.75 * mu, *lambda_lin = lambda - 0.625 * mu;
-    return;
-  }
-  *mu_lin = mu, *lambda_lin = lambda;
-}
-
+// Each model's linearisation at F = I as linear elasticity (material.h,
+// "At F = I every model's dP is linear elasticity") and its inverse are in
+// its descriptor: the scene's material, linearised, becomes the other
+// model's (mu, lambda) for the same small-strain behaviour.
 int ek_trial_set_model(ek_scene *s, ek_model model, char *why, size_t whylen) {
-  double mu_lin, lambda_lin;
-  linearised(s->material.model, s->material.mu, s->material.lambda, &mu_lin, &lambda_lin);
-  double mu = mu_lin, lambda = lambda_lin;
-  switch (model) {
-  case EK_MODEL_ARAP:
-  case EK_MODEL_PSI_R:
-    if (lambda_lin != 0) {
-      snprintf(why, whylen,
-               "no volume term: the same material only when the linearised lambda is 0 (it "
-               "is %g)",
-               lambda_lin);
-      return -1;
-    }
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    // Invert (3 mu' / 4, lambda' - 5 mu' / 8) = (mu_lin, lambda_lin).
-    mu = mu_lin / 0.75;
-    lambda = lambda_lin + 0.625 * mu;
-    if (lambda == 0) {
-      snprintf(why, whylen, "stable neo-Hookean needs lambda != 0 (material.h)");
-      return -1;
-    }
-    break;
-  default:
-    break;
-  }
+  double mu_lin, lambda_lin, mu, lambda;
+  ek_model_describe(s->material.model)
+      ->linearise(s->material.mu, s->material.lambda, &mu_lin, &lambda_lin);
+  if (ek_model_describe(model)->from_linear(mu_lin, lambda_lin, &mu, &lambda, why, whylen) != EK_OK)
+    return -1;
   if (mu != s->material.mu || lambda != s->material.lambda) {
     // E and nu as given no longer describe (mu, lambda): XPBD derives E
     // from mu and lambda when young is NaN (sim/xpbd.c).
@@ -121,14 +79,14 @@ int ek_trial_set_model(ek_scene *s, ek_model model, char *why, size_t whylen) {
 // isotropic models (their eigensystems are in the U, V frame, hessian.h).
 // XPBD's constraint (StVK, P = F S) takes none.
 int ek_trial_uses_svd(const ek_scene *s) {
-  ek_model m = s->material.model;
-  if (m == EK_MODEL_COROTATED_LINEAR)
+  const ek_model_desc *d = ek_model_describe(s->material.model);
+  if (d->needs == EK_NEEDS_R_INPUT)
     return 1;
   if (s->integrator == EK_INTEGRATOR_XPBD)
     return 0;
   if (s->integrator == EK_INTEGRATOR_IMPLICIT)
-    return m != EK_MODEL_LINEAR;
-  ek_model_needs need = ek_model_need(m, s->material.clamp);
+    return d->isotropic;
+  ek_model_needs need = ek_model_need(s->material.model, s->material.clamp);
   return need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD;
 }
 

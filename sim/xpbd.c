@@ -52,7 +52,7 @@ static double young_of(const ek_sim *s) {
 
 static int xpbd_create(ek_sim *s, void **data) {
   *data = NULL;
-  if (!s->cloth && s->mat.model != EK_MODEL_STVK)
+  if (!s->cloth && s->mat.model != EK_XPBD_MODEL)
     return sim_fail(s,
                     "material.model = %s: XPBD's constraint is seed 001's Hookean energy, the "
                     "stvk model; use \"model\": \"stvk\"",

@@ -79,6 +79,52 @@ static void fail(const char *what) {
   printf("    FAIL %s\n", what);
 }
 
+// Every model's descriptor (kernels/material/<name>.c) agrees with the
+// public name and needs functions and with the reference's own table, which
+// must cover every model; its linearisation and inverse round-trip.
+static void check_descriptors(void) {
+  if (ek_material_ref_model_count() != EK_MODEL_COUNT) {
+    printf("  the reference table has %d models, ek_model %d\n", ek_material_ref_model_count(),
+           EK_MODEL_COUNT);
+    fail("reference table coverage");
+  }
+  if (ek_model_describe((ek_model)EK_MODEL_COUNT) != NULL)
+    fail("ek_model_describe(EK_MODEL_COUNT) is not NULL");
+  for (int m = 0; m < EK_MODEL_COUNT; m++) {
+    const ek_model_desc *d = ek_model_describe((ek_model)m);
+    ek_model by_name = EK_MODEL_COUNT, by_long = EK_MODEL_COUNT;
+    if (!d || d->model != (ek_model)m) {
+      printf("  model %d: descriptor %s\n", m, d ? "of another model" : "missing");
+      fail("descriptor table order");
+      continue;
+    }
+    ek_model_from_name(d->name, &by_name);
+    ek_model_from_name(d->long_name, &by_long);
+    double mu = 1.3, lambda = d->volume_term ? 2.1 : 0, mu_lin, lambda_lin, mu2, lambda2;
+    char why[200] = "";
+    d->linearise(mu, lambda, &mu_lin, &lambda_lin);
+    int rc = d->from_linear(mu_lin, lambda_lin, &mu2, &lambda2, why, sizeof why);
+    printf("  descriptor %-12s %-18s needs %d clampable %d (reference %d) isotropic %d cache %d "
+           "linearised (%g, %g)\n",
+           d->name, d->long_name, (int)d->needs, d->clampable, ek_material_ref_clampable(m),
+           d->isotropic, d->cache_planes, mu_lin, lambda_lin);
+    if (by_name != (ek_model)m || by_long != (ek_model)m ||
+        strcmp(ek_model_name((ek_model)m), d->name) != 0 ||
+        strcmp(ek_model_long_name((ek_model)m), d->long_name) != 0)
+      fail("names");
+    if (ek_model_need((ek_model)m, 0) != d->needs ||
+        ek_model_need((ek_model)m, 0.3) != (d->clampable ? EK_NEEDS_SVD : d->needs))
+      fail("needs");
+    if (d->clampable != ek_material_ref_clampable(m))
+      fail("clampable: descriptor and reference disagree");
+    if (rc != EK_OK || fabs(mu2 - mu) > 1e-15 * mu || fabs(lambda2 - lambda) > 1e-15 * mu) {
+      printf("  %s: (%g, %g) -> (%g, %g) -> (%g, %g) rc %d %s\n", d->name, mu, lambda, mu_lin,
+             lambda_lin, mu2, lambda2, rc, why);
+      fail("linearisation round trip");
+    }
+  }
+}
+
 // Run one evaluation in the given precision; double arrays in and out.
 static int eval(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
                 const double *F, const double *R, const double *dF, double *out, int project) {
@@ -271,6 +317,7 @@ int main(int argc, char **argv) {
   uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   ek_rng_seed(&rng, seed);
   printf("test_material --seed %llu\n", (unsigned long long)seed);
+  check_descriptors();
   const double clamps[2] = {0, 0.3};
   const size_t n = 77; // not a multiple of any lane count
 

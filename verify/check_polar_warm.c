@@ -120,9 +120,10 @@ static int open_scene(const char *path, ek_scene *sc, ek_mesh **mesh, ek_sim **s
   if (ek_scene_load(path, sc, err, errlen) != 0)
     return -1;
   sc->output_file[0] = '\0';
-  ek_model m = sc->material.model;
-  if (m != EK_MODEL_FIXED_COROTATED && m != EK_MODEL_ARAP) {
-    sc->material.model = EK_MODEL_FIXED_COROTATED;
+  // The warm polar stands in for R(F) of the models that need it (fixed
+  // corotated, ARAP); a scene of another model runs fixed corotated.
+  if (ek_model_need(sc->material.model, 0) != EK_NEEDS_POLAR) {
+    ek_model_from_name("fixed_corotated", &sc->material.model);
     snprintf(sc->model_name, sizeof sc->model_name, "fixed_corotated");
   }
   if (!(*mesh = ek_scene_mesh(sc, err, errlen)))

@@ -120,7 +120,7 @@ static int hessian(fvm_case *c, const ek_material *m, ek_isa isa, int f32, ek_pr
   ek_fvm_hessian *h = ek_fvm_hessian_create(ek_mesh_elements(c->mesh), m, &o);
   if (!h)
     return -1;
-  const ek_tet_state *R = m->model == EK_MODEL_COROTATED_LINEAR ? c->R_state : NULL;
+  const ek_tet_state *R = ek_model_need(m->model, 0) == EK_NEEDS_R_INPUT ? c->R_state : NULL;
   size_t n3 = 3 * c->nv;
   int rc = ek_fvm_hessian_gradient_f64(h, c->x, R, c->out, NULL, 1);
   if (rc == 0 && product) {

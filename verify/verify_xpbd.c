@@ -124,7 +124,7 @@ int verify_xpbd(ek_verify_ctx *ctx) {
   }
   ek_verify_note_skipped_isas(ctx, "xpbd");
   const double young = 1e5, nu = 0.3;
-  const ek_material m = {EK_MODEL_STVK, young / (2 * (1 + nu)),
+  const ek_material m = {EK_XPBD_MODEL, young / (2 * (1 + nu)),
                          young * nu / ((1 + nu) * (1 - 2 * nu)), 0};
   const ek_xpbd_ref_material mr = {m.mu, m.lambda, young};
   const size_t n3 = 3 * c.nv;

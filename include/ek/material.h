@@ -65,8 +65,8 @@
 // (linear, StVK, Psi_R, and neo-Hookean / stable neo-Hookean without clamp;
 // corotated linear uses the given R). Fixed corotated and ARAP need R(F);
 // the clampable models (fixed corotated, ARAP, neo-Hookean, stable
-// neo-Hookean) need the full SVD when clamp > 0 (ek_model_need). The table
-// of names and needs is kernels/material/models.h.
+// neo-Hookean) need the full SVD when clamp > 0 (ek_model_need). Each
+// model's descriptor (ek_model_describe) is in kernels/material/<name>.c.
 //
 // Invalid arguments (rc = EK_EINVAL, message in ek_last_error(), nothing
 // written): unknown model, mu <= 0, a non-finite mu/lambda/clamp,
@@ -212,6 +212,54 @@ typedef enum {
   EK_NEEDS_SVD      // the full SVD: a clampable model with clamp > 0
 } ek_model_needs;
 ek_model_needs ek_model_need(ek_model model, double clamp);
+
+// What a run saw of its elements (max / min over elements and frames), for
+// a model's validity rule: the advisor (sim/advise.c) fills it from a trial.
+typedef struct {
+  double max_strain;        // |F^T F - I|_max
+  double max_rotation;      // angle of R(F) (rad)
+  double max_rotation_step; // change of R(F) over one step (rad)
+  double min_sigma;         // smallest singular value of F
+  double min_J;             // smallest det F
+} ek_model_run_stats;
+
+// A model's descriptor: one row per model, written in the model's own file
+// (kernels/material/<name>.c) beside its kernels, so that bench, verify,
+// the advisor and the tests iterate over models without naming them.
+typedef struct {
+  ek_model model;
+  const char *name;      // ek_model_name: "snh"
+  const char *long_name; // scene files: "stable_neo_hookean"
+  ek_model_needs needs;  // per element, without clamp
+  // 1: P goes through singular values under a clamp > 0 (Irving et al.
+  // 2004 sec. 5; then the model needs the full SVD); 0: clamp is ignored.
+  int clampable;
+  // 1: isotropic, so the Hessian has the U, V-frame eigensystem (Teran et
+  // al. 2005) through which dP is projected; 0: linear in F's rotation.
+  int isotropic;
+  int volume_term;  // 0: lambda is ignored (ARAP, Psi_R)
+  int cache_planes; // per-element planes the Hessian caches (hessian.h)
+  int j_domain;     // 1: defined for J > 0 only, unless clamped
+  // 1: the model has a cloth membrane of the same energy, `membrane` (an
+  // ek_membrane_model of cloth_force.h: StVK, ARAP)
+  int has_membrane, membrane;
+  // A parameter rule of the model's own beyond ek_material_check's common
+  // ones (NULL: none): the message, or NULL if (mu, lambda) is valid.
+  const char *(*param_error)(double mu, double lambda);
+  // The linearisation at F = I (above): (mu, lambda) -> (mu', lambda'),
+  // and its inverse: EK_OK, or EK_EINVAL with why (no (mu, lambda) gives
+  // these small-strain parameters, e.g. lambda' != 0 without a volume term).
+  void (*linearise)(double mu, double lambda, double *mu_lin, double *lambda_lin);
+  int (*from_linear)(double mu_lin, double lambda_lin, double *mu, double *lambda, char *why,
+                     size_t whylen);
+  // Whether a run is outside the model's range of validity (small_strain:
+  // the strain bound for small-strain models): NULL, or why (written to
+  // why[0 .. whylen)).
+  const char *(*excluded)(const ek_model_run_stats *r, double clamp, double small_strain, char *why,
+                          size_t whylen);
+} ek_model_desc;
+// The descriptor of a model; NULL if model is not one.
+const ek_model_desc *ek_model_describe(ek_model model);
 
 // Young's modulus E > 0 and Poisson ratio -1 < nu < 0.5 -> Lame parameters:
 // mu = E / (2 (1 + nu)), lambda = E nu / ((1 + nu)(1 - 2 nu)). Anything

@@ -115,8 +115,11 @@ typedef struct {
 
 typedef struct ek_xpbd ek_xpbd;
 
+// The model whose energy the constraint is (seed 001's Hookean energy).
+#define EK_XPBD_MODEL EK_MODEL_STVK
+
 // Constraints over the element layer's mesh. mat: the StVK model
-// (EK_MODEL_STVK; mu, lambda), young: E > 0 (the constraint's scale and
+// (EK_XPBD_MODEL; mu, lambda), young: E > 0 (the constraint's scale and
 // compliance). mass: nverts masses m_i >= 0, read for clusters (the shape
 // matching weights; may be NULL for tets). NULL with ek_last_error on a
 // bad argument, a singular cluster or no memory. Keeps a pointer to el.

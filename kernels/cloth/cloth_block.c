@@ -11,6 +11,8 @@
 #include <math.h>
 
 #include "simd/simd.h"
+// simd.h first: kernels.h after it for the table type.
+#include "kernels.h"
 
 #if defined(EK_REAL_F32)
 #define MIN_NORMAL FLT_MIN
@@ -309,4 +311,13 @@ void EK_SYM(cloth_tet_velgrad_block)(size_t nblocks, const real *x, const real *
                  dinv);
     store_LDW(j, l, L, D, W);
   }
+}
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(cloth_block_fill)(ek_kernel_table *t);
+void EK_SYM(cloth_block_fill)(ek_kernel_table *t) {
+  t->EK_FIELD(cloth_tri_F_block) = EK_SYM(cloth_tri_F_block);
+  t->EK_FIELD(cloth_polar32_block) = EK_SYM(cloth_polar32_block);
+  t->EK_FIELD(cloth_tri_velgrad_block) = EK_SYM(cloth_tri_velgrad_block);
+  t->EK_FIELD(cloth_tet_velgrad_block) = EK_SYM(cloth_tet_velgrad_block);
 }

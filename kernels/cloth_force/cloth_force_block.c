@@ -148,3 +148,10 @@ void EK_SYM(cloth_bending_block)(const cloth_args *a, size_t b0, size_t b1) {
     }
   }
 }
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(cloth_force_block_fill)(ek_kernel_table *t);
+void EK_SYM(cloth_force_block_fill)(ek_kernel_table *t) {
+  t->EK_FIELD(cloth_membrane_block) = EK_SYM(cloth_membrane_block);
+  t->EK_FIELD(cloth_bending_block) = EK_SYM(cloth_bending_block);
+}

@@ -26,15 +26,11 @@
 
 #if defined(EK_REAL_F32)
 typedef struct ek_fvm_args_f32 fvm_args;
-#define KERNEL(t) ((t)->fvm_block_f32)
-#define F_KERNEL(t) ((t)->fvm_F_block_f32)
 #define BL_IDX(bl) ((bl)->idx_f32)
 #define BL_DMI(bl) ((bl)->dm_inv_f32)
 #define BL_V0(bl) ((bl)->v0_f32)
 #else
 typedef struct ek_fvm_args_f64 fvm_args;
-#define KERNEL(t) ((t)->fvm_block_f64)
-#define F_KERNEL(t) ((t)->fvm_F_block_f64)
 #define BL_IDX(bl) ((bl)->idx_f64)
 #define BL_DMI(bl) ((bl)->dm_inv_f64)
 #define BL_V0(bl) ((bl)->v0_f64)
@@ -60,7 +56,11 @@ static void fvm_range(const void *ctx, size_t b0, size_t b1, real *f, real *corn
   fvm_args a = c->a;
   a.f = f;
   a.corner = corner;
-  KERNEL(c->kt)(&a, b0, b1);
+  // The phase split's force pass reads a stored P, whatever the model.
+  if (a.P_in)
+    c->kt->EK_FIELD(fvm_P_block)(&a, b0, b1);
+  else
+    c->kt->EK_FIELD(fvm_block)[a.mat->model](&a, b0, b1);
 }
 
 // F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
@@ -156,7 +156,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
     size_t lo, hi;
     scatter_share(0, nb, t, nt, &lo, &hi);
     if (lo < hi)
-      F_KERNEL(kt)(&a, lo, hi, F);
+      kt->EK_FIELD(fvm_F_block)(&a, lo, hi, F);
   }
   double t1 = now();
   pt->deformation_gradient = t1 - t0;
@@ -171,7 +171,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   double t2 = now();
   pt->svd = takes_svd ? t2 - t1 : 0;
 
-  if (mat->model == EK_MODEL_COROTATED_LINEAR) {
+  if (need == EK_NEEDS_R_INPUT) {
     // The given rotations (state or caller order) -> slot blocks.
     for (size_t sl = 0; sl < bl->nslots; sl++) {
       int32_t t = bl->slot_tet[sl];
@@ -214,7 +214,7 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
   int rc = ek_material_check(mat);
   if (rc < 0)
     return rc;
-  if (mat->model == EK_MODEL_COROTATED_LINEAR && (o.R_state ? !o.R && o.psi : !o.R)) {
+  if (ek_models[mat->model]->needs == EK_NEEDS_R_INPUT && (o.R_state ? !o.R && o.psi : !o.R)) {
     ek_set_error("%s: corotated linear needs per-tet rotations (opts->R is NULL%s)", fn,
                  o.R_state ? "; the psi output reads it" : " and so is opts->R_state");
     return EK_EINVAL;
@@ -227,8 +227,7 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
     return EK_EINVAL;
   }
   ek_tet_state *ws = o.polar_state;
-  int warm = ws && (mat->model == EK_MODEL_FIXED_COROTATED || mat->model == EK_MODEL_ARAP) &&
-             !(mat->clamp > 0);
+  int warm = ws && ek_models[mat->model]->needs == EK_NEEDS_POLAR && !(mat->clamp > 0);
   if (ws && (ws->el != el || ws->planes != 9 || ws->f64 != (sizeof(real) == 8))) {
     ek_set_error("%s: opts->polar_state must be a 9-plane state of these elements in the call's "
                  "precision (got %d planes, %s, %s elements)",
@@ -256,7 +255,8 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
   // AUTO: see fvm.h for why thread buffers.
   ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
   fvm_args a = {.R = o.R,
-                .R_planes = st && mat->model == EK_MODEL_COROTATED_LINEAR ? st->data : NULL,
+                .R_planes =
+                    st && ek_models[mat->model]->needs == EK_NEEDS_R_INPUT ? st->data : NULL,
                 .morton_slot = el->morton_slot,
                 .mat = mat,
                 .svd = &knobs,
@@ -312,7 +312,7 @@ double ek_fvm_tet_energy_f64(const ek_tets *el, const ek_material *mat, const do
     ek_set_error("ek_fvm_energy_f64: NULL argument");
     return NAN;
   }
-  if (mat->model == EK_MODEL_COROTATED_LINEAR && !R) {
+  if (ek_models[mat->model]->needs == EK_NEEDS_R_INPUT && !R) {
     ek_set_error("ek_fvm_energy_f64: corotated linear needs per-tet rotations (R is NULL)");
     return NAN;
   }

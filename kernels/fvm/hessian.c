@@ -19,14 +19,12 @@
 
 #if defined(EK_REAL_F32)
 typedef struct ek_hess_args_f32 hess_args;
-#define KERNEL(t) ((t)->hessian_block_f32)
 #define BL_IDX(bl) ((bl)->idx_f32)
 #define BL_DMI(bl) ((bl)->dm_inv_f32)
 #define BL_V0(bl) ((bl)->v0_f32)
 #define PRECISION 32
 #else
 typedef struct ek_hess_args_f64 hess_args;
-#define KERNEL(t) ((t)->hessian_block_f64)
 #define BL_IDX(bl) ((bl)->idx_f64)
 #define BL_DMI(bl) ((bl)->dm_inv_f64)
 #define BL_V0(bl) ((bl)->v0_f64)
@@ -43,7 +41,7 @@ static void hess_range(const void *ctx, size_t b0, size_t b1, real *out, real *c
   hess_args a = c->a;
   a.out = out;
   a.corner = corner;
-  KERNEL(c->kt)(&a, b0, b1);
+  c->kt->EK_FIELD(hessian_block)[a.mat->model](&a, b0, b1);
 }
 
 static hess_args args_for(const ek_fvm_hessian *h, int op) {
@@ -168,9 +166,7 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
   // mat_frame_prepare's project: 0 exact, 1 clamp, 2 mirror.
   h->project = o.projection == EK_PROJECT_NONE ? 0 : o.projection == EK_PROJECT_ABS ? 2 : 1;
   h->precision = o.precision ? o.precision : 64;
-  h->planes = mat->model == EK_MODEL_LINEAR             ? 0
-              : mat->model == EK_MODEL_COROTATED_LINEAR ? 9
-                                                        : HESS_FRAME_PLANES;
+  h->planes = ek_models[mat->model]->cache_planes;
   const size_t nslots = scatter_blocks(el, h->scatter)->nslots;
   h->cache_bytes = nslots * (size_t)h->planes * (h->precision == 32 ? 4 : 8);
   h->energy = ek_alloc(nslots * sizeof(double));
@@ -230,7 +226,7 @@ int ek_fvm_hessian_gradient_f64(ek_fvm_hessian *h, const double *x, const ek_tet
                  (void *)grad);
     return EK_EINVAL;
   }
-  const int corot = h->mat.model == EK_MODEL_COROTATED_LINEAR;
+  const int corot = ek_models[h->mat.model]->needs == EK_NEEDS_R_INPUT;
   if (corot && (!R_state || R_state->el != h->el || R_state->planes != 9 || !R_state->f64)) {
     ek_set_error("%s: corotated linear needs its rotations as a 9-plane f64 state of these "
                  "elements (R_state %s)",
@@ -248,7 +244,7 @@ int ek_fvm_hessian_gradient_f64(ek_fvm_hessian *h, const double *x, const ek_tet
       a.cache_out = h->cache;
   }
   h->cached = 0;
-  const int iso = ek_model_rows[h->mat.model].isotropic;
+  const int iso = ek_models[h->mat.model]->isotropic;
   const int svd =
       iso && (cache_eigensystems || ek_model_row_uses_sigma(h->mat.model, h->mat.clamp));
   int parallel = h->el->ntets >= (svd ? EK_FVM_PARALLEL_MIN_TETS_SVD : EK_FVM_PARALLEL_MIN_TETS);

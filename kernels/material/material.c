@@ -50,8 +50,10 @@ static int check_params(const char *fn, const ek_material *m) {
     ek_set_error("%s: clamp = %g, must be >= 0", fn, m->clamp);
     return EK_EINVAL;
   }
-  if (m->model == EK_MODEL_STABLE_NEO_HOOKEAN && m->lambda == 0) {
-    ek_set_error("%s: stable neo-Hookean needs lambda != 0 (a = 1 + 3 mu / (4 lambda))", fn);
+  const char *why =
+      ek_models[m->model]->param_error ? ek_models[m->model]->param_error(m->mu, m->lambda) : NULL;
+  if (why) {
+    ek_set_error("%s: %s", fn, why);
     return EK_EINVAL;
   }
   return EK_OK;
@@ -73,8 +75,8 @@ static int check_call(const char *fn, const ek_material *m, ek_material_op op, s
     ek_set_error("%s: %s is NULL", fn, !F ? "F" : "the output array");
     return EK_EINVAL;
   }
-  if (m->model == EK_MODEL_COROTATED_LINEAR && !R) {
-    ek_set_error("%s: corotated linear needs R (got NULL)", fn);
+  if (ek_models[m->model]->needs == EK_NEEDS_R_INPUT && !R) {
+    ek_set_error("%s: %s needs R (got NULL)", fn, ek_models[m->model]->long_name);
     return EK_EINVAL;
   }
   if (op == EK_MAT_PK1_DIFF && !dF) {
@@ -88,8 +90,7 @@ static int check_call(const char *fn, const ek_material *m, ek_material_op op, s
 }
 
 static ek_material_knobs knobs_of(const ek_material *m, ek_material_op op, int project) {
-  return (ek_material_knobs){.model = m->model,
-                             .op = op,
+  return (ek_material_knobs){.op = op,
                              .project = project != 0,
                              .mu = m->mu,
                              .lambda = m->lambda,
@@ -105,7 +106,7 @@ static int outside(real value, ek_material_op op) {
 }
 
 static int counts_domain(const ek_material *m) {
-  return m->model == EK_MODEL_NEO_HOOKEAN && !(m->clamp > 0);
+  return ek_models[m->model]->j_domain && !(m->clamp > 0);
 }
 
 static int entries_finite(const real *a, size_t stride, int n) {
@@ -114,12 +115,6 @@ static int entries_finite(const real *a, size_t stride, int n) {
       return 0;
   return 1;
 }
-
-#if defined(EK_REAL_F32)
-#define KERNEL(t) ((t)->material_block_f32)
-#else
-#define KERNEL(t) ((t)->material_block_f64)
-#endif
 
 int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa isa, size_t nblocks,
                               const real *F, const real *R, const real *dF, real *out,
@@ -143,7 +138,8 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
     size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
     const size_t in = b0 * 9 * EK_LANES;
     real *o = out + b0 * (size_t)nout * EK_LANES;
-    KERNEL(t)(nb, F + in, R ? R + in : NULL, dF ? dF + in : NULL, o, &k);
+    t->EK_FIELD(material_block)[m->model](nb, F + in, R ? R + in : NULL, dF ? dF + in : NULL, o,
+                                          &k);
     if (dom)
       for (size_t b = 0; b < nb; b++)
         for (int l = 0; l < EK_LANES; l++)
@@ -166,7 +162,7 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
     return 0;
   ek_material_knobs k = knobs_of(m, op, project);
   const int nout = out_planes(op), dom = counts_domain(m);
-  const int use_R = m->model == EK_MODEL_COROTATED_LINEAR, use_dF = op == EK_MAT_PK1_DIFF;
+  const int use_R = ek_models[m->model]->needs == EK_NEEDS_R_INPUT, use_dF = op == EK_MAT_PK1_DIFF;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES; // elements per chunk
   const size_t nchunks = (n + chunk - 1) / chunk;
   // Staging buffers for every thread, allocated up front so a failure leaves
@@ -204,7 +200,7 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
               dFs[s] = e < ne ? dF[(e0 + e) * 9 + (size_t)q] : 0;
           }
         }
-      KERNEL(t)(nb, Fs, use_R ? Rs : NULL, use_dF ? dFs : NULL, Os, &k);
+      t->EK_FIELD(material_block)[m->model](nb, Fs, use_R ? Rs : NULL, use_dF ? dFs : NULL, Os, &k);
       for (size_t e = 0; e < ne; e++) {
         const size_t b = e / EK_LANES, l = e % EK_LANES;
         real *dst = out + (e0 + e) * (size_t)nout;
@@ -247,16 +243,16 @@ int ek_energy_f64(const ek_material *m, size_t n, const double *F, const double 
 int ek_material_check(const ek_material *m) { return check_params("ek_material_check", m); }
 
 const char *ek_model_name(ek_model model) {
-  return (unsigned)model < EK_MODEL_COUNT ? ek_model_rows[model].name : "invalid";
+  return (unsigned)model < EK_MODEL_COUNT ? ek_models[model]->name : "invalid";
 }
 
 const char *ek_model_long_name(ek_model model) {
-  return (unsigned)model < EK_MODEL_COUNT ? ek_model_rows[model].long_name : "invalid";
+  return (unsigned)model < EK_MODEL_COUNT ? ek_models[model]->long_name : "invalid";
 }
 
 int ek_model_from_name(const char *name, ek_model *model) {
   for (int i = 0; name && i < EK_MODEL_COUNT; i++)
-    if (strcmp(name, ek_model_rows[i].name) == 0 || strcmp(name, ek_model_rows[i].long_name) == 0) {
+    if (strcmp(name, ek_models[i]->name) == 0 || strcmp(name, ek_models[i]->long_name) == 0) {
       *model = (ek_model)i;
       return EK_OK;
     }

@@ -1,12 +1,10 @@
-// Material models on registers: psi, P, dP and the element Hessian for one
-// vector of EK_W elements. Every function takes the model in
-// ek_material_lanes; callers pass a compile-time constant (the block kernels
-// of material_block.c, the FVM kernel instantiated per model), so the
-// switches and table look-ups (models.h) fold away and each model gets its
-// own straight-line code. Used by the material block kernels (through
-// material_blocks below) and fused into other kernels (the FVM force
-// kernel: gather -> F -> material_pk1 -> scatter, with no memory round
-// trip). Include after simd/simd.h.
+// The material stages of one model on registers: psi, P, dP and the
+// element Hessian for one vector of EK_W elements, from the model file's
+// traits and model_* functions (models.h), so each model gets its own
+// straight-line code. Included once per model file through
+// model_kernels.h: the material block kernels (material_blocks below) and
+// the fused FVM and Hessian kernels (gather -> F -> P -> scatter, with no
+// memory round trip) use it.
 //
 // Which path a call takes (include/ek/material.h has the contract):
 // - linear, corotated linear: formulas in F; the Hessian is always PSD.
@@ -16,91 +14,60 @@
 //   clamp > 0: the SVD, sigma_hat = max(sigma, clamp), P = U diag(g) V^T
 //   (Irving et al. 2004 sec. 5), dP by the U, V-frame eigensystem (Teran et
 //   al. 2005), which is also how any isotropic model projects.
+// A stage a model has no form for is never reached (the traits send the
+// call another way); it is still compiled, so it says what it would give.
 #ifndef EK_MATERIAL_CORE_H
 #define EK_MATERIAL_CORE_H
 
-#include "arap.h"
-#include "corot_linear.h"
-#include "fixed_corot.h"
-#include "linear.h"
 #include "material_math.h"
-#include "nh.h"
-#include "psi_r.h"
-#include "snh.h"
-#include "stvk.h"
 
 // Parameters for the inline functions (svd: e.g. ek_svd3_default_knobs_f32()).
-EK_INLINE ek_material_lanes material_lanes_make(ek_model model, double mu, double lambda,
-                                                double clamp, const ek_svd3_knobs *svd) {
-  ek_material_lanes m = {model, (real)mu, (real)lambda, (real)clamp, *svd};
+EK_INLINE ek_material_lanes material_lanes_make(double mu, double lambda, double clamp,
+                                                const ek_svd3_knobs *svd) {
+  ek_material_lanes m = {(real)mu, (real)lambda, (real)clamp, *svd};
   return m;
 }
 
 // 1 if psi and P go through singular values for these parameters.
+// (ek_model_row_uses_sigma from the traits.)
+EK_INLINE int material_uses_sigma_at(double clamp) {
+  return MODEL_NEEDS == EK_NEEDS_POLAR || MODEL_NEEDS == EK_NEEDS_SVD ||
+         (MODEL_CLAMPABLE && clamp > 0);
+}
 EK_INLINE int material_uses_sigma(const ek_material_lanes *m) {
-  return ek_model_row_uses_sigma(m->model, m->clamp);
+  return material_uses_sigma_at(m->clamp);
 }
 
-// The switches below list every model and have no default (kernels are
-// built with -Werror=switch, models.h). A model without the form a switch
-// selects never reaches it: the table sends it another way, and its case
-// says which.
+// sigma_hat = max(sigma, clamp) when clamp > 0 (Irving et al. 2004 sec. 5),
+// for the models evaluated through singular values; StVK and Psi_R go
+// through singular values only to project, and ignore the clamp.
+EK_INLINE void mat_clamp_sigma(const ek_material_lanes *m, const vreal S[3], vreal Sh[3]) {
+  int clamped = MODEL_CLAMPABLE && m->clamp > 0;
+  for (int i = 0; i < 3; i++)
+    Sh[i] = clamped ? vmax(vset(m->clamp), S[i]) : S[i];
+}
 
 // The singular-value form (isotropic models).
 EK_INLINE void material_sigma_terms(const ek_material_lanes *m, const vreal s[3],
                                     mat_sigma_terms *t) {
-  switch (m->model) {
-  case EK_MODEL_LINEAR:
-  case EK_MODEL_COROTATED_LINEAR:
-    break; // not isotropic: dP in F only
-  case EK_MODEL_STVK:
-    stvk_sigma(m, s, t);
-    break;
-  case EK_MODEL_PSI_R:
-    psi_r_sigma(m, s, t);
-    break;
-  case EK_MODEL_FIXED_COROTATED:
-    fixed_corot_sigma(m, s, t);
-    break;
-  case EK_MODEL_ARAP:
-    arap_sigma(m, s, t);
-    break;
-  case EK_MODEL_NEO_HOOKEAN:
-    nh_sigma(m, s, t);
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    snh_sigma(m, s, t);
-    break;
-  }
+#if MODEL_ISOTROPIC
+  model_sigma(m, s, t);
+#else
+  (void)m, (void)s, (void)t; // not isotropic: dP in F only
+#endif
 }
 
 // g = d psi_hat / d sigma alone, for the models P takes through singular
 // values (fixed corotated, ARAP, and neo-Hookean / stable neo-Hookean under
 // the clamp).
 EK_INLINE void material_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
-  switch (m->model) {
-  case EK_MODEL_LINEAR:
-  case EK_MODEL_COROTATED_LINEAR:
-  case EK_MODEL_STVK:
-  case EK_MODEL_PSI_R:
-    // Not clampable: P in F only (the table never sends these here; the
-    // block loop is compiled for every op, so say what it would get).
-    for (int i = 0; i < 3; i++)
-      g[i] = vset((real)NAN);
-    break;
-  case EK_MODEL_FIXED_COROTATED:
-    fixed_corot_sigma_grad(m, s, g);
-    break;
-  case EK_MODEL_ARAP:
-    arap_sigma_grad(m, s, g);
-    break;
-  case EK_MODEL_NEO_HOOKEAN:
-    nh_sigma_grad(m, s, g);
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    snh_sigma_grad(m, s, g);
-    break;
-  }
+#if MODEL_CLAMPABLE || MODEL_WARM_POLAR
+  model_sigma_grad(m, s, g);
+#else
+  (void)m, (void)s;          // P in F only
+  for (int i = 0; i < 3; i++)
+    g[i] = vset((real)NAN);
+#endif
 }
 
 // P from a given SVD of F: U diag(g(sigma_hat)) V^T (Irving et al. 2004
@@ -118,7 +85,13 @@ EK_INLINE void material_pk1_svd(const ek_material_lanes *m, const vreal U[9], co
 // lambda = 0 for ARAP (fixed_corot.h).
 EK_INLINE void material_pk1_rotation(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
                                      vreal P[9]) {
-  fixed_corot_pk1_R_l(m->mu, m->model == EK_MODEL_ARAP ? 0 : m->lambda, F, R, P);
+#if MODEL_WARM_POLAR
+  model_pk1_rotation(m, F, R, P);
+#else
+  (void)m, (void)F, (void)R; // P needs no rotation of F's
+  for (int i = 0; i < 9; i++)
+    P[i] = vset((real)NAN);
+#endif
 }
 
 // P(F) in F, for the parameters without material_uses_sigma() (those go
@@ -126,29 +99,13 @@ EK_INLINE void material_pk1_rotation(const ek_material_lanes *m, const vreal F[9
 // corotated linear.
 EK_INLINE void material_pk1(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
                             vreal P[9]) {
-  switch (m->model) {
-  case EK_MODEL_LINEAR:
-    linear_pk1(m, F, P);
-    break;
-  case EK_MODEL_COROTATED_LINEAR:
-    corot_linear_pk1(m, F, R, P);
-    break;
-  case EK_MODEL_STVK:
-    stvk_pk1(m, F, P);
-    break;
-  case EK_MODEL_PSI_R:
-    psi_r_pk1(m, F, P);
-    break;
-  case EK_MODEL_NEO_HOOKEAN:
-    nh_pk1(m, F, P);
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    snh_pk1(m, F, P);
-    break;
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_ARAP:
-    break; // need the polar decomposition: material_pk1_svd
-  }
+#if MODEL_F_FORM
+  model_pk1(m, F, R, P);
+#else
+  (void)m, (void)F, (void)R; // needs the polar decomposition: material_pk1_svd
+  for (int i = 0; i < 9; i++)
+    P[i] = vset((real)NAN);
+#endif
 }
 
 // psi(F); under the clamp extended to first order: psi_hat(sigma_hat) +
@@ -168,29 +125,17 @@ EK_INLINE vreal material_psi_svd(const ek_material_lanes *m, const vreal S[3]) {
 
 // psi(F) in F (parameters without material_uses_sigma()).
 EK_INLINE vreal material_psi(const ek_material_lanes *m, const vreal F[9], const vreal R[9]) {
-  switch (m->model) {
-  case EK_MODEL_LINEAR:
-    return linear_psi(m, F);
-  case EK_MODEL_COROTATED_LINEAR:
-    return corot_linear_psi(m, F, R);
-  case EK_MODEL_STVK:
-    return stvk_psi(m, F);
-  case EK_MODEL_PSI_R:
-    return psi_r_psi(m, F);
-  case EK_MODEL_NEO_HOOKEAN:
-    return nh_psi(m, F);
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    return snh_psi(m, F);
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_ARAP:
-    break; // need the polar decomposition: material_psi_svd
-  }
+#if MODEL_F_FORM
+  return model_psi(m, F, R);
+#else
+  (void)m, (void)F, (void)R; // needs the polar decomposition: material_psi_svd
   return vset((real)NAN);
+#endif
 }
 
 // 1 if dP for these parameters goes through the U, V frame.
 EK_INLINE int material_diff_uses_frame(const ek_material_lanes *m, int project) {
-  return material_uses_sigma(m) || (project && ek_model_rows[m->model].isotropic);
+  return material_uses_sigma(m) || (project && MODEL_ISOTROPIC);
 }
 
 // The U, V-frame operator from a given SVD of F (F itself is read for the
@@ -204,7 +149,7 @@ EK_INLINE void material_frame_svd(const ek_material_lanes *m, const vreal F[9], 
   mat_clamp_sigma(m, S, Sh);
   material_sigma_terms(m, Sh, &t);
   mat_frame_prepare(fr, &t, project);
-  if (m->model == EK_MODEL_NEO_HOOKEAN && !(m->clamp > 0)) {
+  if (MODEL_J_DOMAIN && !(m->clamp > 0)) {
     // The domain is J = det F > 0, decided on F as in the F path (the
     // product of the computed singular values can differ in sign when J is
     // at rounding level, e.g. for a rank-1 F).
@@ -224,29 +169,13 @@ EK_INLINE void material_frame_svd(const ek_material_lanes *m, const vreal F[9], 
 // material_diff_uses_frame()).
 EK_INLINE void material_diff_direct(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
                                     const vreal dF[9], vreal dP[9]) {
-  switch (m->model) {
-  case EK_MODEL_LINEAR:
-    linear_diff(m, dF, dP);
-    break;
-  case EK_MODEL_COROTATED_LINEAR:
-    corot_linear_diff(m, R, dF, dP);
-    break;
-  case EK_MODEL_STVK:
-    stvk_diff(m, F, dF, dP);
-    break;
-  case EK_MODEL_PSI_R:
-    psi_r_diff(m, F, dF, dP);
-    break;
-  case EK_MODEL_NEO_HOOKEAN:
-    nh_diff(m, F, dF, dP);
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    snh_diff(m, F, dF, dP);
-    break;
-  case EK_MODEL_FIXED_COROTATED:
-  case EK_MODEL_ARAP:
-    break; // need the polar decomposition: through the U, V frame
-  }
+#if MODEL_F_FORM
+  model_diff(m, F, R, dF, dP);
+#else
+  (void)m, (void)F, (void)R, (void)dF; // needs the polar decomposition: the U, V frame
+  for (int i = 0; i < 9; i++)
+    dP[i] = vset((real)NAN);
+#endif
 }
 
 // The 9x9 Hessian in F (parameters without material_diff_uses_frame()),
@@ -271,20 +200,17 @@ EK_INLINE size_t material_vec_offset(size_t j, int planes) {
 }
 
 // n vectors (n and exact compile-time constants at each call) through the
-// SVD side by side (svd3_core_n: the Jacobi chains are latency bound, so two
+// SVD side by side (svd3_pair: the Jacobi chains are latency bound, so two
 // independent ones overlap, as in the SVD kernel), then each through the
 // model.
 EK_INLINE void material_vectors_svd(const ek_material_lanes *m, const ek_material_knobs *k, int n,
                                     size_t j0, const real *F, const real *dF, real *out, int nout,
                                     int exact) {
-  vreal Fv[SVD3_MAX_N][9], U[SVD3_MAX_N][9], S[SVD3_MAX_N][3], V[SVD3_MAX_N][9], scale[SVD3_MAX_N];
+  vreal Fv[2][9], U[2][9], S[2][3], V[2][9];
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 9; i++)
       Fv[j][i] = vload(F + material_vec_offset(j0 + (size_t)j, 9) + (size_t)i * EK_LANES);
-  svd3_core_n(n, (const vreal(*)[9])Fv, U, S, V, scale, m->svd.sweeps, m->svd.refine, exact);
-  for (int j = 0; j < n; j++)
-    for (int i = 0; i < 3; i++)
-      S[j][i] = vmul(S[j][i], scale[j]);
+  svd3_pair(n, (const vreal(*)[9])Fv, U, S, V, m->svd.sweeps, m->svd.refine, exact);
   for (int j = 0; j < n; j++) {
     real *o = out + material_vec_offset(j0 + (size_t)j, nout);
     vreal P[9], dFv[9], zero = vzero(), one = vset(1);
@@ -332,11 +258,10 @@ EK_INLINE void material_blocks_svd(const ek_material_lanes *m, const ek_material
 }
 
 // nblocks blocks of EK_LANES elements; F, R, dF 9 planes; out 1, 9 or 81
-// planes by op. `model` is a constant in each per-model kernel, so the
-// switches above fold away there.
-EK_INLINE void material_blocks(ek_model model, size_t nblocks, const real *F, const real *R,
-                               const real *dF, real *out, const ek_material_knobs *k) {
-  ek_material_lanes m = material_lanes_make(model, k->mu, k->lambda, k->clamp, &k->svd);
+// planes by op.
+EK_INLINE void material_blocks(size_t nblocks, const real *F, const real *R, const real *dF,
+                               real *out, const ek_material_knobs *k) {
+  ek_material_lanes m = material_lanes_make(k->mu, k->lambda, k->clamp, &k->svd);
   const int nout = k->op == EK_MAT_ENERGY ? 1 : k->op == EK_MAT_HESSIAN ? 81 : 9;
   const int svd = k->op == EK_MAT_ENERGY || k->op == EK_MAT_PK1
                       ? material_uses_sigma(&m)
@@ -355,7 +280,7 @@ EK_INLINE void material_blocks(ek_model model, size_t nblocks, const real *F, co
       vreal Fv[9], Rv[9], dFv[9], P[9];
       for (int i = 0; i < 9; i++) {
         Fv[i] = vload(F + in + (size_t)i * EK_LANES);
-        Rv[i] = model == EK_MODEL_COROTATED_LINEAR ? vload(R + in + (size_t)i * EK_LANES) : vzero();
+        Rv[i] = MODEL_READS_R ? vload(R + in + (size_t)i * EK_LANES) : vzero();
       }
       switch (k->op) {
       case EK_MAT_ENERGY:

@@ -10,13 +10,11 @@
 #include "../kernels.h"
 #include "../simd/vmath.h"
 #include "../svd3/svd3_core.h"
-#include "models.h"
 
 // Model parameters for one call, in the precision of the translation unit.
 // svd: the SVD knobs used by the models that need an SVD (the defaults,
 // ek_svd3_default_knobs_f32/f64(), unless the caller chose others).
 typedef struct {
-  ek_model model;
   real mu, lambda, clamp;
   ek_svd3_knobs svd;
 } ek_material_lanes;
@@ -213,15 +211,6 @@ EK_INLINE void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[
   }
   vm3_mul(fr->U, Y, T);
   vm3_mul_nt(T, fr->V, dP);
-}
-
-// sigma_hat = max(sigma, clamp) when clamp > 0 (Irving et al. 2004 sec. 5),
-// for the models evaluated through singular values; StVK and Psi_R go
-// through singular values only to project, and ignore the clamp.
-static inline void mat_clamp_sigma(const ek_material_lanes *m, const vreal S[3], vreal Sh[3]) {
-  int clamped = ek_model_rows[m->model].clampable && m->clamp > 0;
-  for (int i = 0; i < 3; i++)
-    Sh[i] = clamped ? vmax(vset(m->clamp), S[i]) : S[i];
 }
 
 #endif

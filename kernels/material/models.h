@@ -1,48 +1,44 @@
-// The model table: one row per ek_model, the only place that says what a
-// model is called and what it needs. The drivers (names, ek_model_need,
-// the FVM phase split) and the kernels (which path a model takes) read it;
-// its entries are compile-time constants, so in a kernel specialised for
-// one model every test on them folds away.
+// The model table and the shape of a model file.
 //
-// The per-model math (psi, P, dP in F; the singular-value form: psi, g =
-// dpsi/dsigma, the Hessian blocks that dP and the projected dP are built
-// from) lives in kernels/material/<name>.h with the same function names per
-// model; material_core.h selects them with switches that list every model
-// and have no default (built with -Werror=switch: a model missing from one
-// is a compile error, never another model). The reference keeps its own,
-// independent table (reference/material/material_ref.c).
+// A model is one file, kernels/material/<name>.c: its traits (the MODEL_*
+// macros below), its math on registers (psi, P, dP in F and/or the
+// singular-value form), its descriptor (ek_model_desc, include/ek/
+// material.h) and, through model_kernels.h, its material, force and
+// Hessian kernels. CMake builds the file once per (ISA x precision) for the
+// kernels and once more with EK_MODEL_DESCRIPTOR for the descriptor.
+// Adding a model: its file, its reference (reference/material/<name>_ref.c
+// with a row in material_ref.c's table), its enum value in material.h and
+// one line in models.c and in kernels/CMakeLists.txt.
+//
+// Traits a model file defines before including model.h (compile-time
+// constants, so every test on them folds away in the kernels):
+//   MODEL            symbol token (snh -> ek_snh_fvm_block_avx2_f32)
+//   MODEL_ID         its ek_model
+//   MODEL_NAME, MODEL_LONG_NAME   short and scene-file names
+//   MODEL_NEEDS      ek_model_needs without clamp
+//   MODEL_CLAMPABLE  1: P through clamped singular values when clamp > 0;
+//                    defines model_sigma_grad
+//   MODEL_ISOTROPIC  1: defines model_sigma (psi, g, the Hessian blocks)
+//   MODEL_F_FORM     1: defines model_psi, model_pk1, model_diff in F
+//   MODEL_READS_R    1: takes a rotation per element (corotated linear)
+//   MODEL_WARM_POLAR 1: P from F and R(F): model_pk1_rotation, so the
+//                    warm-started polar can stand in for the SVD
+//   MODEL_J_DOMAIN   1: defined for J > 0 only unless clamped
+//   MODEL_VOLUME_TERM 0: lambda is ignored
 #ifndef EK_KERNELS_MATERIAL_MODELS_H
 #define EK_KERNELS_MATERIAL_MODELS_H
 
 #include <ek/material.h>
 
-typedef struct {
-  const char *name;      // short name, ek_model_name(): "snh"
-  const char *long_name; // scene files: "stable_neo_hookean"
-  ek_model_needs needs;  // per element, without clamp
-  // 1: P goes through singular values (Irving et al. 2004 sec. 5) and a
-  // clamp > 0 applies (then the model needs the full SVD); 0: ignores clamp.
-  int clampable;
-  // 1: isotropic, so the Hessian has the U, V-frame eigensystem (Teran et
-  // al. 2005) through which dP is projected; 0: linear in F's rotation
-  // (linear, corotated linear), Hessian constant and PSD.
-  int isotropic;
-} ek_model_row;
+#include "../fvm/hessian_kernel.h" // HESS_FRAME_PLANES
 
-static const ek_model_row ek_model_rows[EK_MODEL_COUNT] = {
-    [EK_MODEL_LINEAR] = {"linear", "linear", EK_NEEDS_NOTHING, 0, 0},
-    [EK_MODEL_STVK] = {"stvk", "stvk", EK_NEEDS_NOTHING, 0, 1},
-    [EK_MODEL_COROTATED_LINEAR] = {"corot_linear", "corotated_linear", EK_NEEDS_R_INPUT, 0, 0},
-    [EK_MODEL_FIXED_COROTATED] = {"fixed_corot", "fixed_corotated", EK_NEEDS_POLAR, 1, 1},
-    [EK_MODEL_ARAP] = {"arap", "arap", EK_NEEDS_POLAR, 1, 1},
-    [EK_MODEL_PSI_R] = {"psi_r", "psi_r", EK_NEEDS_NOTHING, 0, 1},
-    [EK_MODEL_NEO_HOOKEAN] = {"nh", "neo_hookean", EK_NEEDS_J, 1, 1},
-    [EK_MODEL_STABLE_NEO_HOOKEAN] = {"snh", "stable_neo_hookean", EK_NEEDS_J, 1, 1},
-};
+// Every model's descriptor, indexed by ek_model (models.c).
+extern const ek_model_desc *const ek_models[EK_MODEL_COUNT];
 
 // What a model needs for P with this clamp.
 static inline ek_model_needs ek_model_row_needs(ek_model model, double clamp) {
-  return ek_model_rows[model].clampable && clamp > 0 ? EK_NEEDS_SVD : ek_model_rows[model].needs;
+  const ek_model_desc *d = ek_models[model];
+  return d->clampable && clamp > 0 ? EK_NEEDS_SVD : d->needs;
 }
 
 // 1 if P (and psi) go through the SVD of F for this clamp.
@@ -50,5 +46,27 @@ static inline int ek_model_row_uses_sigma(ek_model model, double clamp) {
   ek_model_needs n = ek_model_row_needs(model, clamp);
   return n == EK_NEEDS_POLAR || n == EK_NEEDS_SVD;
 }
+
+// Descriptor pieces several models share (models.c).
+void ek_model_lame_same(double mu, double lambda, double *mu_lin, double *lambda_lin);
+int ek_model_lame_same_inverse(double mu_lin, double lambda_lin, double *mu, double *lambda,
+                               char *why, size_t whylen);
+void ek_model_lame_no_volume(double mu, double lambda, double *mu_lin, double *lambda_lin);
+int ek_model_lame_no_volume_inverse(double mu_lin, double lambda_lin, double *mu, double *lambda,
+                                    char *why, size_t whylen);
+const char *ek_model_excluded_past_peak(const ek_model_run_stats *r, double clamp,
+                                        double small_strain, char *why, size_t whylen);
+
+// The descriptor's fields that the traits give (the model file adds its
+// functions).
+#define EK_MODEL_DESC_TRAITS                                                                       \
+  .model = MODEL_ID, .name = MODEL_NAME, .long_name = MODEL_LONG_NAME, .needs = MODEL_NEEDS,       \
+  .clampable = MODEL_CLAMPABLE, .isotropic = MODEL_ISOTROPIC, .volume_term = MODEL_VOLUME_TERM,    \
+  .cache_planes = MODEL_CACHE_PLANES, .j_domain = MODEL_J_DOMAIN
+
+// Per-element planes of the Hessian cache (hessian.h): the U, V-frame
+// eigensystem of the isotropic models (20), corotated linear's R (9), none
+// for linear elasticity (its Hessian is constant).
+#define MODEL_CACHE_PLANES (MODEL_ISOTROPIC ? HESS_FRAME_PLANES : MODEL_READS_R ? 9 : 0)
 
 #endif

@@ -54,3 +54,9 @@ void EK_SYM(polar_warm_block)(size_t nblocks, const real *A, real *R, int iters)
     break;
   }
 }
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(polar_warm_block_fill)(ek_kernel_table *t);
+void EK_SYM(polar_warm_block_fill)(ek_kernel_table *t) {
+  t->EK_FIELD(polar_warm_block) = EK_SYM(polar_warm_block);
+}

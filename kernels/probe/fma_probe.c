@@ -21,6 +21,8 @@
 // number is thus the rate the scalar build really reaches; it is not an
 // SSE2 packed peak.
 #include "../simd/simd.h"
+// simd.h first: kernels.h after it for the table type.
+#include "kernels.h"
 
 #define PROBE_CHAINS 12
 
@@ -46,3 +48,7 @@ double EK_SYM(fma_probe)(long iters, double *flops) {
     *flops = 2.0 * EK_W * PROBE_CHAINS * (double)(iters > 0 ? iters : 0);
   return total;
 }
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(fma_probe_fill)(ek_kernel_table *t);
+void EK_SYM(fma_probe_fill)(ek_kernel_table *t) { t->EK_FIELD(fma_probe) = EK_SYM(fma_probe); }

@@ -139,3 +139,20 @@ void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
       svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
   }
 }
+
+// The out-of-line pair of svd3_core.h (svd3_pair), one per rsqrt mode.
+__attribute__((noinline)) void EK_SYM(svd3_pair_exact)(int nv, const vreal A[2][9], vreal U[2][9],
+                                                       vreal S[2][3], vreal V[2][9], int sweeps,
+                                                       int refine) {
+  svd3_core_pair(nv, A, U, S, V, sweeps, refine, 1);
+}
+
+__attribute__((noinline)) void EK_SYM(svd3_pair_est)(int nv, const vreal A[2][9], vreal U[2][9],
+                                                     vreal S[2][3], vreal V[2][9], int sweeps,
+                                                     int refine) {
+  svd3_core_pair(nv, A, U, S, V, sweeps, refine, 0);
+}
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(svd3_block_fill)(ek_kernel_table *t);
+void EK_SYM(svd3_block_fill)(ek_kernel_table *t) { t->EK_FIELD(svd3_block) = EK_SYM(svd3_block); }

@@ -374,6 +374,24 @@ EK_INLINE void svd3_core_pair(int nv, const vreal A[2][9], vreal U[2][9], vreal 
       S[j][i] = vmul(S[j][i], scale[j]);
 }
 
+// svd3_core_pair built once per (ISA x precision) in svd3_block.c, one per
+// rsqrt mode: the kernels that fuse an SVD into a per-element pass (the
+// material, force and Hessian kernels of every model) call it out of line
+// instead of inlining a whole SVD per model and variant (~430 copies made
+// the kernel build take minutes). The same operations in the same order,
+// so the same bits; the call costs ~1% of a pair's time (README, "Build").
+void EK_SYM(svd3_pair_exact)(int nv, const vreal A[2][9], vreal U[2][9], vreal S[2][3],
+                             vreal V[2][9], int sweeps, int refine);
+void EK_SYM(svd3_pair_est)(int nv, const vreal A[2][9], vreal U[2][9], vreal S[2][3], vreal V[2][9],
+                           int sweeps, int refine);
+EK_INLINE void svd3_pair(int nv, const vreal A[2][9], vreal U[2][9], vreal S[2][3], vreal V[2][9],
+                         int sweeps, int refine, int exact) {
+  if (exact)
+    EK_SYM(svd3_pair_exact)(nv, A, U, S, V, sweeps, refine);
+  else
+    EK_SYM(svd3_pair_est)(nv, A, U, S, V, sweeps, refine);
+}
+
 // The SVD of one vector of matrices with the given knobs.
 EK_INLINE void svd3_core(const vreal A[9], vreal U[9], vreal S[3], vreal V[9],
                          const ek_svd3_knobs *k) {

@@ -640,7 +640,7 @@ ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
                  (const void *)mat);
     return NULL;
   }
-  if (mat->model != EK_MODEL_STVK) {
+  if (mat->model != EK_XPBD_MODEL) {
     ek_set_error("%s: model %s: the Hookean constraint of seed 001 is StVK's energy: use "
                  "EK_MODEL_STVK",
                  fn, ek_model_name(mat->model));

@@ -2,7 +2,7 @@
 // on AoSoA constraint blocks (layout in xpbd_kernel.h), written once against
 // the vector API and built per (ISA x precision). Per constraint:
 //   F = sum_{k>=1} (x_k - x_0) b_k^T         (Teran 2003 / seed 001)
-//   W = mu e:e + lambda/2 tr(e)^2, P = F S    (StVK, kernels/material/stvk.h)
+//   W = mu e:e + lambda/2 tr(e)^2, P = F S    (StVK, kernels/material/families.h)
 //   C = sqrt(2 W / E), g_k = P b_k / E, g_0 = -sum g_k, grad_k C = g_k / C
 //   dlambda = -(C k + lambda) / (k sum_k wd_k |g_k|^2 / C^2 + 1), k = V E h^2
 // (Macklin et al. 2016 eq. 18 multiplied through by k = 1 / alpha~, so a
@@ -12,7 +12,7 @@
 // clusters (nmem[b] members).
 #include "../simd/simd.h"
 
-#include "../material/stvk.h"
+#include "../material/families.h"
 #include "xpbd_kernel.h"
 
 #if defined(EK_REAL_F32)
@@ -177,3 +177,7 @@ void EK_SYM(xpbd_block)(const xpbd_args *a, size_t b0, size_t b1) {
     break;
   }
 }
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(xpbd_block_fill)(ek_kernel_table *t);
+void EK_SYM(xpbd_block_fill)(ek_kernel_table *t) { t->EK_FIELD(xpbd_block) = EK_SYM(xpbd_block); }

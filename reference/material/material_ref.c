@@ -45,6 +45,11 @@ static const model_entry *entry_of(const ek_material_ref *m) {
   return &models[m->model];
 }
 
+int ek_material_ref_model_count(void) { return MODEL_COUNT; }
+int ek_material_ref_clampable(int m) {
+  return m >= 0 && m < MODEL_COUNT ? models[m].clampable : -1;
+}
+
 void ek_polar_rotation_ref(const double F[9], double R[9]) { ek_polar3_ref(F, R, NULL); }
 
 // dR of the polar rotation, F = R S (S symmetric): R^T dF - dF^T R = W S + S W

@@ -17,6 +17,11 @@ typedef struct {
 } ek_material_ref;
 
 // psi(F); +inf outside the domain (neo-Hookean, J <= 0, no clamp).
+// The reference's own model table (material_ref.c, independent of the
+// kernels' descriptors): how many models it has, and whether model m is
+// evaluated through clamped singular values (-1 if m is not one).
+int ek_material_ref_model_count(void);
+int ek_material_ref_clampable(int m);
 double ek_psi_ref(const ek_material_ref *m, const double F[9], const double R[9]);
 // P(F) = dpsi/dF; NaN outside the domain.
 void ek_pk1_ref(const ek_material_ref *m, const double F[9], const double R[9], double P[9]);

@@ -1,7 +1,7 @@
-// Hessian block kernels (contract in hessian_kernel.h; API in
-// include/ek/hessian.h), written once against the vector API and built per
-// (ISA x precision), instantiated per model as the force kernel is
-// (fvm_block.c), so the model is a compile-time constant in each loop.
+// The Hessian kernels of one model (contract in hessian_kernel.h; API in
+// include/ek/hessian.h), instantiated by model_kernels.h in the model's
+// file, as the force kernel is (fvm_model.h), so each model gets its own
+// loops.
 //   gradient: the force kernel's steps with G = +V0 P Dm^-T, V0 psi, and
 //             the cache: for the isotropic models the U, V-frame
 //             eigensystem of the SVD (material_frame_svd: Teran et al.
@@ -16,10 +16,10 @@
 //               M_ii = A_ii b_i^2 + sum_{j != i} h_ij b_j^2,
 //               M_il = b_i b_l (A_il + q_il)   (i != l)
 //             (mat_frame_apply's entries contracted with b twice).
-#include "../simd/simd.h"
+#ifndef EK_HESSIAN_MODEL_H
+#define EK_HESSIAN_MODEL_H
 
 #include "../material/material_core.h"
-#include "../svd3/svd3_core.h"
 #include "fvm_tet.h"
 #include "hessian_kernel.h"
 
@@ -58,25 +58,25 @@ EK_INLINE void load_frame(const real *c, int o, mat_frame *fr) {
   }
 }
 
-static void scatter_block(const hess_args *a, size_t b, const real *hb, int ncomp) {
+static inline void hess_scatter_block(const hess_args *a, size_t b, const real *hb, int ncomp) {
   tet_scatter_block(a->idx + b * 4 * L, hb, ncomp, a->out);
 }
 
 // ---- Product: K p ----
-EK_INLINE void apply_blocks(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+EK_INLINE void apply_blocks(const hess_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[12 * L];
   const ek_material_lanes mp =
-      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+      material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L,
-               *c = model == EK_MODEL_LINEAR ? NULL : cache_block(a, b);
+               *c = MODEL_CACHE_PLANES == 0 ? NULL : cache_block(a, b);
     real *dst = a->corner ? a->corner + b * 12 * L : hb;
     for (int o = 0; o < L; o += EK_W) {
       vreal dF[9], dP[9];
       tet_gradient(a->x, a->idx + b * 4 * L, dmi, o, 0, dF);
-      if (model == EK_MODEL_LINEAR) {
+      if (MODEL_CACHE_PLANES == 0) {
         material_diff_direct(&mp, dF, dF, dF, dP);
-      } else if (model == EK_MODEL_COROTATED_LINEAR) {
+      } else if (MODEL_READS_R) {
         vreal R[9];
         for (int k = 0; k < 9; k++)
           R[k] = vload(c + k * L + o);
@@ -89,7 +89,7 @@ EK_INLINE void apply_blocks(ek_model model, const hess_args *a, size_t b0, size_
       tet_corner_values(dP, dmi, vload(a->v0 + b * L + o), o, dst);
     }
     if (!a->corner)
-      scatter_block(a, b, hb, 3);
+      hess_scatter_block(a, b, hb, 3);
   }
 }
 
@@ -109,14 +109,14 @@ static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
     vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
 }
 
-EK_INLINE void diag_blocks(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+EK_INLINE void diag_blocks(const hess_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[24 * L];
   const ek_material_lanes mp =
-      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
-  const int iso = ek_model_rows[model].isotropic;
+      material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  const int iso = MODEL_ISOTROPIC;
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L,
-               *cb = model == EK_MODEL_LINEAR ? NULL : cache_block(a, b);
+               *cb = MODEL_CACHE_PLANES == 0 ? NULL : cache_block(a, b);
     real *dst = a->corner ? a->corner + b * 24 * L : hb;
     for (int o = 0; o < L; o += EK_W) {
       vreal Dmi[9], g[4][3], B[9], v0 = vload(a->v0 + b * L + o);
@@ -148,7 +148,7 @@ EK_INLINE void diag_blocks(ek_model model, const hess_args *a, size_t b0, size_t
       } else {
         vreal R[9], zero = vzero();
         for (int k = 0; k < 9; k++)
-          R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(cb + k * L + o) : zero;
+          R[k] = MODEL_READS_R ? vload(cb + k * L + o) : zero;
         for (int c = 0; c < 4; c++) {
           for (int k = 0; k < 3; k++) {
             // Column k: dF = e_k g_c^T, B[:, k] = V0 dP g_c.
@@ -166,7 +166,7 @@ EK_INLINE void diag_blocks(ek_model model, const hess_args *a, size_t b0, size_t
       }
     }
     if (!a->corner)
-      scatter_block(a, b, hb, 6);
+      hess_scatter_block(a, b, hb, 6);
   }
 }
 
@@ -235,7 +235,7 @@ static inline void store_frame(const hess_args *a, size_t b, int o, const mat_fr
 }
 
 // Corotated linear's R^n for block b's lanes (identity in padding lanes).
-static void gather_R(const hess_args *a, size_t b, real *Rb) {
+static inline void hess_gather_R(const hess_args *a, size_t b, real *Rb) {
   for (int l = 0; l < L; l++) {
     int32_t t = a->slot_tet[b * L + l];
     size_t s = t >= 0 ? (size_t)a->morton_slot[t] : 0;
@@ -246,20 +246,19 @@ static void gather_R(const hess_args *a, size_t b, real *Rb) {
   }
 }
 
-EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, size_t b0,
-                               size_t b1) {
+EK_INLINE void gradient_blocks(int exact, const hess_args *a, size_t b0, size_t b1) {
   _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
   _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
   const ek_material_lanes mp =
-      material_lanes_make(model, a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
-  const int iso = ek_model_rows[model].isotropic;
+      material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  const int iso = MODEL_ISOTROPIC;
   const int sigma = material_uses_sigma(&mp);
   const int cache = a->cache_out || a->cache_out_f32;
   for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
     const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
-    if (model == EK_MODEL_COROTATED_LINEAR)
+    if (MODEL_READS_R)
       for (int g = 0; g < nb; g++)
-        gather_R(a, b + (size_t)g, Rb[g]);
+        hess_gather_R(a, b + (size_t)g, Rb[g]);
     for (int v = 0; v < nb * EK_VPB; v += 2) {
       const int nv = nb * EK_VPB - v < 2 ? 1 : 2;
       vreal F[2][9], P[2][9], psi[2];
@@ -274,7 +273,7 @@ EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, si
         // The SVD of both vectors side by side; P and psi from it or in F
         // (as the force kernel would), the frame from it.
         vreal U[2][9], S[2][3], V[2][9];
-        svd3_core_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
+        svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
         for (int j = 0; j < nv; j++) {
           if (sigma) {
             material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
@@ -294,8 +293,8 @@ EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, si
           vreal R[9];
           const int g = (v + j) / EK_VPB;
           for (int k = 0; k < 9; k++) {
-            R[k] = model == EK_MODEL_COROTATED_LINEAR ? vload(Rb[g] + k * L + og[j]) : F[j][k];
-            if (model == EK_MODEL_COROTATED_LINEAR && cache)
+            R[k] = MODEL_READS_R ? vload(Rb[g] + k * L + og[j]) : F[j][k];
+            if (MODEL_READS_R && cache)
               cache_store(a, bg[j], og[j], k, R[k]);
           }
           material_pk1(&mp, F[j], R, P[j]);
@@ -312,63 +311,36 @@ EK_INLINE void gradient_blocks(ek_model model, int exact, const hess_args *a, si
     }
     if (!a->corner)
       for (int g = 0; g < nb; g++)
-        scatter_block(a, b + (size_t)g, hb[g], 3);
+        hess_scatter_block(a, b + (size_t)g, hb[g], 3);
   }
 }
 
-EK_INLINE void gradient_blocks_iso(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+EK_INLINE void gradient_blocks_iso(const hess_args *a, size_t b0, size_t b1) {
   if (a->svd->exact_rsqrt)
-    gradient_blocks(model, 1, a, b0, b1);
+    gradient_blocks(1, a, b0, b1);
   else
-    gradient_blocks(model, 0, a, b0, b1);
+    gradient_blocks(0, a, b0, b1);
 }
 #endif
 
-// One model, every op (model a compile-time constant at each call below).
-EK_INLINE void hess_model(ek_model model, const hess_args *a, size_t b0, size_t b1) {
+// The model's entry: every op.
+EK_INLINE void hess_model_blocks(const hess_args *a, size_t b0, size_t b1) {
   switch (a->op) {
   case HESS_GRADIENT:
 #if defined(EK_REAL_F64)
-    if (ek_model_rows[model].isotropic)
-      gradient_blocks_iso(model, a, b0, b1);
+    if (MODEL_ISOTROPIC)
+      gradient_blocks_iso(a, b0, b1);
     else
-      gradient_blocks(model, 0, a, b0, b1);
+      gradient_blocks(0, a, b0, b1);
 #endif
     break;
   case HESS_APPLY:
-    apply_blocks(model, a, b0, b1);
+    apply_blocks(a, b0, b1);
     break;
   case HESS_DIAG:
-    diag_blocks(model, a, b0, b1);
+    diag_blocks(a, b0, b1);
     break;
   }
 }
 
-void EK_SYM(hessian_block)(const hess_args *a, size_t b0, size_t b1) {
-  switch (a->mat->model) {
-  case EK_MODEL_LINEAR:
-    hess_model(EK_MODEL_LINEAR, a, b0, b1);
-    break;
-  case EK_MODEL_STVK:
-    hess_model(EK_MODEL_STVK, a, b0, b1);
-    break;
-  case EK_MODEL_COROTATED_LINEAR:
-    hess_model(EK_MODEL_COROTATED_LINEAR, a, b0, b1);
-    break;
-  case EK_MODEL_PSI_R:
-    hess_model(EK_MODEL_PSI_R, a, b0, b1);
-    break;
-  case EK_MODEL_FIXED_COROTATED:
-    hess_model(EK_MODEL_FIXED_COROTATED, a, b0, b1);
-    break;
-  case EK_MODEL_ARAP:
-    hess_model(EK_MODEL_ARAP, a, b0, b1);
-    break;
-  case EK_MODEL_NEO_HOOKEAN:
-    hess_model(EK_MODEL_NEO_HOOKEAN, a, b0, b1);
-    break;
-  case EK_MODEL_STABLE_NEO_HOOKEAN:
-    hess_model(EK_MODEL_STABLE_NEO_HOOKEAN, a, b0, b1);
-    break;
-  }
-}
+#endif

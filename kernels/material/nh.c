@@ -8,11 +8,24 @@
 //   A_ii = mu + (mu + lambda - lambda L) / s_i^2, A_ij = lambda / (s_i s_j)
 //   flip = mu + (mu - lambda L) / (s_i s_j), twist = mu + (lambda L - mu) /
 //   (s_i s_j)  (derived from g as in Smith et al. 2019).
-#ifndef EK_MAT_NH_H
-#define EK_MAT_NH_H
-#include "material_math.h"
+#define MODEL nh
+#define MODEL_ID EK_MODEL_NEO_HOOKEAN
+#define MODEL_NAME "nh"
+#define MODEL_LONG_NAME "neo_hookean"
+#define MODEL_NEEDS EK_NEEDS_J
+#define MODEL_CLAMPABLE 1
+#define MODEL_ISOTROPIC 1
+#define MODEL_F_FORM 1
+#define MODEL_READS_R 0
+#define MODEL_WARM_POLAR 0
+#define MODEL_J_DOMAIN 1
+#define MODEL_VOLUME_TERM 1
+#include "model.h"
 
-static inline vreal nh_psi(const ek_material_lanes *m, const vreal F[9]) {
+#ifndef EK_MODEL_DESCRIPTOR
+
+static inline vreal model_psi(const ek_material_lanes *m, const vreal F[9], const vreal R[9]) {
+  (void)R;
   vreal C[9];
   vm3_cof(F, C);
   vreal J = vm3_det_cof(F, C), L = vlog(J);
@@ -33,7 +46,9 @@ static inline vmask nh_inverse(const vreal F[9], vreal G[9], vreal *L) {
   return vgt(J, vzero());
 }
 
-static inline void nh_pk1(const ek_material_lanes *m, const vreal F[9], vreal P[9]) {
+static inline void model_pk1(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                             vreal P[9]) {
+  (void)R;
   vreal G[9], L;
   vmask ok = nh_inverse(F, G, &L);
   vreal mu = vset(m->mu), c = vsub(vmul(vset(m->lambda), L), mu), nan = vset((real)NAN);
@@ -41,8 +56,9 @@ static inline void nh_pk1(const ek_material_lanes *m, const vreal F[9], vreal P[
     P[k] = vsel(ok, vmla(mu, F[k], vmul(c, G[k])), nan);
 }
 
-static inline void nh_diff(const ek_material_lanes *m, const vreal F[9], const vreal dF[9],
-                           vreal dP[9]) {
+static inline void model_diff(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                              const vreal dF[9], vreal dP[9]) {
+  (void)R;
   vreal G[9], L, T[9], GdFtG[9];
   vmask ok = nh_inverse(F, G, &L);
   vm3_mul_nt(G, dF, T);
@@ -54,14 +70,14 @@ static inline void nh_diff(const ek_material_lanes *m, const vreal F[9], const v
 }
 
 // The gradient g alone (what P needs under the clamp, where J > 0).
-static inline void nh_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
+static inline void model_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
   vreal mu = vset(m->mu);
   vreal c = vsub(vmul(vset(m->lambda), vlog(vmul(s[0], vmul(s[1], s[2])))), mu);
   for (int i = 0; i < 3; i++)
     g[i] = vmla(mu, s[i], vdiv(c, s[i]));
 }
 
-static inline void nh_sigma(const ek_material_lanes *m, const vreal s[3], mat_sigma_terms *t) {
+static inline void model_sigma(const ek_material_lanes *m, const vreal s[3], mat_sigma_terms *t) {
   vreal mu = vset(m->mu), lambda = vset(m->lambda), half = vset((real)0.5), one = vset(1);
   vreal J = vmul(s[0], vmul(s[1], s[2])), L = vlog(J), lL = vmul(lambda, L);
   vreal c = vsub(lL, mu); // lambda L - mu
@@ -92,4 +108,22 @@ static inline void nh_sigma(const ek_material_lanes *m, const vreal s[3], mat_si
       t->A[i][j] = vsel(ok, t->A[i][j], nan);
   }
 }
+
+#include "model_kernels.h"
+#else
+
+// Defined for J > 0 only without clamp (psi = +inf at J <= 0).
+static const char *nh_excluded(const ek_model_run_stats *r, double clamp, double eps, char *why,
+                               size_t len) {
+  (void)eps;
+  if (clamp <= 0 && r->min_J <= 0) {
+    snprintf(why, len, "inverted (min J = %.3g): undefined at J <= 0 without clamp", r->min_J);
+    return why;
+  }
+  return NULL;
+}
+
+const ek_model_desc ek_model_nh = {EK_MODEL_DESC_TRAITS, .linearise = ek_model_lame_same,
+                                   .from_linear = ek_model_lame_same_inverse,
+                                   .excluded = nh_excluded};
 #endif

@@ -9,15 +9,31 @@
 //   A_ii = r + 2 mu s_i^2/(I_C + 1)^2 + lambda (s_j s_k)^2,
 //   A_ij = 2 mu s_i s_j/(I_C + 1)^2 + lambda s_k (2 J - a),
 //   flip = r - lambda (J - a) s_k, twist = r + lambda (J - a) s_k.
-#ifndef EK_MAT_SNH_H
-#define EK_MAT_SNH_H
-#include "material_math.h"
+// At F = I its dP is linear elasticity with (3 mu / 4, lambda - 5 mu / 8)
+// (ek takes mu and lambda as given; Smith et al. 2018 sec. 3.4 instead
+// re-parametrise so that the two match). Finite for every F.
+#define MODEL snh
+#define MODEL_ID EK_MODEL_STABLE_NEO_HOOKEAN
+#define MODEL_NAME "snh"
+#define MODEL_LONG_NAME "stable_neo_hookean"
+#define MODEL_NEEDS EK_NEEDS_J
+#define MODEL_CLAMPABLE 1
+#define MODEL_ISOTROPIC 1
+#define MODEL_F_FORM 1
+#define MODEL_READS_R 0
+#define MODEL_WARM_POLAR 0
+#define MODEL_J_DOMAIN 0
+#define MODEL_VOLUME_TERM 1
+#include "model.h"
+
+#ifndef EK_MODEL_DESCRIPTOR
 
 static inline real snh_rest_shift(const ek_material_lanes *m) {
   return 1 + (real)0.75 * m->mu / m->lambda;
 }
 
-static inline vreal snh_psi(const ek_material_lanes *m, const vreal F[9]) {
+static inline vreal model_psi(const ek_material_lanes *m, const vreal F[9], const vreal R[9]) {
+  (void)R;
   vreal C[9], half = vset((real)0.5);
   vm3_cof(F, C);
   vreal Jma = vsub(vm3_det_cof(F, C), vset(snh_rest_shift(m)));
@@ -27,7 +43,9 @@ static inline vreal snh_psi(const ek_material_lanes *m, const vreal F[9]) {
               vmul(vmul(half, vset(m->lambda)), vmul(Jma, Jma)));
 }
 
-static inline void snh_pk1(const ek_material_lanes *m, const vreal F[9], vreal P[9]) {
+static inline void model_pk1(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                             vreal P[9]) {
+  (void)R;
   vreal C[9], one = vset(1);
   vm3_cof(F, C);
   vreal Jma = vsub(vm3_det_cof(F, C), vset(snh_rest_shift(m)));
@@ -38,8 +56,9 @@ static inline void snh_pk1(const ek_material_lanes *m, const vreal F[9], vreal P
     P[k] = vmla(r, F[k], vmul(c, C[k]));
 }
 
-static inline void snh_diff(const ek_material_lanes *m, const vreal F[9], const vreal dF[9],
-                            vreal dP[9]) {
+static inline void model_diff(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
+                              const vreal dF[9], vreal dP[9]) {
+  (void)R;
   vreal C[9], dC[9], one = vset(1), lambda = vset(m->lambda);
   vm3_cof(F, C);
   vm3_cof_diff(F, dF, dC);
@@ -53,7 +72,7 @@ static inline void snh_diff(const ek_material_lanes *m, const vreal F[9], const 
 }
 
 // The gradient g alone (what P needs).
-static inline void snh_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
+static inline void model_sigma_grad(const ek_material_lanes *m, const vreal s[3], vreal g[3]) {
   vreal one = vset(1);
   vreal pair[3] = {vmul(s[1], s[2]), vmul(s[0], s[2]), vmul(s[0], s[1])}; // J / s_i
   vreal lJma = vmul(vset(m->lambda), vsub(vmul(pair[0], s[0]), vset(snh_rest_shift(m))));
@@ -63,7 +82,7 @@ static inline void snh_sigma_grad(const ek_material_lanes *m, const vreal s[3], 
     g[i] = vmla(r, s[i], vmul(lJma, pair[i]));
 }
 
-static inline void snh_sigma(const ek_material_lanes *m, const vreal s[3], mat_sigma_terms *t) {
+static inline void model_sigma(const ek_material_lanes *m, const vreal s[3], mat_sigma_terms *t) {
   vreal mu = vset(m->mu), lambda = vset(m->lambda), half = vset((real)0.5), one = vset(1);
   vreal a = vset(snh_rest_shift(m));
   vreal pair[3] = {vmul(s[1], s[2]), vmul(s[0], s[2]), vmul(s[0], s[1])}; // J / s_i
@@ -86,4 +105,32 @@ static inline void snh_sigma(const ek_material_lanes *m, const vreal s[3], mat_s
     t->twist[p] = vadd(r, c);
   }
 }
+
+#include "model_kernels.h"
+#else
+
+// a = 1 + 3 mu / (4 lambda) needs lambda != 0.
+static const char *snh_param_error(double mu, double lambda) {
+  (void)mu;
+  return lambda == 0 ? "stable neo-Hookean needs lambda != 0 (a = 1 + 3 mu / (4 lambda))" : NULL;
+}
+
+static void snh_linearise(double mu, double lambda, double *mu_lin, double *lambda_lin) {
+  *mu_lin = 0.75 * mu, *lambda_lin = lambda - 0.625 * mu;
+}
+
+// The inverse of (3 mu / 4, lambda - 5 mu / 8).
+static int snh_from_linear(double mu_lin, double lambda_lin, double *mu, double *lambda, char *why,
+                           size_t len) {
+  *mu = mu_lin / 0.75;
+  *lambda = lambda_lin + 0.625 * *mu;
+  if (*lambda == 0) {
+    snprintf(why, len, "stable neo-Hookean needs lambda != 0 (material.h)");
+    return EK_EINVAL;
+  }
+  return EK_OK;
+}
+
+const ek_model_desc ek_model_snh = {EK_MODEL_DESC_TRAITS, .param_error = snh_param_error,
+                                    .linearise = snh_linearise, .from_linear = snh_from_linear};
 #endif

@@ -1,0 +1,126 @@
+// The FVM force kernel of one model (Teran et al. 2003 sec. 4, seed 004),
+// instantiated by model_kernels.h in the model's file: per tet, Ds =
+// [x1-x0, x2-x0, x3-x0], F = Ds Dm^-1, P = P(F) (material_core.h),
+// H = -V0 P Dm^-T, h1..h3 to vertices 1..3 and -(h1+h2+h3) to vertex 0.
+// The block loop is instantiated per SVD or warm-polar variant with the
+// variant a compile-time constant; the models that take an SVD run two
+// vectors' Jacobi chains side by side (svd3_pair), as the SVD kernel does.
+// The argument contract is in fvm_kernel.h; the scatter strategies (which
+// call this with f or corner set) live in the driver, fvm.c.
+#ifndef EK_FVM_MODEL_H
+#define EK_FVM_MODEL_H
+
+#include "../material/material_core.h"
+#include "../polar/polar_warm_core.h"
+#include "fvm_vec.h"
+
+// Blocks [b0, b1), group by group: gather, F of every vector, P (through the SVD for
+// `sigma`, two vectors at a time; or through `warm` iterations of the warm
+// polar when warm > 0), corner forces, scatter.
+EK_INLINE void fvm_blocks(int sigma, int exact, int warm, const fvm_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
+  const ek_material_lanes mp =
+      material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
+    const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
+    if (MODEL_READS_R && !a->R_direct)
+      for (int g = 0; g < nb; g++)
+        gather_R(a, b + (size_t)g, Rb[g]);
+    if (warm && !a->R_direct)
+      for (int g = 0; g < nb; g++)
+        gather_R_warm(a, b + (size_t)g, Rb[g]);
+    for (int v0 = 0; v0 < nb * EK_VPB; v0 += 2) {
+      // 1 only for the last block of an odd range on AVX-512 (one vector per block).
+      const int nv = nb * EK_VPB - v0 < 2 ? 1 : 2;
+      vreal F[2][9], P[2][9];
+      for (int j = 0; j < nv; j++) {
+        const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+        deformation_gradient(a, b + (size_t)g, o, F[j]);
+      }
+      if (warm) {
+        // Step 3c: R by the warm polar from the state's rotation (stored
+        // back), then P from F and R.
+        for (int j = 0; j < nv; j++) {
+          const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+          real *Rsrc = (a->R_direct ? a->R_warm + (b + (size_t)g) * 9 * L : Rb[g]) + o;
+          vreal R[9];
+          for (int k = 0; k < 9; k++)
+            R[k] = vload(Rsrc + k * L);
+          polar_warm_core(F[j], R, warm);
+          for (int k = 0; k < 9; k++)
+            vstore(Rsrc + k * L, R[k]);
+          material_pk1_rotation(&mp, F[j], R, P[j]);
+        }
+      } else if (sigma) {
+        // Step 3a: the SVD of both vectors side by side, then P from it.
+        vreal U[2][9], S[2][3], V[2][9];
+        svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
+        for (int j = 0; j < nv; j++)
+          material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
+      } else {
+        // Step 3b: P in F (R read for corotated linear only).
+        for (int j = 0; j < nv; j++) {
+          const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+          vreal R[9];
+          const real *Rsrc = a->R_direct ? a->R_planes + (b + (size_t)g) * 9 * L : Rb[g];
+          for (int k = 0; k < 9; k++)
+            R[k] = MODEL_READS_R ? vload(Rsrc + k * L + o) : F[j][k];
+          material_pk1(&mp, F[j], R, P[j]);
+        }
+      }
+      for (int j = 0; j < nv; j++) {
+        const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+        const size_t bg = b + (size_t)g;
+        corner_forces(P[j], a->dm_inv + bg * 9 * L, a->v0 + bg * L, o,
+                      a->corner ? a->corner + bg * 12 * L : hb[g]);
+      }
+    }
+    if (warm && !a->R_direct)
+      for (int g = 0; g < nb; g++)
+        scatter_R_warm(a, b + (size_t)g, Rb[g]);
+    if (!a->corner)
+      for (int g = 0; g < nb; g++)
+        scatter_block(a, b + (size_t)g, hb[g]);
+  }
+}
+
+// The models that can take an SVD: through it (sigma, per rsqrt mode) when
+// the table says so for this clamp, else in F.
+EK_INLINE void fvm_blocks_sigma(const fvm_args *a, size_t b0, size_t b1) {
+  if (!material_uses_sigma_at(a->mat->clamp))
+    fvm_blocks(0, 0, 0, a, b0, b1);
+  else if (a->svd->exact_rsqrt)
+    fvm_blocks(1, 1, 0, a, b0, b1);
+  else
+    fvm_blocks(1, 0, 0, a, b0, b1);
+}
+
+// Fixed corotated and ARAP: the warm polar when the driver set R_warm (it
+// does so only without clamp), else as the other SVD models.
+EK_INLINE void fvm_blocks_rotation(const fvm_args *a, size_t b0, size_t b1) {
+  if (!a->R_warm)
+    fvm_blocks_sigma(a, b0, b1);
+  else if (a->polar_iters == 1)
+    fvm_blocks(0, 0, 1, a, b0, b1);
+  else if (a->polar_iters == 2)
+    fvm_blocks(0, 0, 2, a, b0, b1);
+  else if (a->polar_iters == 3)
+    fvm_blocks(0, 0, 3, a, b0, b1);
+  else
+    fvm_blocks(0, 0, a->polar_iters, a, b0, b1);
+}
+
+// The model's entry: the warm polar's or the SVD's variants where the
+// model has them, else P in F.
+EK_INLINE void fvm_model_blocks(const fvm_args *a, size_t b0, size_t b1) {
+#if MODEL_WARM_POLAR
+  fvm_blocks_rotation(a, b0, b1);
+#elif MODEL_CLAMPABLE
+  fvm_blocks_sigma(a, b0, b1);
+#else
+  fvm_blocks(0, 0, 0, a, b0, b1);
+#endif
+}
+
+#endif

@@ -1,0 +1,82 @@
+// The FVM force kernels' shared steps on AoSoA tet blocks (Teran et al.
+// 2003 sec. 4, seed 004): the argument type of this precision, F of a
+// vector of tets, corner forces, the scatter, and the per-element rotations
+// (corotated linear's R^n, the warm polar's state) gathered into a block
+// and back. Used by fvm_block.c (the model-independent passes) and
+// fvm_model.h (each model's force kernel). Include after simd/simd.h.
+#ifndef EK_FVM_VEC_H
+#define EK_FVM_VEC_H
+
+#include "../svd3/svd3_core.h" // EK_INLINE
+#include "fvm_kernel.h"
+#include "fvm_tet.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_fvm_args_f32 fvm_args;
+#else
+typedef struct ek_fvm_args_f64 fvm_args;
+#endif
+
+#define L EK_LANES
+// Blocks per group and vectors per group: a group holds two vectors (or
+// more), so two SVD chains can be in flight; AVX-512 (one vector per block)
+// takes two blocks at a time.
+#define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
+
+// Rotations of corotated linear for block b's lanes (identity in padding
+// lanes), from the per-element state or the caller-order array.
+static inline void gather_R(const fvm_args *a, size_t b, real *Rb) {
+  for (int l = 0; l < L; l++) {
+    int32_t t = a->slot_tet[b * L + l];
+    for (int k = 0; k < 9; k++) {
+      real v = (real)(k % 4 == 0);
+      if (t >= 0 && a->R_planes) {
+        size_t s = (size_t)a->morton_slot[t];
+        v = a->R_planes[(s / L * 9 + (size_t)k) * L + s % L];
+      } else if (t >= 0) {
+        v = (real)a->R[(size_t)t * 9 + k];
+      }
+      Rb[k * L + l] = v;
+    }
+  }
+}
+
+// The warm polar's rotations of block b's lanes from the per-element state
+// (identity in padding lanes), and back (real lanes only): the blocks of
+// the coloured order hold other tets than the state's Morton blocks.
+static inline void gather_R_warm(const fvm_args *a, size_t b, real *Rb) {
+  for (int l = 0; l < L; l++) {
+    int32_t t = a->slot_tet[b * L + l];
+    size_t s = t >= 0 ? (size_t)a->morton_slot[t] : 0;
+    for (int k = 0; k < 9; k++)
+      Rb[k * L + l] = t >= 0 ? a->R_warm[(s / L * 9 + (size_t)k) * L + s % L] : (real)(k % 4 == 0);
+  }
+}
+
+static inline void scatter_R_warm(const fvm_args *a, size_t b, const real *Rb) {
+  for (int l = 0; l < L; l++) {
+    int32_t t = a->slot_tet[b * L + l];
+    if (t < 0)
+      continue;
+    size_t s = (size_t)a->morton_slot[t];
+    for (int k = 0; k < 9; k++)
+      a->R_warm[(s / L * 9 + (size_t)k) * L + s % L] = Rb[k * L + l];
+  }
+}
+
+// Steps 1-2 (gather, F = Ds Dm^-1) and 4-5 (H = -V0 P Dm^-T, scatter) are
+// fvm_tet.h's, shared with the Hessian kernels.
+static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
+  tet_gradient(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
+}
+
+static inline void corner_forces(const vreal P[9], const real *dm_inv, const real *v0, int o,
+                                 real *hb) {
+  tet_corner_values(P, dm_inv, vneg(vload(v0 + o)), o, hb);
+}
+
+static inline void scatter_block(const fvm_args *a, size_t b, const real *hb) {
+  tet_scatter_block(a->idx + b * 4 * L, hb, 3, a->f);
+}
+
+#endif
