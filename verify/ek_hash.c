@@ -191,6 +191,19 @@ static void make_matrices(size_t n, double *A, double *guess) {
   A[9 * 17 + 4] = NAN;        // NaN in one lane
   A[9 * 41 + 2] = INFINITY;   // infinity in one lane
   A[9 * 43 + 0] = 1e-40;      // subnormal (f64) / zero (f32) entries
+  // Warm-polar guesses that are not rotations (replaced by their
+  // quaternion's rotation in the first iteration), a zero one, a NaN one,
+  // and one 180 degrees off (a saddle).
+  for (int k = 0; k < 9; k++) {
+    guess[9 * 5 + k] *= 2;
+    guess[9 * 9 + k] = 0;
+    guess[9 * 21 + k] = A[9 * 21 + k];
+  }
+  guess[9 * 25 + 3] = NAN;
+  for (int i = 0; i < 3; i++)
+    for (int j = 0; j < 3; j++)
+      guess[9 * 45 + 3 * i + j] =
+          (i == j) * (i == 0 ? 1 : -1) * A[9 * 45 + 0] / fabs(A[9 * 45 + 0]);
 }
 
 typedef struct {
@@ -345,6 +358,26 @@ static void run_svd_auto(int f64) {
   for (int aosoa = 0; aosoa < 2; aosoa++) {
     hash_svd(f64, aosoa, "null_opts", NULL, 1, 1);
     hash_polar(f64, aosoa, "null_opts", NULL, 1);
+  }
+}
+
+// ---- AoSoA packing (batch.h) ---------------------------------------------
+
+// Pack and unpack of n items of 1, 3, 9 and 64 planes (tails padded:
+// identity for 9 planes, zero otherwise).
+static void run_batch(int f64) {
+  static const int planes[] = {1, 3, 9, 64};
+  for (size_t k = 0; k < sizeof planes / sizeof *planes; k++) {
+    int np = planes[k];
+    size_t n = NMAT * 9 / (size_t)np; // items whose scalars fit in gA
+    size_t sz = f64 ? ek_aosoa_size_f64(n, np) : ek_aosoa_size_f32(n, np);
+    size_t pb = sz * (f64 ? 8 : 4), ab = n * (size_t)np * (f64 ? 8 : 4);
+    void *soa = scratch(o1, pb), *aos = scratch(o2, ab);
+    int rc = f64 ? ek_aosoa_pack_f64(n, np, gA.d, soa) : ek_aosoa_pack_f32(n, np, gA.f, soa);
+    uint64_t h = fnv(fnv(FNV_OFFSET, &sz, sizeof sz), soa, pb);
+    out(rc, h, "batch/pack/planes=%d", np);
+    rc = f64 ? ek_aosoa_unpack_f64(n, np, soa, aos) : ek_aosoa_unpack_f32(n, np, soa, aos);
+    out(rc, fnv(FNV_OFFSET, aos, ab), "batch/unpack/planes=%d", np);
   }
 }
 
@@ -1181,6 +1214,7 @@ static void run_table(void) {
   g_isa = "auto";
   for (int f64 = 0; f64 < 2; f64++) {
     g_prec = f64 ? "f64" : "f32";
+    run_batch(f64);
     run_svd_auto(f64);
   }
   for (size_t i = 0; i < 3; i++) {
