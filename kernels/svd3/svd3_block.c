@@ -37,6 +37,27 @@ EK_INLINE void svd3_solve(int n, const vreal (*a)[9], vreal (*u)[9], vreal (*s)[
   }
 }
 
+// The remainder of a call (an odd last vector, an AoS tail) is at most one
+// or two vectors per call, so one out-of-line copy with run-time knobs
+// serves every variant: inlined per (n, rsqrt, polar, layout) as the main
+// loop is, it made this file the longest of the build. The same operations,
+// so the same bits.
+__attribute__((noinline)) static void svd3_solve_one(const vreal a[9], vreal u[9], vreal s[3],
+                                                     vreal w[9], int sweeps, int refine, int exact,
+                                                     int polar) {
+  svd3_solve(1, (const vreal(*)[9])a, (vreal(*)[9])u, (vreal(*)[3])s, (vreal(*)[9])w, sweeps,
+             refine, exact, polar);
+}
+
+// n vectors: the main loop's n = SVD3_IL inline, a single one out of line.
+EK_INLINE void svd3_solve_n(int n, const vreal (*a)[9], vreal (*u)[9], vreal (*s)[3], vreal (*w)[9],
+                            int sweeps, int refine, int exact, int polar) {
+  if (n == 1)
+    svd3_solve_one(a[0], u[0], s[0], w[0], sweeps, refine, exact, polar);
+  else
+    svd3_solve(n, a, u, s, w, sweeps, refine, exact, polar);
+}
+
 // AoSoA: vectors j0 .. j0 + n - 1 of the batch.
 EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V, int sweeps,
                             int refine, int exact, int polar) {
@@ -44,7 +65,7 @@ EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, r
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 9; i++)
       a[j][i] = vload(A + vec_offset(j0 + j, 9) + (size_t)i * EK_LANES);
-  svd3_solve(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
+  svd3_solve_n(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
   for (int j = 0; j < n; j++) {
     size_t m9 = vec_offset(j0 + j, 9), m3 = vec_offset(j0 + j, 3);
     for (int i = 0; i < 9; i++) {
@@ -75,7 +96,7 @@ EK_INLINE void svd3_aos_vectors(int n, size_t m0, const real *A, real *U, real *
   vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
   for (int j = 0; j < n; j++)
     vload_records(A + 9 * (m0 + (size_t)j * EK_W), 9, a[j]);
-  svd3_solve(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
+  svd3_solve_n(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
   for (int j = 0; j < n; j++) {
     size_t m = m0 + (size_t)j * EK_W;
     if (U)
@@ -144,13 +165,19 @@ void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
 __attribute__((noinline)) void EK_SYM(svd3_pair_exact)(int nv, const vreal A[2][9], vreal U[2][9],
                                                        vreal S[2][3], vreal V[2][9], int sweeps,
                                                        int refine) {
-  svd3_core_pair(nv, A, U, S, V, sweeps, refine, 1);
+  if (nv == 1)
+    svd3_solve_one(A[0], U[0], S[0], V[0], sweeps, refine, 1, 0);
+  else
+    svd3_core_pair(2, A, U, S, V, sweeps, refine, 1);
 }
 
 __attribute__((noinline)) void EK_SYM(svd3_pair_est)(int nv, const vreal A[2][9], vreal U[2][9],
                                                      vreal S[2][3], vreal V[2][9], int sweeps,
                                                      int refine) {
-  svd3_core_pair(nv, A, U, S, V, sweeps, refine, 0);
+  if (nv == 1)
+    svd3_solve_one(A[0], U[0], S[0], V[0], sweeps, refine, 0, 0);
+  else
+    svd3_core_pair(2, A, U, S, V, sweeps, refine, 0);
 }
 
 // This source's entries in a kernel table row (dispatch.c).
