@@ -144,6 +144,10 @@ typedef struct {
   ek_fvm_F_block_f64_fn *fvm_F_block_f64;
   ek_hessian_block_f32_fn *hessian_block_f32[EK_MODEL_COUNT];
   ek_hessian_block_f64_fn *hessian_block_f64[EK_MODEL_COUNT];
+  // The product and diagonal blocks every isotropic model shares (from the
+  // cached eigensystem its gradient pass wrote).
+  ek_hessian_block_f32_fn *hessian_frame_block_f32;
+  ek_hessian_block_f64_fn *hessian_frame_block_f64;
   ek_xpbd_block_f32_fn *xpbd_block_f32;
   ek_xpbd_block_f64_fn *xpbd_block_f64;
   ek_cloth_force_block_f32_fn *cloth_membrane_block_f32, *cloth_bending_block_f32;

@@ -41,7 +41,12 @@ static void hess_range(const void *ctx, size_t b0, size_t b1, real *out, real *c
   hess_args a = c->a;
   a.out = out;
   a.corner = corner;
-  c->kt->EK_FIELD(hessian_block)[a.mat->model](&a, b0, b1);
+  // The isotropic models' products and diagonal blocks read only the cached
+  // eigensystem: one shared kernel for all of them.
+  if (a.op != HESS_GRADIENT && ek_models[a.mat->model]->isotropic)
+    c->kt->EK_FIELD(hessian_frame_block)(&a, b0, b1);
+  else
+    c->kt->EK_FIELD(hessian_block)[a.mat->model](&a, b0, b1);
 }
 
 static hess_args args_for(const ek_fvm_hessian *h, int op) {

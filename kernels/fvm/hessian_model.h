@@ -7,60 +7,20 @@
 //             eigensystem of the SVD (material_frame_svd: Teran et al.
 //             2005, Smith et al. 2019), projected to PSD unless asked not
 //             to; R for corotated linear;
-//   apply:    dF = dDs Dm^-1 of the direction, dP = U Hhat(U^T dF V) V^T
-//             from the cache (mat_frame_apply), V0 dP Dm^-T: no SVD;
-//   diagonal: per corner c, dF = e_k g_c^T for a unit move along k (g_c
-//             row c-1 of Dm^-1, g_0 = -(sum of rows)), so U^T dF V =
-//             a b^T with a = U^T e_k, b = V^T g_c, and the block is
-//             V0 U M U^T with M (3x3, symmetric) read off the frame:
-//               M_ii = A_ii b_i^2 + sum_{j != i} h_ij b_j^2,
-//               M_il = b_i b_l (A_il + q_il)   (i != l)
-//             (mat_frame_apply's entries contracted with b twice).
+//   apply, diagonal: dP in F for the models linear in F's rotation
+//             (linear, corotated linear); the isotropic models' read only
+//             the cached eigensystem and share one kernel
+//             (hessian_block.c), which the driver calls for them.
 #ifndef EK_HESSIAN_MODEL_H
 #define EK_HESSIAN_MODEL_H
 
 #include "../material/material_core.h"
-#include "fvm_tet.h"
-#include "hessian_kernel.h"
+#include "hessian_vec.h"
 
-#if defined(EK_REAL_F32)
-typedef struct ek_hess_args_f32 hess_args;
-#else
-typedef struct ek_hess_args_f64 hess_args;
-#endif
-
-#define L EK_LANES
-#define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
-
-static inline const real *cache_block(const hess_args *a, size_t b) {
-  return a->cache + b * (size_t)a->planes * L;
-}
-
-// U and V are rotations (det +1, svd3.h), cached as unit quaternions
-// (w, x, y, z): 8 planes instead of 18, so a product reads 20 planes per
-// tet, not 30 (the products are bound by the cache's bytes); the SVD's own
-// quaternion-to-matrix step rebuilds them.
-// The cached frame of the EK_W lanes at offset o of a block's cache.
-EK_INLINE void load_frame(const real *c, int o, mat_frame *fr) {
-  static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
-  vreal qu[4], qv[4];
-  for (int k = 0; k < 4; k++) {
-    qu[k] = vload(c + k * L + o);
-    qv[k] = vload(c + (4 + k) * L + o);
-  }
-  svd3_quat_to_matrix(qu, fr->U, 1);
-  svd3_quat_to_matrix(qv, fr->V, 1);
-  for (int k = 0; k < 6; k++)
-    fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (8 + k) * L + o);
-  for (int p = 0; p < 3; p++) {
-    fr->h[p] = vload(c + (14 + p) * L + o);
-    fr->q[p] = vload(c + (17 + p) * L + o);
-  }
-}
-
-static inline void hess_scatter_block(const hess_args *a, size_t b, const real *hb, int ncomp) {
-  tet_scatter_block(a->idx + b * 4 * L, hb, ncomp, a->out);
-}
+#if !MODEL_ISOTROPIC
+// ---- Product and diagonal blocks of the models linear in F's rotation
+// (linear, corotated linear: dP in F); the isotropic models' are the
+// shared frame kernels of hessian_block.c ----
 
 // ---- Product: K p ----
 EK_INLINE void apply_blocks(const hess_args *a, size_t b0, size_t b1) {
@@ -76,15 +36,11 @@ EK_INLINE void apply_blocks(const hess_args *a, size_t b0, size_t b1) {
       tet_gradient(a->x, a->idx + b * 4 * L, dmi, o, 0, dF);
       if (MODEL_CACHE_PLANES == 0) {
         material_diff_direct(&mp, dF, dF, dF, dP);
-      } else if (MODEL_READS_R) {
+      } else {
         vreal R[9];
         for (int k = 0; k < 9; k++)
           R[k] = vload(c + k * L + o);
         material_diff_direct(&mp, dF, R, dF, dP);
-      } else {
-        mat_frame fr;
-        load_frame(c, o, &fr);
-        mat_frame_apply(&fr, dF, dP);
       }
       tet_corner_values(dP, dmi, vload(a->v0 + b * L + o), o, dst);
     }
@@ -93,27 +49,10 @@ EK_INLINE void apply_blocks(const hess_args *a, size_t b0, size_t b1) {
   }
 }
 
-// ---- Diagonal blocks ----
-// g_c of corner c for the vector's lanes: row c-1 of Dm^-1, g_0 = -sum.
-static inline void corner_dirs(const vreal Dmi[9], vreal g[4][3]) {
-  for (int c = 1; c < 4; c++)
-    for (int j = 0; j < 3; j++)
-      g[c][j] = Dmi[(c - 1) * 3 + j];
-  for (int j = 0; j < 3; j++)
-    g[0][j] = vneg(vadd(vadd(g[1][j], g[2][j]), g[3][j]));
-}
-
-static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
-  static const int e[6] = {0, 1, 2, 4, 5, 8};
-  for (int k = 0; k < 6; k++)
-    vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
-}
-
 EK_INLINE void diag_blocks(const hess_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[24 * L];
   const ek_material_lanes mp =
       material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
-  const int iso = MODEL_ISOTROPIC;
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L,
                *cb = MODEL_CACHE_PLANES == 0 ? NULL : cache_block(a, b);
@@ -123,52 +62,30 @@ EK_INLINE void diag_blocks(const hess_args *a, size_t b0, size_t b1) {
       for (int k = 0; k < 9; k++)
         Dmi[k] = vload(dmi + k * L + o);
       corner_dirs(Dmi, g);
-      if (iso) {
-        mat_frame fr;
-        load_frame(cb, o, &fr);
-        for (int c = 0; c < 4; c++) {
-          vreal bv[3], M[9], T[9];
+      vreal R[9], zero = vzero();
+      for (int k = 0; k < 9; k++)
+        R[k] = MODEL_READS_R ? vload(cb + k * L + o) : zero;
+      for (int c = 0; c < 4; c++) {
+        for (int k = 0; k < 3; k++) {
+          // Column k: dF = e_k g_c^T, B[:, k] = V0 dP g_c.
+          vreal dF[9], dP[9];
+          for (int i = 0; i < 9; i++)
+            dF[i] = i / 3 == k ? g[c][i % 3] : zero;
+          material_diff_direct(&mp, dF, R, dF, dP);
           for (int i = 0; i < 3; i++)
-            bv[i] = vmla(fr.V[i], g[c][0], vmla(fr.V[3 + i], g[c][1], vmul(fr.V[6 + i], g[c][2])));
-          for (int p = 0; p < 3; p++) {
-            const int i = mat_pair_i[p], j = mat_pair_j[p];
-            M[3 * i + j] = M[3 * j + i] = vmul(vmul(bv[i], bv[j]), vadd(fr.A[i][j], fr.q[p]));
-          }
-          vreal b2[3] = {vmul(bv[0], bv[0]), vmul(bv[1], bv[1]), vmul(bv[2], bv[2])};
-          // pairs: 0 = (0,1), 1 = (0,2), 2 = (1,2)
-          M[0] = vmla(fr.A[0][0], b2[0], vmla(fr.h[0], b2[1], vmul(fr.h[1], b2[2])));
-          M[4] = vmla(fr.A[1][1], b2[1], vmla(fr.h[0], b2[0], vmul(fr.h[2], b2[2])));
-          M[8] = vmla(fr.A[2][2], b2[2], vmla(fr.h[1], b2[0], vmul(fr.h[2], b2[1])));
-          vm3_mul(fr.U, M, T);
-          vm3_mul_nt(T, fr.U, B);
-          for (int k = 0; k < 9; k++)
-            B[k] = vmul(v0, B[k]);
-          store_block6(B, c, o, dst);
+            B[3 * i + k] =
+                vmul(v0, vmla(dP[3 * i], g[c][0],
+                              vmla(dP[3 * i + 1], g[c][1], vmul(dP[3 * i + 2], g[c][2]))));
         }
-      } else {
-        vreal R[9], zero = vzero();
-        for (int k = 0; k < 9; k++)
-          R[k] = MODEL_READS_R ? vload(cb + k * L + o) : zero;
-        for (int c = 0; c < 4; c++) {
-          for (int k = 0; k < 3; k++) {
-            // Column k: dF = e_k g_c^T, B[:, k] = V0 dP g_c.
-            vreal dF[9], dP[9];
-            for (int i = 0; i < 9; i++)
-              dF[i] = i / 3 == k ? g[c][i % 3] : zero;
-            material_diff_direct(&mp, dF, R, dF, dP);
-            for (int i = 0; i < 3; i++)
-              B[3 * i + k] =
-                  vmul(v0, vmla(dP[3 * i], g[c][0],
-                                vmla(dP[3 * i + 1], g[c][1], vmul(dP[3 * i + 2], g[c][2]))));
-          }
-          store_block6(B, c, o, dst);
-        }
+        store_block6(B, c, o, dst);
       }
     }
     if (!a->corner)
       hess_scatter_block(a, b, hb, 6);
   }
 }
+
+#endif
 
 #if defined(EK_REAL_F64)
 // ---- Gradient (double only: ek_fvm_hessian_gradient_f64) ----
@@ -325,6 +242,7 @@ EK_INLINE void gradient_blocks_iso(const hess_args *a, size_t b0, size_t b1) {
 
 // The model's entry: every op.
 EK_INLINE void hess_model_blocks(const hess_args *a, size_t b0, size_t b1) {
+  (void)b0, (void)b1; // an isotropic model's float entry has nothing to run
   switch (a->op) {
   case HESS_GRADIENT:
 #if defined(EK_REAL_F64)
@@ -335,10 +253,15 @@ EK_INLINE void hess_model_blocks(const hess_args *a, size_t b0, size_t b1) {
 #endif
     break;
   case HESS_APPLY:
-    apply_blocks(a, b0, b1);
-    break;
   case HESS_DIAG:
-    diag_blocks(a, b0, b1);
+#if MODEL_ISOTROPIC
+    // Not reached: the driver (hessian.c) runs the shared frame kernel.
+#else
+    if (a->op == HESS_APPLY)
+      apply_blocks(a, b0, b1);
+    else
+      diag_blocks(a, b0, b1);
+#endif
     break;
   }
 }

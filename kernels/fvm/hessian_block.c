@@ -1,0 +1,87 @@
+// The product and diagonal blocks every isotropic model shares (contract
+// in hessian_kernel.h), built per (ISA x precision): both read the element's
+// cached U, V-frame eigensystem (Teran et al. 2005; Smith et al. 2019),
+// written by the model's own gradient pass (hessian_model.h), and never the
+// model: one kernel for all of them.
+//   apply:    dF = dDs Dm^-1 of the direction, dP = U Hhat(U^T dF V) V^T
+//             (mat_frame_apply), V0 dP Dm^-T;
+//   diagonal: per corner c, dF = e_k g_c^T for a unit move along k (g_c
+//             row c-1 of Dm^-1, g_0 = -(sum of rows)), so U^T dF V =
+//             a b^T with a = U^T e_k, b = V^T g_c, and the block is
+//             V0 U M U^T with M (3x3, symmetric) read off the frame:
+//               M_ii = A_ii b_i^2 + sum_{j != i} h_ij b_j^2,
+//               M_il = b_i b_l (A_il + q_il)   (i != l)
+//             (mat_frame_apply's entries contracted with b twice).
+#include "../simd/simd.h"
+
+#include "../svd3/svd3_core.h" // EK_INLINE, svd3_quat_to_matrix
+#include "hessian_vec.h"
+
+static void frame_apply_blocks(const hess_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[12 * L];
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L, *c = cache_block(a, b);
+    real *dst = a->corner ? a->corner + b * 12 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      vreal dF[9], dP[9];
+      mat_frame fr;
+      tet_gradient(a->x, a->idx + b * 4 * L, dmi, o, 0, dF);
+      load_frame(c, o, &fr);
+      mat_frame_apply(&fr, dF, dP);
+      tet_corner_values(dP, dmi, vload(a->v0 + b * L + o), o, dst);
+    }
+    if (!a->corner)
+      hess_scatter_block(a, b, hb, 3);
+  }
+}
+
+static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[24 * L];
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L, *cb = cache_block(a, b);
+    real *dst = a->corner ? a->corner + b * 24 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      vreal Dmi[9], g[4][3], B[9], v0 = vload(a->v0 + b * L + o);
+      for (int k = 0; k < 9; k++)
+        Dmi[k] = vload(dmi + k * L + o);
+      corner_dirs(Dmi, g);
+      mat_frame fr;
+      load_frame(cb, o, &fr);
+      for (int c = 0; c < 4; c++) {
+        vreal bv[3], M[9], T[9];
+        for (int i = 0; i < 3; i++)
+          bv[i] = vmla(fr.V[i], g[c][0], vmla(fr.V[3 + i], g[c][1], vmul(fr.V[6 + i], g[c][2])));
+        for (int p = 0; p < 3; p++) {
+          const int i = mat_pair_i[p], j = mat_pair_j[p];
+          M[3 * i + j] = M[3 * j + i] = vmul(vmul(bv[i], bv[j]), vadd(fr.A[i][j], fr.q[p]));
+        }
+        vreal b2[3] = {vmul(bv[0], bv[0]), vmul(bv[1], bv[1]), vmul(bv[2], bv[2])};
+        // pairs: 0 = (0,1), 1 = (0,2), 2 = (1,2)
+        M[0] = vmla(fr.A[0][0], b2[0], vmla(fr.h[0], b2[1], vmul(fr.h[1], b2[2])));
+        M[4] = vmla(fr.A[1][1], b2[1], vmla(fr.h[0], b2[0], vmul(fr.h[2], b2[2])));
+        M[8] = vmla(fr.A[2][2], b2[2], vmla(fr.h[1], b2[0], vmul(fr.h[2], b2[1])));
+        vm3_mul(fr.U, M, T);
+        vm3_mul_nt(T, fr.U, B);
+        for (int k = 0; k < 9; k++)
+          B[k] = vmul(v0, B[k]);
+        store_block6(B, c, o, dst);
+      }
+    }
+    if (!a->corner)
+      hess_scatter_block(a, b, hb, 6);
+  }
+}
+
+void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1);
+void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
+  if (a->op == HESS_APPLY)
+    frame_apply_blocks(a, b0, b1);
+  else
+    frame_diag_blocks(a, b0, b1);
+}
+
+// This source's entries in a kernel table row (dispatch.c).
+void EK_SYM(hessian_block_fill)(ek_kernel_table *t);
+void EK_SYM(hessian_block_fill)(ek_kernel_table *t) {
+  t->EK_FIELD(hessian_frame_block) = EK_SYM(hessian_frame_block);
+}

@@ -1,0 +1,68 @@
+// The Hessian kernels' shared steps on AoSoA tet blocks (contract in
+// hessian_kernel.h): the argument type of this precision, the cached
+// U, V-frame eigensystem of a block's lanes, the scatter, and the corner
+// directions of the diagonal blocks. Used by hessian_block.c (the product
+// and diagonal blocks every isotropic model shares) and hessian_model.h
+// (each model's own passes). Include after simd/simd.h.
+#ifndef EK_HESSIAN_VEC_H
+#define EK_HESSIAN_VEC_H
+
+#include "../material/material_math.h"
+#include "fvm_tet.h"
+#include "hessian_kernel.h"
+
+#if defined(EK_REAL_F32)
+typedef struct ek_hess_args_f32 hess_args;
+#else
+typedef struct ek_hess_args_f64 hess_args;
+#endif
+
+#define L EK_LANES
+#define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
+
+static inline const real *cache_block(const hess_args *a, size_t b) {
+  return a->cache + b * (size_t)a->planes * L;
+}
+
+// U and V are rotations (det +1, svd3.h), cached as unit quaternions
+// (w, x, y, z): 8 planes instead of 18, so a product reads 20 planes per
+// tet, not 30 (the products are bound by the cache's bytes); the SVD's own
+// quaternion-to-matrix step rebuilds them.
+// The cached frame of the EK_W lanes at offset o of a block's cache.
+EK_INLINE void load_frame(const real *c, int o, mat_frame *fr) {
+  static const int ai[6] = {0, 0, 0, 1, 1, 2}, aj[6] = {0, 1, 2, 1, 2, 2};
+  vreal qu[4], qv[4];
+  for (int k = 0; k < 4; k++) {
+    qu[k] = vload(c + k * L + o);
+    qv[k] = vload(c + (4 + k) * L + o);
+  }
+  svd3_quat_to_matrix(qu, fr->U, 1);
+  svd3_quat_to_matrix(qv, fr->V, 1);
+  for (int k = 0; k < 6; k++)
+    fr->A[ai[k]][aj[k]] = fr->A[aj[k]][ai[k]] = vload(c + (8 + k) * L + o);
+  for (int p = 0; p < 3; p++) {
+    fr->h[p] = vload(c + (14 + p) * L + o);
+    fr->q[p] = vload(c + (17 + p) * L + o);
+  }
+}
+
+static inline void hess_scatter_block(const hess_args *a, size_t b, const real *hb, int ncomp) {
+  tet_scatter_block(a->idx + b * 4 * L, hb, ncomp, a->out);
+}
+
+// g_c of corner c for the vector's lanes: row c-1 of Dm^-1, g_0 = -sum.
+static inline void corner_dirs(const vreal Dmi[9], vreal g[4][3]) {
+  for (int c = 1; c < 4; c++)
+    for (int j = 0; j < 3; j++)
+      g[c][j] = Dmi[(c - 1) * 3 + j];
+  for (int j = 0; j < 3; j++)
+    g[0][j] = vneg(vadd(vadd(g[1][j], g[2][j]), g[3][j]));
+}
+
+static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
+  static const int e[6] = {0, 1, 2, 4, 5, 8};
+  for (int k = 0; k < 6; k++)
+    vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
+}
+
+#endif
