@@ -632,7 +632,7 @@ static void run_fvm(ek_isa isa, int f64) {
     for (int model = 0; model < EK_MODEL_COUNT; model++)
       for (int c = 0; c < 2; c++) {
         ek_material m = material(model, clamps[c]);
-        int corot = model == EK_MODEL_COROTATED_LINEAR;
+        int corot = ek_model_need(model, 0) == EK_NEEDS_R_INPUT;
         int warm = ek_model_need(m.model, m.clamp) == EK_NEEDS_POLAR;
         for (int sc = EK_SCATTER_AUTO; sc < EK_SCATTER_COUNT; sc++) {
           // Atomic sums depend on the schedule: reproducible on one thread
@@ -703,7 +703,7 @@ static void run_fvm_auto(int f64) {
         out(rc, fnv(FNV_OFFSET, o1, fb), "fvm/forces/%s/%s/clamp=%g/entry", mn, state_name[s],
             clamps[c]);
         if (f64) {
-          const double *R = m.model == EK_MODEL_COROTATED_LINEAR ? gRtet[s] : NULL;
+          const double *R = ek_model_need(m.model, 0) == EK_NEEDS_R_INPUT ? gRtet[s] : NULL;
           double E[3] = {ek_fvm_energy_f64(gmesh, &m, gx[s].d),
                          ek_fvm_energy_ex_f64(gmesh, &m, gx[s].d, R),
                          ek_fvm_tet_energy_f64(gel, &m, gx[s].d, R)};
@@ -741,7 +741,7 @@ static void hash_hessian(int s, const ek_material *m, ek_projection pr, ek_scatt
   }
   size_t n3 = 3 * gnv;
   double *g = (double *)scratch(o1, n3 * 8), E = 0;
-  const ek_tet_state *Rs = m->model == EK_MODEL_COROTATED_LINEAR ? gRstate[s] : NULL;
+  const ek_tet_state *Rs = ek_model_need(m->model, 0) == EK_NEEDS_R_INPUT ? gRstate[s] : NULL;
   int rc = ek_fvm_hessian_gradient_f64(h, gx[s].d, Rs, g, &E, 1);
   uint64_t hh = fnv(fnv(FNV_OFFSET, g, n3 * 8), &E, sizeof E);
   size_t cb = ek_fvm_hessian_cache_bytes(h);
@@ -777,7 +777,7 @@ static void run_hessian(ek_isa isa, int prec32) {
 // XPBD (xpbd.h): every element kind x solver x precision; the constraint
 // structure, then sweeps from the mild state with and without a base.
 static void run_xpbd(ek_isa isa, int f64) {
-  ek_material m = {EK_MODEL_STVK, 1.5e3, 4.0e3, 0};
+  ek_material m = {EK_XPBD_MODEL, 1.5e3, 4.0e3, 0};
   double young = m.mu * (3 * m.lambda + 2 * m.mu) / (m.lambda + m.mu);
   const double *lv = ek_mesh_lumped_volume(gmesh);
   size_t n3 = 3 * gnv;

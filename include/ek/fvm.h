@@ -100,7 +100,8 @@ typedef struct {
 //   svd_sweeps, svd_exact_rsqrt, svd_refine: as in ek_svd3_opts (used by models that
 //     take an SVD: fixed corotated, ARAP, clamped models).
 //   R: ntets x 9 row-major rotations in caller tet order; read only for
-//     EK_MODEL_COROTATED_LINEAR (required there, seed 000, unless R_state).
+//     the model that takes a rotation input, corotated linear (required
+//     there, seed 000, unless R_state).
 //   R_state: the same rotations as per-element state of these elements
 //     (elements.h: 9 planes, in the call's precision); when set, the force
 //     reads it instead of R (a plane load per block in the Morton order

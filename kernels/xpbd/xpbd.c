@@ -642,8 +642,8 @@ ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
   }
   if (mat->model != EK_XPBD_MODEL) {
     ek_set_error("%s: model %s: the Hookean constraint of seed 001 is StVK's energy: use "
-                 "EK_MODEL_STVK",
-                 fn, ek_model_name(mat->model));
+                 "the %s model (EK_XPBD_MODEL)",
+                 fn, ek_model_name(mat->model), ek_model_name(EK_XPBD_MODEL));
     return NULL;
   }
   if (ek_material_check(mat) < 0)
