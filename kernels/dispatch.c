@@ -1,12 +1,13 @@
-// CPU feature detection, EK_ISA, and the kernel table rows (BLIS
-// bli_arch.c / bli_cpuid.c / bli_cntx_init_<arch>.c play this part there).
-#include <cpuid.h>
+// EK_ISA and the kernel table rows (BLIS bli_arch.c / bli_cntx_init_<arch>.c
+// play this part there); the CPU detection is per architecture in
+// kernels/cpu_<arch>.c (cpu.h).
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "cpu.h"
 #include "kernels.h"
 
 // Each target's fill functions, from CMake: EK_FILLS_<ISA> lists
@@ -69,34 +70,6 @@ const char *ek_isa_name(ek_isa isa) {
   return (unsigned)isa < EK_ISA_COUNT ? isa_names[isa] : "invalid";
 }
 
-// XCR0: which register states the OS saves on a context switch. A CPU flag
-// alone is not enough: the OS must enable YMM (bits 1-2) and, for AVX-512,
-// opmask and ZMM (bits 5-7).
-static unsigned long long xcr0(void) {
-  unsigned a, b, c, d;
-  if (!__get_cpuid(1, &a, &b, &c, &d) || !(c & bit_OSXSAVE))
-    return 0;
-  unsigned lo, hi;
-  __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
-  return ((unsigned long long)hi << 32) | lo;
-}
-
-static int cpu_check(ek_isa isa) {
-  __builtin_cpu_init();
-  unsigned long long x = xcr0();
-  switch (isa) {
-  case EK_ISA_SCALAR:
-    return 1;
-  case EK_ISA_AVX2:
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && (x & 0x6) == 0x6;
-  case EK_ISA_AVX512:
-    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-           __builtin_cpu_supports("avx512vl") && (x & 0xe6) == 0xe6;
-  default:
-    return 0;
-  }
-}
-
 // cpuid traps to the hypervisor in a VM (microseconds), and a forced ISA is
 // checked on every kernel call: the answer is computed once per ISA.
 // 0 = not yet known, 1 = no, 2 = yes; racing first calls agree.
@@ -104,7 +77,7 @@ static int cpu_runs(ek_isa isa) {
   static atomic_int known[EK_ISA_COUNT];
   int k = atomic_load(&known[isa]);
   if (!k) {
-    k = cpu_check(isa) ? 2 : 1;
+    k = ek_cpu_runs_isa(isa) ? 2 : 1;
     atomic_store(&known[isa], k);
   }
   return k == 2;

@@ -27,17 +27,12 @@ static inline vreal vmin(vreal a, vreal b) { return _mm256_min_ps(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm256_max_ps(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm256_sqrt_ps(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_ps(a, b, c); }
-static inline vreal vrsqrt(vreal a) {
-  return _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(a));
-}
+// The 12-bit estimate, relative error <= 1.5 2^-12 (Intel SDM, RSQRTPS);
+// vrsqrt_est adds one Newton step (generic.h).
+#define EK_HAVE_VRSQRT_RAW
+#define EK_RSQRT_RAW_TOL 0x1.8p-12
+#define EK_RSQRT_NEWTON 1
 static inline vreal vrsqrt_raw(vreal a) { return _mm256_rsqrt_ps(a); }
-static inline vreal vrsqrt_est(vreal a) {
-  // One Newton step y' = y (1.5 - 0.5 a y^2) on the 12-bit estimate.
-  vreal y = _mm256_rsqrt_ps(a);
-  vreal h = _mm256_mul_ps(_mm256_set1_ps(0.5f), a);
-  vreal t = _mm256_fnmadd_ps(_mm256_mul_ps(h, y), y, _mm256_set1_ps(1.5f));
-  return _mm256_mul_ps(y, t);
-}
 static inline vmask vlt(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
 static inline vmask vle(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
 static inline vmask vgt(vreal a, vreal b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
@@ -71,16 +66,11 @@ static inline vreal vmin(vreal a, vreal b) { return _mm256_min_pd(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm256_max_pd(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm256_sqrt_pd(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm256_fmadd_pd(a, b, c); }
-static inline vreal vrsqrt(vreal a) {
-  return _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(a));
-}
 // AVX2 has no double estimate. The float one, made valid for any double
 // (exponent split), converted, and refined by Newton steps to double's
 // precision cost more than the square root and the divide: on Zen 4 the f64
-// SVD took 100 ns against 78 with them (README, "Accuracy"). So both are
-// the exact 1/sqrt here.
-static inline vreal vrsqrt_est(vreal a) { return vrsqrt(a); }
-static inline vreal vrsqrt_raw(vreal a) { return vrsqrt(a); }
+// SVD took 100 ns against 78 with them (README, "Accuracy"). So vrsqrt_raw
+// and vrsqrt_est are the exact 1/sqrt here (generic.h).
 static inline vmask vlt(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
 static inline vmask vle(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_LE_OQ); }
 static inline vmask vgt(vreal a, vreal b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
@@ -96,7 +86,6 @@ static inline int vany(vmask m) { return _mm256_movemask_pd(m) != 0; }
 static inline int vall(vmask m) { return _mm256_movemask_pd(m) == 0xf; }
 #endif
 
-static inline vreal vmla(vreal a, vreal b, vreal c) { return vfma(a, b, c); }
 #if defined(EK_REAL_F32)
 static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm256_fmsub_ps(a, b, c); }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm256_fnmadd_ps(a, b, c); }
@@ -104,8 +93,6 @@ static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm256_fnmadd_ps(a
 static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm256_fmsub_pd(a, b, c); }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm256_fnmadd_pd(a, b, c); }
 #endif
-static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
-static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return vsel(m, vneg(a), b); }
 #if defined(EK_REAL_F32)
 static inline vreal vxorsign(vreal y, vreal x) {
   return _mm256_xor_ps(y, _mm256_and_ps(x, _mm256_set1_ps(-0.0f)));

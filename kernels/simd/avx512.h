@@ -8,6 +8,10 @@
 #include <immintrin.h>
 #include <stdint.h>
 
+// The 14-bit estimates VRSQRT14PS/PD: relative error < 2^-14 (Intel SDM).
+#define EK_HAVE_VRSQRT_RAW
+#define EK_RSQRT_RAW_TOL 0x1p-14
+
 #if defined(EK_REAL_F32)
 #define EK_W 16
 typedef __m512 vreal;
@@ -27,16 +31,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm512_min_ps(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm512_max_ps(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm512_sqrt_ps(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_ps(a, b, c); }
-static inline vreal vrsqrt(vreal a) {
-  return _mm512_div_ps(_mm512_set1_ps(1.0f), _mm512_sqrt_ps(a));
-}
+// One Newton step on the 14-bit estimate (generic.h).
+#define EK_RSQRT_NEWTON 1
 static inline vreal vrsqrt_raw(vreal a) { return _mm512_rsqrt14_ps(a); }
-static inline vreal vrsqrt_est(vreal a) {
-  // One Newton step on the 14-bit estimate.
-  vreal y = _mm512_rsqrt14_ps(a);
-  vreal h = _mm512_mul_ps(_mm512_set1_ps(0.5f), a);
-  return _mm512_mul_ps(y, _mm512_fnmadd_ps(_mm512_mul_ps(h, y), y, _mm512_set1_ps(1.5f)));
-}
 static inline vmask vlt(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
 static inline vmask vle(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
 static inline vmask vgt(vreal a, vreal b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
@@ -64,18 +61,9 @@ static inline vreal vmin(vreal a, vreal b) { return _mm512_min_pd(a, b); }
 static inline vreal vmax(vreal a, vreal b) { return _mm512_max_pd(a, b); }
 static inline vreal vsqrt(vreal a) { return _mm512_sqrt_pd(a); }
 static inline vreal vfma(vreal a, vreal b, vreal c) { return _mm512_fmadd_pd(a, b, c); }
-static inline vreal vrsqrt(vreal a) {
-  return _mm512_div_pd(_mm512_set1_pd(1.0), _mm512_sqrt_pd(a));
-}
+// Two Newton steps on the 14-bit estimate (14 -> 28 -> 56 bits; generic.h).
+#define EK_RSQRT_NEWTON 2
 static inline vreal vrsqrt_raw(vreal a) { return _mm512_rsqrt14_pd(a); }
-static inline vreal vrsqrt_est(vreal a) {
-  // Two Newton steps on the 14-bit estimate (14 -> 28 -> 56 bits).
-  vreal y = _mm512_rsqrt14_pd(a);
-  vreal h = _mm512_mul_pd(_mm512_set1_pd(0.5), a);
-  for (int k = 0; k < 2; k++)
-    y = _mm512_mul_pd(y, _mm512_fnmadd_pd(_mm512_mul_pd(h, y), y, _mm512_set1_pd(1.5)));
-  return y;
-}
 static inline vmask vlt(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_LT_OQ); }
 static inline vmask vle(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_LE_OQ); }
 static inline vmask vgt(vreal a, vreal b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
@@ -85,7 +73,6 @@ static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm512_mask_blend_p
 static inline int vall(vmask m) { return m == 0xff; }
 #endif
 
-static inline vreal vmla(vreal a, vreal b, vreal c) { return vfma(a, b, c); }
 #if defined(EK_REAL_F32)
 static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_ps(a, b, c); }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_ps(a, b, c); }
@@ -93,9 +80,9 @@ static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_ps(a
 static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_pd(a, b, c); }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_pd(a, b, c); }
 #endif
-static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
 // One masked XOR each: -a where m, else b; y with its sign flipped where x has
 // its sign bit set (vpternlog (s & x) ^ y, truth table 0x6a).
+#define EK_HAVE_VSEL_NEG
 #if defined(EK_REAL_F32)
 static inline vreal vsel_neg(vmask m, vreal a, vreal b) {
   return _mm512_mask_xor_ps(b, m, a, _mm512_set1_ps(-0.0f));

@@ -33,24 +33,22 @@ static inline vreal vfma(vreal a, vreal b, vreal c) { return fma(a, b, c); }
 // (second operand returned when either is NaN), so all targets agree.
 static inline vreal vmin(vreal a, vreal b) { return a < b ? a : b; }
 static inline vreal vmax(vreal a, vreal b) { return a > b ? a : b; }
+// Unfused (baseline x86-64 has no FMA instruction; libm's fma is a slow
+// software routine there): the generic vmla is vfma.
+#define EK_HAVE_VMLA
 static inline vreal vmla(vreal a, vreal b, vreal c) { return a * b + c; }
 static inline vreal vmls(vreal a, vreal b, vreal c) { return a * b - c; }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return c - a * b; }
-static inline vreal vrsqrt(vreal a) { return 1 / vsqrt(a); }
-static inline vreal vrsqrt_est(vreal a) { return 1 / vsqrt(a); }
-static inline vreal vrsqrt_raw(vreal a) { return 1 / vsqrt(a); }
 
 static inline vmask vlt(vreal a, vreal b) { return a < b; }
 static inline vmask vle(vreal a, vreal b) { return a <= b; }
 static inline vmask vgt(vreal a, vreal b) { return a > b; }
 static inline vmask vge(vreal a, vreal b) { return a >= b; }
 static inline vmask veq(vreal a, vreal b) { return a == b; }
-static inline vmask visfinite(vreal a) { return a - a == 0; }
 static inline vmask vmand(vmask a, vmask b) { return a && b; }
 static inline vmask vmor(vmask a, vmask b) { return a || b; }
 static inline vmask vmnot(vmask a) { return !a; }
 static inline vreal vsel(vmask m, vreal a, vreal b) { return m ? a : b; }
-static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return m ? -a : b; }
 static inline vreal vxorsign(vreal y, vreal x) { return signbit(x) ? -y : y; }
 static inline int vany(vmask m) { return m; }
 static inline int vall(vmask m) { return m; }

@@ -1,6 +1,12 @@
 // The vector API. A kernel source includes this header only and is compiled
 // once per (target x precision): CMake defines exactly one EK_TARGET_<ISA>
-// and one EK_REAL_<PREC>. Every target header defines the same names:
+// and one EK_REAL_<PREC>. The target header (scalar.h, avx2.h, avx512.h)
+// defines the ops that map to its instructions; generic.h defines the
+// derived ones once for all targets (vmla, vrsqrt, vrsqrt_raw/_est where
+// the target has no estimate instruction, visfinite, vsel_neg, the record
+// transposes), and a target with a better sequence overrides one with
+// EK_HAVE_<OP>. tests/test_simd.c checks every op below on every target.
+// Every target provides the same names:
 //
 //   real, vreal, vmask, EK_W (lanes per vector)
 //   vset(x) vzero() vload(p) vstore(p, v)        loads/stores are unaligned
@@ -11,13 +17,15 @@
 //                 x86-64 has no FMA instruction and libm's fma is a slow
 //                 software routine there)
 //   vrsqrt(x)     = 1/sqrt(x), correctly rounded sqrt then divide
-//   vrsqrt_est(x) = hardware estimate + Newton steps (1 for float, 2 for
-//                   double); relative error ~1e-7 (f32) / ~1e-16 (f64);
-//                   valid for positive normal x; exact on the scalar target
-//                   and for AVX2 double (no estimate there: avx2.h)
-//   vrsqrt_raw(x) = the hardware estimate alone: relative error <= 2^-14
-//                   (AVX-512), 1.5 2^-12 (AVX2 float); exact where
-//                   vrsqrt_est is
+//   vrsqrt_est(x) = hardware estimate + EK_RSQRT_NEWTON Newton steps (1
+//                   for float, 2 for double); relative error ~1e-7 (f32) /
+//                   ~1e-16 (f64): each step takes e to <= 1.5 e^2 (+ a few
+//                   roundings); valid for positive normal x; exact on the
+//                   scalar target and for AVX2 double (no estimate there:
+//                   avx2.h), where EK_HAVE_VRSQRT_RAW is not defined
+//   vrsqrt_raw(x) = the hardware estimate alone: relative error
+//                   <= EK_RSQRT_RAW_TOL = 2^-14 (AVX-512), 1.5 2^-12 (AVX2
+//                   float); exact where vrsqrt_est is
 //   vsel_neg(m, a, b) = m ? -a : b
 //   vxorsign(y, x) = y with its sign flipped where x's sign bit is set
 //   vlt vle vgt vge veq (-> vmask), visfinite(x), vmand vmor vmnot
@@ -59,29 +67,7 @@
 // Vectors per AoSoA plane: narrower targets walk a 64-byte plane in steps.
 #define EK_VPB (EK_LANES / EK_W)
 
-// The record transposes, written once for every target through a tile of
-// np planes in L1: the records are copied field by field between p and the
-// tile, the planes move as whole vectors. (Measured on Zen 4, AVX-512 float:
-// 16-lane gathers for the loads cost as much as this; gathering the output
-// runs from a just-stored tile cost 2x more: the gathers wait for the
-// stores; README, "The AoS API".)
-#ifndef EK_HAVE_VRECORDS
-static inline void vload_records(const real *p, int np, vreal *planes) {
-  real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
-  for (int l = 0; l < EK_W; l++)
-    for (int k = 0; k < np; k++)
-      tile[k * EK_W + l] = p[l * np + k];
-  for (int k = 0; k < np; k++)
-    planes[k] = vload(tile + k * EK_W);
-}
-static inline void vstore_records(real *p, int np, const vreal *planes) {
-  real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
-  for (int k = 0; k < np; k++)
-    vstore(tile + k * EK_W, planes[k]);
-  for (int l = 0; l < EK_W; l++)
-    for (int k = 0; k < np; k++)
-      p[l * np + k] = tile[k * EK_W + l];
-}
-#endif
+// Derived ops, written once for every target (after the target header).
+#include "generic.h"
 
 #endif

@@ -5,8 +5,11 @@
 
 #include <math.h>
 
+#define EK_VLOG_TOL_EPS 4
+
 // Natural logarithm, lane-wise; vlog(x) = NaN for x < 0 or NaN, -inf for 0,
-// +inf for +inf. Relative error a few ulp.
+// +inf for +inf. Relative error <= EK_VLOG_TOL_EPS machine epsilons (a few
+// ulp; tests/test_simd.c checks it on every target).
 // Reduction x = 2^e m with m in [sqrt(1/2), sqrt(2)) (vmant_exp; subnormals
 // scaled into the normal range first), then log m = 2 atanh(f),
 // f = (m-1)/(m+1), |f| <= 0.1716, from its series 2 f sum_k f^(2k)/(2k+1)
