@@ -15,6 +15,7 @@
 // Usage: test_dispatch [--seed N] (no randomness; the seed is accepted and
 // printed for uniformity)
 #include <ek/core.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +25,7 @@
 
 #include "check.h"
 #include "cli.h"
+#include "kernels.h" // the kernel table rows
 
 static int failures;
 
@@ -184,6 +186,29 @@ int main(int argc, char **argv) {
             strcmp(ek_isa_name(EK_ISA_AVX2), "avx2") == 0 &&
             strcmp(ek_isa_name(EK_ISA_AVX512), "avx512") == 0,
         "ISA names%s%s", "", "");
+
+  // Every entry of every available row is callable: a row starts from the
+  // scalar kernels and the target's own override them (kernels.h), so a
+  // target that lacks a kernel still has the scalar one. Every field from
+  // svd3_block_f32 on is a function pointer.
+  for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++) {
+    const ek_kernel_table *t = ek_kernels_for((ek_isa)i);
+    if (!t)
+      continue;
+    typedef void (*any_fn)(void);
+    const size_t first = offsetof(ek_kernel_table, svd3_block_f32);
+    const size_t n = (sizeof *t - first) / sizeof(any_fn);
+    size_t missing = 0;
+    for (size_t k = 0; k < n; k++) {
+      any_fn f;
+      memcpy(&f, (const char *)t + first + k * sizeof f, sizeof f);
+      missing += f == NULL;
+    }
+    check(missing == 0 && t->isa == (ek_isa)i, "row %s: %s entries, none NULL", ek_isa_name(t->isa),
+          n == 0 ? "no" : "all");
+    if (missing)
+      printf("  %zu of %zu entries NULL\n", missing, n);
+  }
 
   // Environment forcing, each in a fresh process (AUTO is cached).
   in_child(NULL);
