@@ -701,6 +701,12 @@ int main(int argc, char **argv) {
                 strerror(errno));
         return EK_EXIT_FAILED;
       }
+      const char *what = ek_results_not_regular(path);
+      if (what) {
+        fprintf(stderr, "ek-bench: output file '%s' is %s, not a regular file; not replaced\n",
+                path, what);
+        return EK_EXIT_FAILED;
+      }
       if (!o.force && ek_results_file_exists(path)) {
         fprintf(stderr, "ek-bench: output file '%s' exists; not overwritten (use --force)\n", path);
         return EK_EXIT_FAILED;

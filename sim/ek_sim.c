@@ -27,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -87,6 +88,28 @@ static void usage(FILE *out) {
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
           "pinned, one per core); values the user set are kept. Meshes below a few\n"
           "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
+}
+
+// The frames' name, or their XDMF's, that is an input of the run (the
+// scene file or its mesh; stat follows links, so two names of one file
+// match): the commit would rename over it (issue 28: --out scene.json
+// --force replaced the scene). Returns the input's path, or NULL.
+static const char *output_is_input(const char *out, const ek_scene *s) {
+  char xdmf[EK_SCENE_PATH_MAX];
+  ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
+  const char *outs[2] = {out, xdmf};
+  const char *ins[2] = {s->path, s->mesh_file};
+  for (int i = 0; i < 2; ++i) {
+    struct stat so;
+    if (stat(outs[i], &so) != 0)
+      continue;
+    for (int k = 0; k < 2; ++k) {
+      struct stat si;
+      if (ins[k][0] && stat(ins[k], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+        return ins[k];
+    }
+  }
+  return NULL;
 }
 
 // The per-frame field buffers (any may be NULL).
@@ -569,6 +592,19 @@ int main(int argc, char **argv) {
     steps = scene.steps;
   if (!out && !no_output && scene.output_file[0])
     out = scene.output_file;
+  const char *input = out ? output_is_input(out, &scene) : NULL;
+  if (input && out == scene.output_file) {
+    fprintf(stderr,
+            "ek-sim: %s: output.file \"%s\" names the input %s; refusing to write "
+            "frames over it\n",
+            scene_path, out, input);
+    return EK_EXIT_FAILED;
+  }
+  if (input)
+    return ek_cli_usage_error("ek-sim",
+                              "--out %s names the input %s; refusing to write frames "
+                              "over it",
+                              out, input);
   if (threads > 0)
     omp_set_num_threads((int)threads);
   int nthreads = omp_get_max_threads();

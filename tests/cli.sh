@@ -2,7 +2,9 @@
 # Every ek program and test binary behaves alike on its command line
 # (sim/cli.h): --help and -h print help naming the environment variables and
 # exit 0, --version exits 0, a bad option or EK_ISA value exits 2 with one
-# error line, errors are printed once.
+# error line, errors are printed once; and the faults of issue 28 that a
+# command line reaches (outputs that are not files or are the input, options
+# that overflow, a run that goes NaN, a full disk).
 #   cli.sh BIN_DIR SCENES_DIR TEST_BINARY...
 set -u
 bin=$1 scenes=$2
@@ -88,6 +90,32 @@ expect "ek-sim --tol without --advise" 2 "$bin/ek-sim" "$scenes/small_strain.jso
   one_error "ek-sim --tol without --advise"
 expect "ek-sim --advise --steps" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise --steps 5 &&
   one_error "ek-sim --advise --steps"
+
+# Issue 28: faults and hostile input.
+work=$(mktemp -d)
+trap 'rm -f "$out" "$err"; rm -rf "$work"' EXIT
+fail() {
+  echo "FAIL $1"
+  failures=$((failures + 1))
+}
+# Output paths that are not regular files: refused, even with --force, and
+# left as they were (the commit renames over the path).
+mkfifo "$work/fifo.h5"
+mkdir "$work/dir.h5"
+expect "ek-sim --out FIFO --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/fifo.h5" --force && one_error "ek-sim --out FIFO --force"
+[ -p "$work/fifo.h5" ] || fail "ek-sim --out FIFO --force: the FIFO was replaced"
+expect "ek-sim --out DIR --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/dir.h5" --force && one_error "ek-sim --out DIR --force"
+[ -d "$work/dir.h5" ] || fail "ek-sim --out DIR --force: the directory was replaced"
+expect "ek-bench --out FIFO --force" 1 "$bin/ek-bench" --filter nothing --out "$work/fifo.h5" \
+  --json "$work/b.json" --force && one_error "ek-bench --out FIFO --force"
+[ -p "$work/fifo.h5" ] || fail "ek-bench --out FIFO --force: the FIFO was replaced"
+# The input scene as the output.
+cp "$scenes/cantilever.json" "$work/scene.json"
+expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \
+  --out "$work/scene.json" --force && one_error "ek-sim --out SCENE --force"
+cmp -s "$scenes/cantilever.json" "$work/scene.json" || fail "ek-sim --out SCENE: scene changed"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

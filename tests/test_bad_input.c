@@ -332,6 +332,56 @@ static void scenes(void) {
   }
 }
 
+// ---- faults and hostile input (issue 28)
+
+// Output names that are not regular files: refused with what they are, even
+// with force, and left as they were.
+static void frames_outputs(void) {
+  printf("-- output paths\n");
+  double X[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  int32_t tet[4] = {0, 1, 2, 3};
+  char path[512], err[1024];
+  struct stat st;
+  // A directory, a FIFO and a symbolic link at the frames' own name.
+  snprintf(path, sizeof path, "%s/out_dir.h5", tmp_dir);
+  mkdir(path, 0700);
+  ek_frames *fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a directory, --force: refused",
+          !fr && strstr(err, "is a directory") && stat(path, &st) == 0 && S_ISDIR(st.st_mode), err);
+  ek_frames_close(fr, NULL, 0);
+  snprintf(path, sizeof path, "%s/out_fifo.h5", tmp_dir);
+  int made = mkfifo(path, 0600) == 0;
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a FIFO, --force: refused, still a FIFO",
+          made && !fr && strstr(err, "is a FIFO") && lstat(path, &st) == 0 && S_ISFIFO(st.st_mode),
+          err);
+  ek_frames_close(fr, NULL, 0);
+  write_text("target.txt", "not ek's\n");
+  char target[512];
+  snprintf(target, sizeof target, "%s/target.txt", tmp_dir);
+  snprintf(path, sizeof path, "%s/out_link.h5", tmp_dir);
+  made = symlink(target, path) == 0;
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a symbolic link, --force: refused",
+          made && !fr && strstr(err, "symbolic link") && lstat(path, &st) == 0 &&
+              S_ISLNK(st.st_mode) && stat(target, &st) == 0 && st.st_size == 9,
+          err);
+  ek_frames_close(fr, NULL, 0);
+  // The scratch name (renamed over at each frame) as a directory.
+  snprintf(path, sizeof path, "%s/out_scratch.h5.scratch", tmp_dir);
+  mkdir(path, 0700);
+  snprintf(path, sizeof path, "%s/out_scratch.h5", tmp_dir);
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames whose scratch name is a directory: refused",
+          !fr && strstr(err, "out_scratch.h5.scratch: is a directory") && lstat(path, &st) != 0,
+          err);
+  ek_frames_close(fr, NULL, 0);
+}
+
+static void faults(void) {
+  frames_outputs();
+}
+
 // ---- batches
 
 static void rc_is(const char *what, int rc, int want) {
@@ -459,11 +509,12 @@ static void batches(void) {
 }
 
 static void remove_tree(void) {
-  static const char *names[] = {"huge.node",    "huge.ele",       "edge.msh",      "count.node",
-                                "count.ele",    "count_ele.node", "count_ele.ele", "count_v2.msh",
-                                "count_v4.msh", "count_el.msh",   "nul.node",      "nul.ele",
-                                "bytes.node",   "bytes.ele",      "bytes.msh",     "nul.json",
-                                "dirmesh.json"};
+  static const char *names[] = {
+      "huge.node",      "huge.ele",      "edge.msh",     "count.node",   "count.ele",
+      "count_ele.node", "count_ele.ele", "count_v2.msh", "count_v4.msh", "count_el.msh",
+      "nul.node",       "nul.ele",       "bytes.node",   "bytes.ele",    "bytes.msh",
+      "nul.json",       "dirmesh.json",  "out_fifo.h5",  "out_link.h5",  "target.txt",
+      "dup.node",       "dup.ele",       "dup.obj",      "blocks.msh",   "blocks2.msh"};
   char path[512];
   for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
     snprintf(path, sizeof path, "%s/%s", tmp_dir, names[i]);
@@ -473,6 +524,11 @@ static void remove_tree(void) {
   rmdir(path);
   snprintf(path, sizeof path, "%s/dir.node", tmp_dir);
   rmdir(path);
+  const char *dirs[] = {"out_dir.h5", "out_scratch.h5.scratch"};
+  for (size_t i = 0; i < 2; i++) {
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, dirs[i]);
+    rmdir(path);
+  }
   rmdir(tmp_dir);
 }
 
@@ -486,6 +542,7 @@ int main(int argc, char **argv) {
   }
   meshes();
   scenes();
+  faults();
   batches();
   remove_tree();
   printf("test_bad_input: %s (%d failures)\n", failures ? "FAIL" : "PASS", failures);

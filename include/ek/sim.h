@@ -484,8 +484,11 @@ size_t ek_sim_constrained_count(const ek_sim *sim);
 typedef struct ek_frames ek_frames;
 
 // Create `path` (HDF5) and its XDMF companion and write the rest mesh.
-// Refuses (NULL, err) if either exists unless `force`, or if the XDMF
-// cannot name the file (its base name holds a colon, a control character,
+// Refuses (NULL, err) if either exists unless `force`; even with `force`
+// if either, or a scratch or swap name below, is anything but a regular
+// file (a directory, device, FIFO, socket or symbolic link: the commits
+// rename over these names and would replace it); or if the XDMF cannot
+// name the file (its base name holds a colon, a control character,
 // bytes that are not UTF-8 or a leading/trailing blank). Layout:
 //   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
 //   /frames/time     nframes double        /frames/step nframes int64
