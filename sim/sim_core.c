@@ -571,6 +571,16 @@ int sim_forces(ek_sim *s, const double *x) {
   return 0;
 }
 
+// ", dt D is above the CFL limit C" for an explicit scene stepped above its
+// limit, else "": the likely cause of a blow-up, said where it is reported.
+static const char *cfl_hint(const ek_sim *s, char *buf, size_t len) {
+  buf[0] = '\0';
+  if (s->integrator == &sim_integrator_explicit && s->scene.dt > s->cfl_dt)
+    snprintf(buf, len, "; dt %g is %.3g times the CFL limit %g", s->scene.dt,
+             s->scene.dt / s->cfl_dt, s->cfl_dt);
+  return buf;
+}
+
 int sim_check_forces(ek_sim *s, const double *x) {
   size_t bad_vertex = (size_t)-1;
   for (size_t i = 0; i < s->nv && bad_vertex == (size_t)-1; ++i)
@@ -579,31 +589,71 @@ int sim_check_forces(ek_sim *s, const double *x) {
         bad_vertex = i;
   if (bad_vertex == (size_t)-1)
     return 0;
+  char hint[128];
+  const double *f = s->f + 3 * bad_vertex;
+  // Three causes, told apart (issue 28: a NaN state was reported as every
+  // tet "inverted (J = -nan) ... use an invertible model", even for fixed
+  // corotated): positions that are not finite (a blow-up the state check
+  // missed, e.g. a line-search trial point), elements outside the model's
+  // domain (neo-Hookean without clamp, J <= 0: material.h), or a finite
+  // state whose force overflows.
+  for (size_t i = 0; i < 3 * s->nv; ++i)
+    if (!isfinite(x[i]))
+      return sim_fail(s, "step %ld (t = %g): non-finite state: vertex %zu position (%g, %g, %g)%s",
+                      s->n, s->t, i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
+                      cfl_hint(s, hint, sizeof hint));
   if (s->cloth)
-    return sim_fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
-                    s->t, bad_vertex, s->scene.dt, s->cfl_dt);
-  // Forces are NaN where an element left the model's domain (neo-Hookean
-  // with J <= 0, fvm.h); say which.
+    return sim_fail(s,
+                    "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
+                    "positions%s",
+                    s->n, s->t, f[0], f[1], f[2], bad_vertex, cfl_hint(s, hint, sizeof hint));
   const int32_t *T = ek_mesh_tets(s->mesh);
   size_t inverted = 0, first = 0;
   double first_J = 0;
   const double *V0 = ek_mesh_rest_volumes(s->mesh);
   for (size_t e = 0; e < s->nt; ++e) {
     double J = tet_volume(x, T + 4 * e) / V0[e];
-    if (!(J > 0) && inverted++ == 0) {
+    if (J <= 0 && inverted++ == 0) {
       first = e;
       first_J = J;
     }
   }
-  if (inverted) {
+  const int domain_limited = s->mat.model == EK_MODEL_NEO_HOOKEAN && !(s->mat.clamp > 0);
+  if (inverted && domain_limited) {
     snprintf(s->error, sizeof s->error,
              "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
              "model %s is undefined there (use an invertible model or material.clamp > 0)",
              s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
     return EK_SIM_EINVERTED;
   }
-  return sim_fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
-                  s->t, bad_vertex, s->scene.dt, s->cfl_dt);
+  return sim_fail(s,
+                  "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
+                  "positions (%zu of %zu tets with J <= 0; model %s is finite for every finite "
+                  "F there, so a value overflowed)%s",
+                  s->n, s->t, f[0], f[1], f[2], bad_vertex, inverted, s->nt,
+                  ek_scene_model_name(s->mat.model), cfl_hint(s, hint, sizeof hint));
+}
+
+// The state a step wrote must be finite (issue 28: at dt = 1e3 the state
+// was NaN after the last step and the run ended with success; gravity 1e308
+// gave inf positions and a NaN energy). A step that leaves a non-finite
+// position or velocity fails there, before it is applied, so the state and
+// every frame written hold finite values only. One read of x and v per
+// step, next to a force evaluation per tet.
+static int check_state(ek_sim *s) {
+  const size_t n3 = 3 * s->nv;
+  for (size_t i = 0; i < n3; ++i) {
+    if (isfinite(s->x_next[i]) && isfinite(s->v_next[i]))
+      continue;
+    const double *x = s->x_next + (i - i % 3), *v = s->v_next + (i - i % 3);
+    char hint[128];
+    return sim_fail(s,
+                    "step %ld (t = %g): non-finite state after the step: vertex %zu position "
+                    "(%g, %g, %g), velocity (%g, %g, %g)%s",
+                    s->n, s->t, i / 3, x[0], x[1], x[2], v[0], v[1], v[2],
+                    cfl_hint(s, hint, sizeof hint));
+  }
+  return 0;
 }
 
 int ek_sim_step(ek_sim *s) {
@@ -613,6 +663,8 @@ int ek_sim_step(ek_sim *s) {
   int rc = refresh_rotations(s);
   if (rc == 0)
     rc = s->integrator->step(s, s->integrator_data);
+  if (rc == 0)
+    rc = check_state(s);
   if (rc)
     return rc;
   double *tmp = s->x;

@@ -116,6 +116,15 @@ cp "$scenes/cantilever.json" "$work/scene.json"
 expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \
   --out "$work/scene.json" --force && one_error "ek-sim --out SCENE --force"
 cmp -s "$scenes/cantilever.json" "$work/scene.json" || fail "ek-sim --out SCENE: scene changed"
+# A run whose state goes NaN fails (exit 1) at the step it happens, even
+# the last one, naming a non-finite state.
+printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
+  ' "material": {"model": "fixed_corotated", "E": 1e5, "nu": 0.3, "density": 1000},' \
+  ' "boundary": [{"type": "pin", "region": {"min": [0, 0, 0], "max": [1, 1, 0]}}],' \
+  ' "gravity": [0, 0, -9.81], "dt": 1e3, "steps": 50}' >"$work/nan.json"
+expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
+grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
+grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

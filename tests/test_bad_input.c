@@ -334,6 +334,10 @@ static void scenes(void) {
 
 // ---- faults and hostile input (issue 28)
 
+// The box's bottom face held: gravity then strains it.
+#define PIN                                                                                        \
+  "\"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 0], \"max\": [1, 1, 0]}}]"
+
 // Output names that are not regular files: refused with what they are, even
 // with force, and left as they were.
 static void frames_outputs(void) {
@@ -378,8 +382,52 @@ static void frames_outputs(void) {
   ek_frames_close(fr, NULL, 0);
 }
 
+// A run whose state goes non-finite fails at the step that made it, with a
+// message naming a non-finite state (not inverted elements or an invertible
+// model), and the state stays the last finite one.
+static void nonfinite_run(const char *what, const char *json, const char *said, long at) {
+  char err[1024] = "";
+  ek_scene sc;
+  ek_mesh *m = NULL;
+  ek_sim *sim = NULL;
+  if (ek_scene_parse(json, "nan.json", ".", &sc, err, sizeof err) == 0 &&
+      (m = ek_scene_mesh(&sc, err, sizeof err)))
+    sim = ek_sim_create(&sc, m, err, sizeof err);
+  int rc = 0;
+  long n = 0;
+  for (; sim && n < 100 && (rc = ek_sim_step(sim)) == 0; n++) {
+  }
+  const char *msg = sim ? ek_sim_last_error(sim) : err;
+  int finite = sim != NULL;
+  for (size_t i = 0; sim && i < 3 * ek_mesh_nverts(m); i++)
+    finite = finite && isfinite(ek_sim_positions(sim)[i]) && isfinite(ek_sim_velocities(sim)[i]);
+  char detail[1200];
+  snprintf(detail, sizeof detail, "failed at step %ld, rc %d, state finite %d: %s", n + 1, rc,
+           finite, msg);
+  verdict(what,
+          sim && rc != 0 && rc != EK_SIM_EINVERTED && finite && strstr(msg, said) &&
+              !strstr(msg, "invertible") && ek_sim_steps_done(sim) == n && (at == 0 || n + 1 == at),
+          detail);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+}
+
 static void faults(void) {
   frames_outputs();
+  printf("-- non-finite state\n");
+  nonfinite_run("dt = 1e3 (far above CFL): fails at the blow-up",
+                "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, "
+                "\"nu\": 0.3, \"density\": 1000}, " PIN ", \"gravity\": [0, 0, -9.81], "
+                "\"dt\": 1e3, \"steps\": 10}",
+                "non-finite", 0);
+  nonfinite_run("gravity 1e308: fails at the overflow",
+                "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 1e-3, "
+                "\"steps\": 10}",
+                "non-finite", 0);
+  nonfinite_run("gravity 1e308, dt 10: velocity inf after step 1",
+                "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 10, "
+                "\"steps\": 1}",
+                "non-finite state after the step", 1);
 }
 
 // ---- batches
