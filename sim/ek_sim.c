@@ -112,6 +112,24 @@ static const char *output_is_input(const char *out, const ek_scene *s) {
   return NULL;
 }
 
+// An XPBD step runs substeps x iterations sweeps over every constraint,
+// whatever the state: their count is known before the run. At 1 ns per
+// constraint and sweep (below every measured cost: ek-sim --residuals
+// prints the measured one) a step that needs over a minute is warned about
+// with the estimate (issue 28: 1e5 substeps x 1e5 iterations were accepted
+// without a word). Ctrl-C stops such a step (ek_sim_set_stop_flag).
+static void warn_long_xpbd_step(const ek_scene *s, size_t constraints, long steps) {
+  const double sweeps = (double)s->xpbd.substeps * (double)s->xpbd.iterations;
+  const double seconds = sweeps * (double)constraints * 1e-9;
+  if (seconds > 60)
+    fprintf(stderr,
+            "ek-sim: warning: %s: each step runs %ld substeps x %ld iterations = %.3g sweeps "
+            "over %zu constraints: at least %.3g s per step (1 ns per constraint and sweep), "
+            "%.3g s for the %ld steps\n",
+            s->path, s->xpbd.substeps, s->xpbd.iterations, sweeps, constraints, seconds,
+            seconds * (double)steps, steps);
+}
+
 // The per-frame field buffers (any may be NULL).
 static void free_frame_fields(double *J, double *smin, double *psi, double *smax, double *D,
                               double *W, double *rates, double *vrot) {
@@ -663,6 +681,11 @@ int main(int argc, char **argv) {
          *rates = NULL, *vrot = NULL;
   ek_frames *frames = NULL;
   catch_stop_signals();
+  // The step looks at the flag too (between sweeps, Newton and CG
+  // iterations), so a long step ends within about a second of the signal.
+  ek_sim_set_stop_flag(sim, &stop_signal);
+  if (xpbd)
+    warn_long_xpbd_step(&scene, ek_sim_xpbd_constraints(sim), steps);
   if (out) {
     frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
                                          ek_trimesh_tris(trimesh), err, sizeof err)
@@ -706,7 +729,8 @@ int main(int argc, char **argv) {
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
   double t_start = now(), t_last_progress = t_start;
-  long stopped_at = -1; // the step a signal stopped the run before
+  long stopped_at = -1;   // the step a signal stopped the run before
+  int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
     if (stop_signal) {
       stopped_at = n;
@@ -736,6 +760,11 @@ int main(int argc, char **argv) {
     double t_step = now();
     int src = ek_sim_step(sim);
     t_step = now() - t_step;
+    if (src == EK_SIM_ESTOPPED) {
+      stopped_at = n;
+      stopped_inside = 1;
+      break;
+    }
     if (src != 0) {
       fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
       rc = EK_EXIT_FAILED;
@@ -775,13 +804,22 @@ int main(int argc, char **argv) {
     }
     char xdmf[EK_SCENE_PATH_MAX];
     ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
-    printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
+    // A run that ended early (a signal, a failed step) wrote a partial
+    // series: said here, next to the count.
+    const long ran = ek_sim_steps_done(sim);
+    if (ran < steps)
+      printf("frames     %ld written to %s (ParaView: %s); partial: the run ended after step "
+             "%ld of %ld (t = %g s)\n",
+             nframes, out, xdmf, ran, steps, ek_sim_time(sim));
+    else
+      printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
   }
   if (stopped_at >= 0)
-    fprintf(stderr, "ek-sim: stopped by %s before step %ld of %ld; %ld frames written%s%s%s\n",
-            stop_signal == SIGINT ? "SIGINT" : "SIGTERM", stopped_at, steps, nframes,
-            wrote_frames ? " to " : "", wrote_frames ? out : "",
-            wrote_frames ? " (file closed)" : "");
+    fprintf(stderr, "ek-sim: stopped by %s %s step %ld of %ld; %ld frames written%s%s%s\n",
+            stop_signal == SIGINT ? "SIGINT" : "SIGTERM",
+            stopped_inside ? "inside (not applied)" : "before", stopped_at + stopped_inside, steps,
+            nframes, wrote_frames ? " to " : "", wrote_frames ? out : "",
+            wrote_frames ? " (file closed, a partial series)" : "");
 
   const ek_sim_times *tm = ek_sim_timings(sim);
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;

@@ -679,6 +679,21 @@ int ek_sim_step(ek_sim *s) {
   return 0;
 }
 
+void ek_sim_set_stop_flag(ek_sim *s, const volatile sig_atomic_t *flag) {
+  if (s)
+    s->stop_flag = flag;
+}
+
+int sim_stop_requested(ek_sim *s, const char *where, long i, long n) {
+  if (!s->stop_flag || !*s->stop_flag)
+    return 0;
+  snprintf(s->error, sizeof s->error,
+           "step %ld (t = %g): stopped inside the step, at %s %ld of "
+           "%ld; the step is not applied",
+           s->n, s->t, where, i, n);
+  return EK_SIM_ESTOPPED;
+}
+
 void ek_sim_time_phases(ek_sim *s, int on) { s->time_phases = on; }
 const ek_sim_times *ek_sim_timings(const ek_sim *s) { return &s->times; }
 const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *s) { return &s->newton; }

@@ -25,6 +25,7 @@
 #include <ek/svd3.h>
 
 #include <math.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -412,6 +413,65 @@ static void nonfinite_run(const char *what, const char *json, const char *said, 
   ek_mesh_destroy(m);
 }
 
+// The stop flag: read only, so a run with it installed gives the same bits;
+// set, it ends a step of any length at the next check, state unchanged.
+static void stop_flag(void) {
+  printf("-- stop flag\n");
+  static const char *json[2] = {
+      "{" MESH ", \"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, "
+      "\"density\": 1000}, \"integrator\": {\"type\": \"xpbd\", \"substeps\": 3, "
+      "\"iterations\": 150}, " PIN ", \"gravity\": [0, 0, -9.81], " TAIL "}",
+      "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, \"nu\": 0.3, "
+      "\"density\": 1000}, \"integrator\": {\"type\": \"implicit\"}, " PIN ", \"gravity\": "
+      "[0, 0, -9.81], \"dt\": 1e-2, \"steps\": 10}"};
+  for (int j = 0; j < 2; j++) {
+    char err[1024] = "";
+    ek_scene sc;
+    ek_mesh *m = NULL;
+    ek_sim *a = NULL, *b = NULL;
+    if (ek_scene_parse(json[j], "stop.json", ".", &sc, err, sizeof err) == 0 &&
+        (m = ek_scene_mesh(&sc, err, sizeof err))) {
+      a = ek_sim_create(&sc, m, err, sizeof err);
+      b = ek_sim_create(&sc, m, err, sizeof err);
+    }
+    if (!a || !b) {
+      verdict("stop flag: scene", 0, err);
+      ek_sim_destroy(a);
+      ek_sim_destroy(b);
+      ek_mesh_destroy(m);
+      continue;
+    }
+    volatile sig_atomic_t flag = 0;
+    ek_sim_set_stop_flag(b, &flag);
+    int rc = 0;
+    for (int n = 0; n < 2 && rc == 0; n++)
+      rc = ek_sim_step(a) | ek_sim_step(b);
+    const size_t n3 = 3 * ek_mesh_nverts(m);
+    int same = rc == 0 &&
+               memcmp(ek_sim_positions(a), ek_sim_positions(b), n3 * sizeof(double)) == 0 &&
+               memcmp(ek_sim_velocities(a), ek_sim_velocities(b), n3 * sizeof(double)) == 0;
+    char what[96], detail[700];
+    snprintf(what, sizeof what, "%s: flag installed, unset: same bits", j ? "implicit" : "xpbd");
+    snprintf(detail, sizeof detail, "rc %d, 2 steps, positions and velocities %s", rc,
+             same ? "identical" : "DIFFER");
+    verdict(what, same, detail);
+    double *x = malloc(n3 * sizeof(double));
+    memcpy(x, ek_sim_positions(b), n3 * sizeof(double));
+    flag = SIGINT;
+    rc = ek_sim_step(b);
+    int kept =
+        memcmp(x, ek_sim_positions(b), n3 * sizeof(double)) == 0 && ek_sim_steps_done(b) == 2;
+    snprintf(what, sizeof what, "%s: flag set: step stopped, not applied", j ? "implicit" : "xpbd");
+    snprintf(detail, sizeof detail, "rc %d (want %d), state kept %d: %s", rc, EK_SIM_ESTOPPED, kept,
+             ek_sim_last_error(b));
+    verdict(what, rc == EK_SIM_ESTOPPED && kept && strstr(ek_sim_last_error(b), "stopped"), detail);
+    free(x);
+    ek_sim_destroy(a);
+    ek_sim_destroy(b);
+    ek_mesh_destroy(m);
+  }
+}
+
 static void faults(void) {
   frames_outputs();
   printf("-- non-finite state\n");
@@ -428,6 +488,7 @@ static void faults(void) {
                 "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 10, "
                 "\"steps\": 1}",
                 "non-finite state after the step", 1);
+  stop_flag();
 }
 
 // ---- batches

@@ -90,6 +90,7 @@
 #ifndef EK_SIM_H
 #define EK_SIM_H
 
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -145,6 +146,12 @@ extern "C" {
 // for neo-Hookean without clamp): the step is not applied, the message names
 // the step, the number of inverted tets and the first one.
 #define EK_SIM_EINVERTED (-10)
+// Return code of ek_sim_step when the stop flag (ek_sim_set_stop_flag) was
+// seen inside the step: the step is not applied.
+#define EK_SIM_ESTOPPED (-11)
+// XPBD sweeps run between two looks at the stop flag (a slice of one
+// substep's iterations; the sweeps are the same either way).
+#define EK_SIM_STOP_SWEEPS 64
 
 // ---------------------------------------------------------------- scenes
 
@@ -405,10 +412,21 @@ ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char 
                             size_t errlen);
 int ek_sim_is_cloth(const ek_sim *sim);
 void ek_sim_destroy(ek_sim *sim);
-// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED or < 0
-// (message in ek_sim_last_error); on error the state is left as it was
-// before the step.
+// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED,
+// EK_SIM_ESTOPPED or < 0 (message in ek_sim_last_error); on error the state
+// is left as it was before the step. A step that leaves a position or a
+// velocity that is not finite fails (EK_EINVAL, "non-finite state"), so the
+// state is always finite.
 int ek_sim_step(ek_sim *sim);
+// A stop request the step looks at while it runs: *flag (e.g. set by the
+// caller's SIGINT handler) non-zero makes the step return EK_SIM_ESTOPPED,
+// state unchanged, at the next check: between XPBD substeps and slices of
+// at most EK_SIM_STOP_SWEEPS sweeps, between Newton iterations, CG
+// iterations and line-search trials. A step of any length thus ends within
+// about one force evaluation (implicit, explicit) or EK_SIM_STOP_SWEEPS
+// sweeps (XPBD). NULL (the default) checks nothing. The checks read the
+// flag only: the results are the same bits with or without it.
+void ek_sim_set_stop_flag(ek_sim *sim, const volatile sig_atomic_t *flag);
 const char *ek_sim_last_error(const ek_sim *sim);
 // Name of the integrator the sim steps with ("explicit").
 const char *ek_sim_integrator_name(const ek_sim *sim);
