@@ -2,6 +2,7 @@
 // writes a console table, an HDF5 file and a Google-Benchmark-style JSON
 // file. `ek-bench --help` lists the options.
 #include <errno.h>
+#include <hdf5.h>
 #include <math.h>
 #include <omp.h>
 #include <regex.h>
@@ -633,6 +634,9 @@ int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
   omp_env_defaults("ek-bench", argv);
+  // As in ek-sim: HDF5 < 1.14.1 crashes in its exit handler on a file whose
+  // close failed (a full disk); every file is closed here explicitly.
+  H5dont_atexit();
   static ek_bench bench;
   ek_bench *b = &bench;
   b->timer = ek_timer_defaults();

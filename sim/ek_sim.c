@@ -21,6 +21,7 @@
 #include <ek/sim.h>
 
 #include <errno.h>
+#include <hdf5.h>
 #include <math.h>
 #include <omp.h>
 #include <signal.h>
@@ -528,6 +529,12 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
 
 int main(int argc, char **argv) {
   omp_env_defaults("ek-sim", argv);
+  // HDF5 before 1.14.1 frees a file whose close failed (a full disk) but
+  // keeps its ID, and its exit handler then closes that ID again: SIGSEGV
+  // at exit after a correct message (issue 28; HDFGroup/hdf5 PR 2496).
+  // ek-sim closes every file it opens itself, so the handler has nothing
+  // to do: not installing it (before HDF5's first call) removes the crash.
+  H5dont_atexit();
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
   int force = 0, do_explain = 0, no_output = 0, residuals = 0, advise = 0;

@@ -125,6 +125,19 @@ printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
 expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
 grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
 grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
+# A full disk (a file size limit: writes fail with EFBIG): a message and
+# exit 1, no crash at exit (rc 139 was HDF5's atexit close).
+(
+  ulimit -f 1500
+  trap '' XFSZ
+  exec "$bin/ek-sim" "$scenes/cantilever.json" --steps 3000 --out "$work/full.h5"
+) >"$out" 2>"$err" </dev/null
+rc=$?
+if [ "$rc" -ne 1 ]; then
+  fail "ek-sim on a full disk: exit $rc, expected 1"
+  sed 's/^/  | /' "$err" | head -5
+fi
+grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not named partial"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

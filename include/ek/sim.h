@@ -524,6 +524,10 @@ typedef struct ek_frames ek_frames;
 // with `path` atomically, so a writer killed at any moment leaves every
 // frame it completed readable with plain read-only access. The XDMF is
 // appended to after each commit (it may lack the last frame after a kill).
+// A write that fails (a full disk) is reported and the file keeps its
+// frames; with HDF5 before 1.14.1 the failed close leaves an ID that
+// HDF5's own exit handler then crashes on, so a program that may hit a full
+// disk calls H5dont_atexit() before its first HDF5 call (ek-sim does).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
 // The same for any element kind: nodes = 4 (tets, /mesh/tets, XDMF
