@@ -82,8 +82,8 @@ static void usage(FILE *out) {
           "                progress on stderr. With --explain: the kernels that choice drops\n"
           "  --tol X       advise: largest deviation accepted, fraction of the body size\n"
           "                (>= 0, default 0.01)\n"
-          "  --time S      advise: simulated seconds per candidate (> 0, default 0.5 or the\n"
-          "                scene's duration if shorter)\n"
+          "  --time S      advise: simulated seconds per candidate (from the scene's dt to\n"
+          "                1e9 steps of it; default 0.5 or the scene's duration if shorter)\n"
           "  -h, --help    this text\n"
           "  --version     print the version\n"
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
@@ -637,6 +637,12 @@ int main(int argc, char **argv) {
     const double duration = scene.dt * (double)scene.steps;
     if (isnan(sim_time))
       sim_time = duration < EK_ADVISE_TIME_DEFAULT ? duration : EK_ADVISE_TIME_DEFAULT;
+    else if (sim_time < scene.dt || sim_time / scene.dt > (double)EK_TRIAL_MAX_STEPS)
+      return ek_cli_usage_error("ek-sim",
+                                "--time %g: expected from the scene's dt %g (one step) to %ld "
+                                "steps of it (%g s)",
+                                sim_time, scene.dt, EK_TRIAL_MAX_STEPS,
+                                scene.dt * (double)EK_TRIAL_MAX_STEPS);
     return run_advise(&scene, tol, sim_time, do_explain, nthreads);
   }
   if (do_explain) {

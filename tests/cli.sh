@@ -116,6 +116,25 @@ cp "$scenes/cantilever.json" "$work/scene.json"
 expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \
   --out "$work/scene.json" --force && one_error "ek-sim --out SCENE --force"
 cmp -s "$scenes/cantilever.json" "$work/scene.json" || fail "ek-sim --out SCENE: scene changed"
+# --advise --time out of range (the step count overflowed a long).
+for t in 1e300 1e-300; do
+  expect "ek-sim --advise --time $t" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise \
+    --time "$t" && one_error "ek-sim --advise --time $t"
+done
+# ek-verify --json: checked before the first row, never overwritten without
+# --force, never a directory.
+echo keep >"$work/v.json"
+expect "ek-verify --json EXISTING" 1 "$bin/ek-verify" --filter nothing --json "$work/v.json" &&
+  one_error "ek-verify --json EXISTING"
+[ "$(cat "$work/v.json")" = keep ] || fail "ek-verify --json EXISTING: overwritten"
+grep -q "ek-verify:.*rows" "$out" && fail "ek-verify --json EXISTING: ran the rows first"
+expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --filter nothing \
+  --json "$work/v.json" --force
+grep -q '"tool"' "$work/v.json" || fail "ek-verify --json --force: not written"
+expect "ek-verify --json DIR" 1 "$bin/ek-verify" --filter nothing --json "$work/dir.h5" &&
+  one_error "ek-verify --json DIR"
+expect "ek-verify --json NO/FOLDER" 1 "$bin/ek-verify" --filter nothing \
+  --json "$work/none/v.json" && one_error "ek-verify --json NO/FOLDER"
 # A run whose state goes NaN fails (exit 1) at the step it happens, even
 # the last one, naming a non-finite state.
 printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
