@@ -30,6 +30,52 @@ void ek_mesh_destroy(ek_mesh *m) {
   free(m);
 }
 
+// An element's vertex set, sorted, and its index: sorted records put
+// duplicates side by side.
+typedef struct {
+  int32_t v[4];
+  size_t index;
+} elem_key;
+
+static int cmp_elem_key(const void *pa, const void *pb) {
+  const elem_key *a = pa, *b = pb;
+  for (int k = 0; k < 4; k++)
+    if (a->v[k] != b->v[k])
+      return a->v[k] < b->v[k] ? -1 : 1;
+  return (a->index > b->index) - (a->index < b->index);
+}
+
+int mesh_find_duplicate(const int32_t *elems, size_t n, int nodes, size_t *first, size_t *second) {
+  elem_key *keys = malloc((n ? n : 1) * sizeof *keys);
+  if (!keys)
+    return -1;
+  for (size_t e = 0; e < n; e++) {
+    elem_key *k = keys + e;
+    k->v[3] = -1; // triangles: the fourth slot is the same for all
+    for (int c = 0; c < nodes; c++) {
+      int32_t x = elems[e * (size_t)nodes + c];
+      int j = c;
+      for (; j > 0 && k->v[j - 1] > x; j--) // insertion sort of <= 4 indices
+        k->v[j] = k->v[j - 1];
+      k->v[j] = x;
+    }
+    k->index = e;
+  }
+  qsort(keys, n, sizeof *keys, cmp_elem_key);
+  int found = 0;
+  for (size_t i = 1; i < n; i++)
+    if (memcmp(keys[i].v, keys[i - 1].v, sizeof keys[i].v) == 0 &&
+        (i < 2 || memcmp(keys[i - 2].v, keys[i].v, sizeof keys[i].v) != 0) &&
+        (!found || keys[i].index < *second)) {
+      // keys[i - 1] and keys[i]: the two lowest indices of this set.
+      *first = keys[i - 1].index;
+      *second = keys[i].index;
+      found = 1;
+    }
+  free(keys);
+  return found;
+}
+
 // Where an element came from, for messages: "file:line" when read from a
 // file, "ek_mesh_create: tet i" otherwise.
 static void where_tet(char *buf, size_t len, const mesh_origin *o, size_t t) {
@@ -255,6 +301,29 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     double lmin = ldexp(lmin_s, e);
     if (lmin < m->min_edge)
       m->min_edge = lmin;
+  }
+  {
+    // The same tet twice (in any vertex order) doubles its mass and
+    // stiffness without a word (issue 28: a TetGen file listing a tet twice
+    // loaded). Checked after the shape tests (an odd reordering is
+    // reported as inverted first).
+    size_t first = 0, second = 0;
+    int dup = mesh_find_duplicate(tets_in, ntets, 4, &first, &second);
+    if (dup < 0) {
+      mesh_error(err, errlen, "%s: out of memory", src);
+      goto fail;
+    }
+    if (dup) {
+      char where1[512];
+      where_tet(where, sizeof where, origin, second);
+      where_tet(where1, sizeof where1, origin, first);
+      const int32_t *tv = tets_in + 4 * second;
+      long base = origin ? origin->index_base : 0;
+      mesh_error(err, errlen, "%s: duplicate element: vertices %ld %ld %ld %ld, the same set as %s",
+                 where, (long)tv[0] + base, (long)tv[1] + base, (long)tv[2] + base,
+                 (long)tv[3] + base, where1);
+      goto fail;
+    }
   }
   {
     char el_err[256] = "";

@@ -127,6 +127,26 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
       goto fail;
     }
   }
+  {
+    // The same triangle twice (in any vertex order) doubles its membrane
+    // and makes its edges look non-manifold (issue 28: an OBJ listing a
+    // face twice loaded).
+    size_t first = 0, second = 0;
+    int dup = mesh_find_duplicate(T, nt, 3, &first, &second);
+    if (dup < 0)
+      goto oom;
+    if (dup) {
+      char at1[1100];
+      where(at, sizeof at, o, o ? o->tline : NULL, second, "triangle");
+      where(at1, sizeof at1, o, o ? o->tline : NULL, first, "triangle");
+      const int32_t *q = T + 3 * second;
+      long b = o ? o->base : 0;
+      tm_error(err, errlen,
+               "%s: duplicate element: triangle (%ld %ld %ld), the same vertices as %s", at,
+               q[0] + b, q[1] + b, q[2] + b, at1);
+      goto fail;
+    }
+  }
   // Drop vertices no triangle uses (they would carry no mass).
   int32_t *map = malloc(nv * sizeof *map);
   if (!map)

@@ -23,6 +23,7 @@
 #include <ek/mesh.h>
 #include <ek/sim.h>
 #include <ek/svd3.h>
+#include <ek/trimesh.h>
 
 #include <math.h>
 #include <signal.h>
@@ -383,6 +384,52 @@ static void frames_outputs(void) {
   ek_frames_close(fr, NULL, 0);
 }
 
+// The same element twice, and element counts that the blocks do not match.
+static void duplicates(void) {
+  printf("-- duplicate elements\n");
+  char err[1024];
+  write_text("dup.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n");
+  write_text("dup.ele", "3 4 0\n1 1 2 3 4\n2 2 3 4 5\n3 2 3 1 4\n");
+  // Tet 3 is tet 1 with its first three vertices rotated (same
+  // orientation: the same element in another order).
+  mesh_refused("TetGen: the same tet twice (any order): refused", load("dup", err, sizeof err), err,
+               "dup.ele:4: tet 2", "duplicate element: vertices 2 3 1 4", "the same set as", NULL);
+  {
+    double X[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+    int32_t T[8] = {0, 1, 2, 3, 3, 2, 1, 0};
+    ek_mesh *m = ek_mesh_create(5, X, 2, T, err, sizeof err);
+    mesh_refused("in memory: the same tet twice: refused", m, err, "tet 1", "duplicate element",
+                 "tet 0", NULL);
+  }
+  write_text("dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 3 1 2\n");
+  char path[512];
+  snprintf(path, sizeof path, "%s/dup.obj", tmp_dir);
+  ek_trimesh *tm = ek_trimesh_load(path, err, sizeof err);
+  verdict("OBJ: the same triangle twice: refused, both lines",
+          !tm &&
+              contains_all(err, "dup.obj:7", "duplicate element: triangle (3 1 2)",
+                           "the same vertices as") &&
+              strstr(err, "dup.obj:5") && printable(err),
+          err);
+  ek_trimesh_destroy(tm);
+  // Gmsh v4.1: two element blocks of 2 tets under a header of 3.
+  write_text("blocks.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
+                           "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+                           "$Elements\n2 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n"
+                           "3 2 4 2\n3 1 2 3 5\n4 1 2 4 5\n$EndElements\n");
+  mesh_refused("Gmsh v4.1: blocks hold more elements than declared",
+               load("blocks.msh", err, sizeof err), err, "blocks.msh:23",
+               "element block of 2 elements exceeds the 3 "
+               "declared",
+               NULL, NULL);
+  write_text("blocks2.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
+                            "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+                            "$Elements\n1 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n$EndElements\n");
+  mesh_refused("Gmsh v4.1: blocks hold fewer elements than declared",
+               load("blocks2.msh", err, sizeof err), err, "2 elements in blocks, 3 declared", NULL,
+               NULL, NULL);
+}
+
 // A run whose state goes non-finite fails at the step that made it, with a
 // message naming a non-finite state (not inverted elements or an invertible
 // model), and the state stays the last finite one.
@@ -474,6 +521,7 @@ static void stop_flag(void) {
 
 static void faults(void) {
   frames_outputs();
+  duplicates();
   printf("-- non-finite state\n");
   nonfinite_run("dt = 1e3 (far above CFL): fails at the blow-up",
                 "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, "
