@@ -134,7 +134,7 @@ static void edge_range(const double D[9], double *lmin, double *lmax) {
 
 // m * 2^e2 as text, also where that value is beyond the range of a double
 // (a rest frame measured in scaled units, see mesh_build).
-static void fmt_scaled(char *buf, size_t len, double m, int e2) {
+void mesh_fmt_scaled(char *buf, size_t len, double m, int e2) {
   double v = ldexp(m, e2);
   if (m == 0 || (isfinite(v) && fabs(v) >= DBL_MIN)) {
     snprintf(buf, len, "%.6g", v);
@@ -260,8 +260,8 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     // Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (DESIGN.md, "Meshes").
     if (fabs(six_v_s) <= EK_MESH_DEGENERATE_REL * lmax_s * lmax_s * lmax_s) {
       char v6[48], lm[48];
-      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
-      fmt_scaled(lm, sizeof lm, lmax_s, e);
+      mesh_fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      mesh_fmt_scaled(lm, sizeof lm, lmax_s, e);
       where_tet(where, sizeof where, origin, t);
       mesh_error(err, errlen, "%s: degenerate: 6V = %s <= %g * (longest edge %s)^3 (zero volume)",
                  where, v6, EK_MESH_DEGENERATE_REL, lm);
@@ -274,7 +274,7 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     double six_v = det3(Dm);
     if (!isfinite(six_v) || fabs(six_v) < DBL_MIN) {
       char v6[48];
-      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      mesh_fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
       where_tet(where, sizeof where, origin, t);
       mesh_error(err, errlen,
                  "%s: 6V = %s is outside the supported range [%g, %g] of rest volumes (a "
@@ -285,7 +285,7 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     if (six_v_s < 0) {
       if (!fix) {
         char v[48];
-        fmt_scaled(v, sizeof v, six_v_s / 6, 3 * e);
+        mesh_fmt_scaled(v, sizeof v, six_v_s / 6, 3 * e);
         where_tet(where, sizeof where, origin, t);
         mesh_error(err, errlen,
                    "%s: inverted: rest volume %s < 0 (refused; set fix_orientation to swap "

@@ -109,18 +109,39 @@ static double min_tet_height(const ek_mesh *m) {
 // gradients), sigma = lambda tr(eps) I + 2 mu eps with eps = sym(H), and
 // f_a = V sigma g_a. The rigid modes are K_e's null space, so the iteration
 // finds the largest eigenvalue from any start with a component along it.
-static double tet_omega2_max(const double *X, const int32_t *t, double lambda, double mu,
-                             double rho) {
-  double D[3][3], g[4][3];
+//
+// Scale-free (issue 28: a box of edge 1e100 or 1e-100, or density 1e-300,
+// printed its CFL limit as inf: |M^-1 K x|^2 under- or overflowed): the
+// iteration runs on the element scaled by 2^-e (its largest edge
+// component in [0.5, 1)), lambda and mu by 2^-a and rho by 2^-b, all
+// powers of two, so every product and quotient is the unscaled one times
+// a power of two, exactly (rounding commutes with such scaling between
+// DBL_MIN and DBL_MAX): where the unscaled iteration stayed in range the
+// result is the same bits. omega^2 = *w2 2^*k, returned split because it
+// may itself be beyond a double (rho 1e-300 on a small element).
+static void tet_omega2_max(const double *X, const int32_t *t, double lambda, double mu, double rho,
+                           double *w2, int *k) {
+  *w2 = 0, *k = 0;
+  double D[3][3], g[4][3], dmax = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < 3; ++i) {
+      D[i][c] = X[3 * t[c + 1] + i] - X[3 * t[0] + i];
+      dmax = fmax(dmax, fabs(D[i][c]));
+    }
+  int e = 0, a = 0, b = 0;
+  frexp(dmax, &e);
+  frexp(fmax(mu, fabs(lambda)), &a);
+  frexp(rho, &b);
   for (int c = 0; c < 3; ++c)
     for (int i = 0; i < 3; ++i)
-      D[i][c] = X[3 * t[c + 1] + i] - X[3 * t[0] + i];
+      D[i][c] = ldexp(D[i][c], -e);
+  mu = ldexp(mu, -a), lambda = ldexp(lambda, -a), rho = ldexp(rho, -b);
   double det = D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) -
                D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
                D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0]);
   double V = fabs(det) / 6.0;
   if (!(V > 0))
-    return 0;
+    return;
   // Rows of D^-1 are the gradients of the shape functions of vertices 1..3.
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
@@ -155,13 +176,15 @@ static double tet_omega2_max(const double *X, const int32_t *t, double lambda, d
     rq = xy / xx;
     double n = sqrt(yy);
     if (!(n > 0))
-      return 0;
+      return;
     for (int k = 0; k < 12; ++k)
       x[k] = y[k] / n;
     if (it > 20 && fabs(rq - prev) <= 1e-12 * rq)
       break;
   }
-  return rq;
+  // M^-1 K scales as stiffness / (density length^2): 2^(a - b - 2e).
+  *w2 = rq;
+  *k = a - b - 2 * e;
 }
 
 // The explicit step's stability limit: symplectic Euler is stable for
@@ -170,15 +193,33 @@ static double tet_omega2_max(const double *X, const int32_t *t, double lambda, d
 // inequality: x^T K x = sum_e x_e^T K_e x_e <= max_e omega_e^2 x^T M x;
 // Belytschko, Liu, Moran, "Nonlinear Finite Elements for Continua and
 // Structures", sec. 6.3), so 2 / max_e omega_e is a step that cannot be
-// unstable for the linearised model at rest.
+// unstable for the linearised model at rest. The maximum is kept as a
+// fraction in [0.5, 1) and a power of two, so the limit is finite and
+// non-zero wherever a double holds it (sim.h, ek_sim_cfl_dt), and the same
+// bits as 2 / sqrt(max_e omega_e^2) wherever that is in range.
 static double element_cfl_dt(const ek_mesh *m, double lambda, double mu, double rho) {
   const double *X = ek_mesh_rest_positions(m);
   const int32_t *T = ek_mesh_tets(m);
   size_t nt = ek_mesh_ntets(m);
-  double w2 = 0;
-  for (size_t e = 0; e < nt; ++e)
-    w2 = fmax(w2, tet_omega2_max(X, T + 4 * e, lambda, mu, rho));
-  return w2 > 0 ? 2.0 / sqrt(w2) : INFINITY;
+  double wmax = 0; // max_e omega_e^2 = wmax 2^kmax, wmax in [0.5, 1) or 0
+  int kmax = 0;
+  for (size_t e = 0; e < nt; ++e) {
+    double w2;
+    int k, ke;
+    tet_omega2_max(X, T + 4 * e, lambda, mu, rho, &w2, &k);
+    if (!(w2 > 0))
+      continue;
+    w2 = frexp(w2, &ke);
+    k += ke;
+    if (wmax == 0 || k > kmax || (k == kmax && w2 > wmax))
+      wmax = w2, kmax = k;
+  }
+  if (wmax == 0)
+    return INFINITY;
+  // 2 / sqrt(wmax 2^kmax), the exponent made even so the root is exact.
+  if (kmax % 2)
+    wmax *= 2, kmax -= 1;
+  return ldexp(2.0 / sqrt(wmax), -kmax / 2);
 }
 
 // Rodrigues' rotation of p about unit axis k by angle theta.

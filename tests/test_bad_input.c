@@ -430,6 +430,74 @@ static void duplicates(void) {
                NULL, NULL);
 }
 
+// One triangle of size s: loads with the area s^2 / 2 (scale-free shape
+// test; within EK_MESH_TOL) or is refused as outside the supported range,
+// never as "degenerate", never loaded with an infinite area.
+static void triangle_at(double s, int loads) {
+  double X[9] = {0, 0, 0, s, 0, 0, 0, s, 0};
+  int32_t T[3] = {0, 1, 2};
+  char err[1024] = "", what[96], detail[1200];
+  ek_trimesh *m = ek_trimesh_create(3, X, 1, T, err, sizeof err);
+  double A = m ? ek_cloth_rest_areas(ek_trimesh_cloth(m))[0] : NAN;
+  double rel = fabs(A / (0.5 * s * s) - 1);
+  snprintf(what, sizeof what, "triangle of size %g: %s", s,
+           loads ? "loads, area s^2 / 2" : "refused as out of range");
+  snprintf(detail, sizeof detail, "area %g (relative error %.3g, budget %g) %s", A, rel,
+           EK_MESH_TOL, err);
+  verdict(what,
+          loads ? m && rel <= EK_MESH_TOL
+                : !m && strstr(err, "outside the supported range") && !strstr(err, "degenerate") &&
+                      !strstr(err, "inf") && printable(err),
+          detail);
+  ek_trimesh_destroy(m);
+}
+
+// The explicit limit of a 2x2x2 box of edge L and density rho.
+static double box_cfl(double L, double rho) {
+  char err[1024];
+  ek_scene sc;
+  if (ek_scene_parse("{" MESH ", " MAT ", " TAIL "}", "cfl.json", ".", &sc, err, sizeof err))
+    return NAN;
+  sc.density = rho;
+  ek_mesh *m = ek_mesh_box(2, 2, 2, L, L, L, err, sizeof err);
+  ek_sim *sim = m ? ek_sim_create(&sc, m, err, sizeof err) : NULL;
+  double dt = sim ? ek_sim_cfl_dt(sim) : NAN;
+  if (!sim)
+    printf("  box %g, density %g: %s\n", L, rho, err);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+  return dt;
+}
+
+static void scales(void) {
+  printf("-- extreme but valid scales\n");
+  triangle_at(1e-70, 1);
+  triangle_at(1e70, 1);
+  triangle_at(1e100, 0);
+  triangle_at(1e-100, 0);
+  triangle_at(1e200, 0);
+  // The CFL limit scales as length * sqrt(density / stiffness): scaling by
+  // powers of two gives exactly the scaled limit (sim_core.c computes it
+  // scale-free), and it is finite and > 0 at 1e+-100 and density 1e-300.
+  double base = box_cfl(1, 1000);
+  char detail[256];
+  const int k = 330;
+  double big = box_cfl(ldexp(1, k), 1000), small = box_cfl(ldexp(1, -k), 1000);
+  double light = box_cfl(1, ldexp(1000, -2 * k));
+  snprintf(detail, sizeof detail, "dt(1) %.17g, dt(2^%d) / 2^%d %.17g, dt(2^-%d) * 2^%d %.17g",
+           base, k, k, ldexp(big, -k), k, k, ldexp(small, k));
+  verdict("CFL of a box of edge 2^+-330: exactly scaled",
+          isfinite(base) && base > 0 && big == ldexp(base, k) && small == ldexp(base, -k), detail);
+  snprintf(detail, sizeof detail, "dt(rho 1000 * 2^-%d) %.17g = dt(rho 1000) * 2^-%d: %.17g", 2 * k,
+           light, k, ldexp(base, -k));
+  verdict("CFL at density 1000 * 2^-660: exactly scaled", light == ldexp(base, -k), detail);
+  double d1 = box_cfl(1e100, 1000), d2 = box_cfl(1e-100, 1000), d3 = box_cfl(1, 1e-300);
+  snprintf(detail, sizeof detail, "edge 1e100: %g, edge 1e-100: %g, density 1e-300: %g", d1, d2,
+           d3);
+  verdict("CFL finite and > 0 at 1e+-100 m and 1e-300 kg/m^3",
+          isfinite(d1) && d1 > 0 && isfinite(d2) && d2 > 0 && isfinite(d3) && d3 > 0, detail);
+}
+
 // A run whose state goes non-finite fails at the step that made it, with a
 // message naming a non-finite state (not inverted elements or an invertible
 // model), and the state stays the last finite one.
@@ -522,6 +590,7 @@ static void stop_flag(void) {
 static void faults(void) {
   frames_outputs();
   duplicates();
+  scales();
   printf("-- non-finite state\n");
   nonfinite_run("dt = 1e3 (far above CFL): fails at the blow-up",
                 "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, "

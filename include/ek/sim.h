@@ -466,7 +466,11 @@ double ek_sim_volume(const ek_sim *sim);
 // rest: tets, 2 / omega_max by the element eigenvalue bound (each tet's
 // linear-elastic stiffness against its lumped mass; a guaranteed bound,
 // 0.64-0.82 of h_min / c on the shipped meshes); cloth, the CFL rule
-// h_min / c with c the membrane's dilatational wave speed.
+// h_min / c with c the membrane's dilatational wave speed. Tets: computed
+// scale-free (each element, lambda, mu and the density scaled by powers of
+// two), so it is finite and > 0 for every mesh ek_mesh accepts (edges about
+// 1e-102 to 1e102) and any density and moduli whose limit a double holds;
+// +inf only for a material without stiffness.
 double ek_sim_cfl_dt(const ek_sim *sim);
 // Per-tet fields of the current state, caller tet order (any may be NULL):
 // J = det F, smallest signed singular value of F, and the energy density
