@@ -131,6 +131,13 @@ static void warn_long_xpbd_step(const ek_scene *s, size_t constraints, long step
             seconds * (double)steps, steps);
 }
 
+// The library's pending warning (ek_sim_warning), on its own line.
+static void print_sim_warning(ek_sim *sim, int tty) {
+  char w[600];
+  if (ek_sim_warning(sim, w, sizeof w))
+    fprintf(stderr, "%sek-sim: warning: %s\n", tty ? "\n" : "", w);
+}
+
 // The per-frame field buffers (any may be NULL).
 static void free_frame_fields(double *J, double *smin, double *psi, double *smax, double *D,
                               double *W, double *rates, double *vrot) {
@@ -673,6 +680,7 @@ int main(int argc, char **argv) {
     ek_trimesh_destroy(trimesh);
     return 1;
   }
+  print_sim_warning(sim, 0);
   size_t nv = cloth ? ek_trimesh_nverts(trimesh) : ek_mesh_nverts(mesh);
   size_t nt = cloth ? ek_trimesh_ntris(trimesh) : ek_mesh_ntets(mesh);
   // Wall time of each step that ran the fused force kernel (one in ten runs
@@ -783,6 +791,7 @@ int main(int argc, char **argv) {
       rc = EK_EXIT_FAILED;
       break;
     }
+    print_sim_warning(sim, tty);
     if (!phase_timed)
       step_s[nstep_s++] = t_step;
     if (xpbd) {

@@ -530,11 +530,11 @@ static int implicit_step(ek_sim *s, void *data) {
   if (res > sc->implicit.newton_tol) {
     s->times.unconverged_steps++;
     if (s->times.unconverged_steps == 1)
-      fprintf(stderr,
-              "ek-sim: warning: %s: step %ld: Newton stopped at residual %.3g > newton_tol %g "
-              "after %ld iterations (%s); counted in the summary\n",
-              sc->path, s->n, res, sc->implicit.newton_tol, it,
-              stalled ? "the line search found no decrease" : "max_newton");
+      sim_warn(s,
+               "%s: step %ld: Newton stopped at residual %.3g > newton_tol %g after %ld "
+               "iterations (%s); counted in the summary",
+               sc->path, s->n, res, sc->implicit.newton_tol, it,
+               stalled ? "the line search found no decrease" : "max_newton");
   }
 
   // 3. Velocities, held vertices' velocities, the ground.

@@ -51,6 +51,23 @@ int sim_fail(ek_sim *s, const char *fmt, ...) {
   return EK_EINVAL;
 }
 
+void sim_warn(ek_sim *s, const char *fmt, ...) {
+  if (s->warning[0])
+    return;
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(s->warning, sizeof s->warning, fmt, ap);
+  va_end(ap);
+}
+
+const char *ek_sim_warning(ek_sim *s, char *buf, size_t len) {
+  if (!s || !s->warning[0])
+    return NULL;
+  snprintf(buf, len, "%s", s->warning);
+  s->warning[0] = '\0';
+  return buf;
+}
+
 static double det3(const double *A) {
   return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
          A[2] * (A[3] * A[7] - A[4] * A[6]);

@@ -92,11 +92,15 @@ struct ek_sim {
   void *integrator_data;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
+  char warning[512]; // pending, for ek_sim_warning; "" when none
 };
 
 double sim_now(void);
 // Message into sim->error; returns EK_EINVAL.
 int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// A warning for the caller (ek_sim_warning): the library prints nothing
+// itself (core.h). A pending one is kept; a second is dropped.
+void sim_warn(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 // The cloth parts of the core (sim/cloth_core.c): forces, CFL length,
 // energy, fields.
 int sim_cloth_forces(ek_sim *sim, const double *x);

@@ -411,6 +411,12 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
 ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
                             size_t errlen);
 int ek_sim_is_cloth(const ek_sim *sim);
+// A condition the run goes on with, for the caller to report (the library
+// prints nothing, core.h): an explicit dt above the CFL limit (set by
+// ek_sim_create), the first step whose Newton loop stopped above
+// newton_tol. Copies the pending warning into buf and returns buf, once;
+// NULL when none is pending.
+const char *ek_sim_warning(ek_sim *sim, char *buf, size_t len);
 void ek_sim_destroy(ek_sim *sim);
 // Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED,
 // EK_SIM_ESTOPPED or < 0 (message in ek_sim_last_error); on error the state
