@@ -14,6 +14,19 @@
 //     EK_EINVAL from every batch entry point and writes nothing; an array not
 //     aligned to its element type gives EK_EINVAL; element-aligned arrays
 //     that are not 64-byte aligned work and give the same bits.
+//   - faults (issue 28): frames are never written over a directory, FIFO
+//     or symbolic link (nor over a scratch name that is one), even with
+//     force; the same tet (TetGen, in memory) or triangle (OBJ) twice is
+//     refused naming both places; Gmsh v4.1 element blocks must add up to
+//     the header's count; a triangle at 1e+-70 loads and one at 1e+-100 is
+//     "outside the supported range", never "degenerate ... inf" nor loaded
+//     with an infinite area (the element layer squares 2A); the CFL
+//     limit scales exactly under power-of-two changes of length and
+//     density and is finite at 1e+-100 m and 1e-300 kg/m^3; a state that
+//     goes non-finite fails the step that made it ("non-finite", never
+//     "invertible"), the state kept finite; the stop flag leaves the bits
+//     of a run unchanged and, set, stops a step without applying it; cloth
+//     thickness 1e300 is refused naming cloth.thickness.
 // Run under the asan preset it also checks that every error path frees
 // what it took (ctest --preset asan -R bad_input).
 #include <ek/batch.h>
@@ -606,6 +619,16 @@ static void faults(void) {
                 "\"steps\": 1}",
                 "non-finite state after the step", 1);
   stop_flag();
+  scene_refused("cloth thickness 1e300: refused naming the key",
+                "{\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}, \"material\": {\"model\": "
+                "\"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, \"cloth\": "
+                "{\"thickness\": 1e300}, " TAIL "}",
+                "cloth.thickness = 1e+300", "bending stiffness", "not finite");
+  scene_refused("cloth thickness 1e306 (mass per area inf): refused naming the key",
+                "{\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}, \"material\": {\"model\": "
+                "\"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, \"cloth\": "
+                "{\"thickness\": 1e306, \"bending_stiffness\": 1}, " TAIL "}",
+                "cloth.thickness = 1e+306", "per unit area", "density h = inf");
 }
 
 // ---- batches
