@@ -620,6 +620,17 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ek-sim: %s: %s\n", scene_path, ek_last_error());
     return EK_EXIT_FAILED;
   }
+  // A scene that names its ISA and an EK_ISA that forces another: the
+  // scene's would run while EK_VERBOSE reports EK_ISA's (issue 28). Both
+  // are explicit requests; neither silently wins.
+  const char *env_isa = getenv("EK_ISA");
+  ek_isa forced;
+  if (scene.svd.isa != EK_ISA_AUTO && env_isa && env_isa[0] &&
+      ek_isa_resolve(EK_ISA_AUTO, &forced) == EK_OK && forced != isa)
+    return ek_cli_usage_error("ek-sim",
+                              "EK_ISA=%s forces %s but %s names isa \"%s\": unset EK_ISA or "
+                              "drop the scene's isa key",
+                              env_isa, ek_isa_name(forced), scene_path, ek_isa_name(isa));
   if (steps < 0)
     steps = scene.steps;
   if (!out && !no_output && scene.output_file[0])

@@ -144,6 +144,10 @@ printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
 expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
 grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
 grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
+# A scene's isa and an EK_ISA that disagree.
+sed 's/^{/{"isa": "scalar",/' "$scenes/cantilever.json" >"$work/isa.json"
+expect "scene isa scalar under EK_ISA=avx2" 2 env EK_ISA=avx2 "$bin/ek-sim" "$work/isa.json" \
+  --no-output --steps 1 && one_error "scene isa scalar under EK_ISA=avx2"
 # A full disk (a file size limit: writes fail with EFBIG): a message and
 # exit 1, no crash at exit (rc 139 was HDF5's atexit close).
 (
