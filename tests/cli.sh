@@ -144,6 +144,13 @@ printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
 expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
 grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
 grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
+# A box too large for any machine's memory: refused before allocating,
+# with the estimate (--explain still explains it).
+sed 's/"box": \[100, 1, 10\]/"box": [4096, 4096, 4096]/' "$scenes/cantilever.json" >"$work/huge.json"
+expect "ek-sim on a 4096^3 box" 1 "$bin/ek-sim" "$work/huge.json" --no-output &&
+  one_error "ek-sim on a 4096^3 box"
+grep -q "needs at least" "$err" || fail "ek-sim on a 4096^3 box: no estimate in: $(cat "$err")"
+expect "ek-sim --explain on a 4096^3 box" 0 "$bin/ek-sim" "$work/huge.json" --explain
 # A scene's isa and an EK_ISA that disagree.
 sed 's/^{/{"isa": "scalar",/' "$scenes/cantilever.json" >"$work/isa.json"
 expect "scene isa scalar under EK_ISA=avx2" 2 env EK_ISA=avx2 "$bin/ek-sim" "$work/isa.json" \
