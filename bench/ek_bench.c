@@ -2,6 +2,7 @@
 // writes a console table, an HDF5 file and a Google-Benchmark-style JSON
 // file. `ek-bench --help` lists the options.
 #include <errno.h>
+#include <hdf5.h>
 #include <math.h>
 #include <omp.h>
 #include <regex.h>
@@ -405,8 +406,9 @@ static void usage(FILE *f) {
              "                  map: error vs time per knob setting, README)\n"
              "  --filter REGEX  only rows whose name matches (POSIX extended regex)\n"
              "  --threads N     only N threads (default: 1 and 2)\n"
-             "  --min-time S    seconds of samples per row (default 0.5, scaled down to\n"
-             "                  fit 140 s of samples over all selected rows, >= 0.1)\n"
+             "  --min-time S    seconds of samples per row, in (0, 3600], taken as given\n"
+             "                  (default 0.5, scaled down to fit 140 s of samples over all\n"
+             "                  selected rows, but not below 0.1)\n"
              "  --seed N        seed of the random inputs (default 1)\n"
              "  --out FILE.h5   HDF5 results (default results/ek-bench-YYYYmmdd-HHMMSS.h5;\n"
              "                  tradeoff suite: results/ek-tradeoff-YYYYmmdd-HHMMSS.h5)\n"
@@ -633,6 +635,9 @@ int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
   omp_env_defaults("ek-bench", argv);
+  // As in ek-sim: HDF5 < 1.14.1 crashes in its exit handler on a file whose
+  // close failed (a full disk); every file is closed here explicitly.
+  H5dont_atexit();
   static ek_bench bench;
   ek_bench *b = &bench;
   b->timer = ek_timer_defaults();
@@ -699,6 +704,12 @@ int main(int argc, char **argv) {
       if (access(slash ? dir : ".", W_OK) != 0) {
         fprintf(stderr, "ek-bench: cannot write '%s': folder '%s': %s\n", path, slash ? dir : ".",
                 strerror(errno));
+        return EK_EXIT_FAILED;
+      }
+      const char *what = ek_results_not_regular(path);
+      if (what) {
+        fprintf(stderr, "ek-bench: output file '%s' is %s, not a regular file; not replaced\n",
+                path, what);
         return EK_EXIT_FAILED;
       }
       if (!o.force && ek_results_file_exists(path)) {

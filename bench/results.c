@@ -378,10 +378,32 @@ int ek_results_file_exists(const char *path) {
   return stat(path, &st) == 0;
 }
 
+const char *ek_results_not_regular(const char *path) {
+  struct stat st;
+  if (lstat(path, &st) != 0 || S_ISREG(st.st_mode))
+    return NULL;
+  return S_ISDIR(st.st_mode)    ? "a directory"
+         : S_ISCHR(st.st_mode)  ? "a character device"
+         : S_ISBLK(st.st_mode)  ? "a block device"
+         : S_ISFIFO(st.st_mode) ? "a FIFO"
+         : S_ISSOCK(st.st_mode) ? "a socket"
+         : S_ISLNK(st.st_mode)  ? "a symbolic link"
+                                : "not a regular file";
+}
+
 // Put a finished temp file under its final name: without force, link()
 // fails if the name exists (so an existing file is never touched); with
-// force, rename() replaces it atomically.
+// force, rename() replaces it atomically, but only a regular file: a
+// device, FIFO, directory or link at path is not ek's output and is never
+// replaced (issue 28: --out /dev/null --force, run as root, replaced the
+// device node).
 static int ek_results_publish(const char *tmp, const char *path, int force) {
+  const char *what = ek_results_not_regular(path);
+  if (what) {
+    fprintf(stderr, "ek results: '%s' is %s, not a regular file; not replaced\n", path, what);
+    unlink(tmp);
+    return -1;
+  }
   if (force) {
     if (rename(tmp, path) != 0) {
       fprintf(stderr, "ek results: cannot rename '%s' to '%s': %s\n", tmp, path, strerror(errno));

@@ -186,6 +186,17 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
              o->sim_time);
     return EK_EINVAL;
   }
+  // At least one step of the scene's dt: a shorter time runs one step of
+  // that length, judging each candidate at a dt it does not use (issue 28:
+  // --time 1e-300 ran one step of 1e-300 s and priced candidates at 1e294 s
+  // per simulated second). At most EK_TRIAL_MAX_STEPS steps.
+  if (o->sim_time < scene->dt || o->sim_time / scene->dt > (double)EK_TRIAL_MAX_STEPS) {
+    snprintf(err, errlen,
+             "advise: simulated time %g must be between the scene's dt %g (one step) and %ld "
+             "steps of it (%g s)",
+             o->sim_time, scene->dt, EK_TRIAL_MAX_STEPS, scene->dt * (double)EK_TRIAL_MAX_STEPS);
+    return EK_EINVAL;
+  }
   a->tol = o->tol;
   a->sim_time = o->sim_time;
   a->body_size = ek_trial_body_size(mesh);

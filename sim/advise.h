@@ -56,7 +56,8 @@ extern "C" {
 
 typedef struct {
   double tol;      // X: largest deviation accepted, fraction of the body size (>= 0)
-  double sim_time; // S: simulated seconds per candidate (> 0)
+  double sim_time; // S: simulated seconds per candidate, from the scene's dt
+                   // (one step) to EK_TRIAL_MAX_STEPS steps of it
   FILE *progress;  // "candidate k of n" lines; NULL: silent
 } ek_advise_opts;
 

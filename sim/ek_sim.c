@@ -21,12 +21,14 @@
 #include <ek/sim.h>
 
 #include <errno.h>
+#include <hdf5.h>
 #include <math.h>
 #include <omp.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -80,13 +82,88 @@ static void usage(FILE *out) {
           "                progress on stderr. With --explain: the kernels that choice drops\n"
           "  --tol X       advise: largest deviation accepted, fraction of the body size\n"
           "                (>= 0, default 0.01)\n"
-          "  --time S      advise: simulated seconds per candidate (> 0, default 0.5 or the\n"
-          "                scene's duration if shorter)\n"
+          "  --time S      advise: simulated seconds per candidate (from the scene's dt to\n"
+          "                1e9 steps of it; default 0.5 or the scene's duration if shorter)\n"
           "  -h, --help    this text\n"
           "  --version     print the version\n"
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
           "pinned, one per core); values the user set are kept. Meshes below a few\n"
           "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
+}
+
+// The frames' name, or their XDMF's, that is an input of the run (the
+// scene file or its mesh; stat follows links, so two names of one file
+// match): the commit would rename over it (issue 28: --out scene.json
+// --force replaced the scene). Returns the input's path, or NULL.
+static const char *output_is_input(const char *out, const ek_scene *s) {
+  char xdmf[EK_SCENE_PATH_MAX];
+  ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
+  const char *outs[2] = {out, xdmf};
+  const char *ins[2] = {s->path, s->mesh_file};
+  for (int i = 0; i < 2; ++i) {
+    struct stat so;
+    if (stat(outs[i], &so) != 0)
+      continue;
+    for (int k = 0; k < 2; ++k) {
+      struct stat si;
+      if (ins[k][0] && stat(ins[k], &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+        return ins[k];
+    }
+  }
+  return NULL;
+}
+
+// An XPBD step runs substeps x iterations sweeps over every constraint,
+// whatever the state: their count is known before the run. At 1 ns per
+// constraint and sweep (below every measured cost: ek-sim --residuals
+// prints the measured one) a step that needs over a minute is warned about
+// with the estimate (issue 28: 1e5 substeps x 1e5 iterations were accepted
+// without a word). Ctrl-C stops such a step (ek_sim_set_stop_flag).
+static void warn_long_xpbd_step(const ek_scene *s, size_t constraints, long steps) {
+  const double sweeps = (double)s->xpbd.substeps * (double)s->xpbd.iterations;
+  const double seconds = sweeps * (double)constraints * 1e-9;
+  if (seconds > 60)
+    fprintf(stderr,
+            "ek-sim: warning: %s: each step runs %ld substeps x %ld iterations = %.3g sweeps "
+            "over %zu constraints: at least %.3g s per step (1 ns per constraint and sweep), "
+            "%.3g s for the %ld steps\n",
+            s->path, s->xpbd.substeps, s->xpbd.iterations, sweeps, constraints, seconds,
+            seconds * (double)steps, steps);
+}
+
+// Bytes per tet a box scene takes at least: the peak resident size of
+// ek-sim on boxes of 20^3 and 40^3 cells (48 000 and 384 000 tets, fixed
+// corotated, f64 and f32) grew by 565 bytes per tet without output and by
+// 1290 with it (x86-64, glibc, measured with /usr/bin/time).
+#define BOX_BYTES_PER_TET 500.0
+
+// A box that cannot fit in this machine's memory is refused before
+// anything is allocated, with the estimate (issue 28: 440^3 cells, 511 M
+// tets, passed the scene check and allocated 20 GB before "out of
+// memory"). A file mesh is bounded by its file; cloth grids are not
+// estimated. 0, or EK_EXIT_FAILED with the message printed.
+static int box_fits_memory(const ek_scene *s) {
+  if (s->triangles || s->mesh_file[0])
+    return 0;
+  const double tets = 6.0 * s->box_cells[0] * s->box_cells[1] * s->box_cells[2];
+  const double need = BOX_BYTES_PER_TET * tets;
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  const double have = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
+  if (need <= have)
+    return 0;
+  fprintf(stderr,
+          "ek-sim: %s: mesh.box %d x %d x %d cells = %.3g tets needs at least %.3g GB (%.0f "
+          "bytes per tet, measured), more than this machine's %.3g GB of memory\n",
+          s->path, s->box_cells[0], s->box_cells[1], s->box_cells[2], tets, need / 1e9,
+          BOX_BYTES_PER_TET, have / 1e9);
+  return EK_EXIT_FAILED;
+}
+
+// The library's pending warning (ek_sim_warning), on its own line.
+static void print_sim_warning(ek_sim *sim, int tty) {
+  char w[600];
+  if (ek_sim_warning(sim, w, sizeof w))
+    fprintf(stderr, "%sek-sim: warning: %s\n", tty ? "\n" : "", w);
 }
 
 // The per-frame field buffers (any may be NULL).
@@ -487,6 +564,12 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
 
 int main(int argc, char **argv) {
   omp_env_defaults("ek-sim", argv);
+  // HDF5 before 1.14.1 frees a file whose close failed (a full disk) but
+  // keeps its ID, and its exit handler then closes that ID again: SIGSEGV
+  // at exit after a correct message (issue 28; HDFGroup/hdf5 PR 2496).
+  // ek-sim closes every file it opens itself, so the handler has nothing
+  // to do: not installing it (before HDF5's first call) removes the crash.
+  H5dont_atexit();
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
   int force = 0, do_explain = 0, no_output = 0, residuals = 0, advise = 0;
@@ -565,23 +648,57 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ek-sim: %s: %s\n", scene_path, ek_last_error());
     return EK_EXIT_FAILED;
   }
+  // A scene that names its ISA and an EK_ISA that forces another: the
+  // scene's would run while EK_VERBOSE reports EK_ISA's (issue 28). Both
+  // are explicit requests; neither silently wins.
+  const char *env_isa = getenv("EK_ISA");
+  ek_isa forced;
+  if (scene.svd.isa != EK_ISA_AUTO && env_isa && env_isa[0] &&
+      ek_isa_resolve(EK_ISA_AUTO, &forced) == EK_OK && forced != isa)
+    return ek_cli_usage_error("ek-sim",
+                              "EK_ISA=%s forces %s but %s names isa \"%s\": unset EK_ISA or "
+                              "drop the scene's isa key",
+                              env_isa, ek_isa_name(forced), scene_path, ek_isa_name(isa));
   if (steps < 0)
     steps = scene.steps;
   if (!out && !no_output && scene.output_file[0])
     out = scene.output_file;
+  const char *input = out ? output_is_input(out, &scene) : NULL;
+  if (input && out == scene.output_file) {
+    fprintf(stderr,
+            "ek-sim: %s: output.file \"%s\" names the input %s; refusing to write "
+            "frames over it\n",
+            scene_path, out, input);
+    return EK_EXIT_FAILED;
+  }
+  if (input)
+    return ek_cli_usage_error("ek-sim",
+                              "--out %s names the input %s; refusing to write frames "
+                              "over it",
+                              out, input);
   if (threads > 0)
     omp_set_num_threads((int)threads);
   int nthreads = omp_get_max_threads();
+  if (advise && box_fits_memory(&scene) != 0)
+    return EK_EXIT_FAILED;
   if (advise) {
     const double duration = scene.dt * (double)scene.steps;
     if (isnan(sim_time))
       sim_time = duration < EK_ADVISE_TIME_DEFAULT ? duration : EK_ADVISE_TIME_DEFAULT;
+    else if (sim_time < scene.dt || sim_time / scene.dt > (double)EK_TRIAL_MAX_STEPS)
+      return ek_cli_usage_error("ek-sim",
+                                "--time %g: expected from the scene's dt %g (one step) to %ld "
+                                "steps of it (%g s)",
+                                sim_time, scene.dt, EK_TRIAL_MAX_STEPS,
+                                scene.dt * (double)EK_TRIAL_MAX_STEPS);
     return run_advise(&scene, tol, sim_time, do_explain, nthreads);
   }
   if (do_explain) {
     explain(&scene, steps, out, nthreads);
     return 0;
   }
+  if (box_fits_memory(&scene) != 0)
+    return EK_EXIT_FAILED;
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();
@@ -606,6 +723,7 @@ int main(int argc, char **argv) {
     ek_trimesh_destroy(trimesh);
     return 1;
   }
+  print_sim_warning(sim, 0);
   size_t nv = cloth ? ek_trimesh_nverts(trimesh) : ek_mesh_nverts(mesh);
   size_t nt = cloth ? ek_trimesh_ntris(trimesh) : ek_mesh_ntets(mesh);
   // Wall time of each step that ran the fused force kernel (one in ten runs
@@ -627,6 +745,11 @@ int main(int argc, char **argv) {
          *rates = NULL, *vrot = NULL;
   ek_frames *frames = NULL;
   catch_stop_signals();
+  // The step looks at the flag too (between sweeps, Newton and CG
+  // iterations), so a long step ends within about a second of the signal.
+  ek_sim_set_stop_flag(sim, &stop_signal);
+  if (xpbd)
+    warn_long_xpbd_step(&scene, ek_sim_xpbd_constraints(sim), steps);
   if (out) {
     frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
                                          ek_trimesh_tris(trimesh), err, sizeof err)
@@ -670,7 +793,8 @@ int main(int argc, char **argv) {
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
   double t_start = now(), t_last_progress = t_start;
-  long stopped_at = -1; // the step a signal stopped the run before
+  long stopped_at = -1;   // the step a signal stopped the run before
+  int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
     if (stop_signal) {
       stopped_at = n;
@@ -700,11 +824,17 @@ int main(int argc, char **argv) {
     double t_step = now();
     int src = ek_sim_step(sim);
     t_step = now() - t_step;
+    if (src == EK_SIM_ESTOPPED) {
+      stopped_at = n;
+      stopped_inside = 1;
+      break;
+    }
     if (src != 0) {
       fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
       rc = EK_EXIT_FAILED;
       break;
     }
+    print_sim_warning(sim, tty);
     if (!phase_timed)
       step_s[nstep_s++] = t_step;
     if (xpbd) {
@@ -739,13 +869,22 @@ int main(int argc, char **argv) {
     }
     char xdmf[EK_SCENE_PATH_MAX];
     ek_frames_xdmf_path(out, xdmf, sizeof xdmf);
-    printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
+    // A run that ended early (a signal, a failed step) wrote a partial
+    // series: said here, next to the count.
+    const long ran = ek_sim_steps_done(sim);
+    if (ran < steps)
+      printf("frames     %ld written to %s (ParaView: %s); partial: the run ended after step "
+             "%ld of %ld (t = %g s)\n",
+             nframes, out, xdmf, ran, steps, ek_sim_time(sim));
+    else
+      printf("frames     %ld written to %s (ParaView: %s)\n", nframes, out, xdmf);
   }
   if (stopped_at >= 0)
-    fprintf(stderr, "ek-sim: stopped by %s before step %ld of %ld; %ld frames written%s%s%s\n",
-            stop_signal == SIGINT ? "SIGINT" : "SIGTERM", stopped_at, steps, nframes,
-            wrote_frames ? " to " : "", wrote_frames ? out : "",
-            wrote_frames ? " (file closed)" : "");
+    fprintf(stderr, "ek-sim: stopped by %s %s step %ld of %ld; %ld frames written%s%s%s\n",
+            stop_signal == SIGINT ? "SIGINT" : "SIGTERM",
+            stopped_inside ? "inside (not applied)" : "before", stopped_at + stopped_inside, steps,
+            nframes, wrote_frames ? " to " : "", wrote_frames ? out : "",
+            wrote_frames ? " (file closed, a partial series)" : "");
 
   const ek_sim_times *tm = ek_sim_timings(sim);
   long done = tm->steps, fused = tm->steps - tm->phase_timed_steps;

@@ -34,12 +34,11 @@ static int explicit_explain(const ek_scene *s, FILE *out, int number) {
 static int explicit_create(ek_sim *s, void **data) {
   *data = NULL;
   if (s->scene.dt > s->cfl_dt)
-    fprintf(stderr,
-            "ek-sim: warning: %s: dt = %g is above the CFL limit %g (h_min = %g, c = "
-            "sqrt((lambda + 2 mu) / rho) = %g, h_min / c = %g): the explicit loop may be "
-            "unstable\n",
-            s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed,
-            s->h_min / s->wave_speed);
+    sim_warn(s,
+             "%s: dt = %g is above the CFL limit %g (h_min = %g, c = sqrt((lambda + 2 mu) / "
+             "rho) = %g, h_min / c = %g): the explicit loop may be unstable",
+             s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed,
+             s->h_min / s->wave_speed);
   return 0;
 }
 

@@ -101,6 +101,46 @@ static int file_exists(const char *path) {
   return lstat(path, &st) == 0;
 }
 
+// What lstat says is at path when it is not a regular file, else NULL
+// (nothing there, or a regular file).
+static const char *not_regular(const char *path) {
+  struct stat st;
+  if (lstat(path, &st) != 0 || S_ISREG(st.st_mode))
+    return NULL;
+  return S_ISDIR(st.st_mode)    ? "a directory"
+         : S_ISCHR(st.st_mode)  ? "a character device"
+         : S_ISBLK(st.st_mode)  ? "a block device"
+         : S_ISFIFO(st.st_mode) ? "a FIFO"
+         : S_ISSOCK(st.st_mode) ? "a socket"
+         : S_ISLNK(st.st_mode)  ? "a symbolic link"
+                                : "not a regular file";
+}
+
+// Every name the writer creates, renames over or unlinks (the file, its
+// XDMF, their scratch, swap and temporary names) must be free or a regular
+// file, with or without force: the commits rename over these names, which
+// would replace a device, a FIFO or a link by an HDF5 file (issue 28: run
+// as root, --out /dev/null --force replaced the device node) and unlink
+// would remove them. A symbolic link is refused too: the rename replaces
+// the link, not the file it names. Returns 0, or -1 with the reason in err.
+static int check_output_names(const ek_frames *fr, char *err, size_t errlen) {
+  char xmf_tmp[EK_SCENE_PATH_MAX + 8];
+  snprintf(xmf_tmp, sizeof xmf_tmp, "%s.tmp", fr->xdmf_path);
+  const char *names[] = {fr->h5path, fr->xdmf_path, fr->scratch_path, fr->swap_path, xmf_tmp};
+  for (size_t i = 0; i < sizeof names / sizeof *names; ++i) {
+    const char *what = not_regular(names[i]);
+    if (what) {
+      if (err && errlen)
+        snprintf(err, errlen,
+                 "%s: is %s, not a regular file; refusing to write frames there (the output "
+                 "is committed by renaming over this name)",
+                 names[i], what);
+      return -1;
+    }
+  }
+  return 0;
+}
+
 // HDF5 prints its error stack by default; ek reports its own messages.
 typedef struct {
   H5E_auto2_t func;
@@ -523,6 +563,10 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
   snprintf(fr->scratch_path, sizeof fr->scratch_path, "%s.scratch", path);
   snprintf(fr->swap_path, sizeof fr->swap_path, "%s.swap", path);
   ek_frames_xdmf_path(path, fr->xdmf_path, sizeof fr->xdmf_path);
+  if (check_output_names(fr, err, errlen) != 0) {
+    destroy(fr);
+    return NULL;
+  }
   // Never overwrite results unless asked: check both files before touching
   // either. The scratch copy a killed run leaves is ours to overwrite.
   if (!force) {

@@ -363,7 +363,11 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
   s->times.preconditioner += sim_now() - t0;
   for (long k = 0; k < im->max_cg && r0 > 0; k++) {
     double pq = 0;
-    int rc = system_product(s, d, p, q, &pq);
+    // The stop flag between CG iterations (issue 28: a step of many Newton
+    // and CG iterations ignored SIGINT); it reads the flag only.
+    int rc = sim_stop_requested(s, "CG iteration", k + 1, im->max_cg);
+    if (rc == 0)
+      rc = system_product(s, d, p, q, &pq);
     if (rc)
       return rc;
     if (!(pq > 0))
@@ -448,6 +452,8 @@ static int implicit_step(ek_sim *s, void *data) {
   int stalled = 0;
   double *blocks = d->pre;
   while (res > sc->implicit.newton_tol && it < sc->implicit.max_newton && free_mass > 0) {
+    if ((rc = sim_stop_requested(s, "Newton iteration", it + 1, sc->implicit.max_newton)))
+      return rc;
     t0 = sim_now();
     if ((rc = build_preconditioner(s, d, blocks)))
       return rc;
@@ -468,6 +474,8 @@ static int implicit_step(ek_sim *s, void *data) {
     int accepted = 0;
     s->times.line_search += sim_now() - t0;
     for (int bt = 0; bt < MAX_BACKTRACKS; bt++) {
+      if ((rc = sim_stop_requested(s, "line-search trial", bt + 1, MAX_BACKTRACKS)))
+        return rc;
       res_t = INFINITY; // computed below only when a test needs it
       t0 = sim_now();
 #pragma omp parallel for schedule(static) if (d->par)
@@ -522,11 +530,11 @@ static int implicit_step(ek_sim *s, void *data) {
   if (res > sc->implicit.newton_tol) {
     s->times.unconverged_steps++;
     if (s->times.unconverged_steps == 1)
-      fprintf(stderr,
-              "ek-sim: warning: %s: step %ld: Newton stopped at residual %.3g > newton_tol %g "
-              "after %ld iterations (%s); counted in the summary\n",
-              sc->path, s->n, res, sc->implicit.newton_tol, it,
-              stalled ? "the line search found no decrease" : "max_newton");
+      sim_warn(s,
+               "%s: step %ld: Newton stopped at residual %.3g > newton_tol %g after %ld "
+               "iterations (%s); counted in the summary",
+               sc->path, s->n, res, sc->implicit.newton_tol, it,
+               stalled ? "the line search found no decrease" : "max_newton");
   }
 
   // 3. Velocities, held vertices' velocities, the ground.

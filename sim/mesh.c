@@ -30,6 +30,52 @@ void ek_mesh_destroy(ek_mesh *m) {
   free(m);
 }
 
+// An element's vertex set, sorted, and its index: sorted records put
+// duplicates side by side.
+typedef struct {
+  int32_t v[4];
+  size_t index;
+} elem_key;
+
+static int cmp_elem_key(const void *pa, const void *pb) {
+  const elem_key *a = pa, *b = pb;
+  for (int k = 0; k < 4; k++)
+    if (a->v[k] != b->v[k])
+      return a->v[k] < b->v[k] ? -1 : 1;
+  return (a->index > b->index) - (a->index < b->index);
+}
+
+int mesh_find_duplicate(const int32_t *elems, size_t n, int nodes, size_t *first, size_t *second) {
+  elem_key *keys = malloc((n ? n : 1) * sizeof *keys);
+  if (!keys)
+    return -1;
+  for (size_t e = 0; e < n; e++) {
+    elem_key *k = keys + e;
+    k->v[3] = -1; // triangles: the fourth slot is the same for all
+    for (int c = 0; c < nodes; c++) {
+      int32_t x = elems[e * (size_t)nodes + c];
+      int j = c;
+      for (; j > 0 && k->v[j - 1] > x; j--) // insertion sort of <= 4 indices
+        k->v[j] = k->v[j - 1];
+      k->v[j] = x;
+    }
+    k->index = e;
+  }
+  qsort(keys, n, sizeof *keys, cmp_elem_key);
+  int found = 0;
+  for (size_t i = 1; i < n; i++)
+    if (memcmp(keys[i].v, keys[i - 1].v, sizeof keys[i].v) == 0 &&
+        (i < 2 || memcmp(keys[i - 2].v, keys[i].v, sizeof keys[i].v) != 0) &&
+        (!found || keys[i].index < *second)) {
+      // keys[i - 1] and keys[i]: the two lowest indices of this set.
+      *first = keys[i - 1].index;
+      *second = keys[i].index;
+      found = 1;
+    }
+  free(keys);
+  return found;
+}
+
 // Where an element came from, for messages: "file:line" when read from a
 // file, "ek_mesh_create: tet i" otherwise.
 static void where_tet(char *buf, size_t len, const mesh_origin *o, size_t t) {
@@ -88,7 +134,7 @@ static void edge_range(const double D[9], double *lmin, double *lmax) {
 
 // m * 2^e2 as text, also where that value is beyond the range of a double
 // (a rest frame measured in scaled units, see mesh_build).
-static void fmt_scaled(char *buf, size_t len, double m, int e2) {
+void mesh_fmt_scaled(char *buf, size_t len, double m, int e2) {
   double v = ldexp(m, e2);
   if (m == 0 || (isfinite(v) && fabs(v) >= DBL_MIN)) {
     snprintf(buf, len, "%.6g", v);
@@ -214,8 +260,8 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     // Degenerate: 6|V| <= 1e-12 * (longest edge)^3 (DESIGN.md, "Meshes").
     if (fabs(six_v_s) <= EK_MESH_DEGENERATE_REL * lmax_s * lmax_s * lmax_s) {
       char v6[48], lm[48];
-      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
-      fmt_scaled(lm, sizeof lm, lmax_s, e);
+      mesh_fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      mesh_fmt_scaled(lm, sizeof lm, lmax_s, e);
       where_tet(where, sizeof where, origin, t);
       mesh_error(err, errlen, "%s: degenerate: 6V = %s <= %g * (longest edge %s)^3 (zero volume)",
                  where, v6, EK_MESH_DEGENERATE_REL, lm);
@@ -228,7 +274,7 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     double six_v = det3(Dm);
     if (!isfinite(six_v) || fabs(six_v) < DBL_MIN) {
       char v6[48];
-      fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
+      mesh_fmt_scaled(v6, sizeof v6, six_v_s, 3 * e);
       where_tet(where, sizeof where, origin, t);
       mesh_error(err, errlen,
                  "%s: 6V = %s is outside the supported range [%g, %g] of rest volumes (a "
@@ -239,7 +285,7 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     if (six_v_s < 0) {
       if (!fix) {
         char v[48];
-        fmt_scaled(v, sizeof v, six_v_s / 6, 3 * e);
+        mesh_fmt_scaled(v, sizeof v, six_v_s / 6, 3 * e);
         where_tet(where, sizeof where, origin, t);
         mesh_error(err, errlen,
                    "%s: inverted: rest volume %s < 0 (refused; set fix_orientation to swap "
@@ -255,6 +301,29 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     double lmin = ldexp(lmin_s, e);
     if (lmin < m->min_edge)
       m->min_edge = lmin;
+  }
+  {
+    // The same tet twice (in any vertex order) doubles its mass and
+    // stiffness without a word (issue 28: a TetGen file listing a tet twice
+    // loaded). Checked after the shape tests (an odd reordering is
+    // reported as inverted first).
+    size_t first = 0, second = 0;
+    int dup = mesh_find_duplicate(tets_in, ntets, 4, &first, &second);
+    if (dup < 0) {
+      mesh_error(err, errlen, "%s: out of memory", src);
+      goto fail;
+    }
+    if (dup) {
+      char where1[512];
+      where_tet(where, sizeof where, origin, second);
+      where_tet(where1, sizeof where1, origin, first);
+      const int32_t *tv = tets_in + 4 * second;
+      long base = origin ? origin->index_base : 0;
+      mesh_error(err, errlen, "%s: duplicate element: vertices %ld %ld %ld %ld, the same set as %s",
+                 where, (long)tv[0] + base, (long)tv[1] + base, (long)tv[2] + base,
+                 (long)tv[3] + base, where1);
+      goto fail;
+    }
   }
   {
     char el_err[256] = "";

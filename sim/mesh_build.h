@@ -32,6 +32,14 @@ typedef struct {
 
 ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
                     const ek_mesh_opts *opts, const mesh_origin *origin, char *err, size_t errlen);
+// Two of the n elements (nodes = 3 or 4 vertex indices each) with the same
+// vertex set, in any order: returns 1 with *first < *second their indices
+// (of all such pairs, the one whose second element comes first), 0 if every
+// element is distinct, -1 when out of memory. O(n log n).
+int mesh_find_duplicate(const int32_t *elems, size_t n, int nodes, size_t *first, size_t *second);
+// m * 2^e2 as text (%.6g), also where that value is beyond the range of a
+// double (a rest frame measured in scaled units).
+void mesh_fmt_scaled(char *buf, size_t len, double m, int e2);
 void mesh_error(char *err, size_t errlen, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 

@@ -500,6 +500,9 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
         mesh_rd_check_count(r, nblocks, MESH_MAX_ITEMS, "element block") ||
         mesh_rd_count_fits(r, ne, "element") || mesh_rd_count_fits(r, nblocks, "element block"))
       goto done;
+    // The blocks must add up to the header's count, as the node blocks do
+    // (issue 28: blocks of 6 elements under a header of 3 were accepted).
+    long filled = 0;
     for (long b = 0; b < nblocks; b++) {
       long e1, e2, type, n;
       if (mesh_rd_line(r, "element block header") || mesh_rd_long(r, "entity", &e1) ||
@@ -507,6 +510,14 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
           mesh_rd_long(r, "block element count", &n) ||
           mesh_rd_check_count(r, n, ne, "block element"))
         goto done;
+      if (n > ne - filled) {
+        mesh_error(err, errlen,
+                   "%s:%ld: element block of %ld elements exceeds the %ld declared (%ld in "
+                   "earlier blocks)",
+                   path, r->lineno, n, ne, filled);
+        goto done;
+      }
+      filled += n;
       for (long i = 0; i < n; i++) {
         long tag;
         if (mesh_rd_line(r, "elements") || mesh_rd_long(r, "element tag", &tag))
@@ -516,6 +527,11 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
         if (read_elem_nodes(r, map.v, map.n, tag, a))
           goto done;
       }
+    }
+    if (filled != ne) {
+      mesh_error(err, errlen, "%s:%ld: %ld elements in blocks, %ld declared", path, r->lineno,
+                 filled, ne);
+      goto done;
     }
   }
   if (expect_end(r, "$EndElements"))

@@ -6,6 +6,7 @@
 #include <ek/trimesh.h>
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -106,11 +107,29 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
                q[2] + b);
       goto fail;
     }
-    // The degeneracy rule of ek_cloth_create, checked here to name the line.
+    // The degeneracy rule of ek_cloth_create, checked here to name the
+    // line, in scaled units: the edges times 2^-e (largest component in
+    // [0.5, 1), exact), so the test holds at any scale and decides as the
+    // unscaled one wherever that is in range (issue 28: a triangle of size
+    // 1e200 was "degenerate: twice the rest area inf <= inf").
     const double *a = X + 3 * (size_t)q[0], *b = X + 3 * (size_t)q[1], *c = X + 3 * (size_t)q[2];
-    double e1[3], e2[3], e3[3], n[3];
-    for (int k = 0; k < 3; ++k)
+    double e1[3], e2[3], e3[3], n[3], emax = 0;
+    for (int k = 0; k < 3; ++k) {
       e1[k] = b[k] - a[k], e2[k] = c[k] - a[k], e3[k] = c[k] - b[k];
+      emax = fmax(emax, fmax(fabs(e1[k]), fmax(fabs(e2[k]), fabs(e3[k]))));
+    }
+    if (!isfinite(emax)) {
+      long bs = o ? o->base : 0;
+      tm_error(err, errlen,
+               "%s: triangle %zu (%ld %ld %ld): an edge vector overflows (beyond the range of a "
+               "double; supported: see trimesh.h)",
+               at, t, q[0] + bs, q[1] + bs, q[2] + bs);
+      goto fail;
+    }
+    int e = 0;
+    frexp(emax, &e);
+    for (int k = 0; k < 3; ++k)
+      e1[k] = ldexp(e1[k], -e), e2[k] = ldexp(e2[k], -e), e3[k] = ldexp(e3[k], -e);
     n[0] = e1[1] * e2[2] - e1[2] * e2[1];
     n[1] = e1[2] * e2[0] - e1[0] * e2[2];
     n[2] = e1[0] * e2[1] - e1[1] * e2[0];
@@ -118,12 +137,53 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
     double l2 = fmax(fmax(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2],
                           e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]),
                      e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2]);
+    char a2[48], lt[48];
+    mesh_fmt_scaled(a2, sizeof a2, 2 * area, 2 * e);
+    mesh_fmt_scaled(lt, sizeof lt, l2, 2 * e);
     if (!(2 * area > EK_CLOTH_DEGENERATE_REL * l2)) {
       long bs = o ? o->base : 0;
+      char rl[48];
+      mesh_fmt_scaled(rl, sizeof rl, EK_CLOTH_DEGENERATE_REL * l2, 2 * e);
       tm_error(err, errlen,
-               "%s: triangle %zu (%ld %ld %ld): twice the rest area %g <= %g (longest "
-               "edge^2 %g): degenerate (zero-area) triangle",
-               at, t, q[0] + bs, q[1] + bs, q[2] + bs, 2 * area, EK_CLOTH_DEGENERATE_REL * l2, l2);
+               "%s: triangle %zu (%ld %ld %ld): twice the rest area %s <= %s (longest "
+               "edge^2 %s): degenerate (zero-area) triangle",
+               at, t, q[0] + bs, q[1] + bs, q[2] + bs, a2, rl, lt);
+      goto fail;
+    }
+    // The supported range: what the element layer computes in the mesh's
+    // units (ek_cloth_create: |n|^2 = (2A)^2 for the area, n x e1 and
+    // e2 . (n x e1) for the rest frame, of size up to longest edge^2 x 2A)
+    // must be a finite, normal double (trimesh.h). A triangle of size 1e100
+    // would otherwise load with an infinite area.
+    const double a2sq = ldexp(4 * area * area, 4 * e), a2l2 = ldexp(2 * area * l2, 4 * e);
+    if (!isfinite(a2sq) || a2sq < DBL_MIN || !isfinite(a2l2)) {
+      long bs = o ? o->base : 0;
+      tm_error(err, errlen,
+               "%s: triangle %zu (%ld %ld %ld): twice the rest area %s (longest edge^2 %s) is "
+               "outside the supported range: (2A)^2 and 2A x longest edge^2 must be finite, "
+               "normal doubles (2A from about 1.5e-154 to 1.3e154, edges from about 1e-77 to "
+               "1e77 for a well-shaped triangle): rescale the mesh",
+               at, t, q[0] + bs, q[1] + bs, q[2] + bs, a2, lt);
+      goto fail;
+    }
+  }
+  {
+    // The same triangle twice (in any vertex order) doubles its membrane
+    // and makes its edges look non-manifold (issue 28: an OBJ listing a
+    // face twice loaded).
+    size_t first = 0, second = 0;
+    int dup = mesh_find_duplicate(T, nt, 3, &first, &second);
+    if (dup < 0)
+      goto oom;
+    if (dup) {
+      char at1[1100];
+      where(at, sizeof at, o, o ? o->tline : NULL, second, "triangle");
+      where(at1, sizeof at1, o, o ? o->tline : NULL, first, "triangle");
+      const int32_t *q = T + 3 * second;
+      long b = o ? o->base : 0;
+      tm_error(err, errlen,
+               "%s: duplicate element: triangle (%ld %ld %ld), the same vertices as %s", at,
+               q[0] + b, q[1] + b, q[2] + b, at1);
       goto fail;
     }
   }

@@ -547,14 +547,31 @@ static int parse_cloth(parse_ctx *c, const cJSON *root, ek_scene *s) {
     rc = get_number(c, cl, "cloth", "bending_stiffness", 0, &s->bending_stiffness, &kb);
   if (!rc && kb && !(s->bending_stiffness >= 0))
     rc = bad(c, "cloth.bending_stiffness", kb, "must be >= 0");
+  if (!rc && kb && !isfinite(s->bending_stiffness))
+    rc = bad(c, "cloth.bending_stiffness", kb, "must be finite");
+  // The values per unit area the sheet runs on (sim_core.c: mu h, the
+  // plane-stress lambda times h, the mass density times h) must be finite
+  // and the mass > 0: named here by the key, not at step 1 by internal
+  // values (issue 28: thickness 1e300).
+  const double mu = s->material.mu, lam = s->material.lambda, h = s->thickness;
+  const double mu_h = mu * h, lam_h = 2 * mu * lam / (lam + 2 * mu) * h, rho_h = s->density * h;
+  if (!rc && (!isfinite(mu_h) || !isfinite(lam_h) || !isfinite(rho_h) || !(rho_h > 0)))
+    rc = bad(c, "cloth.thickness", th,
+             "the sheet's values per unit area are out of range (mu h = %g, plane-stress lambda "
+             "h = %g Pa m, density h = %g kg/m^2: each must be finite, the last > 0)",
+             mu_h, lam_h, rho_h);
   if (rc || kb)
     return rc;
   // Plate flexural rigidity D = E h^3 / (12 (1 - nu^2)) (Timoshenko and
   // Woinowsky-Krieger, "Theory of plates and shells", sec. 4), with E, nu
   // from mu, lambda when those were given.
-  double mu = s->material.mu, lam = s->material.lambda;
   double E = mu * (3 * lam + 2 * mu) / (lam + mu), nu = lam / (2 * (lam + mu));
   s->bending_stiffness = E * s->thickness * s->thickness * s->thickness / (12 * (1 - nu * nu));
+  if (!isfinite(s->bending_stiffness))
+    return bad(c, "cloth.thickness", th,
+               "the bending stiffness E h^3 / (12 (1 - nu^2)) = %g from it is not finite (give "
+               "cloth.bending_stiffness, or a smaller thickness)",
+               s->bending_stiffness);
   return 0;
 }
 

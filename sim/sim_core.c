@@ -51,6 +51,23 @@ int sim_fail(ek_sim *s, const char *fmt, ...) {
   return EK_EINVAL;
 }
 
+void sim_warn(ek_sim *s, const char *fmt, ...) {
+  if (s->warning[0])
+    return;
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(s->warning, sizeof s->warning, fmt, ap);
+  va_end(ap);
+}
+
+const char *ek_sim_warning(ek_sim *s, char *buf, size_t len) {
+  if (!s || !s->warning[0])
+    return NULL;
+  snprintf(buf, len, "%s", s->warning);
+  s->warning[0] = '\0';
+  return buf;
+}
+
 static double det3(const double *A) {
   return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
          A[2] * (A[3] * A[7] - A[4] * A[6]);
@@ -109,18 +126,39 @@ static double min_tet_height(const ek_mesh *m) {
 // gradients), sigma = lambda tr(eps) I + 2 mu eps with eps = sym(H), and
 // f_a = V sigma g_a. The rigid modes are K_e's null space, so the iteration
 // finds the largest eigenvalue from any start with a component along it.
-static double tet_omega2_max(const double *X, const int32_t *t, double lambda, double mu,
-                             double rho) {
-  double D[3][3], g[4][3];
+//
+// Scale-free (issue 28: a box of edge 1e100 or 1e-100, or density 1e-300,
+// printed its CFL limit as inf: |M^-1 K x|^2 under- or overflowed): the
+// iteration runs on the element scaled by 2^-e (its largest edge
+// component in [0.5, 1)), lambda and mu by 2^-a and rho by 2^-b, all
+// powers of two, so every product and quotient is the unscaled one times
+// a power of two, exactly (rounding commutes with such scaling between
+// DBL_MIN and DBL_MAX): where the unscaled iteration stayed in range the
+// result is the same bits. omega^2 = *w2 2^*k, returned split because it
+// may itself be beyond a double (rho 1e-300 on a small element).
+static void tet_omega2_max(const double *X, const int32_t *t, double lambda, double mu, double rho,
+                           double *w2, int *k) {
+  *w2 = 0, *k = 0;
+  double D[3][3], g[4][3], dmax = 0;
+  for (int c = 0; c < 3; ++c)
+    for (int i = 0; i < 3; ++i) {
+      D[i][c] = X[3 * t[c + 1] + i] - X[3 * t[0] + i];
+      dmax = fmax(dmax, fabs(D[i][c]));
+    }
+  int e = 0, a = 0, b = 0;
+  frexp(dmax, &e);
+  frexp(fmax(mu, fabs(lambda)), &a);
+  frexp(rho, &b);
   for (int c = 0; c < 3; ++c)
     for (int i = 0; i < 3; ++i)
-      D[i][c] = X[3 * t[c + 1] + i] - X[3 * t[0] + i];
+      D[i][c] = ldexp(D[i][c], -e);
+  mu = ldexp(mu, -a), lambda = ldexp(lambda, -a), rho = ldexp(rho, -b);
   double det = D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) -
                D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
                D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0]);
   double V = fabs(det) / 6.0;
   if (!(V > 0))
-    return 0;
+    return;
   // Rows of D^-1 are the gradients of the shape functions of vertices 1..3.
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
@@ -155,13 +193,15 @@ static double tet_omega2_max(const double *X, const int32_t *t, double lambda, d
     rq = xy / xx;
     double n = sqrt(yy);
     if (!(n > 0))
-      return 0;
+      return;
     for (int k = 0; k < 12; ++k)
       x[k] = y[k] / n;
     if (it > 20 && fabs(rq - prev) <= 1e-12 * rq)
       break;
   }
-  return rq;
+  // M^-1 K scales as stiffness / (density length^2): 2^(a - b - 2e).
+  *w2 = rq;
+  *k = a - b - 2 * e;
 }
 
 // The explicit step's stability limit: symplectic Euler is stable for
@@ -170,15 +210,33 @@ static double tet_omega2_max(const double *X, const int32_t *t, double lambda, d
 // inequality: x^T K x = sum_e x_e^T K_e x_e <= max_e omega_e^2 x^T M x;
 // Belytschko, Liu, Moran, "Nonlinear Finite Elements for Continua and
 // Structures", sec. 6.3), so 2 / max_e omega_e is a step that cannot be
-// unstable for the linearised model at rest.
+// unstable for the linearised model at rest. The maximum is kept as a
+// fraction in [0.5, 1) and a power of two, so the limit is finite and
+// non-zero wherever a double holds it (sim.h, ek_sim_cfl_dt), and the same
+// bits as 2 / sqrt(max_e omega_e^2) wherever that is in range.
 static double element_cfl_dt(const ek_mesh *m, double lambda, double mu, double rho) {
   const double *X = ek_mesh_rest_positions(m);
   const int32_t *T = ek_mesh_tets(m);
   size_t nt = ek_mesh_ntets(m);
-  double w2 = 0;
-  for (size_t e = 0; e < nt; ++e)
-    w2 = fmax(w2, tet_omega2_max(X, T + 4 * e, lambda, mu, rho));
-  return w2 > 0 ? 2.0 / sqrt(w2) : INFINITY;
+  double wmax = 0; // max_e omega_e^2 = wmax 2^kmax, wmax in [0.5, 1) or 0
+  int kmax = 0;
+  for (size_t e = 0; e < nt; ++e) {
+    double w2;
+    int k, ke;
+    tet_omega2_max(X, T + 4 * e, lambda, mu, rho, &w2, &k);
+    if (!(w2 > 0))
+      continue;
+    w2 = frexp(w2, &ke);
+    k += ke;
+    if (wmax == 0 || k > kmax || (k == kmax && w2 > wmax))
+      wmax = w2, kmax = k;
+  }
+  if (wmax == 0)
+    return INFINITY;
+  // 2 / sqrt(wmax 2^kmax), the exponent made even so the root is exact.
+  if (kmax % 2)
+    wmax *= 2, kmax -= 1;
+  return ldexp(2.0 / sqrt(wmax), -kmax / 2);
 }
 
 // Rodrigues' rotation of p about unit axis k by angle theta.
@@ -571,6 +629,16 @@ int sim_forces(ek_sim *s, const double *x) {
   return 0;
 }
 
+// ", dt D is above the CFL limit C" for an explicit scene stepped above its
+// limit, else "": the likely cause of a blow-up, said where it is reported.
+static const char *cfl_hint(const ek_sim *s, char *buf, size_t len) {
+  buf[0] = '\0';
+  if (s->integrator == &sim_integrator_explicit && s->scene.dt > s->cfl_dt)
+    snprintf(buf, len, "; dt %g is %.3g times the CFL limit %g", s->scene.dt,
+             s->scene.dt / s->cfl_dt, s->cfl_dt);
+  return buf;
+}
+
 int sim_check_forces(ek_sim *s, const double *x) {
   size_t bad_vertex = (size_t)-1;
   for (size_t i = 0; i < s->nv && bad_vertex == (size_t)-1; ++i)
@@ -579,31 +647,71 @@ int sim_check_forces(ek_sim *s, const double *x) {
         bad_vertex = i;
   if (bad_vertex == (size_t)-1)
     return 0;
+  char hint[128];
+  const double *f = s->f + 3 * bad_vertex;
+  // Three causes, told apart (issue 28: a NaN state was reported as every
+  // tet "inverted (J = -nan) ... use an invertible model", even for fixed
+  // corotated): positions that are not finite (a blow-up the state check
+  // missed, e.g. a line-search trial point), elements outside the model's
+  // domain (neo-Hookean without clamp, J <= 0: material.h), or a finite
+  // state whose force overflows.
+  for (size_t i = 0; i < 3 * s->nv; ++i)
+    if (!isfinite(x[i]))
+      return sim_fail(s, "step %ld (t = %g): non-finite state: vertex %zu position (%g, %g, %g)%s",
+                      s->n, s->t, i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
+                      cfl_hint(s, hint, sizeof hint));
   if (s->cloth)
-    return sim_fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
-                    s->t, bad_vertex, s->scene.dt, s->cfl_dt);
-  // Forces are NaN where an element left the model's domain (neo-Hookean
-  // with J <= 0, fvm.h); say which.
+    return sim_fail(s,
+                    "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
+                    "positions%s",
+                    s->n, s->t, f[0], f[1], f[2], bad_vertex, cfl_hint(s, hint, sizeof hint));
   const int32_t *T = ek_mesh_tets(s->mesh);
   size_t inverted = 0, first = 0;
   double first_J = 0;
   const double *V0 = ek_mesh_rest_volumes(s->mesh);
   for (size_t e = 0; e < s->nt; ++e) {
     double J = tet_volume(x, T + 4 * e) / V0[e];
-    if (!(J > 0) && inverted++ == 0) {
+    if (J <= 0 && inverted++ == 0) {
       first = e;
       first_J = J;
     }
   }
-  if (inverted) {
+  const int domain_limited = s->mat.model == EK_MODEL_NEO_HOOKEAN && !(s->mat.clamp > 0);
+  if (inverted && domain_limited) {
     snprintf(s->error, sizeof s->error,
              "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
              "model %s is undefined there (use an invertible model or material.clamp > 0)",
              s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
     return EK_SIM_EINVERTED;
   }
-  return sim_fail(s, "step %ld (t = %g): non-finite force at vertex %zu (dt %g vs CFL %g)", s->n,
-                  s->t, bad_vertex, s->scene.dt, s->cfl_dt);
+  return sim_fail(s,
+                  "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
+                  "positions (%zu of %zu tets with J <= 0; model %s is finite for every finite "
+                  "F there, so a value overflowed)%s",
+                  s->n, s->t, f[0], f[1], f[2], bad_vertex, inverted, s->nt,
+                  ek_scene_model_name(s->mat.model), cfl_hint(s, hint, sizeof hint));
+}
+
+// The state a step wrote must be finite (issue 28: at dt = 1e3 the state
+// was NaN after the last step and the run ended with success; gravity 1e308
+// gave inf positions and a NaN energy). A step that leaves a non-finite
+// position or velocity fails there, before it is applied, so the state and
+// every frame written hold finite values only. One read of x and v per
+// step, next to a force evaluation per tet.
+static int check_state(ek_sim *s) {
+  const size_t n3 = 3 * s->nv;
+  for (size_t i = 0; i < n3; ++i) {
+    if (isfinite(s->x_next[i]) && isfinite(s->v_next[i]))
+      continue;
+    const double *x = s->x_next + (i - i % 3), *v = s->v_next + (i - i % 3);
+    char hint[128];
+    return sim_fail(s,
+                    "step %ld (t = %g): non-finite state after the step: vertex %zu position "
+                    "(%g, %g, %g), velocity (%g, %g, %g)%s",
+                    s->n, s->t, i / 3, x[0], x[1], x[2], v[0], v[1], v[2],
+                    cfl_hint(s, hint, sizeof hint));
+  }
+  return 0;
 }
 
 int ek_sim_step(ek_sim *s) {
@@ -613,6 +721,8 @@ int ek_sim_step(ek_sim *s) {
   int rc = refresh_rotations(s);
   if (rc == 0)
     rc = s->integrator->step(s, s->integrator_data);
+  if (rc == 0)
+    rc = check_state(s);
   if (rc)
     return rc;
   double *tmp = s->x;
@@ -625,6 +735,21 @@ int ek_sim_step(ek_sim *s) {
   s->n++;
   s->times.steps++;
   return 0;
+}
+
+void ek_sim_set_stop_flag(ek_sim *s, const volatile sig_atomic_t *flag) {
+  if (s)
+    s->stop_flag = flag;
+}
+
+int sim_stop_requested(ek_sim *s, const char *where, long i, long n) {
+  if (!s->stop_flag || !*s->stop_flag)
+    return 0;
+  snprintf(s->error, sizeof s->error,
+           "step %ld (t = %g): stopped inside the step, at %s %ld of "
+           "%ld; the step is not applied",
+           s->n, s->t, where, i, n);
+  return EK_SIM_ESTOPPED;
 }
 
 void ek_sim_time_phases(ek_sim *s, int on) { s->time_phases = on; }

@@ -90,12 +90,17 @@ struct ek_sim {
   ek_sim_newton_trace newton; // filled by the implicit integrator
   const sim_integrator *integrator;
   void *integrator_data;
+  const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
+  char warning[512]; // pending, for ek_sim_warning; "" when none
 };
 
 double sim_now(void);
 // Message into sim->error; returns EK_EINVAL.
 int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// A warning for the caller (ek_sim_warning): the library prints nothing
+// itself (core.h). A pending one is kept; a second is dropped.
+void sim_warn(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 // The cloth parts of the core (sim/cloth_core.c): forces, CFL length,
 // energy, fields.
 int sim_cloth_forces(ek_sim *sim, const double *x);
@@ -109,6 +114,10 @@ int sim_forces(ek_sim *sim, const double *x);
 // EK_EINVAL for a non-finite force with no inverted tet (e.g. dt far above
 // the CFL limit); message in sim->error.
 int sim_check_forces(ek_sim *sim, const double *x);
+// EK_SIM_ESTOPPED with the message in sim->error if the caller's stop flag
+// is set (ek_sim_set_stop_flag), else 0. `where` names the point in the
+// step ("XPBD substep 3 of 100000").
+int sim_stop_requested(ek_sim *sim, const char *where, long i, long n);
 // Position and velocity that condition b prescribes at time t to a vertex
 // whose initial position is x0.
 void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3], double v[3]);

@@ -198,6 +198,14 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
   }
   ek_scene s = *scene;
   double nsteps = ceil(sim_time / s.dt - 1e-9);
+  // Checked before the cast to long, which overflows (undefined) for
+  // sim_time 1e300 (issue 28: a table of NaN costs, exit 0).
+  if (!(nsteps <= (double)EK_TRIAL_MAX_STEPS)) {
+    snprintf(t->error, sizeof t->error,
+             "trial: simulated time %g at dt %g is %.3g steps, more than %ld", sim_time, s.dt,
+             nsteps, EK_TRIAL_MAX_STEPS);
+    return -1;
+  }
   s.steps = (long)(nsteps < 1 ? 1 : nsteps);
   s.dt = sim_time / (double)s.steps;
   s.output_file[0] = '\0';

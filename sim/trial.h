@@ -71,12 +71,15 @@ typedef struct {
   ek_trial_monitor monitor;
 } ek_trial;
 
+// The most steps one trial runs (ek-sim --steps takes at most the same).
+#define EK_TRIAL_MAX_STEPS 1000000000L
+
 // Run `scene` on `mesh` (a tet scene) for sim_time simulated seconds:
 // steps = ceil(sim_time / scene->dt) (to 1e-9 of a step) and dt = sim_time /
-// steps. monitor != 0 records t->monitor (costs an SVD per tet per sample,
-// outside the timed steps). Returns 0 when the trial ran (t->failed tells
-// whether the simulation did), < 0 only when the trial itself could not be
-// set up (out of memory; message in t->error). Free with ek_trial_free.
+// steps; more than EK_TRIAL_MAX_STEPS steps is refused (< 0, message). monitor != 0 records
+// t->monitor (costs an SVD per tet per sample, outside the timed steps). Returns 0 when the trial
+// ran (t->failed tells whether the simulation did), < 0 only when the trial itself could not be set
+// up (out of memory; message in t->error). Free with ek_trial_free.
 int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, int monitor,
                  ek_trial *t);
 void ek_trial_free(ek_trial *t);

@@ -133,6 +133,8 @@ static int xpbd_step(ek_sim *s, void *data) {
   memcpy(d->vs, s->v, n3 * sizeof(double));
   int rc = 0;
   for (long sub = 0; sub < K && rc == 0; sub++) {
+    if (sim_stop_requested(s, "XPBD substep", sub + 1, K))
+      return EK_SIM_ESTOPPED;
     double t0 = sim_now();
     const double t1 = s->t + (double)(sub + 1) * h;
     for (size_t i = 0; i < nv; i++) {
@@ -164,10 +166,21 @@ static int xpbd_step(ek_sim *s, void *data) {
     }
     s->times.integration += sim_now() - t0;
     t0 = sim_now();
-    if (rc == 0)
-      rc = d->cx ? ek_cloth_xpbd_iterate(d->cx, s->x_next, (int)N)
-           : f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, (int)N)
-                 : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, (int)N);
+    // The sweeps in slices between looks at the stop flag (issue 28: 1e5
+    // substeps x 1e5 iterations ignored SIGINT); the multipliers live in
+    // the solver from begin on, so slices give the same bits as one call.
+    const long slice = s->stop_flag ? EK_SIM_STOP_SWEEPS : N;
+    long done = 0;
+    do {
+      if (done > 0 && sim_stop_requested(s, "XPBD sweep", done + 1, N))
+        return EK_SIM_ESTOPPED;
+      const int n = (int)(N - done < slice ? N - done : slice);
+      if (rc == 0)
+        rc = d->cx ? ek_cloth_xpbd_iterate(d->cx, s->x_next, n)
+             : f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, n)
+                   : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, n);
+      done += n;
+    } while (rc == 0 && done < N);
     s->times.xpbd_solve += sim_now() - t0;
     s->times.xpbd_sweeps += N;
     if (rc)

@@ -2,7 +2,9 @@
 # Every ek program and test binary behaves alike on its command line
 # (sim/cli.h): --help and -h print help naming the environment variables and
 # exit 0, --version exits 0, a bad option or EK_ISA value exits 2 with one
-# error line, errors are printed once.
+# error line, errors are printed once; and the faults of issue 28 that a
+# command line reaches (outputs that are not files or are the input, options
+# that overflow, a run that goes NaN, a full disk).
 #   cli.sh BIN_DIR SCENES_DIR TEST_BINARY...
 set -u
 bin=$1 scenes=$2
@@ -88,6 +90,84 @@ expect "ek-sim --tol without --advise" 2 "$bin/ek-sim" "$scenes/small_strain.jso
   one_error "ek-sim --tol without --advise"
 expect "ek-sim --advise --steps" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise --steps 5 &&
   one_error "ek-sim --advise --steps"
+
+# Issue 28: faults and hostile input.
+work=$(mktemp -d)
+trap 'rm -f "$out" "$err"; rm -rf "$work"' EXIT
+fail() {
+  echo "FAIL $1"
+  failures=$((failures + 1))
+}
+# Output paths that are not regular files: refused, even with --force, and
+# left as they were (the commit renames over the path).
+mkfifo "$work/fifo.h5"
+mkdir "$work/dir.h5"
+expect "ek-sim --out FIFO --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/fifo.h5" --force && one_error "ek-sim --out FIFO --force"
+[ -p "$work/fifo.h5" ] || fail "ek-sim --out FIFO --force: the FIFO was replaced"
+expect "ek-sim --out DIR --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/dir.h5" --force && one_error "ek-sim --out DIR --force"
+[ -d "$work/dir.h5" ] || fail "ek-sim --out DIR --force: the directory was replaced"
+expect "ek-bench --out FIFO --force" 1 "$bin/ek-bench" --filter nothing --out "$work/fifo.h5" \
+  --json "$work/b.json" --force && one_error "ek-bench --out FIFO --force"
+[ -p "$work/fifo.h5" ] || fail "ek-bench --out FIFO --force: the FIFO was replaced"
+# The input scene as the output.
+cp "$scenes/cantilever.json" "$work/scene.json"
+expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \
+  --out "$work/scene.json" --force && one_error "ek-sim --out SCENE --force"
+cmp -s "$scenes/cantilever.json" "$work/scene.json" || fail "ek-sim --out SCENE: scene changed"
+# --advise --time out of range (the step count overflowed a long).
+for t in 1e300 1e-300; do
+  expect "ek-sim --advise --time $t" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise \
+    --time "$t" && one_error "ek-sim --advise --time $t"
+done
+# ek-verify --json: checked before the first row, never overwritten without
+# --force, never a directory.
+echo keep >"$work/v.json"
+expect "ek-verify --json EXISTING" 1 "$bin/ek-verify" --filter nothing --json "$work/v.json" &&
+  one_error "ek-verify --json EXISTING"
+[ "$(cat "$work/v.json")" = keep ] || fail "ek-verify --json EXISTING: overwritten"
+grep -q "ek-verify:.*rows" "$out" && fail "ek-verify --json EXISTING: ran the rows first"
+expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --filter nothing \
+  --json "$work/v.json" --force
+grep -q '"tool"' "$work/v.json" || fail "ek-verify --json --force: not written"
+expect "ek-verify --json DIR" 1 "$bin/ek-verify" --filter nothing --json "$work/dir.h5" &&
+  one_error "ek-verify --json DIR"
+expect "ek-verify --json NO/FOLDER" 1 "$bin/ek-verify" --filter nothing \
+  --json "$work/none/v.json" && one_error "ek-verify --json NO/FOLDER"
+# A run whose state goes NaN fails (exit 1) at the step it happens, even
+# the last one, naming a non-finite state.
+printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
+  ' "material": {"model": "fixed_corotated", "E": 1e5, "nu": 0.3, "density": 1000},' \
+  ' "boundary": [{"type": "pin", "region": {"min": [0, 0, 0], "max": [1, 1, 0]}}],' \
+  ' "gravity": [0, 0, -9.81], "dt": 1e3, "steps": 50}' >"$work/nan.json"
+expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
+grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
+grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
+# A box too large for any machine's memory: refused before allocating,
+# with the estimate (--explain still explains it).
+sed 's/"box": \[100, 1, 10\]/"box": [4096, 4096, 4096]/' "$scenes/cantilever.json" >"$work/huge.json"
+expect "ek-sim on a 4096^3 box" 1 "$bin/ek-sim" "$work/huge.json" --no-output &&
+  one_error "ek-sim on a 4096^3 box"
+grep -q "needs at least" "$err" || fail "ek-sim on a 4096^3 box: no estimate in: $(cat "$err")"
+expect "ek-sim --explain on a 4096^3 box" 0 "$bin/ek-sim" "$work/huge.json" --explain
+# A scene's isa and an EK_ISA that disagree.
+sed 's/^{/{"isa": "scalar",/' "$scenes/cantilever.json" >"$work/isa.json"
+expect "scene isa scalar under EK_ISA=avx2" 2 env EK_ISA=avx2 "$bin/ek-sim" "$work/isa.json" \
+  --no-output --steps 1 && one_error "scene isa scalar under EK_ISA=avx2"
+# A full disk (a file size limit: writes fail with EFBIG): a message and
+# exit 1, no crash at exit (rc 139 was HDF5's atexit close).
+(
+  ulimit -f 1500
+  trap '' XFSZ
+  exec "$bin/ek-sim" "$scenes/cantilever.json" --steps 3000 --out "$work/full.h5"
+) >"$out" 2>"$err" </dev/null
+rc=$?
+if [ "$rc" -ne 1 ]; then
+  fail "ek-sim on a full disk: exit $rc, expected 1"
+  sed 's/^/  | /' "$err" | head -5
+fi
+grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not named partial"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

@@ -14,6 +14,19 @@
 //     EK_EINVAL from every batch entry point and writes nothing; an array not
 //     aligned to its element type gives EK_EINVAL; element-aligned arrays
 //     that are not 64-byte aligned work and give the same bits.
+//   - faults (issue 28): frames are never written over a directory, FIFO
+//     or symbolic link (nor over a scratch name that is one), even with
+//     force; the same tet (TetGen, in memory) or triangle (OBJ) twice is
+//     refused naming both places; Gmsh v4.1 element blocks must add up to
+//     the header's count; a triangle at 1e+-70 loads and one at 1e+-100 is
+//     "outside the supported range", never "degenerate ... inf" nor loaded
+//     with an infinite area (the element layer squares 2A); the CFL
+//     limit scales exactly under power-of-two changes of length and
+//     density and is finite at 1e+-100 m and 1e-300 kg/m^3; a state that
+//     goes non-finite fails the step that made it ("non-finite", never
+//     "invertible"), the state kept finite; the stop flag leaves the bits
+//     of a run unchanged and, set, stops a step without applying it; cloth
+//     thickness 1e300 is refused naming cloth.thickness.
 // Run under the asan preset it also checks that every error path frees
 // what it took (ctest --preset asan -R bad_input).
 #include <ek/batch.h>
@@ -23,8 +36,10 @@
 #include <ek/mesh.h>
 #include <ek/sim.h>
 #include <ek/svd3.h>
+#include <ek/trimesh.h>
 
 #include <math.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -332,6 +347,290 @@ static void scenes(void) {
   }
 }
 
+// ---- faults and hostile input (issue 28)
+
+// The box's bottom face held: gravity then strains it.
+#define PIN                                                                                        \
+  "\"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 0], \"max\": [1, 1, 0]}}]"
+
+// Output names that are not regular files: refused with what they are, even
+// with force, and left as they were.
+static void frames_outputs(void) {
+  printf("-- output paths\n");
+  double X[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  int32_t tet[4] = {0, 1, 2, 3};
+  char path[512], err[1024];
+  struct stat st;
+  // A directory, a FIFO and a symbolic link at the frames' own name.
+  snprintf(path, sizeof path, "%s/out_dir.h5", tmp_dir);
+  mkdir(path, 0700);
+  ek_frames *fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a directory, --force: refused",
+          !fr && strstr(err, "is a directory") && stat(path, &st) == 0 && S_ISDIR(st.st_mode), err);
+  ek_frames_close(fr, NULL, 0);
+  snprintf(path, sizeof path, "%s/out_fifo.h5", tmp_dir);
+  int made = mkfifo(path, 0600) == 0;
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a FIFO, --force: refused, still a FIFO",
+          made && !fr && strstr(err, "is a FIFO") && lstat(path, &st) == 0 && S_ISFIFO(st.st_mode),
+          err);
+  ek_frames_close(fr, NULL, 0);
+  write_text("target.txt", "not ek's\n");
+  char target[512];
+  snprintf(target, sizeof target, "%s/target.txt", tmp_dir);
+  snprintf(path, sizeof path, "%s/out_link.h5", tmp_dir);
+  made = symlink(target, path) == 0;
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames to a symbolic link, --force: refused",
+          made && !fr && strstr(err, "symbolic link") && lstat(path, &st) == 0 &&
+              S_ISLNK(st.st_mode) && stat(target, &st) == 0 && st.st_size == 9,
+          err);
+  ek_frames_close(fr, NULL, 0);
+  // The scratch name (renamed over at each frame) as a directory.
+  snprintf(path, sizeof path, "%s/out_scratch.h5.scratch", tmp_dir);
+  mkdir(path, 0700);
+  snprintf(path, sizeof path, "%s/out_scratch.h5", tmp_dir);
+  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  verdict("frames whose scratch name is a directory: refused",
+          !fr && strstr(err, "out_scratch.h5.scratch: is a directory") && lstat(path, &st) != 0,
+          err);
+  ek_frames_close(fr, NULL, 0);
+}
+
+// The same element twice, and element counts that the blocks do not match.
+static void duplicates(void) {
+  printf("-- duplicate elements\n");
+  char err[1024];
+  write_text("dup.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n");
+  write_text("dup.ele", "3 4 0\n1 1 2 3 4\n2 2 3 4 5\n3 2 3 1 4\n");
+  // Tet 3 is tet 1 with its first three vertices rotated (same
+  // orientation: the same element in another order).
+  mesh_refused("TetGen: the same tet twice (any order): refused", load("dup", err, sizeof err), err,
+               "dup.ele:4: tet 2", "duplicate element: vertices 2 3 1 4", "the same set as", NULL);
+  {
+    double X[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+    int32_t T[8] = {0, 1, 2, 3, 3, 2, 1, 0};
+    ek_mesh *m = ek_mesh_create(5, X, 2, T, err, sizeof err);
+    mesh_refused("in memory: the same tet twice: refused", m, err, "tet 1", "duplicate element",
+                 "tet 0", NULL);
+  }
+  write_text("dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 3 1 2\n");
+  char path[512];
+  snprintf(path, sizeof path, "%s/dup.obj", tmp_dir);
+  ek_trimesh *tm = ek_trimesh_load(path, err, sizeof err);
+  verdict("OBJ: the same triangle twice: refused, both lines",
+          !tm &&
+              contains_all(err, "dup.obj:7", "duplicate element: triangle (3 1 2)",
+                           "the same vertices as") &&
+              strstr(err, "dup.obj:5") && printable(err),
+          err);
+  ek_trimesh_destroy(tm);
+  // Gmsh v4.1: two element blocks of 2 tets under a header of 3.
+  write_text("blocks.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
+                           "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+                           "$Elements\n2 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n"
+                           "3 2 4 2\n3 1 2 3 5\n4 1 2 4 5\n$EndElements\n");
+  mesh_refused("Gmsh v4.1: blocks hold more elements than declared",
+               load("blocks.msh", err, sizeof err), err, "blocks.msh:23",
+               "element block of 2 elements exceeds the 3 "
+               "declared",
+               NULL, NULL);
+  write_text("blocks2.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
+                            "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+                            "$Elements\n1 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n$EndElements\n");
+  mesh_refused("Gmsh v4.1: blocks hold fewer elements than declared",
+               load("blocks2.msh", err, sizeof err), err, "2 elements in blocks, 3 declared", NULL,
+               NULL, NULL);
+}
+
+// One triangle of size s: loads with the area s^2 / 2 (scale-free shape
+// test; within EK_MESH_TOL) or is refused as outside the supported range,
+// never as "degenerate", never loaded with an infinite area.
+static void triangle_at(double s, int loads) {
+  double X[9] = {0, 0, 0, s, 0, 0, 0, s, 0};
+  int32_t T[3] = {0, 1, 2};
+  char err[1024] = "", what[96], detail[1200];
+  ek_trimesh *m = ek_trimesh_create(3, X, 1, T, err, sizeof err);
+  double A = m ? ek_cloth_rest_areas(ek_trimesh_cloth(m))[0] : NAN;
+  double rel = fabs(A / (0.5 * s * s) - 1);
+  snprintf(what, sizeof what, "triangle of size %g: %s", s,
+           loads ? "loads, area s^2 / 2" : "refused as out of range");
+  snprintf(detail, sizeof detail, "area %g (relative error %.3g, budget %g) %s", A, rel,
+           EK_MESH_TOL, err);
+  verdict(what,
+          loads ? m && rel <= EK_MESH_TOL
+                : !m && strstr(err, "outside the supported range") && !strstr(err, "degenerate") &&
+                      !strstr(err, "inf") && printable(err),
+          detail);
+  ek_trimesh_destroy(m);
+}
+
+// The explicit limit of a 2x2x2 box of edge L and density rho.
+static double box_cfl(double L, double rho) {
+  char err[1024];
+  ek_scene sc;
+  if (ek_scene_parse("{" MESH ", " MAT ", " TAIL "}", "cfl.json", ".", &sc, err, sizeof err))
+    return NAN;
+  sc.density = rho;
+  ek_mesh *m = ek_mesh_box(2, 2, 2, L, L, L, err, sizeof err);
+  ek_sim *sim = m ? ek_sim_create(&sc, m, err, sizeof err) : NULL;
+  double dt = sim ? ek_sim_cfl_dt(sim) : NAN;
+  if (!sim)
+    printf("  box %g, density %g: %s\n", L, rho, err);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+  return dt;
+}
+
+static void scales(void) {
+  printf("-- extreme but valid scales\n");
+  triangle_at(1e-70, 1);
+  triangle_at(1e70, 1);
+  triangle_at(1e100, 0);
+  triangle_at(1e-100, 0);
+  triangle_at(1e200, 0);
+  // The CFL limit scales as length * sqrt(density / stiffness): scaling by
+  // powers of two gives exactly the scaled limit (sim_core.c computes it
+  // scale-free), and it is finite and > 0 at 1e+-100 and density 1e-300.
+  double base = box_cfl(1, 1000);
+  char detail[256];
+  const int k = 330;
+  double big = box_cfl(ldexp(1, k), 1000), small = box_cfl(ldexp(1, -k), 1000);
+  double light = box_cfl(1, ldexp(1000, -2 * k));
+  snprintf(detail, sizeof detail, "dt(1) %.17g, dt(2^%d) / 2^%d %.17g, dt(2^-%d) * 2^%d %.17g",
+           base, k, k, ldexp(big, -k), k, k, ldexp(small, k));
+  verdict("CFL of a box of edge 2^+-330: exactly scaled",
+          isfinite(base) && base > 0 && big == ldexp(base, k) && small == ldexp(base, -k), detail);
+  snprintf(detail, sizeof detail, "dt(rho 1000 * 2^-%d) %.17g = dt(rho 1000) * 2^-%d: %.17g", 2 * k,
+           light, k, ldexp(base, -k));
+  verdict("CFL at density 1000 * 2^-660: exactly scaled", light == ldexp(base, -k), detail);
+  double d1 = box_cfl(1e100, 1000), d2 = box_cfl(1e-100, 1000), d3 = box_cfl(1, 1e-300);
+  snprintf(detail, sizeof detail, "edge 1e100: %g, edge 1e-100: %g, density 1e-300: %g", d1, d2,
+           d3);
+  verdict("CFL finite and > 0 at 1e+-100 m and 1e-300 kg/m^3",
+          isfinite(d1) && d1 > 0 && isfinite(d2) && d2 > 0 && isfinite(d3) && d3 > 0, detail);
+}
+
+// A run whose state goes non-finite fails at the step that made it, with a
+// message naming a non-finite state (not inverted elements or an invertible
+// model), and the state stays the last finite one.
+static void nonfinite_run(const char *what, const char *json, const char *said, long at) {
+  char err[1024] = "";
+  ek_scene sc;
+  ek_mesh *m = NULL;
+  ek_sim *sim = NULL;
+  if (ek_scene_parse(json, "nan.json", ".", &sc, err, sizeof err) == 0 &&
+      (m = ek_scene_mesh(&sc, err, sizeof err)))
+    sim = ek_sim_create(&sc, m, err, sizeof err);
+  int rc = 0;
+  long n = 0;
+  for (; sim && n < 100 && (rc = ek_sim_step(sim)) == 0; n++) {
+  }
+  const char *msg = sim ? ek_sim_last_error(sim) : err;
+  int finite = sim != NULL;
+  for (size_t i = 0; sim && i < 3 * ek_mesh_nverts(m); i++)
+    finite = finite && isfinite(ek_sim_positions(sim)[i]) && isfinite(ek_sim_velocities(sim)[i]);
+  char detail[1200];
+  snprintf(detail, sizeof detail, "failed at step %ld, rc %d, state finite %d: %s", n + 1, rc,
+           finite, msg);
+  verdict(what,
+          sim && rc != 0 && rc != EK_SIM_EINVERTED && finite && strstr(msg, said) &&
+              !strstr(msg, "invertible") && ek_sim_steps_done(sim) == n && (at == 0 || n + 1 == at),
+          detail);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+}
+
+// The stop flag: read only, so a run with it installed gives the same bits;
+// set, it ends a step of any length at the next check, state unchanged.
+static void stop_flag(void) {
+  printf("-- stop flag\n");
+  static const char *json[2] = {
+      "{" MESH ", \"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, "
+      "\"density\": 1000}, \"integrator\": {\"type\": \"xpbd\", \"substeps\": 3, "
+      "\"iterations\": 150}, " PIN ", \"gravity\": [0, 0, -9.81], " TAIL "}",
+      "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, \"nu\": 0.3, "
+      "\"density\": 1000}, \"integrator\": {\"type\": \"implicit\"}, " PIN ", \"gravity\": "
+      "[0, 0, -9.81], \"dt\": 1e-2, \"steps\": 10}"};
+  for (int j = 0; j < 2; j++) {
+    char err[1024] = "";
+    ek_scene sc;
+    ek_mesh *m = NULL;
+    ek_sim *a = NULL, *b = NULL;
+    if (ek_scene_parse(json[j], "stop.json", ".", &sc, err, sizeof err) == 0 &&
+        (m = ek_scene_mesh(&sc, err, sizeof err))) {
+      a = ek_sim_create(&sc, m, err, sizeof err);
+      b = ek_sim_create(&sc, m, err, sizeof err);
+    }
+    if (!a || !b) {
+      verdict("stop flag: scene", 0, err);
+      ek_sim_destroy(a);
+      ek_sim_destroy(b);
+      ek_mesh_destroy(m);
+      continue;
+    }
+    volatile sig_atomic_t flag = 0;
+    ek_sim_set_stop_flag(b, &flag);
+    int rc = 0;
+    for (int n = 0; n < 2 && rc == 0; n++)
+      rc = ek_sim_step(a) | ek_sim_step(b);
+    const size_t n3 = 3 * ek_mesh_nverts(m);
+    int same = rc == 0 &&
+               memcmp(ek_sim_positions(a), ek_sim_positions(b), n3 * sizeof(double)) == 0 &&
+               memcmp(ek_sim_velocities(a), ek_sim_velocities(b), n3 * sizeof(double)) == 0;
+    char what[96], detail[700];
+    snprintf(what, sizeof what, "%s: flag installed, unset: same bits", j ? "implicit" : "xpbd");
+    snprintf(detail, sizeof detail, "rc %d, 2 steps, positions and velocities %s", rc,
+             same ? "identical" : "DIFFER");
+    verdict(what, same, detail);
+    double *x = malloc(n3 * sizeof(double));
+    memcpy(x, ek_sim_positions(b), n3 * sizeof(double));
+    flag = SIGINT;
+    rc = ek_sim_step(b);
+    int kept =
+        memcmp(x, ek_sim_positions(b), n3 * sizeof(double)) == 0 && ek_sim_steps_done(b) == 2;
+    snprintf(what, sizeof what, "%s: flag set: step stopped, not applied", j ? "implicit" : "xpbd");
+    snprintf(detail, sizeof detail, "rc %d (want %d), state kept %d: %s", rc, EK_SIM_ESTOPPED, kept,
+             ek_sim_last_error(b));
+    verdict(what, rc == EK_SIM_ESTOPPED && kept && strstr(ek_sim_last_error(b), "stopped"), detail);
+    free(x);
+    ek_sim_destroy(a);
+    ek_sim_destroy(b);
+    ek_mesh_destroy(m);
+  }
+}
+
+static void faults(void) {
+  frames_outputs();
+  duplicates();
+  scales();
+  printf("-- non-finite state\n");
+  nonfinite_run("dt = 1e3 (far above CFL): fails at the blow-up",
+                "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, "
+                "\"nu\": 0.3, \"density\": 1000}, " PIN ", \"gravity\": [0, 0, -9.81], "
+                "\"dt\": 1e3, \"steps\": 10}",
+                "non-finite", 0);
+  nonfinite_run("gravity 1e308: fails at the overflow",
+                "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 1e-3, "
+                "\"steps\": 10}",
+                "non-finite", 0);
+  nonfinite_run("gravity 1e308, dt 10: velocity inf after step 1",
+                "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 10, "
+                "\"steps\": 1}",
+                "non-finite state after the step", 1);
+  stop_flag();
+  scene_refused("cloth thickness 1e300: refused naming the key",
+                "{\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}, \"material\": {\"model\": "
+                "\"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, \"cloth\": "
+                "{\"thickness\": 1e300}, " TAIL "}",
+                "cloth.thickness = 1e+300", "bending stiffness", "not finite");
+  scene_refused("cloth thickness 1e306 (mass per area inf): refused naming the key",
+                "{\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}, \"material\": {\"model\": "
+                "\"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, \"cloth\": "
+                "{\"thickness\": 1e306, \"bending_stiffness\": 1}, " TAIL "}",
+                "cloth.thickness = 1e+306", "per unit area", "density h = inf");
+}
+
 // ---- batches
 
 static void rc_is(const char *what, int rc, int want) {
@@ -459,11 +758,12 @@ static void batches(void) {
 }
 
 static void remove_tree(void) {
-  static const char *names[] = {"huge.node",    "huge.ele",       "edge.msh",      "count.node",
-                                "count.ele",    "count_ele.node", "count_ele.ele", "count_v2.msh",
-                                "count_v4.msh", "count_el.msh",   "nul.node",      "nul.ele",
-                                "bytes.node",   "bytes.ele",      "bytes.msh",     "nul.json",
-                                "dirmesh.json"};
+  static const char *names[] = {
+      "huge.node",      "huge.ele",      "edge.msh",     "count.node",   "count.ele",
+      "count_ele.node", "count_ele.ele", "count_v2.msh", "count_v4.msh", "count_el.msh",
+      "nul.node",       "nul.ele",       "bytes.node",   "bytes.ele",    "bytes.msh",
+      "nul.json",       "dirmesh.json",  "out_fifo.h5",  "out_link.h5",  "target.txt",
+      "dup.node",       "dup.ele",       "dup.obj",      "blocks.msh",   "blocks2.msh"};
   char path[512];
   for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
     snprintf(path, sizeof path, "%s/%s", tmp_dir, names[i]);
@@ -473,6 +773,11 @@ static void remove_tree(void) {
   rmdir(path);
   snprintf(path, sizeof path, "%s/dir.node", tmp_dir);
   rmdir(path);
+  const char *dirs[] = {"out_dir.h5", "out_scratch.h5.scratch"};
+  for (size_t i = 0; i < 2; i++) {
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, dirs[i]);
+    rmdir(path);
+  }
   rmdir(tmp_dir);
 }
 
@@ -486,6 +791,7 @@ int main(int argc, char **argv) {
   }
   meshes();
   scenes();
+  faults();
   batches();
   remove_tree();
   printf("test_bad_input: %s (%d failures)\n", failures ? "FAIL" : "PASS", failures);

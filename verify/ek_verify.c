@@ -15,7 +15,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "cli.h"
@@ -140,16 +142,70 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
   cJSON_AddItemToArray(ctx->rows, j);
 }
 
-// Write a report's JSON root to path; 0, or 1 with a message.
-static int write_json(cJSON *root, const char *path) {
+// What is at path when it exists and is not a regular file, else NULL.
+static const char *not_regular(const char *path) {
+  struct stat st;
+  if (lstat(path, &st) != 0 || S_ISREG(st.st_mode))
+    return NULL;
+  return S_ISDIR(st.st_mode)    ? "a directory"
+         : S_ISCHR(st.st_mode)  ? "a character device"
+         : S_ISFIFO(st.st_mode) ? "a FIFO"
+         : S_ISLNK(st.st_mode)  ? "a symbolic link"
+                                : "not a regular file";
+}
+
+// --json FILE, checked before any row runs (issue 28: a bad path was
+// reported mid-table while the summary said PASS, and an existing file was
+// overwritten without --force): not an existing file unless force, never
+// anything but a regular file, in a folder that exists and is writable.
+// 0, or EK_EXIT_FAILED with the message printed.
+static int check_json_path(const char *path, int force) {
+  const char *what = not_regular(path);
+  if (what) {
+    fprintf(stderr, "ek-verify: --json '%s' is %s, not a regular file; not replaced\n", path, what);
+    return EK_EXIT_FAILED;
+  }
+  if (!force && access(path, F_OK) == 0) {
+    fprintf(stderr, "ek-verify: --json '%s' exists; not overwritten (use --force)\n", path);
+    return EK_EXIT_FAILED;
+  }
+  char dir[4096];
+  snprintf(dir, sizeof dir, "%s", path);
+  char *slash = strrchr(dir, '/');
+  if (slash)
+    slash[slash == dir ? 1 : 0] = '\0';
+  if (access(slash ? dir : ".", W_OK) != 0) {
+    fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path,
+            slash ? dir : ".", strerror(errno));
+    return EK_EXIT_FAILED;
+  }
+  return 0;
+}
+
+// Write a report's JSON root to path: a temporary file next to it, then a
+// hard link (without force: fails if the name appeared meanwhile) or a
+// rename over it (force), so the file is whole or absent. 0, or 1 with a
+// message.
+static int write_json(cJSON *root, const char *path, int force) {
+  char tmp[4200];
+  snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
   char *text = cJSON_Print(root);
-  FILE *fp = fopen(path, "w");
-  int bad = !text || !fp || fputs(text, fp) < 0;
+  FILE *fp = text ? fopen(tmp, "wx") : NULL;
+  int bad = !text || !fp || fputs(text, fp) < 0 || fputc('\n', fp) == EOF;
   if (fp && fclose(fp) != 0)
     bad = 1;
   free(text);
+  int e = errno;
+  if (!bad && !not_regular(path)) {
+    bad = force ? rename(tmp, path) != 0 : link(tmp, path) != 0;
+    e = errno;
+  } else if (!bad) {
+    bad = 1, e = EEXIST;
+  }
+  if (fp)
+    unlink(tmp); // after a rename: no such name any more
   if (bad) {
-    fprintf(stderr, "ek-verify: cannot write --json file '%s'\n", path);
+    fprintf(stderr, "ek-verify: cannot write --json file '%s': %s\n", path, strerror(e));
     return 1;
   }
   return 0;
@@ -158,7 +214,7 @@ static int write_json(cJSON *root, const char *path) {
 // ek-verify --extremes: the stability table (verify_extremes.c) and its
 // JSON, shaped like the families' report with "mode": "extremes" and the
 // known failures.
-static int run_extremes(ek_verify_ctx *ctx, const char *json_path, const char *filter) {
+static int run_extremes(ek_verify_ctx *ctx, const char *json_path, int force, const char *filter) {
   printf("ek-verify --extremes: seed %llu%s%s%s\n", (unsigned long long)ctx->seed,
          ctx->quick ? ", quick" : "", filter ? ", filter " : "", filter ? filter : "");
   struct timespec t0, t1;
@@ -168,9 +224,7 @@ static int run_extremes(ek_verify_ctx *ctx, const char *json_path, const char *f
   clock_gettime(CLOCK_MONOTONIC, &t1);
   double elapsed = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
   int rc = failures != 0 ? 1 : 0;
-  printf("\nek-verify --extremes: %d rows, %d failing%s, %.1f s -> %s\n",
-         cJSON_GetArraySize(ctx->rows), failures < 0 ? 0 : failures,
-         failures < 0 ? ", setup errors" : "", elapsed, rc ? "FAIL" : "PASS");
+  const int nrows = cJSON_GetArraySize(ctx->rows);
   cJSON *root = cJSON_CreateObject();
   cJSON_AddStringToObject(root, "tool", "ek-verify");
   cJSON_AddStringToObject(root, "mode", "extremes");
@@ -185,20 +239,27 @@ static int run_extremes(ek_verify_ctx *ctx, const char *json_path, const char *f
   cJSON_AddBoolToObject(root, "setup_errors", failures < 0);
   cJSON_AddNumberToObject(root, "elapsed_s", elapsed);
   cJSON_AddStringToObject(root, "result", rc ? "FAIL" : "PASS");
-  if (json_path && write_json(root, json_path) != 0)
-    rc = 1;
+  // Written before the summary, which then tells whether it was.
+  const int json_failed = json_path && write_json(root, json_path, force) != 0;
   cJSON_Delete(root);
+  rc |= json_failed;
+  printf("\nek-verify --extremes: %d rows, %d failing%s%s, %.1f s -> %s\n", nrows,
+         failures < 0 ? 0 : failures, failures < 0 ? ", setup errors" : "",
+         json_failed ? ", --json not written" : "", elapsed, rc ? "FAIL" : "PASS");
   if (ctx->has_filter)
     regfree(&ctx->filter);
   return rc;
 }
 
 static void usage(FILE *out) {
-  fputs("usage: ek-verify [--seed N] [--n N] [--json FILE] [--filter REGEX] [--quick]\n"
-        "       ek-verify --extremes [--seed N] [--json FILE] [--filter REGEX] [--quick]\n"
+  fputs("usage: ek-verify [--seed N] [--n N] [--json FILE [--force]] [--filter REGEX] "
+        "[--quick]\n"
+        "       ek-verify --extremes [--seed N] [--json FILE [--force]] [--filter REGEX] "
+        "[--quick]\n"
         "  --seed N       seed of every input set (default 1)\n"
         "  --n N          size of the random set, >= 1 (default 100000; --quick 10000)\n"
-        "  --json FILE    also write the rows as JSON\n"
+        "  --json FILE    also write the rows as JSON (checked before the first row)\n"
+        "  --force        overwrite an existing --json file\n"
         "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
         "  --quick        fewer matrices and variants (--extremes: a CI-sized subset)\n"
         "  --extremes     stability at the extremes: crush to a plane and a point,\n"
@@ -225,7 +286,7 @@ int main(int argc, char **argv) {
   ek_verify_ctx ctx = {.seed = 1, .n_random = 0, .n_family = 0};
   const char *json_path = NULL, *filter = NULL;
   unsigned long long n_opt = 0;
-  int have_n = 0, extremes = 0;
+  int have_n = 0, extremes = 0, force = 0;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     int has_value = i + 1 < argc;
@@ -235,6 +296,8 @@ int main(int argc, char **argv) {
       ctx.quick = 1;
     else if (strcmp(a, "--extremes") == 0)
       extremes = 1;
+    else if (strcmp(a, "--force") == 0)
+      force = 1;
     else if (strcmp(a, "--seed") == 0 && has_value) {
       if (parse_count(a, argv[++i], 0, &v))
         return EK_EXIT_USAGE;
@@ -266,10 +329,17 @@ int main(int argc, char **argv) {
   ek_isa auto_isa;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
     return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
+  if (force && !json_path)
+    return ek_cli_usage_error("ek-verify", "--force goes with --json FILE");
+  if (json_path && check_json_path(json_path, force) != 0) {
+    if (ctx.has_filter)
+      regfree(&ctx.filter);
+    return EK_EXIT_FAILED;
+  }
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
   if (extremes)
-    return run_extremes(&ctx, json_path, filter);
+    return run_extremes(&ctx, json_path, force, filter);
 
   printf("ek-verify: seed %llu, random set %zu, %zu per extremes family%s%s%s\n",
          (unsigned long long)ctx.seed, ctx.n_random, ctx.n_family, ctx.quick ? ", quick" : "",
@@ -283,9 +353,9 @@ int main(int argc, char **argv) {
   }
 
   int rc = ctx.failures || setup_errors ? 1 : 0;
-  printf("\nek-verify: %d rows, %d failing%s -> %s\n", ctx.rows_printed, ctx.failures,
-         setup_errors ? ", setup errors" : "", rc ? "FAIL" : "PASS");
+  int json_failed = 0;
   if (json_path) {
+    // Written before the summary, which then tells whether it was.
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "tool", "ek-verify");
     cJSON_AddNumberToObject(root, "seed", (double)ctx.seed);
@@ -298,18 +368,16 @@ int main(int argc, char **argv) {
     cJSON_AddItemToObject(root, "rows", ctx.rows);
     cJSON_AddNumberToObject(root, "failures", ctx.failures);
     cJSON_AddStringToObject(root, "result", rc ? "FAIL" : "PASS");
-    char *text = cJSON_Print(root);
-    FILE *fp = fopen(json_path, "w");
-    if (!fp || fputs(text, fp) < 0 || fclose(fp) != 0) {
-      fprintf(stderr, "ek-verify: cannot write --json file '%s'\n", json_path);
-      rc = 1;
-    }
-    free(text);
+    json_failed = write_json(root, json_path, force) != 0;
     cJSON_Delete(root);
   } else {
     cJSON_Delete(ctx.rows);
     cJSON_Delete(ctx.notes);
   }
+  rc |= json_failed;
+  printf("\nek-verify: %d rows, %d failing%s%s -> %s\n", ctx.rows_printed, ctx.failures,
+         setup_errors ? ", setup errors" : "", json_failed ? ", --json not written" : "",
+         rc ? "FAIL" : "PASS");
   if (ctx.has_filter)
     regfree(&ctx.filter);
   return rc;

@@ -12,6 +12,8 @@
 //   - vertex indices in range, at least 4 distinct vertices used;
 //   - a tet with a repeated vertex, or with 6V <= EK_MESH_DEGENERATE_REL *
 //     (longest edge)^3, is degenerate and refused;
+//   - no tet twice: two tets with the same four vertices, in any order, are
+//     refused as a "duplicate element", both places named;
 //   - the supported range: every tet's 6V = det(Dm) must be a finite,
 //     normal double, [DBL_MIN, DBL_MAX] ~ [2.2e-308, 1.8e308] (edges from
 //     about 1e-102 to 1e102 for a well-shaped tet; a cube of edge 1e120 is

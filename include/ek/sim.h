@@ -90,6 +90,7 @@
 #ifndef EK_SIM_H
 #define EK_SIM_H
 
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -145,6 +146,12 @@ extern "C" {
 // for neo-Hookean without clamp): the step is not applied, the message names
 // the step, the number of inverted tets and the first one.
 #define EK_SIM_EINVERTED (-10)
+// Return code of ek_sim_step when the stop flag (ek_sim_set_stop_flag) was
+// seen inside the step: the step is not applied.
+#define EK_SIM_ESTOPPED (-11)
+// XPBD sweeps run between two looks at the stop flag (a slice of one
+// substep's iterations; the sweeps are the same either way).
+#define EK_SIM_STOP_SWEEPS 64
 
 // ---------------------------------------------------------------- scenes
 
@@ -404,11 +411,28 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, siz
 ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
                             size_t errlen);
 int ek_sim_is_cloth(const ek_sim *sim);
+// A condition the run goes on with, for the caller to report (the library
+// prints nothing, core.h): an explicit dt above the CFL limit (set by
+// ek_sim_create), the first step whose Newton loop stopped above
+// newton_tol. Copies the pending warning into buf and returns buf, once;
+// NULL when none is pending.
+const char *ek_sim_warning(ek_sim *sim, char *buf, size_t len);
 void ek_sim_destroy(ek_sim *sim);
-// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED or < 0
-// (message in ek_sim_last_error); on error the state is left as it was
-// before the step.
+// Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED,
+// EK_SIM_ESTOPPED or < 0 (message in ek_sim_last_error); on error the state
+// is left as it was before the step. A step that leaves a position or a
+// velocity that is not finite fails (EK_EINVAL, "non-finite state"), so the
+// state is always finite.
 int ek_sim_step(ek_sim *sim);
+// A stop request the step looks at while it runs: *flag (e.g. set by the
+// caller's SIGINT handler) non-zero makes the step return EK_SIM_ESTOPPED,
+// state unchanged, at the next check: between XPBD substeps and slices of
+// at most EK_SIM_STOP_SWEEPS sweeps, between Newton iterations, CG
+// iterations and line-search trials. A step of any length thus ends within
+// about one force evaluation (implicit, explicit) or EK_SIM_STOP_SWEEPS
+// sweeps (XPBD). NULL (the default) checks nothing. The checks read the
+// flag only: the results are the same bits with or without it.
+void ek_sim_set_stop_flag(ek_sim *sim, const volatile sig_atomic_t *flag);
 const char *ek_sim_last_error(const ek_sim *sim);
 // Name of the integrator the sim steps with ("explicit").
 const char *ek_sim_integrator_name(const ek_sim *sim);
@@ -448,7 +472,11 @@ double ek_sim_volume(const ek_sim *sim);
 // rest: tets, 2 / omega_max by the element eigenvalue bound (each tet's
 // linear-elastic stiffness against its lumped mass; a guaranteed bound,
 // 0.64-0.82 of h_min / c on the shipped meshes); cloth, the CFL rule
-// h_min / c with c the membrane's dilatational wave speed.
+// h_min / c with c the membrane's dilatational wave speed. Tets: computed
+// scale-free (each element, lambda, mu and the density scaled by powers of
+// two), so it is finite and > 0 for every mesh ek_mesh accepts (edges about
+// 1e-102 to 1e102) and any density and moduli whose limit a double holds;
+// +inf only for a material without stiffness.
 double ek_sim_cfl_dt(const ek_sim *sim);
 // Per-tet fields of the current state, caller tet order (any may be NULL):
 // J = det F, smallest signed singular value of F, and the energy density
@@ -484,8 +512,11 @@ size_t ek_sim_constrained_count(const ek_sim *sim);
 typedef struct ek_frames ek_frames;
 
 // Create `path` (HDF5) and its XDMF companion and write the rest mesh.
-// Refuses (NULL, err) if either exists unless `force`, or if the XDMF
-// cannot name the file (its base name holds a colon, a control character,
+// Refuses (NULL, err) if either exists unless `force`; even with `force`
+// if either, or a scratch or swap name below, is anything but a regular
+// file (a directory, device, FIFO, socket or symbolic link: the commits
+// rename over these names and would replace it); or if the XDMF cannot
+// name the file (its base name holds a colon, a control character,
 // bytes that are not UTF-8 or a leading/trailing blank). Layout:
 //   /mesh/vertices   nverts x 3 double     /mesh/tets  ntets x 4 int32
 //   /frames/time     nframes double        /frames/step nframes int64
@@ -503,6 +534,10 @@ typedef struct ek_frames ek_frames;
 // with `path` atomically, so a writer killed at any moment leaves every
 // frame it completed readable with plain read-only access. The XDMF is
 // appended to after each commit (it may lack the last frame after a kill).
+// A write that fails (a full disk) is reported and the file keeps its
+// frames; with HDF5 before 1.14.1 the failed close leaves an ID that
+// HDF5's own exit handler then crashes on, so a program that may hit a full
+// disk calls H5dont_atexit() before its first HDF5 call (ek-sim does).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
                             size_t ntets, const int32_t *tets, char *err, size_t errlen);
 // The same for any element kind: nodes = 4 (tets, /mesh/tets, XDMF

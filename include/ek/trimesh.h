@@ -9,7 +9,13 @@
 // Validation (files, ek_trimesh_create and the grid alike): finite
 // coordinates, indices in range, no repeated vertex in a triangle, and no
 // degenerate rest triangle (2 area <= EK_CLOTH_DEGENERATE_REL (longest
-// edge)^2). Errors name the file and line (or the triangle index for
+// edge)^2, tested in scaled units: the same at any scale), no triangle twice
+// (the same three vertices in any order: "duplicate element", both places
+// named), and the supported range: what the element layer computes, (2A)^2
+// and 2A x (longest edge)^2, must be finite, normal doubles (2A from about
+// 1.5e-154 to 1.3e154: edges from about 1e-77 to 1e77 for a well-shaped
+// triangle; a triangle of size 1e100 is a valid shape whose squared area no
+// double holds). Errors name the file and line (or the triangle index for
 // in-memory meshes) and the offending value; a mesh never half-loads.
 //
 // Formats:
