@@ -12,7 +12,8 @@
 //      matrices) so A^T A neither overflows nor underflows
 //   2. S = A^T A
 //   3. Jacobi eigenanalysis of S with approximate Givens rotations (TR1690
-//      sec. 2, with its pi/8 fallback), accumulated in a quaternion
+//      sec. 2, with its pi/8 fallback), accumulated in a quaternion; [ek]
+//      with subnormals flushed to zero (svd3_jacobi_sweeps)
 //   4. V from the quaternion, B = A V
 //   5. [ek] one-sided Jacobi sweeps (Hestenes) on the columns of B with exact
 //      angles: step 3 works on A^T A and squares the condition number, so once
@@ -334,6 +335,44 @@ EK_INLINE void svd3_refine_sweep(int n, svd3_state *st, int exact) {
     svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
 }
 
+// Step 3, all sweeps, with subnormals flushed to zero (FTZ/DAZ,
+// kernels/simd/fpmode.h). Why: each rotation multiplies the off-diagonal
+// entries of S by a small sine and nothing rounds them to a floor, so they
+// fall below FLT_MIN after 3-4 float sweeps (5-6 double; earlier on
+// near-diagonal S) and every later sweep computes on subnormals, which
+// costs a microcode assist per operation on Intel cores (issue 22: 7x at 6
+// exact float sweeps) and ~25% on Zen 4 (README, "Subnormals"). Why it is
+// safe here: S is the Gram matrix of A scaled to max |a_ij| = 1, so its
+// entries are at most 3, and an entry below FLT_MIN (DBL_MIN) is below the
+// float (double) budget by over 30 (290) orders of magnitude; flushing it
+// to zero only makes a rotation the identity a little earlier, and the
+// quaternion stays unit ((ch, sh) is normalised, or (1, 0) when n2 <=
+// TINY2). Only this step: the Gram matrix before it, and the refinement, QR
+// and output scaling after it, keep gradual underflow, which
+// rank-deficient, graded and tiny inputs need (with FTZ/DAZ everywhere
+// their errors were 200-500x the budget). A sweep that meets no subnormal
+// gives the same bits either way, so results change only where one arose.
+// Order (fpmode.h): every later step depends on qt[0] (through |q|^2 in
+// svd3_quat_to_matrix), so passing qt[0] through vfence after the change
+// back keeps all of them in IEEE mode. A compiler moving code the other way
+// could only run a sweep operation in IEEE mode (slower, same budget) or a
+// Gram entry in flush mode (below the budget as above); GCC keeps the mode
+// changes in place (checked in the assembly). Fencing S and qt on both
+// sides cost 2.5% on the default; this costs nothing measurable.
+EK_INLINE void svd3_jacobi_sweeps(int n, svd3_state *st, int sweeps, int refine, int exact) {
+  vflush_begin();
+  // rough is a constant in each branch, so each gets its own code.
+  if (refine > 0)
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 1);
+  else
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 0);
+  vflush_end();
+  for (int j = 0; j < n; j++)
+    vfence(st[j].qt[0]);
+}
+
 // The SVD of n independent vectors of matrices (n a compile-time constant
 // at every call), S scaled: A = U diag(S * scale) V^T. Each step runs for all n before the next:
 // the Jacobi chain of one vector is a long series of dependent operations (latency bound), so two
@@ -344,13 +383,7 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
-  // rough is a constant in each branch, so each gets its own code.
-  if (refine > 0)
-    for (int sweep = 0; sweep < sweeps; sweep++)
-      svd3_jacobi_sweep(n, st, exact, 1);
-  else
-    for (int sweep = 0; sweep < sweeps; sweep++)
-      svd3_jacobi_sweep(n, st, exact, 0);
+  svd3_jacobi_sweeps(n, st, sweeps, refine, exact);
   for (int j = 0; j < n; j++)
     svd3_form_B(&st[j], exact);
   for (int sweep = 0; sweep < refine; sweep++)
