@@ -61,8 +61,9 @@ const char *ek_last_error(void);
 // (Sums a driver forms across elements, e.g. the per-part force buffers of
 // fvm.h's thread-buffer scatter, run in the caller's mode.) Inside, a
 // kernel may flush subnormals where its own arithmetic tolerates it (the
-// SVD's Jacobi sweeps, svd3.h), so that no option or input scale makes it
-// compute on subnormals. tests/test_fpmode.c checks this.
+// SVD's Jacobi sweeps beyond the default, svd3.h), so that asking for more
+// sweeps does not mean computing on subnormals. tests/test_fpmode.c checks
+// this.
 // 64-byte aligned allocation (one AoSoA plane of 16 floats is one cache line).
 // NULL when bytes is beyond what can be allocated.
 void *ek_alloc(size_t bytes);

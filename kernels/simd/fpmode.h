@@ -12,7 +12,7 @@
 //     multiplies them by a small sine, with no rounding floor. Arithmetic on
 //     subnormals takes a microcode assist on Intel cores (ek_svd3_f32, 6
 //     exact sweeps: 231 ns/matrix with FTZ/DAZ off against 32 ns on, issue
-//     22) and costs ~25% on Zen 4.
+//     22; 10-14x the 2-sweep time on a Xeon here) and ~25% on Zen 4.
 //   - With the caller's FTZ/DAZ on, the SVD before this header missed its
 //     budget by 200-500x on rank-1 and graded matrices (the QR and the
 //     refinement need their tiny values) and flushed the outputs of inputs
@@ -23,10 +23,13 @@
 // thread that runs it, so it holds for any driver and any OpenMP thread,
 // and results do not depend on the caller's mode (tests/test_fpmode.c). A
 // kernel may then flush subnormals in a stretch of its own arithmetic that
-// is known to tolerate it (vflush_begin / vflush_end, a pair of constant
-// MXCSR loads: ~free; a store of MXCSR right after a load stalls ~20 ns on
-// Zen 4, so only the entry point reads it). The exception flags the kernel
-// raises are not reported: the caller's flags come back as they were.
+// is known to tolerate it and would otherwise meet them (vflush_begin /
+// vflush_end: two constant MXCSR loads; a load waits for the instructions
+// before it, ~1-2% of an SVD per pair of vectors, so they are used only
+// where subnormals are expected; a store of MXCSR right after a load
+// stalls ~20 ns on Zen 4, so only the entry point reads it). The exception
+// flags the kernel raises are not reported: the caller's flags come back
+// as they were.
 //
 // Order: the compiler does not know that arithmetic depends on MXCSR
 // (no -frounding-math), and may move a computation across a mode change
