@@ -51,6 +51,19 @@ const char *ek_last_error(void);
 //   - size: a batch whose byte count would exceed PTRDIFF_MAX (n = SIZE_MAX,
 //     say) is refused with EK_EINVAL, never run as the small batch its
 //     wrapped count would describe.
+// Floating-point mode (x86: MXCSR; FTZ = flush-to-zero, DAZ =
+// denormals-are-zero): every kernel computes in ek's own mode, round to
+// nearest with gradual underflow (FTZ/DAZ off) and exceptions masked. It
+// sets it on the thread it runs on and restores the caller's mode, flags
+// included, before it returns, so the caller's FTZ/DAZ or rounding mode
+// neither changes a kernel's results (the same bits either way) nor is left
+// changed by it; floating-point exceptions raised inside are not reported.
+// (Sums a driver forms across elements, e.g. the per-part force buffers of
+// fvm.h's thread-buffer scatter, run in the caller's mode.) Inside, a
+// kernel may flush subnormals where its own arithmetic tolerates it (the
+// SVD's Jacobi sweeps beyond the default, svd3.h), so that asking for more
+// sweeps does not mean computing on subnormals. tests/test_fpmode.c checks
+// this.
 // 64-byte aligned allocation (one AoSoA plane of 16 floats is one cache line).
 // NULL when bytes is beyond what can be allocated.
 void *ek_alloc(size_t bytes);

@@ -10,6 +10,15 @@
 // the other matrices of the batch are untouched by it.
 // Threads: OpenMP over blocks (OMP_NUM_THREADS); results are bitwise
 // identical for any thread count.
+// Floating-point mode (core.h): results are the same bits whatever the
+// caller's FTZ/DAZ. Subnormal inputs (entries below FLT_MIN / DBL_MIN) are
+// decomposed like any other scale, even with the caller's DAZ on: a tiny
+// matrix is first scaled by an exact power of two, so the budgets below
+// hold relative to its s1, and outputs that are subnormal (S of a tiny A)
+// are returned as such, even with the caller's FTZ on. With more sweeps
+// than the default, the Jacobi sweeps on A^T A flush their own subnormals
+// (kernels/svd3/svd3_core.h), so more sweeps or the exact rsqrt cost their
+// operations only (README, "Subnormals").
 #ifndef EK_SVD3_H
 #define EK_SVD3_H
 

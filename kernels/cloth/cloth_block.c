@@ -88,6 +88,7 @@ INLINE void sym2_top_eigvec(vreal a, vreal b, vreal c, vreal v[2]) {
 // frame); x 9 planes, Dm_inv 4, F 6.
 void EK_SYM(cloth_tri_F_block)(size_t nblocks, const real *x, const real *Dm_inv, real *F,
                                real *unused1, real *unused2) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   (void)unused1, (void)unused2;
   size_t nvec = nblocks * EK_VPB;
   for (size_t j = 0; j < nvec; j++) {
@@ -101,6 +102,7 @@ void EK_SYM(cloth_tri_F_block)(size_t nblocks, const real *x, const real *Dm_inv
     }
     store_planes(F, j, 6, f);
   }
+  ek_fpmode_leave(mode);
 }
 
 // ---- Polar decomposition of a 3x2 F (seed 003 eqs. 14-20) -----------------
@@ -184,6 +186,7 @@ INLINE void polar32_vec(const vreal f[6], vreal R[6], vreal Uc[4]) {
 // F 6 planes, R 6, Uc 4 (may be NULL).
 void EK_SYM(cloth_polar32_block)(size_t nblocks, const real *F, const real *unused, real *R,
                                  real *Uc, real *unused2) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   (void)unused, (void)unused2;
   size_t nvec = nblocks * EK_VPB;
   for (size_t j = 0; j < nvec; j++) {
@@ -194,6 +197,7 @@ void EK_SYM(cloth_polar32_block)(size_t nblocks, const real *F, const real *unus
     if (Uc)
       store_planes(Uc, j, 4, u);
   }
+  ek_fpmode_leave(mode);
 }
 
 // L, D = (L + L^T)/2, W = (L - L^T)/2 (seed 003 eqs. 29-31); any may be
@@ -223,6 +227,7 @@ INLINE void store_LDW(size_t j, const vreal l[9], real *L, real *D, real *W) {
 // velocities are scaled by the largest edge entry first (L is unchanged).
 void EK_SYM(cloth_tri_velgrad_block)(size_t nblocks, const real *x, const real *v, real *L, real *D,
                                      real *W) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   size_t nvec = nblocks * EK_VPB;
   vreal zero = vzero(), one = vset(1);
   for (size_t j = 0; j < nvec; j++) {
@@ -270,6 +275,7 @@ void EK_SYM(cloth_tri_velgrad_block)(size_t nblocks, const real *x, const real *
       }
     store_LDW(j, l, L, D, W);
   }
+  ek_fpmode_leave(mode);
 }
 
 // ---- Tet velocity gradient L = Fdot F^-1 = Vs Ds^-1 (seed 003 eq. 28) ------
@@ -279,6 +285,7 @@ void EK_SYM(cloth_tri_velgrad_block)(size_t nblocks, const real *x, const real *
 // most 6 and never overflows). det Ds = 0: NaN. x and v 12 planes.
 void EK_SYM(cloth_tet_velgrad_block)(size_t nblocks, const real *x, const real *v, real *L, real *D,
                                      real *W) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   size_t nvec = nblocks * EK_VPB;
   vreal one = vset(1);
   for (size_t j = 0; j < nvec; j++) {
@@ -311,6 +318,7 @@ void EK_SYM(cloth_tet_velgrad_block)(size_t nblocks, const real *x, const real *
                  dinv);
     store_LDW(j, l, L, D, W);
   }
+  ek_fpmode_leave(mode);
 }
 
 // This source's entries in a kernel table row (dispatch.c).

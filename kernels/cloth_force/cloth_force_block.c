@@ -92,6 +92,7 @@ static inline void membrane_P(const cloth_args *a, const vreal F[6], vreal P[6])
 }
 
 void EK_SYM(cloth_membrane_block)(const cloth_args *a, size_t b0, size_t b1) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   for (size_t b = b0; b < b1; b++) {
     const int32_t *idx = a->tri_idx + b * 3 * L;
     const real *dm = a->dm_inv + b * 4 * L, *area = a->area + b * L;
@@ -123,9 +124,11 @@ void EK_SYM(cloth_membrane_block)(const cloth_args *a, size_t b0, size_t b1) {
       }
     }
   }
+  ek_fpmode_leave(mode);
 }
 
 void EK_SYM(cloth_bending_block)(const cloth_args *a, size_t b0, size_t b1) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   for (size_t b = b0; b < b1; b++) {
     const int32_t *idx = a->hinge_idx + b * 4 * L;
     const real *k = a->hinge_k + b * 4 * L;
@@ -147,6 +150,7 @@ void EK_SYM(cloth_bending_block)(const cloth_args *a, size_t b0, size_t b1) {
       }
     }
   }
+  ek_fpmode_leave(mode);
 }
 
 // This source's entries in a kernel table row (dispatch.c).

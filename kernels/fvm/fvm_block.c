@@ -11,6 +11,7 @@
 void EK_SYM(fvm_P_block)(const fvm_args *a, size_t b0, size_t b1);
 void EK_SYM(fvm_P_block)(const fvm_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[12 * L];
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   for (size_t b = b0; b < b1; b++) {
     for (int o = 0; o < L; o += EK_W) {
       vreal P[9];
@@ -22,10 +23,12 @@ void EK_SYM(fvm_P_block)(const fvm_args *a, size_t b0, size_t b1) {
     if (!a->corner)
       scatter_block(a, b, hb);
   }
+  ek_fpmode_leave(mode);
 }
 
 // Phase-split pass 1: F only, into F[(b*9 + k)*L + l].
 void EK_SYM(fvm_F_block)(const fvm_args *a, size_t b0, size_t b1, real *Fout) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   for (size_t b = b0; b < b1; b++) {
     for (int o = 0; o < L; o += EK_W) {
       vreal F[9];
@@ -34,6 +37,7 @@ void EK_SYM(fvm_F_block)(const fvm_args *a, size_t b0, size_t b1, real *Fout) {
         vstore(Fout + (b * 9 + k) * L + o, F[k]);
     }
   }
+  ek_fpmode_leave(mode);
 }
 
 void EK_SYM(fvm_block_fill)(ek_kernel_table *t);

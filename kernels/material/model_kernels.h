@@ -22,15 +22,23 @@ void EK_MSYM(material_block)(size_t nblocks, const real *F, const real *R, const
                              real *out, const ek_material_knobs *k);
 void EK_MSYM(material_block)(size_t nblocks, const real *F, const real *R, const real *dF,
                              real *out, const ek_material_knobs *k) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   material_blocks(nblocks, F, R, dF, out, k);
+  ek_fpmode_leave(mode);
 }
 
 void EK_MSYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1);
-void EK_MSYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1) { fvm_model_blocks(a, b0, b1); }
+void EK_MSYM(fvm_block)(const fvm_args *a, size_t b0, size_t b1) {
+  ek_fpmode mode = ek_fpmode_enter();
+  fvm_model_blocks(a, b0, b1);
+  ek_fpmode_leave(mode);
+}
 
 void EK_MSYM(hessian_block)(const hess_args *a, size_t b0, size_t b1);
 void EK_MSYM(hessian_block)(const hess_args *a, size_t b0, size_t b1) {
+  ek_fpmode mode = ek_fpmode_enter();
   hess_model_blocks(a, b0, b1);
+  ek_fpmode_leave(mode);
 }
 
 void EK_MSYM(fill)(ek_kernel_table *t);

@@ -39,6 +39,7 @@ EK_INLINE void polar_warm_blocks(size_t nblocks, const real *A, real *R, int ite
 }
 
 void EK_SYM(polar_warm_block)(size_t nblocks, const real *A, real *R, int iters) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   switch (iters) {
   case 1:
     polar_warm_blocks(nblocks, A, R, 1);
@@ -53,6 +54,7 @@ void EK_SYM(polar_warm_block)(size_t nblocks, const real *A, real *R, int iters)
     polar_warm_blocks(nblocks, A, R, iters);
     break;
   }
+  ek_fpmode_leave(mode);
 }
 
 // This source's entries in a kernel table row (dispatch.c).

@@ -60,6 +60,8 @@
 #error "define one of EK_TARGET_SCALAR, EK_TARGET_AVX2, EK_TARGET_AVX512"
 #endif
 
+#include "fpmode.h" // the kernels' floating-point mode (ek_fpmode_enter, vflush_begin)
+
 #define EK_SYM3_(name, t, p) ek_##name##_##t##_##p
 #define EK_SYM2_(name, t, p) EK_SYM3_(name, t, p)
 #define EK_SYM(name) EK_SYM2_(name, EK_TARGET_TOKEN, EK_PREC_TOKEN)

@@ -11,6 +11,8 @@
 // McAdams' 4 approximate Jacobi sweeps alone miss the float budget on ~1% of
 // random matrices (worst ~6e-3); two approximate sweeps followed by two
 // exact one-sided sweeps meet it everywhere and cost fewer operations.
+// (svd3_core.h flushes subnormals in the Jacobi sweeps from SVD3_FLUSH_SWEEPS
+// = one more than these defaults: keep the two in step.)
 #if defined(EK_REAL_F32)
 typedef ek_svd3_block_f32_fn svd3_block_fn;
 #define BLOCK_FN(t) ((t)->svd3_block_f32)

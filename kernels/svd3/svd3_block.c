@@ -148,6 +148,7 @@ EK_INLINE void svd3_any(size_t count, const real *A, real *U, real *S, real *V, 
 
 void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
                         const ek_svd3_knobs *k) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   if (k->polar) {
     if (k->exact_rsqrt)
       svd3_any(count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos);
@@ -159,6 +160,7 @@ void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
     else
       svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
   }
+  ek_fpmode_leave(mode);
 }
 
 // The out-of-line pair of svd3_core.h (svd3_pair), one per rsqrt mode.

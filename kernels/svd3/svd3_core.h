@@ -12,7 +12,9 @@
 //      matrices) so A^T A neither overflows nor underflows
 //   2. S = A^T A
 //   3. Jacobi eigenanalysis of S with approximate Givens rotations (TR1690
-//      sec. 2, with its pi/8 fallback), accumulated in a quaternion
+//      sec. 2, with its pi/8 fallback), accumulated in a quaternion; [ek]
+//      beyond the default sweeps, with subnormals flushed to zero
+//      (svd3_jacobi_sweeps)
 //   4. V from the quaternion, B = A V
 //   5. [ek] one-sided Jacobi sweeps (Hestenes) on the columns of B with exact
 //      angles: step 3 works on A^T A and squares the condition number, so once
@@ -334,6 +336,64 @@ EK_INLINE void svd3_refine_sweep(int n, svd3_state *st, int exact) {
     svd3_refine_pair(st[j].B, st[j].V, 2, 0, exact);
 }
 
+// Step 3, all sweeps; with more sweeps than the precision's default, with
+// subnormals flushed to zero (FTZ/DAZ, kernels/simd/fpmode.h).
+// Why flush: each rotation multiplies the off-diagonal entries of S by a
+// small sine and nothing rounds them to a floor, so they fall below
+// FLT_MIN after 3-4 float sweeps (5-6 double) and every later sweep
+// computes on subnormals, which costs a microcode assist per operation on
+// Intel cores (6 exact float sweeps: 10-14x the 2-sweep time on a Xeon, 7x in
+// issue 22) and ~25% on Zen 4 (README, "Subnormals").
+// Why it is safe: S is the Gram matrix of A scaled to max |a_ij| = 1, so
+// its entries are at most 3, and an entry below FLT_MIN (DBL_MIN) is below
+// the float (double) budget by over 30 (290) orders of magnitude; flushing
+// it to zero only makes a rotation the identity a little earlier, and the
+// quaternion stays unit ((ch, sh) is normalised, or (1, 0) when n2 <=
+// TINY2). A sweep that meets no subnormal gives the same bits either way.
+// Why only this step: the Gram matrix before it, and the refinement, QR
+// and output scaling after it, keep gradual underflow, which
+// rank-deficient, graded and tiny inputs need (with FTZ/DAZ everywhere
+// their errors were 200-500x the budget).
+// Why not at the default sweeps (2 float, 3 double, kernels/svd3/svd3.c):
+// they stop before the entries get there (over the extremes catalogue only
+// the rotation_180, graded and mixed-scale families meet a subnormal in
+// this step, a few operations per matrix), while loading MXCSR waits for
+// the instructions before it: +2% on 2 exact sweeps, more inside the
+// memory-bound fused kernels (the Hessian's gradient pass). So the default
+// path runs exactly as before, the same bits for every input.
+// Double too: its sweeps reach DBL_MIN from 5-6 sweeps on (8 exact double
+// sweeps: 2.0x the 2-sweep time before, 1.7x flushed, Zen 4), and its
+// default (3 sweeps) is below SVD3_FLUSH_SWEEPS, so its bits stay as well.
+// Order (fpmode.h): every later step depends on qt[0] (through |q|^2 in
+// svd3_quat_to_matrix), so passing qt[0] through vfence after the change
+// back keeps all of them in IEEE mode. A compiler moving code the other way
+// could only run a sweep operation in IEEE mode (slower, same budget) or a
+// Gram entry in flush mode (below the budget as above); GCC keeps the mode
+// changes in place (checked in the assembly). Fencing S and qt on both
+// sides cost 2.5%; this costs nothing measurable.
+#if defined(EK_REAL_F32)
+#define SVD3_FLUSH_SWEEPS 3 // one more than the float default
+#else
+#define SVD3_FLUSH_SWEEPS 4 // one more than the double default
+#endif
+EK_INLINE void svd3_jacobi_sweeps(int n, svd3_state *st, int sweeps, int refine, int exact) {
+  int flush = sweeps >= SVD3_FLUSH_SWEEPS;
+  if (flush)
+    vflush_begin();
+  // rough is a constant in each branch, so each gets its own code.
+  if (refine > 0)
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 1);
+  else
+    for (int sweep = 0; sweep < sweeps; sweep++)
+      svd3_jacobi_sweep(n, st, exact, 0);
+  if (flush) {
+    vflush_end();
+    for (int j = 0; j < n; j++)
+      vfence(st[j].qt[0]);
+  }
+}
+
 // The SVD of n independent vectors of matrices (n a compile-time constant
 // at every call), S scaled: A = U diag(S * scale) V^T. Each step runs for all n before the next:
 // the Jacobi chain of one vector is a long series of dependent operations (latency bound), so two
@@ -344,13 +404,7 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   svd3_state st[SVD3_MAX_N];
   for (int j = 0; j < n; j++)
     svd3_start(&st[j], A[j]);
-  // rough is a constant in each branch, so each gets its own code.
-  if (refine > 0)
-    for (int sweep = 0; sweep < sweeps; sweep++)
-      svd3_jacobi_sweep(n, st, exact, 1);
-  else
-    for (int sweep = 0; sweep < sweeps; sweep++)
-      svd3_jacobi_sweep(n, st, exact, 0);
+  svd3_jacobi_sweeps(n, st, sweeps, refine, exact);
   for (int j = 0; j < n; j++)
     svd3_form_B(&st[j], exact);
   for (int sweep = 0; sweep < refine; sweep++)

@@ -167,6 +167,7 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
     break;
 
 void EK_SYM(xpbd_block)(const xpbd_args *a, size_t b0, size_t b1) {
+  ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   switch (a->op) {
     XPBD_CASE(XPBD_GS)
     XPBD_CASE(XPBD_JACOBI)
@@ -176,6 +177,7 @@ void EK_SYM(xpbd_block)(const xpbd_args *a, size_t b0, size_t b1) {
   default:
     break;
   }
+  ek_fpmode_leave(mode);
 }
 
 // This source's entries in a kernel table row (dispatch.c).
