@@ -315,6 +315,14 @@ int main(int argc, char **argv) {
   }
   ctx.n_random = have_n ? (size_t)n_opt : ctx.quick ? 10000 : 100000;
   ctx.n_family = ctx.quick ? 200 : 2000;
+  // ek-verify runs every ISA this CPU has by name; EK_ISA only picks what
+  // AUTO means. One the CPU lacks is an error, not a silent pass without it.
+  // Checked before the filter is compiled, which every later return frees.
+  ek_isa auto_isa;
+  if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
+    return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
+  if (force && !json_path)
+    return ek_cli_usage_error("ek-verify", "--force goes with --json FILE");
   if (filter) {
     int rc = regcomp(&ctx.filter, filter, REG_EXTENDED | REG_NOSUB);
     if (rc) {
@@ -324,13 +332,6 @@ int main(int argc, char **argv) {
     }
     ctx.has_filter = 1;
   }
-  // ek-verify runs every ISA this CPU has by name; EK_ISA only picks what
-  // AUTO means. One the CPU lacks is an error, not a silent pass without it.
-  ek_isa auto_isa;
-  if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
-    return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
-  if (force && !json_path)
-    return ek_cli_usage_error("ek-verify", "--force goes with --json FILE");
   if (json_path && check_json_path(json_path, force) != 0) {
     if (ctx.has_filter)
       regfree(&ctx.filter);
