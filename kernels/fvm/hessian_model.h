@@ -235,11 +235,10 @@ EK_INLINE void gradient_blocks(int exact, const hess_args *a, size_t b0, size_t 
   }
 }
 
+// The rsqrt mode as a run-time value: one inlined SVD per model and ISA
+// (a predictable branch at each rsqrt), not one per mode.
 EK_INLINE void gradient_blocks_iso(const hess_args *a, size_t b0, size_t b1) {
-  if (a->svd->exact_rsqrt)
-    gradient_blocks(1, a, b0, b1);
-  else
-    gradient_blocks(0, a, b0, b1);
+  gradient_blocks(a->svd->exact_rsqrt != 0, a, b0, b1);
 }
 #endif
 
