@@ -27,7 +27,6 @@
 // Every sum (objective, dot products) runs over fixed chunks in a fixed
 // order and every pass is deterministic (hessian.h), so a step has the
 // same bits at any thread count.
-#include <ek/hessian.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,35 +43,30 @@
 #define MAX_BACKTRACKS 40
 
 typedef struct {
-  ek_fvm_hessian *H;
-  ek_tet_state *R64; // corotated linear in an f32 scene: R^n in double for the gradient
+  const sim_body *body;
+  void *H;              // the body's Hessian (body.h: hessian_create)
+  sim_hessian_info hes; // f32 products, residual merit, split timing
   size_t n3, nchunks;
-  int par, f32, block;
-  int residual_merit; // clamped models: the line search on the residual (sim.h)
-  double *is_free;    // per dof: 1 free, 0 held (a held vertex, or one with no mass)
-  double *minv;       // per dof: is_free / m, the M^-1 norm's weight
-  double *mdiag;      // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
+  int par, block;
+  double *is_free; // per dof: 1 free, 0 held (a held vertex, or one with no mass)
+  double *minv;    // per dof: is_free / m, the M^-1 norm's weight
+  double *mdiag;   // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
   double *pre; // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
-  // Cloth (sim->cloth): the point of the Hessian products (the last
-  // objective's x, as the tets' cache is) and the 3x3 diagonal blocks.
-  double *hx, *blocks9;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
   if (!d)
     return;
-  ek_fvm_hessian_destroy(d->H);
-  ek_tet_state_destroy(d->R64);
+  if (d->H)
+    d->body->ops->hessian_destroy(d->H);
   double *arrays[] = {d->is_free, d->minv, d->mdiag, d->x, d->xt, d->g,   d->gt,   d->xtil,
                       d->dx,      d->r,    d->z,     d->p, d->q,  d->pre, d->parts};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
     free(arrays[i]);
   free(d->p32);
   free(d->q32);
-  free(d->hx);
-  free(d->blocks9);
   free(d);
 }
 
@@ -87,37 +81,11 @@ static int implicit_create(ek_sim *s, void **data) {
   d->n3 = 3 * s->nv;
   d->nchunks = (d->n3 + CHUNK - 1) / CHUNK;
   d->par = d->n3 > IMPLICIT_PARALLEL_DOFS;
-  // Cloth: gradient, products and blocks in double (cloth_force.h), in
-  // either scene precision.
-  d->f32 = sc->precision == 32 && !s->cloth;
   d->block = sc->implicit.preconditioner == EK_PRECOND_BLOCK_JACOBI;
-  d->residual_merit = ek_model_need(s->mat.model, s->mat.clamp) == EK_NEEDS_SVD;
-  ek_fvm_hessian_opts o = {.scatter = sc->scatter,
-                           .isa = sc->svd.isa,
-                           .svd_sweeps = sc->svd.sweeps,
-                           .svd_exact_rsqrt = sc->svd.exact_rsqrt,
-                           .svd_refine = sc->svd.refine,
-                           .projection = sc->implicit.projection,
-                           .precision = sc->precision};
-  if (s->cloth) {
-    d->residual_merit = 0; // the cloth energy is the potential its forces derive from
-    d->hx = calloc(d->n3, sizeof(double));
-    d->blocks9 = calloc(3 * d->n3, sizeof(double));
-    if (!d->hx || !d->blocks9) {
-      data_free(d);
-      return sim_fail(s, "out of memory");
-    }
-  } else {
-    d->H = ek_fvm_hessian_create(ek_mesh_elements(s->mesh), &s->mat, &o);
-  }
-  if (!s->cloth && !d->H) {
+  d->body = s->body;
+  if (!(d->H = s->body->ops->hessian_create(s, &d->hes))) {
     data_free(d);
-    return sim_fail(s, "%s", ek_last_error());
-  }
-  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT && d->f32 &&
-      !(d->R64 = ek_tet_state_create(ek_mesh_elements(s->mesh), 9, 1))) {
-    data_free(d);
-    return sim_fail(s, "%s", ek_last_error());
+    return EK_EINVAL; // the message is in s->error
   }
   double **arrays[] = {&d->is_free, &d->minv, &d->mdiag, &d->x, &d->xt, &d->g, &d->gt,
                        &d->xtil,    &d->dx,   &d->r,     &d->z, &d->p,  &d->q};
@@ -126,7 +94,7 @@ static int implicit_create(ek_sim *s, void **data) {
     ok &= (*arrays[i] = calloc(d->n3, sizeof(double))) != NULL;
   ok &= (d->pre = calloc(2 * d->n3, sizeof(double))) != NULL; // 6 per vertex
   ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
-  if (d->f32)
+  if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
   if (!ok) {
     data_free(d);
@@ -183,30 +151,18 @@ static double residual(implicit_data *d, const ek_sim *s, const double *g, doubl
 static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, double *phi) {
   const ek_scene *sc = &s->scene;
   const double dt = sc->dt, c = sc->damping, *g = sc->gravity;
-  const ek_tet_state *R = ek_model_need(s->mat.model, 0) != EK_NEEDS_R_INPUT ? NULL
-                          : d->R64                                           ? d->R64
-                                                                             : s->R_state;
+  const sim_body_ops *ops = d->body->ops;
   double E, t0 = sim_now();
-  if (s->cloth) {
-    // grad E = -f; the products are taken at this x (the accepted point is
-    // the last one evaluated, as with the tets' cache).
-    int rc = ek_cloth_forces_f64(s->cloth, &s->cloth_p, x, gr, NULL);
-    if (rc < 0)
-      return sim_fail(s, "gradient: %s", ek_last_error());
-    for (size_t i = 0; i < d->n3; ++i)
-      gr[i] = -gr[i];
-    E = ek_cloth_energy_f64(s->cloth, &s->cloth_p, x);
-    memcpy(d->hx, x, d->n3 * sizeof(double));
-  } else if (s->time_phases) {
+  if (s->time_phases && d->hes.split_timing) {
     // The pass without the cache, to split off what caching costs.
-    int rc = ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 0);
+    int rc = ops->gradient(s, d->H, x, gr, &E, 0);
     if (rc < 0)
       return sim_fail(s, "gradient: %s", ek_last_error());
     double t1 = sim_now();
     s->times.eigensystems -= t1 - t0;
     t0 = t1;
   }
-  int rc = s->cloth ? 0 : ek_fvm_hessian_gradient_f64(d->H, x, R, gr, &E, 1);
+  int rc = ops->gradient(s, d->H, x, gr, &E, 1);
   double t1 = sim_now();
   if (s->time_phases) {
     s->times.eigensystems += t1 - t0;
@@ -236,17 +192,7 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
 // blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
 // the inverse diagonal's 3 out).
 static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
-  int rc;
-  if (s->cloth) {
-    rc = ek_cloth_hessian_diagonal_f64(s->cloth, &s->cloth_p, d->hx, d->blocks9);
-    for (size_t v = 0; rc == 0 && v < s->nv; ++v) { // 3x3 -> xx, xy, xz, yy, yz, zz
-      const double *b = d->blocks9 + 9 * v;
-      double *o = blocks + 6 * v;
-      o[0] = b[0], o[1] = b[1], o[2] = b[2], o[3] = b[4], o[4] = b[5], o[5] = b[8];
-    }
-  } else {
-    rc = ek_fvm_hessian_diagonal_f64(d->H, blocks);
-  }
+  int rc = d->body->ops->hessian_diagonal(d->H, blocks);
   if (rc < 0)
     return sim_fail(s, "diagonal blocks: %s", ek_last_error());
   const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
@@ -306,7 +252,7 @@ static double precondition(implicit_data *d, const double *blocks, const double 
 // p = z + beta p (p = z for beta 0, the first direction), and its float
 // copy for f32 products, in one pass.
 static void set_direction(implicit_data *d, const double *z, double beta, double *p) {
-  float *p32 = d->f32 ? d->p32 : NULL;
+  float *p32 = d->hes.f32 ? d->p32 : NULL;
 #pragma omp parallel for schedule(static) if (d->par)
   for (size_t i = 0; i < d->n3; i++) {
     p[i] = beta == 0 ? z[i] : z[i] + beta * p[i];
@@ -319,19 +265,13 @@ static void set_direction(implicit_data *d, const double *z, double beta, double
 // returns p.q. For f32 products, d->p32 holds p (set_direction).
 static int system_product(ek_sim *s, implicit_data *d, const double *p, double *q, double *pq) {
   double t0 = sim_now();
-  int rc;
-  if (s->cloth) {
-    rc = ek_cloth_hessian_apply_f64(s->cloth, &s->cloth_p, d->hx, 1, p, q);
-  } else if (d->f32) { // p32 = p, written where p is (set_direction)
-    rc = ek_fvm_hessian_apply_f32(d->H, d->p32, d->q32);
-  } else {
-    rc = ek_fvm_hessian_apply_f64(d->H, p, q);
-  }
+  // For f32 products p32 = p, written where p is (set_direction).
+  int rc = d->body->ops->hessian_apply(d->H, p, q, d->p32, d->q32);
   if (rc < 0)
     return sim_fail(s, "Hessian product: %s", ek_last_error());
   const double *w = d->is_free, *md = d->mdiag;
   const float *q32 = d->q32;
-  if (d->f32) {
+  if (d->hes.f32) {
     CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * (double)q32[i]; acc_[i & 3] += p[i] * q[i];)
   } else {
     CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * q[i]; acc_[i & 3] += p[i] * q[i];)
@@ -401,8 +341,11 @@ static int implicit_step(ek_sim *s, void *data) {
   const double *g = sc->gravity;
   double *x = d->x;
   double free_mass = 0;
-  if (d->R64 && ek_tet_state_set_f64(d->R64, s->R) < 0)
-    return sim_fail(s, "%s", ek_last_error());
+  if (d->body->ops->hessian_begin_step) {
+    int rc = d->body->ops->hessian_begin_step(s, d->H);
+    if (rc)
+      return rc;
+  }
 
   // 1. Held vertices at t_{n+1}; free ones start at x_n + dt v_n + dt^2 g.
   double t0 = sim_now();
@@ -484,7 +427,7 @@ static int implicit_step(ek_sim *s, void *data) {
       s->times.line_search += sim_now() - t0;
       if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
         return rc;
-      if (isfinite(phi_t) && d->residual_merit) {
+      if (isfinite(phi_t) && d->hes.residual_merit) {
         res_t = residual(d, s, d->gt, free_mass);
         accepted = res_t <= (1 - ARMIJO_C1 * alpha) * res;
       } else if (isfinite(phi_t)) {

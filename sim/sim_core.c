@@ -1,14 +1,9 @@
 // The simulation core (sim_internal.h): state, lumped masses, boundary
-// conditions, ground, energies, per-tet fields, CFL estimate, R^n for
-// corotated linear and the force evaluation, shared by every integrator.
-//
-// f is the finite-volume force of Teran et al. 2003 (seed 004) through
-// fvm.h, M the lumped mass (density times the vertex's share V0/4 of each
-// incident tet). Corotated linear takes R^n = polar(F^n) per tet at the
-// start of each step (seed 000). Vertices under a boundary condition follow
-// it exactly; the ground is friction-free.
+// conditions, ground, energies and the force check, shared by every
+// integrator; the elastic body behind its operations (body.h: tets in
+// body_tets.c, triangles in body_cloth.c). Vertices under a boundary
+// condition follow it exactly; the ground is friction-free.
 #include "sim_internal.h"
-#include <ek/polar.h>
 
 #include <math.h>
 #include <stdarg.h>
@@ -68,175 +63,10 @@ const char *ek_sim_warning(ek_sim *s, char *buf, size_t len) {
   return buf;
 }
 
-static double det3(const double *A) {
-  return A[0] * (A[4] * A[8] - A[5] * A[7]) - A[1] * (A[3] * A[8] - A[5] * A[6]) +
-         A[2] * (A[3] * A[7] - A[4] * A[6]);
-}
-
-// Signed volume of tet e at positions x: det[x1-x0, x2-x0, x3-x0] / 6.
-static double tet_volume(const double *x, const int32_t *t) {
-  const double *a = x + 3 * t[0];
-  double D[9];
-  for (int c = 0; c < 3; ++c)
-    for (int k = 0; k < 3; ++k)
-      D[3 * k + c] = x[3 * t[c + 1] + k] - a[k];
-  return det3(D) / 6.0;
-}
-
-static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
 static void cross3(const double *a, const double *b, double *c) {
   c[0] = a[1] * b[2] - a[2] * b[1];
   c[1] = a[2] * b[0] - a[0] * b[2];
   c[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-// Smallest height of any rest tet: 3 V / (area of the opposite face),
-// minimised over the four faces. The CFL length of an explicit FEM step.
-static double min_tet_height(const ek_mesh *m) {
-  const double *X = ek_mesh_rest_positions(m);
-  const int32_t *T = ek_mesh_tets(m);
-  size_t nt = ek_mesh_ntets(m);
-  double h = INFINITY;
-  for (size_t e = 0; e < nt; ++e) {
-    const int32_t *t = T + 4 * e;
-    double V = fabs(tet_volume(X, t));
-    for (int skip = 0; skip < 4; ++skip) {
-      int f[3], k = 0;
-      for (int c = 0; c < 4; ++c)
-        if (c != skip)
-          f[k++] = t[c];
-      double a[3], b[3], n[3];
-      for (int i = 0; i < 3; ++i) {
-        a[i] = X[3 * f[1] + i] - X[3 * f[0] + i];
-        b[i] = X[3 * f[2] + i] - X[3 * f[0] + i];
-      }
-      cross3(a, b, n);
-      double area = 0.5 * norm3(n);
-      if (area > 0 && 3.0 * V / area < h)
-        h = 3.0 * V / area;
-    }
-  }
-  return h;
-}
-
-// Largest squared natural frequency of one tet alone: the largest
-// generalised eigenvalue of its linear-elastic stiffness K_e against its
-// lumped mass (rho V / 4 per vertex), by power iteration. K_e x: the
-// displacement gradient H = sum_a x_a g_a^T (g_a the shape-function
-// gradients), sigma = lambda tr(eps) I + 2 mu eps with eps = sym(H), and
-// f_a = V sigma g_a. The rigid modes are K_e's null space, so the iteration
-// finds the largest eigenvalue from any start with a component along it.
-//
-// Scale-free (issue 28: a box of edge 1e100 or 1e-100, or density 1e-300,
-// printed its CFL limit as inf: |M^-1 K x|^2 under- or overflowed): the
-// iteration runs on the element scaled by 2^-e (its largest edge
-// component in [0.5, 1)), lambda and mu by 2^-a and rho by 2^-b, all
-// powers of two, so every product and quotient is the unscaled one times
-// a power of two, exactly (rounding commutes with such scaling between
-// DBL_MIN and DBL_MAX): where the unscaled iteration stayed in range the
-// result is the same bits. omega^2 = *w2 2^*k, returned split because it
-// may itself be beyond a double (rho 1e-300 on a small element).
-static void tet_omega2_max(const double *X, const int32_t *t, double lambda, double mu, double rho,
-                           double *w2, int *k) {
-  *w2 = 0, *k = 0;
-  double D[3][3], g[4][3], dmax = 0;
-  for (int c = 0; c < 3; ++c)
-    for (int i = 0; i < 3; ++i) {
-      D[i][c] = X[3 * t[c + 1] + i] - X[3 * t[0] + i];
-      dmax = fmax(dmax, fabs(D[i][c]));
-    }
-  int e = 0, a = 0, b = 0;
-  frexp(dmax, &e);
-  frexp(fmax(mu, fabs(lambda)), &a);
-  frexp(rho, &b);
-  for (int c = 0; c < 3; ++c)
-    for (int i = 0; i < 3; ++i)
-      D[i][c] = ldexp(D[i][c], -e);
-  mu = ldexp(mu, -a), lambda = ldexp(lambda, -a), rho = ldexp(rho, -b);
-  double det = D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) -
-               D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
-               D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0]);
-  double V = fabs(det) / 6.0;
-  if (!(V > 0))
-    return;
-  // Rows of D^-1 are the gradients of the shape functions of vertices 1..3.
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      int i1 = (i + 1) % 3, i2 = (i + 2) % 3, j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-      g[i + 1][j] = (D[j1][i1] * D[j2][i2] - D[j1][i2] * D[j2][i1]) / det; // (D^-1)_ij
-    }
-  for (int i = 0; i < 3; ++i)
-    g[0][i] = -(g[1][i] + g[2][i] + g[3][i]);
-  double x[12], y[12], rq = 0;
-  for (int k = 0; k < 12; ++k)
-    x[k] = 1.0 + 0.37 * k - 0.05 * k * k; // generic: not orthogonal to the top mode
-  for (int it = 0; it < 200; ++it) {
-    double H[3][3] = {{0}}, S[3][3];
-    for (int a = 0; a < 4; ++a)
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          H[i][j] += x[3 * a + i] * g[a][j];
-    double tr = H[0][0] + H[1][1] + H[2][2];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        S[i][j] = mu * (H[i][j] + H[j][i]) + (i == j ? lambda * tr : 0.0);
-    double xx = 0, xy = 0, yy = 0, m = rho * V / 4.0;
-    for (int a = 0; a < 4; ++a)
-      for (int i = 0; i < 3; ++i) {
-        double f = V * (S[i][0] * g[a][0] + S[i][1] * g[a][1] + S[i][2] * g[a][2]);
-        y[3 * a + i] = f / m; // M^-1 K x
-      }
-    for (int k = 0; k < 12; ++k)
-      xx += x[k] * x[k], xy += x[k] * y[k], yy += y[k] * y[k];
-    // Rayleigh quotient of M^-1 K in the M inner product (M = m I).
-    double prev = rq;
-    rq = xy / xx;
-    double n = sqrt(yy);
-    if (!(n > 0))
-      return;
-    for (int k = 0; k < 12; ++k)
-      x[k] = y[k] / n;
-    if (it > 20 && fabs(rq - prev) <= 1e-12 * rq)
-      break;
-  }
-  // M^-1 K scales as stiffness / (density length^2): 2^(a - b - 2e).
-  *w2 = rq;
-  *k = a - b - 2 * e;
-}
-
-// The explicit step's stability limit: symplectic Euler is stable for
-// dt omega_max <= 2 (undamped), and omega_max^2 of the assembled mesh is at
-// most the largest over its elements alone (the element eigenvalue
-// inequality: x^T K x = sum_e x_e^T K_e x_e <= max_e omega_e^2 x^T M x;
-// Belytschko, Liu, Moran, "Nonlinear Finite Elements for Continua and
-// Structures", sec. 6.3), so 2 / max_e omega_e is a step that cannot be
-// unstable for the linearised model at rest. The maximum is kept as a
-// fraction in [0.5, 1) and a power of two, so the limit is finite and
-// non-zero wherever a double holds it (sim.h, ek_sim_cfl_dt), and the same
-// bits as 2 / sqrt(max_e omega_e^2) wherever that is in range.
-static double element_cfl_dt(const ek_mesh *m, double lambda, double mu, double rho) {
-  const double *X = ek_mesh_rest_positions(m);
-  const int32_t *T = ek_mesh_tets(m);
-  size_t nt = ek_mesh_ntets(m);
-  double wmax = 0; // max_e omega_e^2 = wmax 2^kmax, wmax in [0.5, 1) or 0
-  int kmax = 0;
-  for (size_t e = 0; e < nt; ++e) {
-    double w2;
-    int k, ke;
-    tet_omega2_max(X, T + 4 * e, lambda, mu, rho, &w2, &k);
-    if (!(w2 > 0))
-      continue;
-    w2 = frexp(w2, &ke);
-    k += ke;
-    if (wmax == 0 || k > kmax || (k == kmax && w2 > wmax))
-      wmax = w2, kmax = k;
-  }
-  if (wmax == 0)
-    return INFINITY;
-  // 2 / sqrt(wmax 2^kmax), the exponent made even so the root is exact.
-  if (kmax % 2)
-    wmax *= 2, kmax -= 1;
-  return ldexp(2.0 / sqrt(wmax), -kmax / 2);
 }
 
 // Rodrigues' rotation of p about unit axis k by angle theta.
@@ -280,56 +110,6 @@ void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3
   }
 }
 
-// "polar": "warm" with fixed corotated / ARAP: the force kernel keeps each
-// tet's rotation from call to call (fvm.h polar_state).
-static int uses_warm_force_rotations(const ek_sim *s) {
-  return s->mesh && s->scene.polar == EK_POLAR_WARM &&
-         ek_model_need(s->mat.model, 0) == EK_NEEDS_POLAR;
-}
-
-// (Re)start the force's per-tet rotations at the SVD polar of the current
-// F (the identity at rest): at creation, and when ek_sim_set_state replaces
-// the state (the last step's rotations may be far from the new ones, and
-// the warm polar converges in its few iterations only from a near guess).
-static int seed_warm_rotations(ek_sim *s) {
-  size_t nt = s->nt;
-  double *F = malloc(18 * nt * sizeof(double));
-  int rc = F ? ek_fvm_deformation_gradients_f64(s->mesh, s->x, F) : EK_ENOMEM;
-  ek_svd3_opts so = s->scene.svd;
-  if (rc == 0)
-    rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
-  if (rc == 0 && !s->polar_state &&
-      !(s->polar_state =
-            ek_tet_state_create(ek_mesh_elements(s->mesh), 9, s->scene.precision == 64)))
-    rc = EK_ENOMEM;
-  if (rc == 0)
-    rc = ek_tet_state_set_f64(s->polar_state, F + 9 * nt);
-  free(F);
-  return rc;
-}
-
-static int refresh_rotations(ek_sim *s) {
-  if (ek_model_need(s->mat.model, 0) != EK_NEEDS_R_INPUT)
-    return 0;
-  double t0 = sim_now();
-  int rc = ek_fvm_deformation_gradients_f64(s->mesh, s->x, s->F);
-  if (rc == 0 && s->scene.polar == EK_POLAR_WARM && s->R_ready) {
-    // The warm polar from R^(n-1) (polar.h), in double like the SVD path.
-    ek_polar_warm_opts o = {.isa = s->scene.svd.isa};
-    rc = ek_polar3_warm_f64(s->nt, s->F, s->R, &o);
-  } else if (rc == 0) {
-    ek_svd3_opts o = s->scene.svd;
-    rc = ek_polar3_f64(s->nt, s->F, s->R, NULL, &o);
-  }
-  s->R_ready = rc == 0;
-  if (rc == 0)
-    rc = ek_tet_state_set_f64(s->R_state, s->R);
-  s->times.polar_refresh += sim_now() - t0;
-  if (rc)
-    return sim_fail(s, "corotated linear: refreshing R^n failed: %s", ek_last_error());
-  return 0;
-}
-
 void ek_sim_destroy(ek_sim *s) {
   if (!s)
     return;
@@ -347,23 +127,23 @@ void ek_sim_destroy(ek_sim *s) {
   free(s->f);
   free(s->xf);
   free(s->ff);
-  free(s->F);
-  free(s->R);
-  ek_tet_state_destroy(s->R_state);
-  ek_tet_state_destroy(s->polar_state);
-  free(s->psi_rest);
+  if (s->body)
+    s->body->ops->destroy((sim_body *)s->body);
   free(s->x_next);
   free(s->v_next);
   free(s->bc_of);
   free(s);
 }
 
-// One constructor for both kinds: a tet mesh (mesh) or a cloth (tm).
-static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_trimesh *tm,
-                          char *err, size_t errlen) {
+// One constructor for every body: make_body builds it from the scene's
+// checked material (NULL: out of memory), ek_sim_create* say which.
+typedef sim_body *(*body_maker)(const ek_scene *scene, const ek_material *mat, const void *mesh);
+
+static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
+                          body_maker make_body, char *err, size_t errlen) {
   if (err && errlen)
     err[0] = '\0';
-  if (!scene || (!mesh && !tm) || (tm && !scene->triangles) || (mesh && scene->triangles)) {
+  if (!scene || !mesh || !kind_ok) {
     if (err && errlen)
       snprintf(err, errlen, "ek_sim_create: no scene or mesh, or a mesh of the wrong kind");
     return NULL;
@@ -377,8 +157,6 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   if (!s)
     return NULL;
   s->scene = *scene;
-  s->mesh = mesh;
-  s->trimesh = tm;
   s->mat = scene->material;
   if (ek_material_check(&s->mat) != 0) {
     if (err && errlen)
@@ -386,18 +164,15 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     ek_sim_destroy(s);
     return NULL;
   }
-  size_t nv = s->nv = mesh ? ek_mesh_nverts(mesh) : ek_trimesh_nverts(tm);
-  size_t nt = s->nt = mesh ? ek_mesh_ntets(mesh) : ek_trimesh_ntris(tm);
-  if (tm) {
-    // Membrane per unit area: mu h and the plane-stress lambda
-    // 2 mu lambda / (lambda + 2 mu) times h (a thin sheet has no stress
-    // through its thickness: sigma_33 = 0 eliminates eps_33); k_b as given.
-    double mu = s->mat.mu, lam = s->mat.lambda, h = scene->thickness;
-    s->cloth = ek_trimesh_cloth(tm);
-    s->cloth_p =
-        (ek_cloth_params){(ek_membrane_model)ek_model_describe(s->mat.model)->membrane, mu * h,
-                          2 * mu * lam / (lam + 2 * mu) * h, scene->bending_stiffness};
+  const sim_body *body = s->body = make_body(scene, &s->mat, mesh);
+  if (!body) {
+    if (err && errlen)
+      snprintf(err, errlen, "%s: out of memory", scene->path);
+    ek_sim_destroy(s);
+    return NULL;
   }
+  size_t nv = s->nv = body->nv;
+  size_t nt = s->nt = body->ne;
   s->x = malloc(3 * nv * sizeof(double));
   s->v = malloc(3 * nv * sizeof(double));
   s->x0 = malloc(3 * nv * sizeof(double));
@@ -414,14 +189,6 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     s->ff = malloc(3 * nv * sizeof(float));
     ok = ok && s->xf && s->ff;
   }
-  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
-    s->F = malloc(9 * nt * sizeof(double));
-    s->R = malloc(9 * nt * sizeof(double));
-    ok = ok && s->F && s->R;
-  } else if (mesh) {
-    s->psi_rest = malloc(nt * sizeof(double));
-    ok = ok && s->psi_rest;
-  }
   if (!ok) {
     if (err && errlen)
       snprintf(err, errlen, "%s: out of memory for %zu vertices, %zu elements", scene->path, nv,
@@ -432,7 +199,7 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
 
   // Initial state: rest shape scaled about its bounding-box centre, then
   // translated; uniform velocity.
-  const double *X = mesh ? ek_mesh_rest_positions(mesh) : ek_trimesh_rest_positions(tm);
+  const double *X = body->X;
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (size_t i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
@@ -450,12 +217,12 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     }
   memcpy(s->x0, s->x, 3 * nv * sizeof(double));
 
-  // Lumped masses (Teran 2003 sec. 4: each tet gives a quarter of its mass
-  // to each corner; each triangle a third of its density * thickness * A).
-  const double *lumped = mesh ? ek_mesh_lumped_volume(mesh) : ek_cloth_lumped_area(s->cloth);
-  double areal = mesh ? 1.0 : scene->thickness;
+  // Lumped masses (body.h: Teran 2003 sec. 4, each tet gives a quarter of
+  // its mass to each corner; each triangle a third of its density *
+  // thickness * A).
+  const double *lumped = body->lumped;
   for (size_t i = 0; i < nv; ++i) {
-    s->mass[i] = scene->density * areal * lumped[i];
+    s->mass[i] = scene->density * body->mass_scale * lumped[i];
     s->inv_mass[i] = s->mass[i] > 0 ? 1.0 / s->mass[i] : 0.0;
   }
 
@@ -492,73 +259,15 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
     if (s->bc_of[i] >= 0)
       sim_bc_state(&scene->bc[s->bc_of[i]], s->x0 + 3 * i, 0.0, s->x + 3 * i, s->v + 3 * i);
 
-  // CFL: an explicit step must not outrun the fastest (dilatational) wave
-  // across the smallest element, dt <= h_min / c, c = sqrt((lambda + 2 mu)
-  // / rho) (Courant, Friedrichs, Lewy 1928; the P-wave speed of linear
-  // elasticity). That is an estimate: on tets, symplectic Euler diverged
-  // at rest from 0.95 h_min / c (ek-verify --extremes), so the tet limit is
-  // the element eigenvalue bound instead (element_cfl_dt: 0.64-0.82
-  // h_min / c on the shipped meshes), h_min / c kept for the messages.
-  // Integrators that it limits check it (their create). Cloth: the
-  // smallest triangle height and the membrane's (plane-stress) P-wave
-  // speed sqrt((lambda_2D + 2 mu) h / (rho h)).
-  s->h_min = mesh ? min_tet_height(mesh) : sim_cloth_min_height(tm);
-  s->wave_speed =
-      mesh ? sqrt((s->mat.lambda + 2.0 * s->mat.mu) / scene->density)
-           : sqrt((s->cloth_p.lambda + 2.0 * s->cloth_p.mu) / (scene->density * scene->thickness));
-  s->cfl_dt = mesh ? element_cfl_dt(mesh, s->mat.lambda, s->mat.mu, scene->density)
-                   : s->h_min / s->wave_speed;
-
-  s->fvm.scatter = scene->scatter;
-  s->fvm.isa = scene->svd.isa;
-  s->fvm.svd_sweeps = scene->svd.sweeps;
-  s->fvm.svd_exact_rsqrt = scene->svd.exact_rsqrt;
-  s->fvm.svd_refine = scene->svd.refine;
-  s->fvm.R = s->R;
-  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
-    s->R_state = ek_tet_state_create(ek_mesh_elements(mesh), 9, scene->precision == 64);
-    if (!s->R_state) {
-      if (err && errlen)
-        snprintf(err, errlen, "%s: %s", scene->path, ek_last_error());
-      ek_sim_destroy(s);
-      return NULL;
-    }
-    s->fvm.R_state = s->R_state;
-  }
-  if (uses_warm_force_rotations(s)) {
-    int rc = seed_warm_rotations(s);
-    if (rc != 0) {
-      if (err && errlen)
-        snprintf(err, errlen, "%s: polar \"warm\": initial rotations: %s", scene->path,
-                 rc == EK_ENOMEM ? "out of memory" : ek_last_error());
-      ek_sim_destroy(s);
-      return NULL;
-    }
-    s->fvm.polar_state = s->polar_state;
-  }
-  if (refresh_rotations(s) != 0) {
+  // The CFL limit (the body's: element eigenvalue bound for tets, h_min / c
+  // for triangles); integrators that it limits check it (their create).
+  // Then what the body keeps from the initial state and its rest energy.
+  body->ops->cfl(s, &s->h_min, &s->wave_speed, &s->cfl_dt);
+  if (body->ops->start(s) != 0) {
     if (err && errlen)
       snprintf(err, errlen, "%s: %s", scene->path, s->error);
     ek_sim_destroy(s);
     return NULL;
-  }
-  s->times.polar_refresh = 0;
-  // Corotated linear is 0 at rest (R = polar(I) = I); the others are
-  // evaluated, per tet for the frames' field and summed for the energy.
-  s->elastic_rest = 0.0;
-  if (tm) // flat rest: 0 up to rounding; a bent rest mesh is bent from flat (cloth_force.h)
-    s->elastic_rest = ek_cloth_energy_f64(s->cloth, &s->cloth_p, X);
-  if (s->psi_rest) {
-    s->elastic_rest = ek_fvm_energy_f64(mesh, &s->mat, X);
-    ek_fvm_opts o = s->fvm;
-    o.psi = s->psi_rest;
-    o.polar_state = NULL; // a double pass: the SVD (the state is in the scene's precision)
-    if (ek_fvm_forces_ex_f64(mesh, &s->mat, X, s->f, &o) != 0) {
-      if (err && errlen)
-        snprintf(err, errlen, "%s: energy density at rest: %s", scene->path, ek_last_error());
-      ek_sim_destroy(s);
-      return NULL;
-    }
   }
 
   s->integrator = sim_integrators[scene->integrator];
@@ -571,63 +280,31 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   return s;
 }
 
+static sim_body *make_tets(const ek_scene *scene, const ek_material *mat, const void *mesh) {
+  return sim_body_tets_create(scene, mat, mesh);
+}
+
+static sim_body *make_triangles(const ek_scene *scene, const ek_material *mat, const void *mesh) {
+  return sim_body_triangles_create(scene, mat, mesh);
+}
+
 ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
-  return sim_create(scene, mesh, NULL, err, errlen);
+  return sim_create(scene, mesh, scene && !scene->triangles, make_tets, err, errlen);
 }
 
 ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
                             size_t errlen) {
-  return sim_create(scene, NULL, mesh, err, errlen);
+  return sim_create(scene, mesh, scene && scene->triangles, make_triangles, err, errlen);
 }
 
-int ek_sim_is_cloth(const ek_sim *s) { return s->cloth != NULL; }
+int ek_sim_is_cloth(const ek_sim *s) { return s->body->ops == &sim_body_triangles; }
 
 const char *ek_sim_last_error(const ek_sim *s) { return s ? s->error : "no simulation"; }
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
-size_t ek_sim_inverted_count(const ek_sim *s) {
-  if (s->cloth) // a triangle in 3D has no orientation to lose
-    return 0;
-  const int32_t *T = ek_mesh_tets(s->mesh);
-  size_t n = 0;
-  for (size_t e = 0; e < s->nt; ++e)
-    n += !(tet_volume(s->x, T + 4 * e) > 0);
-  return n;
-}
+size_t ek_sim_inverted_count(const ek_sim *s) { return s->body->ops->inverted_count(s); }
 
-int sim_forces(ek_sim *s, const double *x) {
-  if (s->cloth)
-    return sim_cloth_forces(s, x);
-  ek_fvm_opts o = s->fvm;
-  ek_fvm_phase_times pt = {0, 0, 0, 0};
-  if (s->time_phases)
-    o.phase_times = &pt;
-  size_t n3 = 3 * s->nv;
-  double t0 = sim_now();
-  int rc;
-  if (s->scene.precision == 32) {
-    for (size_t i = 0; i < n3; ++i)
-      s->xf[i] = (float)x[i];
-    rc = ek_fvm_forces_ex_f32(s->mesh, &s->mat, s->xf, s->ff, &o);
-    for (size_t i = 0; rc == 0 && i < n3; ++i)
-      s->f[i] = (double)s->ff[i];
-  } else {
-    rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, x, s->f, &o);
-  }
-  double t1 = sim_now();
-  if (s->time_phases) {
-    s->times.deformation_gradient += pt.deformation_gradient;
-    s->times.svd_polar += pt.svd;
-    s->times.pk1 += pt.pk1;
-    s->times.scatter += pt.scatter;
-    s->times.phase_timed_steps++;
-  } else {
-    s->times.forces += t1 - t0;
-  }
-  if (rc)
-    return sim_fail(s, "FVM force kernel failed (rc %d): %s", rc, ek_last_error());
-  return 0;
-}
+int sim_forces(ek_sim *s, const double *x) { return s->body->ops->forces(s, x); }
 
 // ", dt D is above the CFL limit C" for an explicit scene stepped above its
 // limit, else "": the likely cause of a blow-up, said where it is reported.
@@ -648,48 +325,18 @@ int sim_check_forces(ek_sim *s, const double *x) {
   if (bad_vertex == (size_t)-1)
     return 0;
   char hint[128];
-  const double *f = s->f + 3 * bad_vertex;
   // Three causes, told apart (issue 28: a NaN state was reported as every
   // tet "inverted (J = -nan) ... use an invertible model", even for fixed
   // corotated): positions that are not finite (a blow-up the state check
   // missed, e.g. a line-search trial point), elements outside the model's
   // domain (neo-Hookean without clamp, J <= 0: material.h), or a finite
-  // state whose force overflows.
+  // state whose force overflows; the body tells the last two apart.
   for (size_t i = 0; i < 3 * s->nv; ++i)
     if (!isfinite(x[i]))
       return sim_fail(s, "step %ld (t = %g): non-finite state: vertex %zu position (%g, %g, %g)%s",
                       s->n, s->t, i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
                       cfl_hint(s, hint, sizeof hint));
-  if (s->cloth)
-    return sim_fail(s,
-                    "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
-                    "positions%s",
-                    s->n, s->t, f[0], f[1], f[2], bad_vertex, cfl_hint(s, hint, sizeof hint));
-  const int32_t *T = ek_mesh_tets(s->mesh);
-  size_t inverted = 0, first = 0;
-  double first_J = 0;
-  const double *V0 = ek_mesh_rest_volumes(s->mesh);
-  for (size_t e = 0; e < s->nt; ++e) {
-    double J = tet_volume(x, T + 4 * e) / V0[e];
-    if (J <= 0 && inverted++ == 0) {
-      first = e;
-      first_J = J;
-    }
-  }
-  const int domain_limited = s->mat.model == EK_MODEL_NEO_HOOKEAN && !(s->mat.clamp > 0);
-  if (inverted && domain_limited) {
-    snprintf(s->error, sizeof s->error,
-             "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
-             "model %s is undefined there (use an invertible model or material.clamp > 0)",
-             s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
-    return EK_SIM_EINVERTED;
-  }
-  return sim_fail(s,
-                  "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
-                  "positions (%zu of %zu tets with J <= 0; model %s is finite for every finite "
-                  "F there, so a value overflowed)%s",
-                  s->n, s->t, f[0], f[1], f[2], bad_vertex, inverted, s->nt,
-                  ek_scene_model_name(s->mat.model), cfl_hint(s, hint, sizeof hint));
+  return s->body->ops->bad_force(s, x, bad_vertex, cfl_hint(s, hint, sizeof hint));
 }
 
 // The state a step wrote must be finite (issue 28: at dt = 1e3 the state
@@ -718,7 +365,7 @@ int ek_sim_step(ek_sim *s) {
   if (!s)
     return EK_EINVAL;
   s->error[0] = '\0';
-  int rc = refresh_rotations(s);
+  int rc = s->body->ops->begin_step ? s->body->ops->begin_step(s) : 0;
   if (rc == 0)
     rc = s->integrator->step(s, s->integrator_data);
   if (rc == 0)
@@ -771,15 +418,8 @@ int ek_sim_set_state(ek_sim *s, const double *x, const double *v) {
   memcpy(s->x, x, n3 * sizeof(double));
   if (v)
     memcpy(s->v, v, n3 * sizeof(double));
-  // The rotations kept from the old state: corotated linear's R^n is the
-  // new state's, by the SVD polar (no warm guess); the warm force
-  // rotations restart there too.
-  s->R_ready = 0;
-  if (s->mesh && refresh_rotations(s) != 0)
-    return EK_EINVAL;
-  if (uses_warm_force_rotations(s) && seed_warm_rotations(s) != 0)
-    return sim_fail(s, "ek_sim_set_state: warm polar rotations: %s", ek_last_error());
-  return 0;
+  // What the body kept from the old state (rotations) restarts here.
+  return s->body->ops->set_state(s);
 }
 
 size_t ek_sim_constrained_count(const ek_sim *s) {
@@ -799,9 +439,7 @@ int ek_sim_energy(const ek_sim *s, ek_sim_energies *e) {
   }
   e->kinetic = kinetic;
   e->potential = potential;
-  e->elastic = (s->cloth ? ek_cloth_energy_f64(s->cloth, &s->cloth_p, s->x)
-                         : ek_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R)) -
-               s->elastic_rest;
+  e->elastic = s->body->ops->energy(s, s->x) - s->elastic_rest;
   return isnan(e->elastic) ? EK_EINVAL : 0;
 }
 
@@ -812,47 +450,14 @@ void ek_sim_momentum(const ek_sim *s, double p[3]) {
       p[k] += s->mass[i] * s->v[3 * i + k];
 }
 
-double ek_sim_volume(const ek_sim *s) {
-  if (s->cloth) {
-    double A = 0, *J = malloc(s->nt * sizeof(double));
-    if (!J || ek_cloth_fields_f64(s->cloth, &s->cloth_p, s->x, J, NULL, NULL, NULL) != 0) {
-      free(J);
-      return NAN;
-    }
-    const double *A0 = ek_cloth_rest_areas(s->cloth);
-    for (size_t t = 0; t < s->nt; ++t)
-      A += A0[t] * J[t];
-    free(J);
-    return A;
-  }
-  const int32_t *T = ek_mesh_tets(s->mesh);
-  double V = 0;
-  for (size_t e = 0; e < s->nt; ++e)
-    V += tet_volume(s->x, T + 4 * e);
-  return V;
-}
+double ek_sim_volume(const ek_sim *s) { return s->body->ops->measure(s); }
 
 int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
-  if (s->cloth)
-    return ek_sim_cloth_fields(s, J, NULL, smin, psi);
-  // The FVM kernel computes the fields in double in a separate pass
-  // (fvm.h); the force it returns alongside is discarded.
-  double *scratch = malloc(3 * s->nv * sizeof(double));
-  if (!scratch)
-    return EK_ENOMEM;
-  ek_fvm_opts o = s->fvm;
-  o.J = J;
-  o.sigma_min = smin;
-  o.psi = psi;
-  o.phase_times = NULL;
-  o.R_state = NULL; // in the scene's precision; this pass is double and has R
-  o.polar_state = NULL;
-  int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
-  free(scratch);
-  // Measured from the rest shape, like ek_sim_energy's elastic energy:
-  // sum_e V0_e psi_e is that energy.
-  if (rc == 0 && psi && s->psi_rest)
-    for (size_t e = 0; e < s->nt; ++e)
-      psi[e] -= s->psi_rest[e];
-  return rc;
+  return s->body->ops->fields(s, J, NULL, smin, psi);
+}
+
+int ek_sim_cloth_fields(const ek_sim *s, double *J, double *s1, double *s2, double *psi) {
+  if (!ek_sim_is_cloth(s))
+    return sim_fail((ek_sim *)s, "ek_sim_cloth_fields: not a cloth scene");
+  return s->body->ops->fields(s, J, s1, s2, psi);
 }

@@ -3,11 +3,12 @@
 // Not installed.
 //
 // The core owns what every integrator needs: the state, lumped masses,
-// boundary conditions, the ground, energies, per-tet fields, the CFL
-// estimate, R^n for corotated linear, the force evaluation in the scene's
-// precision, the inverted-element report and the timing. An integrator owns
-// one step and nothing else. ek_sim_step (core) refreshes R^n from x^n
-// (seed 000), calls the integrator's step, and only if that succeeds makes
+// boundary conditions, the ground, energies, the timing, and the body
+// (body.h), whose operations give the forces in the scene's precision,
+// per-element fields, the CFL estimate and the inverted-element report.
+// An integrator owns one step and nothing else. ek_sim_step (core) lets
+// the body begin the step from x^n (R^n for corotated linear, seed 000),
+// calls the integrator's step, and only if that succeeds makes
 // (x_next, v_next) the state at t_{n+1} = t_n + dt; so a failed step leaves
 // the state as it was, whatever the integrator wrote.
 #ifndef EK_SIM_INTERNAL_H
@@ -15,6 +16,8 @@
 
 #include <ek/sim.h>
 #include <stdio.h>
+
+#include "body.h"
 
 // One time integrator. A new one is a file sim/<name>.c defining a
 // `const sim_integrator sim_integrator_<name>`, an ek_integrator_type value
@@ -48,12 +51,9 @@ extern const sim_integrator *const sim_integrators[EK_INTEGRATOR_COUNT];
 
 struct ek_sim {
   ek_scene scene;
-  const ek_mesh *mesh; // tet scenes; NULL for cloth
-  // Cloth scenes (scene.triangles): the triangle mesh, its element layer and
-  // the membrane and bending parameters per unit area (cloth_force.h).
-  const ek_trimesh *trimesh;
-  const ek_cloth *cloth;
-  ek_cloth_params cloth_p;
+  // The elastic body: a tet mesh or a cloth's triangles behind one table of
+  // operations (body.h); the core and the integrators call only those.
+  const sim_body *body;
   // One-rings for the per-vertex Kabsch rotations (sim/rate_fields.c),
   // built at the first ek_sim_vertex_rotations: vertex v's set is itself
   // and its neighbours, ring[ring_off[v] .. ring_off[v+1]); ring_P their
@@ -70,16 +70,6 @@ struct ek_sim {
   signed char *bc_of;      // per vertex: index of its boundary condition, -1 free
   double *f;               // nv x 3: the force of the last sim_forces call
   float *xf, *ff;          // f32 force path
-  double *F, *R;           // nt x 9, corotated linear only: R^n
-  ek_tet_state *R_state;   // R^n again, as the force kernel reads it (elements.h)
-  int R_ready;             // R^n holds a step's rotations (the warm polar's guess)
-  // "polar": "warm" with fixed corotated / ARAP: each tet's rotation, kept
-  // by the force kernel from call to call (fvm.h polar_state); NULL else.
-  ek_tet_state *polar_state;
-  // Energy density at the rest shape per tet, subtracted from the frames'
-  // field; NULL for corotated linear, which is 0 there.
-  double *psi_rest;
-  ek_fvm_opts fvm;
   int time_phases;
   double t;
   long n;
@@ -101,18 +91,14 @@ int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2,
 // A warning for the caller (ek_sim_warning): the library prints nothing
 // itself (core.h). A pending one is kept; a second is dropped.
 void sim_warn(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-// The cloth parts of the core (sim/cloth_core.c): forces, CFL length,
-// energy, fields.
-int sim_cloth_forces(ek_sim *sim, const double *x);
-double sim_cloth_min_height(const ek_trimesh *m);
-// sim->f = f(x), x nv x 3 in double, through the FVM kernel in the scene's
-// precision (f32 converts x to float and f back), with the phase split
-// when sim->time_phases is set. Timed into sim->times.
+// sim->f = f(x), x nv x 3 in double, through the body's force in the
+// scene's precision (f32 converts x to float and f back), with the phase
+// split when sim->time_phases is set. Timed into sim->times.
 int sim_forces(ek_sim *sim, const double *x);
 // 0 if sim->f is finite. Otherwise the step cannot go on: EK_SIM_EINVERTED
-// naming the inverted tets of x (the model is undefined there), or
-// EK_EINVAL for a non-finite force with no inverted tet (e.g. dt far above
-// the CFL limit); message in sim->error.
+// naming the inverted elements of x (the model is undefined there), or
+// EK_EINVAL for a non-finite force with no inverted element (e.g. dt far
+// above the CFL limit); message in sim->error.
 int sim_check_forces(ek_sim *sim, const double *x);
 // EK_SIM_ESTOPPED with the message in sim->error if the caller's stop flag
 // is set (ek_sim_set_stop_flag), else 0. `where` names the point in the

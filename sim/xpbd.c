@@ -20,8 +20,9 @@
 #include <string.h>
 
 typedef struct {
-  ek_xpbd *xp;
-  ek_cloth_xpbd *cx; // cloth scenes: the cloth constraints (cloth_force.h), double
+  const sim_body *body;
+  void *c; // the body's constraints (body.h: xpbd_create)
+  int f32; // sweeps on float displacements from a float x~
   double young;
   double *xs, *vs, *xp_pred, *w; // substep start, prediction, weights
   float *xf, *xf_pred;           // f32 sweeps: displacements, float x~
@@ -31,8 +32,8 @@ static void xpbd_destroy(void *data) {
   xpbd_data *d = data;
   if (!d)
     return;
-  ek_xpbd_destroy(d->xp);
-  ek_cloth_xpbd_destroy(d->cx);
+  if (d->c)
+    d->body->ops->xpbd_destroy(d->c);
   free(d->xs);
   free(d->vs);
   free(d->xp_pred);
@@ -52,48 +53,28 @@ static double young_of(const ek_sim *s) {
 
 static int xpbd_create(ek_sim *s, void **data) {
   *data = NULL;
-  if (!s->cloth && s->mat.model != EK_XPBD_MODEL)
-    return sim_fail(s,
-                    "material.model = %s: XPBD's constraint is seed 001's Hookean energy, the "
-                    "stvk model; use \"model\": \"stvk\"",
-                    s->scene.model_name);
   xpbd_data *d = calloc(1, sizeof *d);
   if (!d)
     return sim_fail(s, "out of memory");
   *data = d;
   const size_t n3 = 3 * s->nv;
   d->young = young_of(s);
+  d->body = s->body;
+  // The body checks the model and the knobs against its constraints.
+  if (!(d->c = s->body->ops->xpbd_create(s, d->young, &d->f32)))
+    return EK_EINVAL; // the message is in s->error
   d->xs = malloc(n3 * sizeof(double));
   d->vs = malloc(n3 * sizeof(double));
   d->xp_pred = malloc(n3 * sizeof(double));
   d->w = malloc(s->nv * sizeof(double));
   int ok = d->xs && d->vs && d->xp_pred && d->w;
-  if (s->scene.precision == 32 && !s->cloth) {
+  if (d->f32) {
     d->xf = malloc(n3 * sizeof(float));
     d->xf_pred = malloc(n3 * sizeof(float));
     ok = ok && d->xf && d->xf_pred;
   }
   if (!ok)
     return sim_fail(s, "out of memory for %zu vertices", s->nv);
-  const ek_scene_xpbd *k = &s->scene.xpbd;
-  if (s->cloth) {
-    // Membrane modulus per unit area: E h (the tets' C = sqrt(2 W / E)
-    // with W per unit area). Gauss-Seidel over colours is the one solver.
-    if (k->elements != EK_XPBD_TETS || k->solver != EK_XPBD_GAUSS_SEIDEL)
-      return sim_fail(s, "xpbd: a cloth takes the default elements and solver (its triangles "
-                         "and hinges, coloured Gauss-Seidel)");
-    d->cx = ek_cloth_xpbd_create(s->cloth, &s->cloth_p, d->young * s->scene.thickness);
-    if (!d->cx)
-      return sim_fail(s, "%s", ek_last_error());
-    return 0;
-  }
-  ek_xpbd_opts o = {.elements = k->elements,
-                    .solver = k->solver,
-                    .isa = s->scene.svd.isa,
-                    .precision = s->scene.precision};
-  d->xp = ek_xpbd_create(ek_mesh_elements(s->mesh), &s->mat, d->young, s->mass, &o);
-  if (!d->xp)
-    return sim_fail(s, "%s", ek_last_error());
   return 0;
 }
 
@@ -128,7 +109,8 @@ static int xpbd_step(ek_sim *s, void *data) {
   const double h = sc->dt / (double)K, c = sc->damping, damp = 1.0 / (1.0 + c * h);
   const double *g = sc->gravity;
   const size_t nv = s->nv, n3 = 3 * nv;
-  const int f32 = sc->precision == 32 && !d->cx; // cloth: double
+  const sim_body_ops *ops = d->body->ops;
+  const int f32 = d->f32;
   memcpy(d->xs, s->x, n3 * sizeof(double));
   memcpy(d->vs, s->v, n3 * sizeof(double));
   int rc = 0;
@@ -153,10 +135,7 @@ static int xpbd_step(ek_sim *s, void *data) {
         d->w[i] = s->inv_mass[i] * damp;
       }
     }
-    if (d->cx)
-      rc = ek_cloth_xpbd_begin(d->cx, d->w, h);
-    else if ((rc = ek_xpbd_set_weights(d->xp, d->w)) == 0)
-      rc = ek_xpbd_begin(d->xp, h);
+    rc = ops->xpbd_begin(d->c, d->w, h);
     if (f32) {
       for (size_t i = 0; i < n3; i++)
         d->xf_pred[i] = (float)d->xp_pred[i];
@@ -176,9 +155,7 @@ static int xpbd_step(ek_sim *s, void *data) {
         return EK_SIM_ESTOPPED;
       const int n = (int)(N - done < slice ? N - done : slice);
       if (rc == 0)
-        rc = d->cx ? ek_cloth_xpbd_iterate(d->cx, s->x_next, n)
-             : f32 ? ek_xpbd_iterate_f32(d->xp, d->xf_pred, d->xf, n)
-                   : ek_xpbd_iterate_f64(d->xp, NULL, s->x_next, n);
+        rc = ops->xpbd_iterate(d->c, d->xf_pred, d->xf, s->x_next, n);
       done += n;
     } while (rc == 0 && done < N);
     s->times.xpbd_solve += sim_now() - t0;
@@ -187,17 +164,14 @@ static int xpbd_step(ek_sim *s, void *data) {
       break;
     if (sub == K - 1) {
       double r = NAN, cm = NAN;
-      rc = d->cx ? ek_cloth_xpbd_residual(d->cx, s->x_next, &r, &cm)
-           : f32 ? ek_xpbd_residual_f32(d->xp, d->xf_pred, d->xf, &r, &cm)
-                 : ek_xpbd_residual_f64(d->xp, NULL, s->x_next, &r, &cm);
+      rc = ops->xpbd_residual(d->c, d->xf_pred, d->xf, s->x_next, &r, &cm);
       s->times.xpbd_last_residual = r;
       s->times.xpbd_last_cmax = cm;
       if (!(r <= s->times.xpbd_worst_residual))
         s->times.xpbd_worst_residual = r;
-      if (s->time_phases && rc == 0 && !d->cx) {
+      if (s->time_phases && rc == 0 && ops->xpbd_profile) {
         double sec[3];
-        rc = f32 ? ek_xpbd_profile_f32(d->xp, d->xf_pred, d->xf, sec)
-                 : ek_xpbd_profile_f64(d->xp, NULL, s->x_next, sec);
+        rc = ops->xpbd_profile(d->c, d->xf_pred, d->xf, s->x_next, sec);
         s->times.xpbd_sweep_F += sec[0];
         s->times.xpbd_sweep_eval += sec[1] - sec[0];
         s->times.xpbd_sweep_project += sec[2] - sec[1];
@@ -241,7 +215,7 @@ size_t ek_sim_xpbd_constraints(const ek_sim *s) {
   if (!s || s->integrator != &sim_integrator_xpbd || !s->integrator_data)
     return 0;
   const xpbd_data *d = s->integrator_data;
-  return d->cx ? ek_cloth_xpbd_count(d->cx) : ek_xpbd_count(d->xp);
+  return d->body->ops->xpbd_count(d->c);
 }
 
 const sim_integrator sim_integrator_xpbd = {
