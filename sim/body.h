@@ -46,7 +46,6 @@ typedef struct {
 } sim_hessian_info;
 
 struct sim_body_ops {
-  const char *name; // the element kind in messages: "tets", "triangles"
   void (*destroy)(sim_body *body);
 
   // ---- Core ----

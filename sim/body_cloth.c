@@ -308,7 +308,6 @@ static int tris_xpbd_residual(const void *c, const float *x_base, const float *x
 static size_t tris_xpbd_count(const void *c) { return ek_cloth_xpbd_count(c); }
 
 const sim_body_ops sim_body_triangles = {
-    .name = "triangles",
     .destroy = tris_destroy,
     .cfl = tris_cfl,
     .start = tris_start,

@@ -623,7 +623,6 @@ static int tets_xpbd_profile(void *c, const float *x_base, const float *xf, cons
 static size_t tets_xpbd_count(const void *c) { return ek_xpbd_count(((const tets_xpbd *)c)->xp); }
 
 const sim_body_ops sim_body_tets = {
-    .name = "tets",
     .destroy = tets_destroy,
     .cfl = tets_cfl,
     .start = tets_start,

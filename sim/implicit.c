@@ -3,9 +3,11 @@
 // materials"; Gast et al. 2015, "Optimization integrator for large time
 // steps"), solved by Newton's method with a backtracking line search,
 // each Newton system by matrix-free preconditioned conjugate gradients on
-// the projected element Hessians (include/ek/hessian.h), as in Kim &
-// Eberle's HOBAK (Newton + PCG on clamped Hessians). ek_scene_implicit
-// (sim.h) states the objective, the residual and the knobs.
+// the projected element Hessians, as in Kim & Eberle's HOBAK (Newton +
+// PCG on clamped Hessians). The gradient, the Hessian products and the
+// diagonal blocks are the body's (body.h; tets: include/ek/hessian.h,
+// triangles: cloth_force.h). ek_scene_implicit (sim.h) states the
+// objective, the residual and the knobs.
 //
 // One step:
 //   1. free vertices start at x_n + dt v_n + dt^2 g (x_n if an element is

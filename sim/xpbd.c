@@ -1,7 +1,8 @@
 // The XPBD integrator (Macklin, Mueller, Chentanez 2016, alg. 1, in
-// substeps: Macklin et al. 2019): the Hookean constraint of seed 001 on the
-// element layer's tets or on one-ring clusters (include/ek/xpbd.h), the
-// scene's knobs in ek_scene_xpbd (sim.h). Per substep of h = dt / K:
+// substeps: Macklin et al. 2019) on the body's constraints (body.h): seed
+// 001's Hookean constraint on the tets or on one-ring clusters
+// (include/ek/xpbd.h), or a cloth's triangles and hinges (cloth_force.h);
+// the scene's knobs in ek_scene_xpbd (sim.h). Per substep of h = dt / K:
 //   x~ = x + h (v + h g) / (1 + c h),  w_i = 1 / (m_i (1 + c h))
 //   lambda = 0;  N sweeps of the solver from x = x~
 //   v = (x - x_start) / h;  ground contact
