@@ -52,7 +52,7 @@
 // depends on the model and its SVD.
 #include <ek/fvm.h>
 #include <ek/hessian.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <ek/xpbd.h>
 #include <math.h>
 #include <stdio.h>
@@ -96,8 +96,8 @@ typedef struct {
 
 static void run_forces(void *p) {
   fvm_ctx *c = p;
-  int rc = c->f32 ? ek_fvm_forces_ex_f32(c->mc->mesh, &c->mat, c->mc->x32, c->mc->f32, &c->opts)
-                  : ek_fvm_forces_ex_f64(c->mc->mesh, &c->mat, c->mc->x64, c->mc->f64, &c->opts);
+  int rc = c->f32 ? ek_mesh_fvm_forces_ex_f32(c->mc->mesh, &c->mat, c->mc->x32, c->mc->f32, &c->opts)
+                  : ek_mesh_fvm_forces_ex_f64(c->mc->mesh, &c->mat, c->mc->x64, c->mc->f64, &c->opts);
   if (rc < 0 && !c->failed) {
     c->failed = 1;
     ek_bench_fail(c->b, "fvm: ek_fvm_forces_ex returned %d", rc);

@@ -32,7 +32,7 @@
 // dt, implicit at 1/30 s), printed side by side as a note with the final
 // tip positions' difference (one run each: a cost, not a median).
 #include <ek/cloth.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,8 +105,8 @@ static double force_ns_per_tet(const ek_scene *scene, const ek_mesh *mesh, const
     int ok = 1;
     for (int i = 0; i < FORCE_CALLS && ok; i++) {
       double t0 = now();
-      ok = (scene->precision == 32 ? ek_fvm_forces_ex_f32(mesh, &scene->material, xf, ff, &o)
-                                   : ek_fvm_forces_ex_f64(mesh, &scene->material, x, f, &o)) == 0;
+      ok = (scene->precision == 32 ? ek_mesh_fvm_forces_ex_f32(mesh, &scene->material, xf, ff, &o)
+                                   : ek_mesh_fvm_forces_ex_f64(mesh, &scene->material, x, f, &o)) == 0;
       t[i] = now() - t0;
     }
     if (ok) {

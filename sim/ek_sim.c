@@ -18,7 +18,7 @@
 // at the next step: the frames are closed, their count printed, and ek-sim
 // dies of that signal.
 #include <ek/polar.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <errno.h>
 #include <hdf5.h>
@@ -337,12 +337,12 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   const int warm = s->polar == EK_POLAR_WARM;
   if (need == EK_NEEDS_R_INPUT && warm)
     printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
-           "(ek_fvm_deformation_gradients_f64), R = polar(F) by the warm polar from R^(n-1) "
+           "(ek_mesh_deformation_gradients_f64), R = polar(F) by the warm polar from R^(n-1) "
            "(ek_polar3_warm_f64, %d iterations; the SVD polar at the first step)\n",
            k++, ek_polar_warm_default_iterations_f64());
   else if (need == EK_NEEDS_R_INPUT)
     printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
-           "(ek_fvm_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
+           "(ek_mesh_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
            k++, s->svd.sweeps ? s->svd.sweeps : ek_svd3_default_sweeps_f64(),
            s->svd.exact_rsqrt < 0 ? ", approximate rsqrt" : "");
   // The implicit loop's pass is the gradient (hessian.h), which also

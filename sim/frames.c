@@ -31,7 +31,7 @@
 // per frame and field: meshio's TimeSeriesReader (5.3) reads only those
 // (not HyperSlab items), and ParaView's Xdmf3 reader reads them too.
 #define _GNU_SOURCE // renameat2 (glibc >= 2.28)
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <errno.h>
 #include <fcntl.h>

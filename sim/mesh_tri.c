@@ -1,9 +1,9 @@
-// Triangle meshes for cloth (include/ek/trimesh.h): validation, the OBJ and
+// Triangle meshes for cloth (include/ek/sim/trimesh.h): validation, the OBJ and
 // Gmsh 2D readers and the grid generator. Readers collect everything first,
 // grow their arrays as data arrives (a header's count is checked against
 // the data, never trusted to size memory), then hand the arrays to one
 // builder, so a mesh never half-loads and every error names file:line.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 
 #include <errno.h>
 #include <float.h>

@@ -54,7 +54,7 @@ int ek_sim_rate_fields(const ek_sim *s, double *D, double *W, double *rates) {
     if (rc == 0)
       rc = ek_tri_velocity_gradient_f64(ne, xc, vc, NULL, Dw, W, NULL);
   } else if (rc == 0) {
-    rc = ek_velocity_gradient_f64(s->mesh, s->x, s->v, NULL, Dw, W);
+    rc = ek_mesh_velocity_gradient_f64(s->mesh, s->x, s->v, NULL, Dw, W);
   }
   for (size_t e = 0; rc == 0 && rates && e < ne; ++e) {
     const double *d = Dw + 9 * e;

@@ -294,7 +294,7 @@ static int uses_warm_force_rotations(const ek_sim *s) {
 static int seed_warm_rotations(ek_sim *s) {
   size_t nt = s->nt;
   double *F = malloc(18 * nt * sizeof(double));
-  int rc = F ? ek_fvm_deformation_gradients_f64(s->mesh, s->x, F) : EK_ENOMEM;
+  int rc = F ? ek_mesh_deformation_gradients_f64(s->mesh, s->x, F) : EK_ENOMEM;
   ek_svd3_opts so = s->scene.svd;
   if (rc == 0)
     rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
@@ -312,7 +312,7 @@ static int refresh_rotations(ek_sim *s) {
   if (ek_model_need(s->mat.model, 0) != EK_NEEDS_R_INPUT)
     return 0;
   double t0 = sim_now();
-  int rc = ek_fvm_deformation_gradients_f64(s->mesh, s->x, s->F);
+  int rc = ek_mesh_deformation_gradients_f64(s->mesh, s->x, s->F);
   if (rc == 0 && s->scene.polar == EK_POLAR_WARM && s->R_ready) {
     // The warm polar from R^(n-1) (polar.h), in double like the SVD path.
     ek_polar_warm_opts o = {.isa = s->scene.svd.isa};
@@ -549,11 +549,11 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   if (tm) // flat rest: 0 up to rounding; a bent rest mesh is bent from flat (cloth_force.h)
     s->elastic_rest = ek_cloth_energy_f64(s->cloth, &s->cloth_p, X);
   if (s->psi_rest) {
-    s->elastic_rest = ek_fvm_energy_f64(mesh, &s->mat, X);
+    s->elastic_rest = ek_mesh_fvm_energy_f64(mesh, &s->mat, X);
     ek_fvm_opts o = s->fvm;
     o.psi = s->psi_rest;
     o.polar_state = NULL; // a double pass: the SVD (the state is in the scene's precision)
-    if (ek_fvm_forces_ex_f64(mesh, &s->mat, X, s->f, &o) != 0) {
+    if (ek_mesh_fvm_forces_ex_f64(mesh, &s->mat, X, s->f, &o) != 0) {
       if (err && errlen)
         snprintf(err, errlen, "%s: energy density at rest: %s", scene->path, ek_last_error());
       ek_sim_destroy(s);
@@ -608,11 +608,11 @@ int sim_forces(ek_sim *s, const double *x) {
   if (s->scene.precision == 32) {
     for (size_t i = 0; i < n3; ++i)
       s->xf[i] = (float)x[i];
-    rc = ek_fvm_forces_ex_f32(s->mesh, &s->mat, s->xf, s->ff, &o);
+    rc = ek_mesh_fvm_forces_ex_f32(s->mesh, &s->mat, s->xf, s->ff, &o);
     for (size_t i = 0; rc == 0 && i < n3; ++i)
       s->f[i] = (double)s->ff[i];
   } else {
-    rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, x, s->f, &o);
+    rc = ek_mesh_fvm_forces_ex_f64(s->mesh, &s->mat, x, s->f, &o);
   }
   double t1 = sim_now();
   if (s->time_phases) {
@@ -800,7 +800,7 @@ int ek_sim_energy(const ek_sim *s, ek_sim_energies *e) {
   e->kinetic = kinetic;
   e->potential = potential;
   e->elastic = (s->cloth ? ek_cloth_energy_f64(s->cloth, &s->cloth_p, s->x)
-                         : ek_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R)) -
+                         : ek_mesh_fvm_energy_ex_f64(s->mesh, &s->mat, s->x, s->R)) -
                s->elastic_rest;
   return isnan(e->elastic) ? EK_EINVAL : 0;
 }
@@ -847,7 +847,7 @@ int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
   o.phase_times = NULL;
   o.R_state = NULL; // in the scene's precision; this pass is double and has R
   o.polar_state = NULL;
-  int rc = ek_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
+  int rc = ek_mesh_fvm_forces_ex_f64(s->mesh, &s->mat, s->x, scratch, &o);
   free(scratch);
   // Measured from the rest shape, like ek_sim_energy's elastic energy:
   // sum_e V0_e psi_e is that energy.

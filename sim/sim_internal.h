@@ -13,7 +13,7 @@
 #ifndef EK_SIM_INTERNAL_H
 #define EK_SIM_INTERNAL_H
 
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <stdio.h>
 
 // One time integrator. A new one is a file sim/<name>.c defining a

@@ -148,7 +148,7 @@ static double rotation_angle(const double *R) {
 static int monitor_sample(const ek_sim *sim, const ek_mesh *mesh, monitor_buf *b, long n,
                           ek_trial_monitor *m) {
   size_t nt = ek_mesh_ntets(mesh);
-  if (ek_fvm_deformation_gradients_f64(mesh, ek_sim_positions(sim), b->F) != 0 ||
+  if (ek_mesh_deformation_gradients_f64(mesh, ek_sim_positions(sim), b->F) != 0 ||
       ek_svd3_f64(nt, b->F, b->U, b->S, b->V, NULL) != 0)
     return -1;
   for (size_t e = 0; e < nt; ++e) {

@@ -33,10 +33,10 @@
 #include <ek/cloth.h>
 #include <ek/elements.h>
 #include <ek/material.h>
-#include <ek/mesh.h>
-#include <ek/sim.h>
+#include <ek/sim/mesh.h>
+#include <ek/sim/sim.h>
 #include <ek/svd3.h>
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 
 #include <math.h>
 #include <signal.h>

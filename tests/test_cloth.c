@@ -23,7 +23,7 @@
 // Usage: test_cloth [--seed N]
 #include <ek/batch.h>
 #include <ek/cloth.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -404,7 +404,7 @@ static void tet_collapsed(void) {
   int32_t a = tets[0], b = tets[3];
   for (int i = 0; i < 3; i++)
     x[3 * b + i] = x[3 * a + i];
-  int rc = ek_velocity_gradient_f64(mesh, x, v, L, NULL, NULL);
+  int rc = ek_mesh_velocity_gradient_f64(mesh, x, v, L, NULL, NULL);
   int ok = rc == EK_OK;
   size_t ncollapsed = 0;
   for (size_t t = 0; t < nt; t++) {

@@ -10,7 +10,7 @@
 // on a randomly renumbered box built from plain arrays. Per-element state
 // round-trips through the Morton slots.
 #include <ek/elements.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -9,7 +9,7 @@
 // an existing output is never overwritten without force (and is left
 // untouched), force does overwrite it, and a scratch file a killed run left
 // does not block a new one.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "cli.h"
 #include <errno.h>

@@ -11,7 +11,7 @@
 #include <string.h>
 
 #include <ek/fvm.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 
 #include "check.h"
 #include "fvm/fvm_ref.h"

@@ -10,7 +10,7 @@
 //      models (P F^T symmetric); linear and corotated linear with a fixed
 //      R are not rotation-invariant and are exempt;
 //   4. f = 0 at the rest shape (corotated linear with R = I).
-// Also: ek_fvm_energy_f64 (the library) equals the reference energy.
+// Also: ek_mesh_fvm_energy_f64 (the library) equals the reference energy.
 #include "cli.h"
 #include "test_fvm_common.h"
 
@@ -131,8 +131,8 @@ int main(int argc, char **argv) {
       printf("ek_mesh_create: %s\n", err);
       failures++;
     } else {
-      double El = ek_fvm_energy_ex_f64(mesh, &tm->mat, x, R), Er = energy(&t, &m, R, x);
-      snprintf(label, sizeof label, "%-18s ek_fvm_energy_f64 = reference", tm->name);
+      double El = ek_mesh_fvm_energy_ex_f64(mesh, &tm->mat, x, R), Er = energy(&t, &m, R, x);
+      snprintf(label, sizeof label, "%-18s ek_mesh_fvm_energy_f64 = reference", tm->name);
       if (ek_check_report(label, fabs(El - Er) / fabs(Er), EK_FVM_TOL_F64)) {
         failures++;
         printf("  library %.17g reference %.17g\n", El, Er);

@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 
 #include "check.h"
 #include "cli.h"

@@ -2,7 +2,7 @@
 // file states, and every kind of bad scene is refused (rc < 0, nothing
 // half-built) with a message that names the file, the key path and the
 // offending value; unknown keys are errors, never silently ignored.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "cli.h"
 #include <math.h>

@@ -14,7 +14,7 @@
 //   f. scene errors: a cloth without thickness, a tet model on triangles,
 //      "cloth" on a tet mesh, a bad grid plane, XPBD clusters on a cloth.
 // The loops: explicit (f32 and f64), implicit and XPBD (double).
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <hdf5.h>
 #include <math.h>
 #include <omp.h>

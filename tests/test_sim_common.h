@@ -6,7 +6,7 @@
 #define EK_TEST_SIM_COMMON_H
 
 #include "cli.h"
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -9,7 +9,7 @@
 // The scene is the shipped drop (scenes/drop.json: a cube falling onto the
 // ground), with stable neo-Hookean as shipped and with corotated linear (no
 // rest value to subtract); 1000 steps take it past the impact.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <math.h>
 #include <stdio.h>
@@ -29,7 +29,7 @@ static int raw_psi(const ek_mesh *m, const ek_scene *s, const double *x, double 
   ek_fvm_opts o = {0};
   o.psi = psi;
   o.R = R;
-  int rc = f && R ? ek_fvm_forces_ex_f64(m, &s->material, x, f, &o) : EK_ENOMEM;
+  int rc = f && R ? ek_mesh_fvm_forces_ex_f64(m, &s->material, x, f, &o) : EK_ENOMEM;
   free(f);
   free(R);
   return rc;

@@ -22,7 +22,7 @@
 // long runs use 1 thread: results do not depend on the thread count
 // (checked by the threads test) and 1 thread keeps the run time steady on
 // a shared 2-core machine.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <math.h>
 #include <omp.h>

@@ -1,5 +1,5 @@
 // Invariants of the implicit integrator (sim/implicit.c; contract in
-// include/ek/sim.h, ek_scene_implicit):
+// include/ek/sim/sim.h, ek_scene_implicit):
 //   1. Newton on a small problem: the objective decreases at every
 //      accepted iterate, CG reaches cg_tol in every iteration, and near the
 //      solution the residual falls quadratically (orders and ratios
@@ -16,7 +16,7 @@
 //      clamp) stays finite and recovers its volume within
 //      EK_SIM_VOLUME_TOL;
 //   6. 1 and 2 threads give the same bits (a mesh above every grain).
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>

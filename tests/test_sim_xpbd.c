@@ -1,5 +1,5 @@
 // Invariants of the XPBD integrator (sim/xpbd.c; contract in
-// include/ek/sim.h, ek_scene_xpbd, and include/ek/xpbd.h):
+// include/ek/sim/sim.h, ek_scene_xpbd, and include/ek/xpbd.h):
 //   1. a free body without gravity keeps its momentum to rounding (tets
 //      and clusters, Gauss-Seidel and Jacobi, f64 and f32);
 //   2. XPBD against the implicit loop (backward Euler, StVK, same scene) at
@@ -11,7 +11,7 @@
 //      displacement at the default settings against the implicit loop's,
 //      within EK_SIM_XPBD_STATIC_TOL;
 //   4. 1 and 2 threads give the same bits (a mesh above the parallel grain).
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>

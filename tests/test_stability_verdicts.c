@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 
 #include "check.h"
 #include "check_stability.h"

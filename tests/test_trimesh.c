@@ -1,4 +1,4 @@
-// Triangle meshes (include/ek/trimesh.h): the OBJ and Gmsh 2D readers, the
+// Triangle meshes (include/ek/sim/trimesh.h): the OBJ and Gmsh 2D readers, the
 // grid, and their errors:
 //   a. OBJ: triangles, quads (fan-triangulated), "i/t/n" index forms,
 //      negative (relative) indices, comments and ignored statements; unused
@@ -9,7 +9,7 @@
 //   d. errors name file:line and the value: bad numbers, index 0 or out of
 //      range, short faces, a zero-area triangle, truncated files, counts
 //      that the data does not match, undefined nodes; nothing half-loads.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

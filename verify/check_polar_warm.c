@@ -9,7 +9,7 @@
 #include <ek/batch.h>
 #include <ek/fvm.h>
 #include <ek/polar.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "svd3/svd3_ref.h"
 
@@ -154,7 +154,7 @@ int ek_check_sim_F(const char *scene_path, long steps, long stride, double **F_o
   int rc = 0;
   for (long n = 0; rc == 0 && n <= steps; n++) {
     if (n % stride == 0) {
-      ek_fvm_deformation_gradients_f64(mesh, ek_sim_positions(sim), F + k * nt * 9);
+      ek_mesh_deformation_gradients_f64(mesh, ek_sim_positions(sim), F + k * nt * 9);
       for (size_t e = 0; e < nt; e++)
         ek_polar3_ref(F + (k * nt + e) * 9, R + (k * nt + e) * 9, NULL);
       k++;

@@ -36,6 +36,7 @@
 // the state leaves EK_STAB_BLOWUP_FACTOR body sizes.
 #include <cjson/cJSON.h>
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <fcntl.h>
 #include <math.h>
 #include <stdio.h>

@@ -12,6 +12,7 @@
 //     each projection (none, clamp, abs; the reference projects the 9x9
 //     Hessian with LAPACK).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -104,10 +105,10 @@ static int forces(fvm_case *c, const ek_material *m, ek_isa isa, int f32, ek_sca
   ek_fvm_opts o = {.scatter = s, .isa = isa, .R = c->R};
   size_t n3 = 3 * c->nv;
   if (!f32)
-    return ek_fvm_forces_ex_f64(c->mesh, m, c->x, c->out, &o);
+    return ek_mesh_fvm_forces_ex_f64(c->mesh, m, c->x, c->out, &o);
   float *xf = ek_check_malloc(n3 * sizeof(float)), *ff = ek_check_malloc(n3 * sizeof(float));
   ek_check_to_f32(n3, c->x, xf);
-  int rc = ek_fvm_forces_ex_f32(c->mesh, m, xf, ff, &o);
+  int rc = ek_mesh_fvm_forces_ex_f32(c->mesh, m, xf, ff, &o);
   ek_check_from_f32(n3, ff, c->out);
   free(xf), free(ff);
   return rc;

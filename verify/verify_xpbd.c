@@ -7,6 +7,7 @@
 // lambda| after the sweeps against the reference's (metric "residual",
 // the absolute difference; C is dimensionless).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -8,6 +8,7 @@
 // EK_CONSUMER_SCENES: the installed scenes' folder, from the build (CMake's
 // ek_SCENES_DIR, or `pkg-config --variable=scenesdir ek`).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 
 #include <float.h>
 #include <math.h>
@@ -63,7 +64,7 @@ static int check_scene_and_mesh(ek_mesh **mesh_out) {
     volume += V0[e];
   printf("mesh cube: %zu vertices, %zu tets, volume %.17g (expected 1)\n", ek_mesh_nverts(cube),
          ek_mesh_ntets(cube), volume);
-  // Each V0 within EK_MESH_TOL of its own (include/ek/mesh.h), plus the
+  // Each V0 within EK_MESH_TOL of its own (include/ek/sim/mesh.h), plus the
   // sum's rounding.
   if (!(fabs(volume - 1) <= EK_MESH_TOL + (double)ek_mesh_ntets(cube) * DBL_EPSILON)) {
     ek_mesh_destroy(cube);

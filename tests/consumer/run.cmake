@@ -62,7 +62,7 @@ file(MAKE_DIRECTORY ${WORK_DIR})
 unset(ENV{EK_SCENES_DIR})
 
 step("cmake --install into ${prefix}" COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-foreach(file ${INCLUDEDIR}/ek/ek.h ${INCLUDEDIR}/ek/svd3.h ${INCLUDEDIR}/ek/sim.h
+foreach(file ${INCLUDEDIR}/ek/ek.h ${INCLUDEDIR}/ek/svd3.h ${INCLUDEDIR}/ek/sim/sim.h
         ${LIBDIR}/libek.a ${LIBDIR}/libek_sim.a ${BINDIR}/ek-bench ${BINDIR}/ek-sim
         ${BINDIR}/ek-verify ${DATADIR}/ek/scenes/drop.json ${DATADIR}/ek/scenes/meshes/cube.node
         ${DATADIR}/ek/scenes/meshes/bracket.msh ${LIBDIR}/cmake/ek/ekConfig.cmake

@@ -8,7 +8,7 @@
 // say why in printable text, and a step that succeeds must leave a finite
 // state (sim.h, ek_sim_step; issue 28). Mesh files are not loaded (a scene
 // may name any path); the mesh readers have their own harnesses.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "fuzz_common.h"
 

@@ -4,7 +4,7 @@
 // in range, finite rest positions and triangles of positive finite area; a
 // refusal must say why in printable text. ASan, UBSan and leak checks do
 // the rest.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 
 #include "fuzz_common.h"
 

@@ -1,5 +1,5 @@
-// Tetrahedral meshes: creation, validation, loading, and the precomputed
-// rest-shape data the FVM force kernel reads (Teran et al. 2003, seed 004).
+// ek simulation library (libek_sim, ek::sim). Tetrahedral meshes: creation, validation, loading,
+// and the precomputed rest-shape data the FVM force kernel reads (Teran et al. 2003, seed 004).
 //
 // Vertex and tet order: every array the API takes or returns is in the
 // caller's order (the order of the file, of ek_mesh_create's arrays, or of
@@ -34,14 +34,16 @@
 // bytes that follow and memory grows only as items arrive; a directory, a
 // NUL byte or a read error is reported as such; bytes quoted from a file
 // are escaped (\xNN) in messages.
-#ifndef EK_MESH_H
-#define EK_MESH_H
+#ifndef EK_SIM_MESH_H
+#define EK_SIM_MESH_H
 
 #include <stddef.h>
 #include <stdint.h>
 
-#include "core.h"
-#include "elements.h"
+#include <ek/core.h>
+#include <ek/elements.h>
+#include <ek/fvm.h>
+#include <ek/material.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -107,6 +109,40 @@ int ek_mesh_ncolors(const ek_mesh *m);
 size_t ek_mesh_nfixed(const ek_mesh *m);
 // Shortest edge of the rest mesh (for a CFL time-step estimate).
 double ek_mesh_min_edge(const ek_mesh *m);
+
+// ---- FVM forces, energy and deformation gradients on a mesh (fvm.h) ----
+// The fvm.h element-layer forms (ek_fvm_tet_*) on ek_mesh_elements(m).
+// f = -dE/dx for E = sum_e V0_e Psi(F_e); x, f: nverts x 3.
+// 0 on success, < 0 on error (invalid material, NULL pointer, R missing for
+// corotated linear, unavailable ISA); f untouched on error. Elements outside
+// the model's domain (neo-Hookean with J <= 0 and no clamp) give NaN forces
+// at their vertices, as ek_pk1_* gives NaN stress.
+int ek_mesh_fvm_forces_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f);
+int ek_mesh_fvm_forces_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f);
+int ek_mesh_fvm_forces_ex_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f,
+                              const ek_fvm_opts *opts);
+int ek_mesh_fvm_forces_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f,
+                              const ek_fvm_opts *opts);
+
+// E = sum_e V0_e Psi(F_e), summed in a fixed order. R as in ek_fvm_opts
+// (ntets x 9, caller order; only corotated linear reads it, NULL
+// otherwise). NaN on an invalid argument (message in ek_last_error); +inf
+// when an element is outside the model's domain.
+double ek_mesh_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x);
+double ek_mesh_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
+                                 const double *R);
+
+// Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
+// tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
+int ek_mesh_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F);
+
+// ---- Velocity gradient on a mesh (cloth.h) ----
+// L = Fdot F^-1, D, W per tet (ntets x 9 each, caller tet order; any may
+// be NULL): cloth.h's ek_tet_velocity_gradient_* on ek_mesh_elements(m).
+int ek_mesh_velocity_gradient_f64(const ek_mesh *m, const double *x, const double *v, double *L,
+                                  double *D, double *W);
+int ek_mesh_velocity_gradient_f32(const ek_mesh *m, const float *x, const float *v, float *L,
+                                  float *D, float *W);
 
 #ifdef __cplusplus
 }

@@ -1,5 +1,5 @@
-// Triangle meshes for cloth: creation, validation, loading (Wavefront OBJ,
-// Gmsh 2D triangles) and a generated grid; each holds the cloth element
+// ek simulation library (libek_sim, ek::sim). Triangle meshes for cloth: creation, validation,
+// loading (Wavefront OBJ, Gmsh 2D triangles) and a generated grid; each holds the cloth element
 // layer the force kernels read (cloth_force.h).
 //
 // Order: vertices and triangles keep the file's order (OBJ: as defined;
@@ -31,14 +31,14 @@
 //   triangles (element type 2) become triangles; other element types are
 //   skipped. Counts in headers are checked against the data that follows,
 //   never used to size memory before the data arrives.
-#ifndef EK_TRIMESH_H
-#define EK_TRIMESH_H
+#ifndef EK_SIM_TRIMESH_H
+#define EK_SIM_TRIMESH_H
 
 #include <stddef.h>
 #include <stdint.h>
 
-#include "cloth_force.h"
-#include "core.h"
+#include <ek/cloth_force.h>
+#include <ek/core.h>
 
 #ifdef __cplusplus
 extern "C" {
