@@ -7,6 +7,7 @@
 // incident tet). Corotated linear takes R^n = polar(F^n) per tet at the
 // start of each step (seed 000). Vertices under a boundary condition follow
 // it exactly; the ground is friction-free.
+#include "errbuf.h"
 #include "sim_internal.h"
 #include <ek/polar.h>
 
@@ -48,6 +49,7 @@ int sim_fail(ek_sim *s, const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(s->error, sizeof s->error, fmt, ap);
   va_end(ap);
+  ek_set_error("%s", s->error);
   return EK_EINVAL;
 }
 
@@ -60,12 +62,12 @@ void sim_warn(ek_sim *s, const char *fmt, ...) {
   va_end(ap);
 }
 
-const char *ek_sim_warning(ek_sim *s, char *buf, size_t len) {
+const char *ek_sim_warning(ek_sim *s) {
   if (!s || !s->warning[0])
     return NULL;
-  snprintf(buf, len, "%s", s->warning);
+  snprintf(s->warning_out, sizeof s->warning_out, "%s", s->warning);
   s->warning[0] = '\0';
-  return buf;
+  return s->warning_out;
 }
 
 static double det3(const double *A) {
@@ -571,18 +573,17 @@ static ek_sim *sim_create(const ek_scene *scene, const ek_mesh *mesh, const ek_t
   return s;
 }
 
-ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
+ek_sim *ek_sim_create_errbuf(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
   return sim_create(scene, mesh, NULL, err, errlen);
 }
 
-ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
-                            size_t errlen) {
+ek_sim *ek_sim_create_cloth_errbuf(const ek_scene *scene, const ek_trimesh *mesh, char *err,
+                                   size_t errlen) {
   return sim_create(scene, NULL, mesh, err, errlen);
 }
 
 int ek_sim_is_cloth(const ek_sim *s) { return s->cloth != NULL; }
 
-const char *ek_sim_last_error(const ek_sim *s) { return s ? s->error : "no simulation"; }
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
 size_t ek_sim_inverted_count(const ek_sim *s) {
@@ -682,6 +683,7 @@ int sim_check_forces(ek_sim *s, const double *x) {
              "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
              "model %s is undefined there (use an invertible model or material.clamp > 0)",
              s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
+    ek_set_error("%s", s->error);
     return EK_SIM_EINVERTED;
   }
   return sim_fail(s,
@@ -749,6 +751,7 @@ int sim_stop_requested(ek_sim *s, const char *where, long i, long n) {
            "step %ld (t = %g): stopped inside the step, at %s %ld of "
            "%ld; the step is not applied",
            s->n, s->t, where, i, n);
+  ek_set_error("%s", s->error);
   return EK_SIM_ESTOPPED;
 }
 

@@ -92,7 +92,8 @@ struct ek_sim {
   void *integrator_data;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
-  char warning[512]; // pending, for ek_sim_warning; "" when none
+  char warning[512];     // pending, for ek_sim_warning; "" when none
+  char warning_out[512]; // what ek_sim_warning returned last
 };
 
 double sim_now(void);

@@ -1,5 +1,6 @@
 // One trial of a scene setting (trial.h): run, time, measure, compare.
 #include "trial.h"
+#include "errbuf.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -230,7 +231,7 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     goto done;
   }
   char err[512];
-  ek_sim *sim = ek_sim_create(&s, mesh, err, sizeof err);
+  ek_sim *sim = ek_sim_create_errbuf(&s, mesh, err, sizeof err);
   if (!sim) {
     t->failed = 1;
     snprintf(t->error, sizeof t->error, "%s", err);
@@ -254,7 +255,7 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     step_s[n] = trial_now() - t0;
     if (src != 0) {
       t->failed = 1;
-      snprintf(t->error, sizeof t->error, "step %ld: %s", n + 1, ek_sim_last_error(sim));
+      snprintf(t->error, sizeof t->error, "step %ld: %s", n + 1, ek_last_error());
       break;
     }
     t->steps = n + 1;

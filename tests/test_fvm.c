@@ -96,11 +96,11 @@ static void check_threads(const char *model, const ek_mesh *mesh, const ek_mater
     float *a32 = malloc(n3 * sizeof(float)), *b32 = malloc(n3 * sizeof(float));
     double *a64 = malloc(n3 * sizeof(double)), *b64 = malloc(n3 * sizeof(double));
     omp_set_num_threads(1);
-    int rc =
-        ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, a32, &o) | ek_mesh_fvm_forces_ex_f64(mesh, mat, x, a64, &o);
+    int rc = ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, a32, &o) |
+             ek_mesh_fvm_forces_ex_f64(mesh, mat, x, a64, &o);
     omp_set_num_threads(2);
-    rc |=
-        ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, b32, &o) | ek_mesh_fvm_forces_ex_f64(mesh, mat, x, b64, &o);
+    rc |= ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, b32, &o) |
+          ek_mesh_fvm_forces_ex_f64(mesh, mat, x, b64, &o);
     int same32 = memcmp(a32, b32, n3 * sizeof(float)) == 0;
     int same64 = memcmp(a64, b64, n3 * sizeof(double)) == 0;
     printf("%-17s %-14s 1 vs 2 threads: f32 %s, f64 %s\n", model, ek_scatter_name(s),
@@ -194,7 +194,8 @@ static void check_bad_arguments(const ek_mesh *mesh, const double *x) {
   printf("f untouched by the failed calls: %s\n", untouched ? "PASS" : "FAIL");
   failures += !untouched;
   double E = ek_mesh_fvm_energy_f64(mesh, &bad_mu, x);
-  printf("ek_mesh_fvm_energy_f64 with mu = 0: %g (NaN expected): %s\n", E, isnan(E) ? "PASS" : "FAIL");
+  printf("ek_mesh_fvm_energy_f64 with mu = 0: %g (NaN expected): %s\n", E,
+         isnan(E) ? "PASS" : "FAIL");
   failures += !isnan(E);
   free(f);
 }
@@ -206,8 +207,7 @@ static void check_bad_arguments(const ek_mesh *mesh, const double *x) {
 static void check_inverted_nan(void) {
   double X[8 * 3] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 5, 0, 0, 6, 0, 0, 5, 1, 0, 5, 0, 1};
   int32_t T[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-  char err[256];
-  ek_mesh *m = ek_mesh_create(8, X, 2, T, err, sizeof err);
+  ek_mesh *m = ek_mesh_create(8, X, 2, T);
   double x[8 * 3];
   memcpy(x, X, sizeof x);
   x[3 * 3 + 2] = -0.5; // tet 0 inverted: vertex 3 through its base
@@ -242,7 +242,7 @@ static void check_inverted_nan(void) {
       }
       double tol = f32 ? EK_FVM_TOL_F32 : EK_FVM_TOL_F64;
       ok &= e / scale <= tol;
-      printf("nh inverted tet, %s %s: NaN at its vertices only, other tet err %.3g "
+      printf("nh inverted tet, %s %s: NaN at its vertices only, other tet ek_last_error() %.3g "
              "(budget %g): %s\n",
              ek_scatter_name(strategies[si]), f32 ? "f32" : "f64", e / scale, tol,
              ok ? "PASS" : "FAIL");
@@ -309,11 +309,10 @@ int main(int argc, char **argv) {
   printf("test_fvm: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);
-  char err[256];
 
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
     if (!ek_isa_available((ek_isa)isa)) {
-      ek_mesh *m = ek_mesh_box(1, 1, 1, 1, 1, 1, err, sizeof err);
+      ek_mesh *m = ek_mesh_box(1, 1, 1, 1, 1, 1);
       double x[24], f[24];
       memcpy(x, ek_mesh_rest_positions(m), sizeof x);
       ek_material mat = {EK_MODEL_STVK, 1, 1, 0};
@@ -333,9 +332,9 @@ int main(int argc, char **argv) {
     // 5 x 4 x 3 cells = 360 tets: several blocks per colour, partial last
     // blocks, every colour's tail padded.
     test_mesh t = test_mesh_random(&rng, 5, 4, 3, 0.2);
-    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T, err, sizeof err);
+    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T);
     if (!mesh) {
-      printf("ek_mesh_create: %s\nFAIL\n", err);
+      printf("ek_mesh_create: %s\nFAIL\n", ek_last_error());
       return 1;
     }
     size_t n3 = t.nverts * 3;
@@ -379,7 +378,7 @@ int main(int argc, char **argv) {
     // Thread determinism on a mesh big enough for every thread to get
     // blocks of every colour (12^3 cells, 10368 tets).
     test_mesh big = test_mesh_random(&rng, 12, 12, 12, 0.2);
-    ek_mesh *bm = ek_mesh_create(big.nverts, big.X, big.ntets, big.T, err, sizeof err);
+    ek_mesh *bm = ek_mesh_create(big.nverts, big.X, big.ntets, big.T);
     double *xb = malloc(big.nverts * 3 * sizeof(double));
     double *Rb = test_rotations(&rng, big.ntets);
     test_deform(&rng, &big, 0.15, 0.15, xb);

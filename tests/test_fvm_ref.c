@@ -125,10 +125,9 @@ int main(int argc, char **argv) {
 
     // The library's energy (through ek_mesh and ek_energy_f64) against the
     // reference energy: same sum, different code.
-    char err[256];
-    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T, err, sizeof err);
+    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T);
     if (!mesh) {
-      printf("ek_mesh_create: %s\n", err);
+      printf("ek_mesh_create: %s\n", ek_last_error());
       failures++;
     } else {
       double El = ek_mesh_fvm_energy_ex_f64(mesh, &tm->mat, x, R), Er = energy(&t, &m, R, x);

@@ -61,20 +61,20 @@ typedef struct {
 } run;
 
 static inline int start(run *r, const char *json_or_name, int is_file) {
-  char err[1024], path[1200];
+  char path[1200];
   memset(r, 0, sizeof *r);
   int rc;
   if (is_file) {
     snprintf(path, sizeof path, "%s/%s.json", scenes_dir, json_or_name);
-    rc = ek_scene_load(path, &r->scene, err, sizeof err);
+    rc = ek_scene_load(path, &r->scene);
   } else {
-    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene, err, sizeof err);
+    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene);
   }
   r->scene.output_file[0] = '\0';
-  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
-    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
+  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene)))
+    r->sim = ek_sim_create(&r->scene, r->mesh);
   if (!r->sim) {
-    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", err);
+    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", ek_last_error());
     failures++;
     ek_mesh_destroy(r->mesh);
     return -1;

@@ -184,7 +184,7 @@ static void energy_momentum_test(void) {
   }
   char detail[200];
   snprintf(detail, sizeof detail, "100 steps at dt = 0.01 s: energy %.4g -> %.4g J (%s)", E0, E,
-           rc ? ek_sim_last_error(r.sim) : "ok");
+           rc ? ek_last_error() : "ok");
   // Per step, E_{n+1} <= E_n up to the rounding of the energy sums and the
   // Newton tolerance (1e-12 of the body size): 1e-10 of E0.
   report("undamped backward Euler never gains energy", rc ? INFINITY : worst_gain, 1e-10, detail);
@@ -250,7 +250,7 @@ static void crush_test(const char *name) {
            "smallest V %.3g V0, final V %.6g V0, %ld of %ld steps stopped above newton_tol "
            "(worst residual %.2g)%s",
            Vmin / V0, V / V0, t->unconverged_steps, t->steps, t->worst_residual,
-           rc ? ek_sim_last_error(r.sim) : "");
+           rc ? ek_last_error() : "");
   snprintf(what, sizeof what, "%s: finite, recovers its volume", name);
   report(what, rc || !finite ? INFINITY : fabs(V - V0) / V0, EK_SIM_VOLUME_TOL, detail);
   finish(&r);

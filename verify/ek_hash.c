@@ -514,11 +514,10 @@ static ek_tet_state *gRstate[2];
 static const char *state_name[] = {"mild", "inv"};
 
 static void setup_mesh(void) {
-  char err[256];
   double L[3] = {1.0, 0.9, 0.8};
-  ek_mesh *box = ek_mesh_box(BOX_NX, BOX_NY, BOX_NZ, L[0], L[1], L[2], err, sizeof err);
+  ek_mesh *box = ek_mesh_box(BOX_NX, BOX_NY, BOX_NZ, L[0], L[1], L[2]);
   if (!box) {
-    fprintf(stderr, "ek-hash: ek_mesh_box: %s\n", err);
+    fprintf(stderr, "ek-hash: ek_mesh_box: %s\n", ek_last_error());
     exit(2);
   }
   gnv = ek_mesh_nverts(box), gnt = ek_mesh_ntets(box);
@@ -536,9 +535,9 @@ static void setup_mesh(void) {
     X[i] = xi + (interior ? 0.1 * cell * urand() : 0);
   }
   ek_mesh_destroy(box);
-  gmesh = ek_mesh_create(gnv, X, gnt, T, err, sizeof err);
+  gmesh = ek_mesh_create(gnv, X, gnt, T);
   if (!gmesh) {
-    fprintf(stderr, "ek-hash: ek_mesh_create: %s\n", err);
+    fprintf(stderr, "ek-hash: ek_mesh_create: %s\n", ek_last_error());
     exit(2);
   }
   gel = ek_mesh_elements(gmesh);
@@ -1054,9 +1053,9 @@ static void run_cloth_auto(int f64) {
   for (int s = 0; s < 2; s++) {
     size_t b = gnt * 9 * (f64 ? 8 : 4);
     rc = f64 ? ek_mesh_velocity_gradient_f64(gmesh, gx[s].d, gv.d, scratch(o1, b), scratch(o2, b),
-                                        scratch(o3, b))
+                                             scratch(o3, b))
              : ek_mesh_velocity_gradient_f32(gmesh, gx[s].f, gv.f, scratch(o1, b), scratch(o2, b),
-                                        scratch(o3, b));
+                                             scratch(o3, b));
     out(rc, fnv(fnv(fnv(FNV_OFFSET, o1, b), o2, b), o3, b), "cloth/mesh_velocity_gradient/%s/entry",
         state_name[s]);
   }

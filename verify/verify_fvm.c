@@ -31,8 +31,7 @@ typedef struct {
 } fvm_case;
 
 static int make_case(fvm_case *c, uint64_t seed) {
-  char err[256];
-  ek_mesh *box = ek_mesh_box(5, 3, 3, 0.5, 0.3, 0.3, err, sizeof err); // 270 tets
+  ek_mesh *box = ek_mesh_box(5, 3, 3, 0.5, 0.3, 0.3); // 270 tets
   if (!box)
     return -1;
   ek_rng rng;
@@ -74,7 +73,7 @@ static int make_case(fvm_case *c, uint64_t seed) {
   for (size_t e = 0; e < c->nt; e++)
     ek_rng_rotation(&rng, c->R + 9 * e);
   ek_mesh_destroy(box);
-  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T, err, sizeof err);
+  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T);
   c->R_state = c->mesh ? ek_tet_state_create(ek_mesh_elements(c->mesh), 9, 1) : NULL;
   if (!c->R_state || ek_tet_state_set_f64(c->R_state, c->R) < 0)
     return -1;

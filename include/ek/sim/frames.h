@@ -22,7 +22,7 @@ extern "C" {
 typedef struct ek_frames ek_frames;
 
 // Create `path` (HDF5) and its XDMF companion and write the rest mesh.
-// Refuses (NULL, err) if either exists unless `force`; even with `force`
+// Refuses (NULL, message in ek_last_error) if either exists unless `force`; even with `force`
 // if either, or a scratch or swap name below, is anything but a regular
 // file (a directory, device, FIFO, socket or symbolic link: the commits
 // rename over these names and would replace it); or if the XDMF cannot
@@ -49,18 +49,17 @@ typedef struct ek_frames ek_frames;
 // HDF5's own exit handler then crashes on, so a program that may hit a full
 // disk calls H5dont_atexit() before its first HDF5 call (ek-sim does).
 ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
-                            size_t ntets, const int32_t *tets, char *err, size_t errlen);
+                            size_t ntets, const int32_t *tets);
 // The same for any element kind: nodes = 4 (tets, /mesh/tets, XDMF
 // Tetrahedron) or 3 (cloth triangles: /mesh/triangles, XDMF Triangle, and
 // one more per-element field /frames/smax, the larger stretch; J is then
 // the area ratio and smin the smaller stretch).
 ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
-                               size_t nelems, int nodes, const int32_t *elems, char *err,
-                               size_t errlen);
+                               size_t nelems, int nodes, const int32_t *elems);
 // Append one frame; J, smin, psi (energy density from the rest shape) may
 // be NULL (written as NaN).
 int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
-                    const double *smin, const double *psi, char *err, size_t errlen);
+                    const double *smin, const double *psi);
 // Every per-element field of a frame (any may be NULL: written as NaN):
 // J, smin, psi as above; smax (triangles only, the larger stretch); the
 // velocity gradient's rate of strain D and spin W (nelems x 9 row-major,
@@ -74,11 +73,11 @@ typedef struct {
   const double *vertex_R;
 } ek_frame_fields;
 int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
-                           const ek_frame_fields *fields, char *err, size_t errlen);
+                           const ek_frame_fields *fields);
 long ek_frames_count(const ek_frames *fr);
 // Close the XDMF and remove the scratch copy (every frame is already in
 // `path`). 0 on success.
-int ek_frames_close(ek_frames *fr, char *err, size_t errlen);
+int ek_frames_close(ek_frames *fr);
 // Path of the XDMF companion of an HDF5 path (".h5" replaced by ".xmf", or
 // ".xmf" appended).
 void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen);

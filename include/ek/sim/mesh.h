@@ -29,8 +29,8 @@
 //     ek_mesh_nfixed).
 // Errors name the file, the line (or the element index for in-memory
 // meshes) and the offending value; a mesh never half-loads: on error the
-// functions return NULL and write the message into err (when err != NULL,
-// truncated to errlen). Files: counts in headers are checked against the
+// functions return NULL and leave the message in ek_last_error (core.h).
+// Files: counts in headers are checked against the
 // bytes that follow and memory grows only as items arrive; a directory, a
 // NUL byte or a read error is reported as such; bytes quoted from a file
 // are escaped (\xNN) in messages.
@@ -69,24 +69,22 @@ typedef struct {
 } ek_mesh_opts;
 
 // X: nverts x 3 rest positions; tets: ntets x 4 vertex indices (0-based).
-ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                        char *err, size_t errlen);
+ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets);
 ek_mesh *ek_mesh_create_ex(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                           const ek_mesh_opts *opts, char *err, size_t errlen);
+                           const ek_mesh_opts *opts);
 
 // path: a TetGen base name ("bar" -> bar.node + bar.ele), either of the
 // .node/.ele files, or a Gmsh .msh file (ASCII v2 or v4; only tetrahedra,
 // element type 4, become elements, other element types are skipped).
 // TetGen indices are 0- or 1-based as the .node file's first index says.
-ek_mesh *ek_mesh_load(const char *path, char *err, size_t errlen);
-ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen);
+ek_mesh *ek_mesh_load(const char *path);
+ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts);
 
 // A box [0,lx] x [0,ly] x [0,lz] of nx*ny*nz cubes, each split into 6 tets
 // around its main diagonal (Kuhn / Freudenthal split, so faces of
 // neighbouring cubes match). (nx+1)(ny+1)(nz+1) vertices, x fastest;
 // 6 nx ny nz tets, all positive. nx, ny, nz >= 1, lengths > 0 and finite.
-ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
-                     size_t errlen);
+ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz);
 
 void ek_mesh_destroy(ek_mesh *m);
 

@@ -240,20 +240,19 @@ typedef struct {
   long output_every;
 } ek_scene;
 
-// Parse a scene file. 0 on success; < 0 with err naming the file, the key
+// Parse a scene file. 0 on success; < 0 with ek_last_error naming the file, the key
 // path and the value ("scenes/beam.json: material.nu = 0.5: Poisson ratio
 // must be < 0.5"). Unknown keys are errors. *scene is fully written on
 // success and left unspecified on error.
-int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen);
+int ek_scene_load(const char *path, ek_scene *scene);
 // Same from text in memory; `name` is used in messages, `base_dir` resolves a
 // relative mesh file ("." when NULL).
-int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene,
-                   char *err, size_t errlen);
-// Build (generate or load) the scene's mesh. NULL with err on failure.
+int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene);
+// Build (generate or load) the scene's mesh. NULL on failure (message in ek_last_error).
 // A tet scene has an ek_mesh, a cloth scene (scene->triangles) an
 // ek_trimesh; asking for the other kind is an error.
-ek_mesh *ek_scene_mesh(const ek_scene *scene, char *err, size_t errlen);
-ek_trimesh *ek_scene_trimesh(const ek_scene *scene, char *err, size_t errlen);
+ek_mesh *ek_scene_mesh(const ek_scene *scene);
+ek_trimesh *ek_scene_trimesh(const ek_scene *scene);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
 int ek_scene_model_from_name(const char *name, ek_model *model);

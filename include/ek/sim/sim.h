@@ -149,22 +149,21 @@ typedef struct {
 } ek_sim_newton_trace;
 
 // Build the simulation of a scene on a mesh (the caller keeps the mesh alive
-// and destroys it after the sim). NULL with err on failure.
-ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen);
+// and destroys it after the sim). NULL on failure (message in ek_last_error).
+ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh);
 // A cloth scene (scene->triangles) on its triangle mesh: the same loop with
 // the cloth forces (cloth_force.h) in place of the FVM force.
-ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
-                            size_t errlen);
+ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh);
 int ek_sim_is_cloth(const ek_sim *sim);
 // A condition the run goes on with, for the caller to report (the library
 // prints nothing, core.h): an explicit dt above the CFL limit (set by
 // ek_sim_create), the first step whose Newton loop stopped above
-// newton_tol. Copies the pending warning into buf and returns buf, once;
-// NULL when none is pending.
-const char *ek_sim_warning(ek_sim *sim, char *buf, size_t len);
+// newton_tol. Returns the pending warning once (valid until the next call
+// on this sim); NULL when none is pending.
+const char *ek_sim_warning(ek_sim *sim);
 void ek_sim_destroy(ek_sim *sim);
 // Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED,
-// EK_SIM_ESTOPPED or < 0 (message in ek_sim_last_error); on error the state
+// EK_SIM_ESTOPPED or < 0 (message in ek_last_error); on error the state
 // is left as it was before the step. A step that leaves a position or a
 // velocity that is not finite fails (EK_EINVAL, "non-finite state"), so the
 // state is always finite.
@@ -178,7 +177,6 @@ int ek_sim_step(ek_sim *sim);
 // sweeps (XPBD). NULL (the default) checks nothing. The checks read the
 // flag only: the results are the same bits with or without it.
 void ek_sim_set_stop_flag(ek_sim *sim, const volatile sig_atomic_t *flag);
-const char *ek_sim_last_error(const ek_sim *sim);
 // Name of the integrator the sim steps with ("explicit").
 const char *ek_sim_integrator_name(const ek_sim *sim);
 // Tets with J <= 0 in the current state.
@@ -198,7 +196,7 @@ const double *ek_sim_masses(const ek_sim *sim); // nverts
 // from the initial positions the scene gave. Rotations kept between steps
 // (corotated linear's R^n, the "polar": "warm" force rotations) restart at
 // the SVD polar of the new state. EK_EINVAL (nothing changed, message in
-// ek_sim_last_error) for a non-finite entry.
+// ek_last_error) for a non-finite entry.
 int ek_sim_set_state(ek_sim *sim, const double *x, const double *v);
 // The last implicit step's Newton history (all zero for other integrators).
 const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *sim);

@@ -46,15 +46,13 @@ extern "C" {
 
 typedef struct ek_trimesh ek_trimesh;
 
-ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, const int32_t *tris,
-                              char *err, size_t errlen);
+ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, const int32_t *tris);
 // An .obj or a .msh file (by extension).
-ek_trimesh *ek_trimesh_load(const char *path, char *err, size_t errlen);
+ek_trimesh *ek_trimesh_load(const char *path);
 // A rectangle of nx x ny cells of lx x ly, each cut into two triangles
 // along alternating diagonals, in the plane `plane` = "xy" (z = 0) or "xz"
 // (y = 0), corner at the origin; (nx+1)(ny+1) vertices, first axis fastest.
-ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *plane, char *err,
-                            size_t errlen);
+ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *plane);
 void ek_trimesh_destroy(ek_trimesh *m);
 
 size_t ek_trimesh_nverts(const ek_trimesh *m);
