@@ -13,6 +13,7 @@
 // Also: ek_mesh_fvm_energy_f64 (the library) equals the reference energy.
 #include "cli.h"
 #include "test_fvm_common.h"
+#include "test_tolerances.h"
 
 static int failures = 0;
 

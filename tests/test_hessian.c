@@ -24,6 +24,7 @@
 
 #include "cli.h"
 #include "test_fvm_common.h"
+#include "test_tolerances.h"
 
 // Central differences of the kernel's own gradient with step h = 1e-6 of
 // the cell size (1e-7): rounding ~1e-16 / h = 1e-9 relative to the

@@ -30,6 +30,7 @@
 #include "polar/polar_warm_ref.h"
 #include "svd3/svd3_ref.h"
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 enum { N_RANDOM = 4000, N_TAIL = 1001, N_THREADS_TEST = 40000 };
 

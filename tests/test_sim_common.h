@@ -5,6 +5,7 @@
 #ifndef EK_TEST_SIM_COMMON_H
 #define EK_TEST_SIM_COMMON_H
 
+#include "check.h"
 #include "cli.h"
 #include <ek/sim/sim.h>
 #include <omp.h>
@@ -19,7 +20,7 @@ static char scenes_dir[1024];
 // budget) or FAIL.
 static void report(const char *what, double err, double budget, const char *detail) {
   double ratio = err / budget;
-  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
+  const char *v = ek_verdict_name(ek_check_verdict(err, budget));
   printf("%-52s err %.3e  budget %.1e  err/budget %.3f  %s  %s\n", what, err, budget, ratio, v,
          detail);
   if (!(ratio <= 1.0))

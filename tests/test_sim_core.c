@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 // Psi(F) per tet of positions x, not shifted: what the field held before it
 // was measured from the rest shape. Corotated linear is evaluated with

@@ -31,6 +31,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 static unsigned long long rng_state;
 static double uniform(double lo, double hi) {

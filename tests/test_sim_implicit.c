@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 // A 0.1 m cube of stable neo-Hookean, stretched and moving, no gravity, no
 // pins: the small problem of 1-3.

@@ -19,6 +19,7 @@
 #include "check.h"
 #include "check_stability.h"
 #include "cli.h"
+#include "test_tolerances.h"
 
 // A rigid motion leaves the shape error at rounding: a few eps of the
 // body's coordinates.

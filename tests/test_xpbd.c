@@ -21,6 +21,7 @@
 
 #include "cli.h"
 #include "test_fvm_common.h"
+#include "test_tolerances.h"
 #include "xpbd/xpbd_ref.h"
 
 // Material and substep of every scene: a stiff rubber, E = 10 MPa,

@@ -48,6 +48,7 @@
 #include "check.h"
 #include "check_stability.h"
 #include "scene_find.h"
+#include "test_tolerances.h"
 #include "verify.h"
 
 // ---- The scenes ----

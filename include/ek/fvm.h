@@ -30,10 +30,6 @@ extern "C" {
 // budget (EK_PK1_TOL_*) and valid where that one is.
 #define EK_FVM_TOL_F32 1e-4
 #define EK_FVM_TOL_F64 1e-10
-// The double reference against central differences of its own energy
-// (forces = -dE/dx), same norm; bounded by the differencing, not by the
-// kernel.
-#define EK_FVM_FD_TOL 1e-8
 
 // How per-tet forces are summed into vertices.
 //   COLORED: the element layer's coloured order (elements.h): Morton chunks

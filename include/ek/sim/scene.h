@@ -163,15 +163,6 @@ typedef struct {
 // The scene's "polar" key.
 typedef enum { EK_POLAR_SVD = 0, EK_POLAR_WARM } ek_polar_method;
 
-// tests/test_polar_warm.c: the cantilever and twist scenes (fixed
-// corotated) with "polar": "warm" against "svd" after 300 steps. The warm
-// polar's rotations are within EK_POLAR_WARM_TOL_* of the SVD's, far below
-// the f32 force's own rounding, so in f32 the two runs may differ by no
-// more than FACTOR x the distance between the f32 and f64 SVD runs
-// (max |dx| over vertices), and in f64 by TOL x the body's length.
-#define EK_POLAR_WARM_LOOP_F32_FACTOR 2
-#define EK_POLAR_WARM_LOOP_TOL_F64 1e-12
-
 typedef enum {
   EK_BC_PIN,     // held at the initial position
   EK_BC_TWIST,   // rotated about an axis at `rate` rad/s
