@@ -1,15 +1,16 @@
-// The ek_mesh forms of the FVM API (include/ek/fvm.h): the kernels work on
-// the mesh's element layer (kernels/fvm/fvm.c), these forward to them.
+// The ek_mesh forms of the FVM API (include/ek/sim/mesh.h): the kernels
+// (fvm.h) work on the mesh's element layer (kernels/fvm/fvm.c), these
+// forward to them.
 #include <ek/fvm.h>
 #include <ek/sim/sim.h>
 
 int ek_mesh_fvm_forces_ex_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f,
-                         const ek_fvm_opts *opts) {
+                              const ek_fvm_opts *opts) {
   return ek_fvm_tet_forces_ex_f32(ek_mesh_elements(m), mat, x, f, opts);
 }
 
 int ek_mesh_fvm_forces_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f,
-                         const ek_fvm_opts *opts) {
+                              const ek_fvm_opts *opts) {
   return ek_fvm_tet_forces_ex_f64(ek_mesh_elements(m), mat, x, f, opts);
 }
 
@@ -22,7 +23,7 @@ int ek_mesh_fvm_forces_f64(const ek_mesh *m, const ek_material *mat, const doubl
 }
 
 double ek_mesh_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
-                            const double *R) {
+                                 const double *R) {
   return ek_fvm_tet_energy_f64(ek_mesh_elements(m), mat, x, R);
 }
 
