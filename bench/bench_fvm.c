@@ -52,7 +52,7 @@
 // depends on the model and its SVD.
 #include <ek/fvm.h>
 #include <ek/hessian.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <ek/xpbd.h>
 #include <math.h>
 #include <stdio.h>
@@ -96,8 +96,9 @@ typedef struct {
 
 static void run_forces(void *p) {
   fvm_ctx *c = p;
-  int rc = c->f32 ? ek_fvm_forces_ex_f32(c->mc->mesh, &c->mat, c->mc->x32, c->mc->f32, &c->opts)
-                  : ek_fvm_forces_ex_f64(c->mc->mesh, &c->mat, c->mc->x64, c->mc->f64, &c->opts);
+  int rc = c->f32
+               ? ek_mesh_fvm_forces_ex_f32(c->mc->mesh, &c->mat, c->mc->x32, c->mc->f32, &c->opts)
+               : ek_mesh_fvm_forces_ex_f64(c->mc->mesh, &c->mat, c->mc->x64, c->mc->f64, &c->opts);
   if (rc < 0 && !c->failed) {
     c->failed = 1;
     ek_bench_fail(c->b, "fvm: ek_fvm_forces_ex returned %d", rc);
@@ -109,12 +110,10 @@ static void run_forces(void *p) {
 static int mesh_setup(ek_bench *b, fvm_mesh_case *mc) {
   if (mc->mesh)
     return 0;
-  char err[256];
   double h = 0.01;
-  mc->mesh = ek_mesh_box(mc->n[0], mc->n[1], mc->n[2], mc->n[0] * h, mc->n[1] * h, mc->n[2] * h,
-                         err, sizeof err);
+  mc->mesh = ek_mesh_box(mc->n[0], mc->n[1], mc->n[2], mc->n[0] * h, mc->n[1] * h, mc->n[2] * h);
   if (!mc->mesh) {
-    ek_bench_fail(b, "fvm: ek_mesh_box: %s", err);
+    ek_bench_fail(b, "fvm: ek_mesh_box: %s", ek_last_error());
     return -1;
   }
   size_t nv = ek_mesh_nverts(mc->mesh), nt = ek_mesh_ntets(mc->mesh);

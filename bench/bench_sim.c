@@ -32,7 +32,7 @@
 // dt, implicit at 1/30 s), printed side by side as a note with the final
 // tip positions' difference (one run each: a cost, not a median).
 #include <ek/cloth.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -61,7 +61,7 @@ static void run_steps(void *p) {
     int rc = ek_sim_step(c->sim);
     if (rc != 0) {
       c->failed = 1;
-      ek_bench_fail(c->b, "sim: step failed (rc %d): %s", rc, ek_sim_last_error(c->sim));
+      ek_bench_fail(c->b, "sim: step failed (rc %d): %s", rc, ek_last_error());
     }
   }
 }
@@ -72,7 +72,11 @@ static int load_shipped(const char *name, ek_scene *scene, char *err, size_t err
   char path[EK_SCENE_PATH_MAX];
   if (ek_shipped_scene(name, path, sizeof path, err, errlen) != 0)
     return -1;
-  return ek_scene_load(path, scene, err, errlen);
+  if (ek_scene_load(path, scene) != 0) {
+    snprintf(err, errlen, "%s", ek_last_error());
+    return -1;
+  }
+  return 0;
 }
 
 static double now(void) { return omp_get_wtime(); }
@@ -105,8 +109,9 @@ static double force_ns_per_tet(const ek_scene *scene, const ek_mesh *mesh, const
     int ok = 1;
     for (int i = 0; i < FORCE_CALLS && ok; i++) {
       double t0 = now();
-      ok = (scene->precision == 32 ? ek_fvm_forces_ex_f32(mesh, &scene->material, xf, ff, &o)
-                                   : ek_fvm_forces_ex_f64(mesh, &scene->material, x, f, &o)) == 0;
+      ok = (scene->precision == 32
+                ? ek_mesh_fvm_forces_ex_f32(mesh, &scene->material, xf, ff, &o)
+                : ek_mesh_fvm_forces_ex_f64(mesh, &scene->material, x, f, &o)) == 0;
       t[i] = now() - t0;
     }
     if (ok) {
@@ -191,7 +196,7 @@ static const struct {
 static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
   static const char *scene_name = "cantilever_xpbd";
   static ek_scene scene;
-  char err[1024];
+  char err[1024] = "";
   ek_mesh *mesh = NULL;
   int rc = 0, loaded = 0;
   for (int t = 0; t < ncounts; ++t) {
@@ -208,8 +213,8 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
       if (!ek_bench_listing(b)) {
         if (!loaded) {
           if (load_shipped(scene_name, &scene, err, sizeof err) != 0 ||
-              !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
-            ek_bench_fail(b, "sim: %s: %s", scene_name, err);
+              !(mesh = ek_scene_mesh(&scene))) {
+            ek_bench_fail(b, "sim: %s: %s", scene_name, err[0] ? err : ek_last_error());
             ek_sim_destroy(last);
             return -1;
           }
@@ -218,8 +223,8 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
         }
         scene.xpbd.iterations = xpbd_grid[g].iterations;
         scene.xpbd.substeps = xpbd_grid[g].substeps;
-        if (!(ctx.sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
-          ek_bench_fail(b, "sim: %s: %s", name, err);
+        if (!(ctx.sim = ek_sim_create(&scene, mesh))) {
+          ek_bench_fail(b, "sim: %s: %s", name, ek_last_error());
           rc = -1;
           continue;
         }
@@ -288,14 +293,13 @@ static int cantilever_1s(ek_bench *b, int threads) {
   long steps[2] = {0, 0};
   omp_set_num_threads(threads);
   for (int k = 0; k < 2; k++) {
-    char err[1024];
+    char err[1024] = "";
     ek_scene scene;
     ek_mesh *mesh = NULL;
     ek_sim *sim = NULL;
-    if (load_shipped(names[k], &scene, err, sizeof err) != 0 ||
-        !(mesh = ek_scene_mesh(&scene, err, sizeof err)) ||
-        !(sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
-      ek_bench_fail(b, "sim: %s: %s", names[k], err);
+    if (load_shipped(names[k], &scene, err, sizeof err) != 0 || !(mesh = ek_scene_mesh(&scene)) ||
+        !(sim = ek_sim_create(&scene, mesh))) {
+      ek_bench_fail(b, "sim: %s: %s", names[k], err[0] ? err : ek_last_error());
       ek_mesh_destroy(mesh);
       return -1;
     }
@@ -308,7 +312,7 @@ static int cantilever_1s(ek_bench *b, int threads) {
     seconds[k] = now() - t0;
     tips[k] = tip(sim, mesh, scene.box_size[0]);
     if (rc)
-      ek_bench_fail(b, "sim: %s: %s", names[k], ek_sim_last_error(sim));
+      ek_bench_fail(b, "sim: %s: %s", names[k], ek_last_error());
     ek_sim_destroy(sim);
     ek_mesh_destroy(mesh);
     if (rc)
@@ -348,7 +352,7 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
   for (int mi = 0; mi < 2; ++mi)
     for (int prec = 32; prec <= 64; prec += 32)
       for (int t = 0; t < ncounts; ++t) {
-        char json[1200], err[1024], name[EK_BENCH_NAME_MAX], knobs[256];
+        char json[1200], name[EK_BENCH_NAME_MAX], knobs[256];
         ek_isa isa = EK_ISA_AUTO;
         if (ek_isa_resolve(EK_ISA_AUTO, &isa) != EK_OK)
           return -1;
@@ -369,10 +373,10 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
         ek_trimesh *mesh = NULL;
         sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL};
         if (!ek_bench_listing(b)) {
-          if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene, err, sizeof err) != 0 ||
-              !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
-              !(ctx.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
-            ek_bench_fail(b, "sim: %s: %s", name, err);
+          if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene) != 0 ||
+              !(mesh = ek_scene_trimesh(&scene)) ||
+              !(ctx.sim = ek_sim_create_cloth(&scene, mesh))) {
+            ek_bench_fail(b, "sim: %s: %s", name, ek_last_error());
             ek_trimesh_destroy(mesh);
             rc = -1;
             continue;
@@ -453,7 +457,7 @@ static int rotation_rows(ek_bench *b, const int *counts, int ncounts) {
   int rc = 0;
   for (int kind = 0; kind < 2; ++kind)
     for (int t = 0; t < ncounts; ++t) {
-      char name[EK_BENCH_NAME_MAX], json[1200], err[1024];
+      char name[EK_BENCH_NAME_MAX], json[1200];
       const size_t nv = (CELLS + 1) * (CELLS + 1), nt = 2 * CELLS * CELLS;
       snprintf(name, sizeof name, "sim/rotations/cloth_hang/%s/f64/%s:%zu/threads:%d",
                kind ? "polar32_element" : "kabsch_one_ring", kind ? "tris" : "verts",
@@ -471,10 +475,9 @@ static int rotation_rows(ek_bench *b, const int *counts, int ncounts) {
                  "\"region\": {\"min\": [0, 0, 1], \"max\": [0, 0, 1]}}], \"gravity\": [0, 0, "
                  "-9.81], \"dt\": 3e-5, \"steps\": 1}",
                  CELLS, CELLS);
-        if (ek_scene_parse(json, "rotations", ".", &scene, err, sizeof err) != 0 ||
-            !(mesh = ek_scene_trimesh(&scene, err, sizeof err)) ||
-            !(c.sim = ek_sim_create_cloth(&scene, mesh, err, sizeof err))) {
-          ek_bench_fail(b, "sim: %s: %s", name, err);
+        if (ek_scene_parse(json, "rotations", ".", &scene) != 0 ||
+            !(mesh = ek_scene_trimesh(&scene)) || !(c.sim = ek_sim_create_cloth(&scene, mesh))) {
+          ek_bench_fail(b, "sim: %s: %s", name, ek_last_error());
           ek_trimesh_destroy(mesh);
           rc = -1;
           continue;
@@ -558,13 +561,13 @@ int bench_sim(ek_bench *b) {
                 xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
       sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL};
       if (!ek_bench_listing(b)) {
-        if (!mesh && !(mesh = ek_scene_mesh(&scene, err, sizeof err))) {
-          ek_bench_fail(b, "sim: %s: %s", scenes[k], err);
+        if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
+          ek_bench_fail(b, "sim: %s: %s", scenes[k], ek_last_error());
           rc = -1;
           break;
         }
-        if (!(ctx.sim = ek_sim_create(&scene, mesh, err, sizeof err))) {
-          ek_bench_fail(b, "sim: %s: %s", scenes[k], err);
+        if (!(ctx.sim = ek_sim_create(&scene, mesh))) {
+          ek_bench_fail(b, "sim: %s: %s", scenes[k], ek_last_error());
           rc = -1;
           continue;
         }

@@ -70,10 +70,10 @@ static int push(setting_list *l, const ek_scene *s, int is_default, int is_refer
 }
 
 static int load_shipped(const char *name, ek_scene *scene) {
-  char path[EK_SCENE_PATH_MAX], err[1024];
+  char path[EK_SCENE_PATH_MAX], err[1024] = "";
   if (ek_shipped_scene(name, path, sizeof path, err, sizeof err) != 0 ||
-      ek_scene_load(path, scene, err, sizeof err) != 0) {
-    fprintf(stderr, "tradeoff loops: %s\n", err);
+      ek_scene_load(path, scene) != 0) {
+    fprintf(stderr, "tradeoff loops: %s\n", err[0] ? err : ek_last_error());
     return -1;
   }
   return 0;
@@ -171,11 +171,11 @@ static int family_settings(setting_list *l, const char *const names[3], int coar
 
 // Run every setting of a family (reference first) and add one point each.
 static int run_family(ek_tradeoff *t, const char *family, const setting_list *l, double sim_time) {
-  char err[1024], metric[96];
+  char metric[96];
   snprintf(metric, sizeof metric, "vertex distance / body size after %g s", sim_time);
-  ek_mesh *mesh = ek_scene_mesh(&l->v[0].scene, err, sizeof err);
+  ek_mesh *mesh = ek_scene_mesh(&l->v[0].scene);
   if (!mesh) {
-    fprintf(stderr, "tradeoff loops: %s: %s\n", family, err);
+    fprintf(stderr, "tradeoff loops: %s: %s\n", family, ek_last_error());
     return -1;
   }
   const size_t nv = ek_mesh_nverts(mesh);

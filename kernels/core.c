@@ -9,7 +9,7 @@
 
 #include "kernels.h"
 
-static _Thread_local char last_error[512];
+static _Thread_local char last_error[2048];
 
 const char *ek_last_error(void) { return last_error; }
 

@@ -1,6 +1,7 @@
 // The scene advisor (advise.h): candidates, their trials, the table, the
 // pick.
 #include "advise.h"
+#include "errbuf.h"
 
 #include <math.h>
 #include <omp.h>
@@ -72,7 +73,7 @@ static double cfl_dt(const ek_scene *s, const ek_mesh *mesh) {
   e.dt = 1e-30; // below any CFL limit: no warning
   e.output_file[0] = '\0';
   char err[256];
-  ek_sim *sim = ek_sim_create(&e, mesh, err, sizeof err);
+  ek_sim *sim = ek_sim_create_errbuf(&e, mesh, err, sizeof err);
   double dt = sim ? ek_sim_cfl_dt(sim) : NAN;
   ek_sim_destroy(sim);
   return dt;
@@ -138,7 +139,7 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
       "\"stvk\", \"E\": 1, \"nu\": 0, \"density\": 1}, \"dt\": 1, \"steps\": 1}";
   ek_scene defaults;
   char err[256];
-  if (ek_scene_parse(defaults_text, "defaults", NULL, &defaults, err, sizeof err) != 0)
+  if (ek_scene_parse_errbuf(defaults_text, "defaults", NULL, &defaults, err, sizeof err) != 0)
     return -1;
   const double frame_dt = fmax(scene->dt, fmin(1.0 / 60, sim_time / 5));
   for (int L = 0; L < EK_INTEGRATOR_COUNT; ++L) {

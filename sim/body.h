@@ -14,7 +14,7 @@
 #ifndef EK_SIM_BODY_H
 #define EK_SIM_BODY_H
 
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <stddef.h>
 #include <stdint.h>
 

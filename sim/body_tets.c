@@ -4,6 +4,7 @@
 // the Hookean constraints of xpbd.h for XPBD. Corotated linear takes
 // R^n = polar(F^n) per tet at the start of each step (seed 000).
 #include "body.h"
+#include "errbuf.h"
 #include "sim_internal.h"
 
 #include <ek/cloth.h>
@@ -216,7 +217,7 @@ static int seed_warm_rotations(ek_sim *s) {
   tets *b = tets_of(s);
   size_t nt = s->nt;
   double *F = malloc(18 * nt * sizeof(double));
-  int rc = F ? ek_fvm_deformation_gradients_f64(b->mesh, s->x, F) : EK_ENOMEM;
+  int rc = F ? ek_mesh_deformation_gradients_f64(b->mesh, s->x, F) : EK_ENOMEM;
   ek_svd3_opts so = s->scene.svd;
   if (rc == 0)
     rc = ek_polar3_f64(nt, F, F + 9 * nt, NULL, &so);
@@ -237,7 +238,7 @@ static int refresh_rotations(ek_sim *s) {
     return 0;
   tets *b = tets_of(s);
   double t0 = sim_now();
-  int rc = ek_fvm_deformation_gradients_f64(b->mesh, s->x, b->F);
+  int rc = ek_mesh_deformation_gradients_f64(b->mesh, s->x, b->F);
   if (rc == 0 && s->scene.polar == EK_POLAR_WARM && b->R_ready) {
     // The warm polar from R^(n-1) (polar.h), in double like the SVD path.
     ek_polar_warm_opts o = {.isa = s->scene.svd.isa};
@@ -313,11 +314,11 @@ static int tets_start(ek_sim *s) {
   s->elastic_rest = 0.0;
   if (b->psi_rest) {
     const double *X = b->body.X;
-    s->elastic_rest = ek_fvm_energy_f64(b->mesh, &s->mat, X);
+    s->elastic_rest = ek_mesh_fvm_energy_f64(b->mesh, &s->mat, X);
     ek_fvm_opts o = b->fvm;
     o.psi = b->psi_rest;
     o.polar_state = NULL; // a double pass: the SVD (the state is in the scene's precision)
-    if (ek_fvm_forces_ex_f64(b->mesh, &s->mat, X, s->f, &o) != 0)
+    if (ek_mesh_fvm_forces_ex_f64(b->mesh, &s->mat, X, s->f, &o) != 0)
       return sim_fail(s, "energy density at rest: %s", ek_last_error());
   }
   return 0;
@@ -349,11 +350,11 @@ static int tets_forces(ek_sim *s, const double *x) {
   if (s->scene.precision == 32) {
     for (size_t i = 0; i < n3; ++i)
       s->xf[i] = (float)x[i];
-    rc = ek_fvm_forces_ex_f32(b->mesh, &s->mat, s->xf, s->ff, &o);
+    rc = ek_mesh_fvm_forces_ex_f32(b->mesh, &s->mat, s->xf, s->ff, &o);
     for (size_t i = 0; rc == 0 && i < n3; ++i)
       s->f[i] = (double)s->ff[i];
   } else {
-    rc = ek_fvm_forces_ex_f64(b->mesh, &s->mat, x, s->f, &o);
+    rc = ek_mesh_fvm_forces_ex_f64(b->mesh, &s->mat, x, s->f, &o);
   }
   double t1 = sim_now();
   if (s->time_phases) {
@@ -392,6 +393,7 @@ static int tets_bad_force(ek_sim *s, const double *x, size_t bad_vertex, const c
              "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
              "model %s is undefined there (use an invertible model or material.clamp > 0)",
              s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
+    ek_set_error("%s", s->error);
     return EK_SIM_EINVERTED;
   }
   return sim_fail(s,
@@ -412,7 +414,7 @@ static size_t tets_inverted_count(const ek_sim *s) {
 
 static double tets_energy(const ek_sim *s, const double *x) {
   const tets *b = tets_of(s);
-  return ek_fvm_energy_ex_f64(b->mesh, &s->mat, x, b->R);
+  return ek_mesh_fvm_energy_ex_f64(b->mesh, &s->mat, x, b->R);
 }
 
 static double tets_measure(const ek_sim *s) {
@@ -438,7 +440,7 @@ static int tets_fields(const ek_sim *s, double *J, double *smax, double *smin, d
   o.phase_times = NULL;
   o.R_state = NULL; // in the scene's precision; this pass is double and has R
   o.polar_state = NULL;
-  int rc = ek_fvm_forces_ex_f64(b->mesh, &s->mat, s->x, scratch, &o);
+  int rc = ek_mesh_fvm_forces_ex_f64(b->mesh, &s->mat, s->x, scratch, &o);
   free(scratch);
   // Measured from the rest shape, like ek_sim_energy's elastic energy:
   // sum_e V0_e psi_e is that energy.
@@ -473,7 +475,7 @@ static void sym3_eigenvalues(const double *A, double e[3]) {
 // L = Fdot F^-1 per tet (cloth.h, seed 003 eqs. 28-31); the principal
 // strain rates are the eigenvalues of D.
 static int tets_rate_fields(const ek_sim *s, double *D, double *W, double *rates) {
-  int rc = ek_velocity_gradient_f64(tets_of(s)->mesh, s->x, s->v, NULL, D, W);
+  int rc = ek_mesh_velocity_gradient_f64(tets_of(s)->mesh, s->x, s->v, NULL, D, W);
   for (size_t e = 0; rc == 0 && rates && e < s->nt; ++e)
     sym3_eigenvalues(D + 9 * e, rates + 3 * e);
   return rc;

@@ -18,7 +18,7 @@
 // at the next step: the frames are closed, their count printed, and ek-sim
 // dies of that signal.
 #include <ek/polar.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <errno.h>
 #include <hdf5.h>
@@ -161,8 +161,8 @@ static int box_fits_memory(const ek_scene *s) {
 
 // The library's pending warning (ek_sim_warning), on its own line.
 static void print_sim_warning(ek_sim *sim, int tty) {
-  char w[600];
-  if (ek_sim_warning(sim, w, sizeof w))
+  const char *w = ek_sim_warning(sim);
+  if (w)
     fprintf(stderr, "%sek-sim: warning: %s\n", tty ? "\n" : "", w);
 }
 
@@ -337,12 +337,12 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   const int warm = s->polar == EK_POLAR_WARM;
   if (need == EK_NEEDS_R_INPUT && warm)
     printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
-           "(ek_fvm_deformation_gradients_f64), R = polar(F) by the warm polar from R^(n-1) "
+           "(ek_mesh_deformation_gradients_f64), R = polar(F) by the warm polar from R^(n-1) "
            "(ek_polar3_warm_f64, %d iterations; the SVD polar at the first step)\n",
            k++, ek_polar_warm_default_iterations_f64());
   else if (need == EK_NEEDS_R_INPUT)
     printf("  %d. R^n refresh (seed 000): F = Ds Dm^-1 in double "
-           "(ek_fvm_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
+           "(ek_mesh_deformation_gradients_f64), R = polar(F) (ek_polar3_f64, %d sweeps%s)\n",
            k++, s->svd.sweeps ? s->svd.sweeps : ek_svd3_default_sweeps_f64(),
            s->svd.exact_rsqrt < 0 ? ", approximate rsqrt" : "");
   // The implicit loop's pass is the gradient (hessian.h), which also
@@ -534,9 +534,9 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
     return EK_EXIT_FAILED;
   }
   char err[1024];
-  ek_mesh *mesh = ek_scene_mesh(scene, err, sizeof err);
+  ek_mesh *mesh = ek_scene_mesh(scene);
   if (!mesh) {
-    fprintf(stderr, "ek-sim: %s\n", err);
+    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     return EK_EXIT_FAILED;
   }
   printf("ek-sim %s --advise: %zu vertices, %zu tets, model %s, integrator %s, f%d, dt %g\n",
@@ -634,8 +634,8 @@ int main(int argc, char **argv) {
   }
   scene_path = found;
   static ek_scene scene;
-  if (ek_scene_load(scene_path, &scene, err, sizeof err) != 0) {
-    fprintf(stderr, "ek-sim: %s\n", err);
+  if (ek_scene_load(scene_path, &scene) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     return 1;
   }
   // An ISA the CPU lacks (the scene's or EK_ISA's) stops here, before any
@@ -708,17 +708,16 @@ int main(int argc, char **argv) {
   ek_mesh *mesh = NULL;
   ek_trimesh *trimesh = NULL;
   if (cloth)
-    trimesh = ek_scene_trimesh(&scene, err, sizeof err);
+    trimesh = ek_scene_trimesh(&scene);
   else
-    mesh = ek_scene_mesh(&scene, err, sizeof err);
+    mesh = ek_scene_mesh(&scene);
   if (!mesh && !trimesh) {
-    fprintf(stderr, "ek-sim: %s\n", err);
+    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     return 1;
   }
-  ek_sim *sim = cloth ? ek_sim_create_cloth(&scene, trimesh, err, sizeof err)
-                      : ek_sim_create(&scene, mesh, err, sizeof err);
+  ek_sim *sim = cloth ? ek_sim_create_cloth(&scene, trimesh) : ek_sim_create(&scene, mesh);
   if (!sim) {
-    fprintf(stderr, "ek-sim: %s\n", err);
+    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     ek_mesh_destroy(mesh);
     ek_trimesh_destroy(trimesh);
     return 1;
@@ -752,9 +751,9 @@ int main(int argc, char **argv) {
     warn_long_xpbd_step(&scene, ek_sim_xpbd_constraints(sim), steps);
   if (out) {
     frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
-                                         ek_trimesh_tris(trimesh), err, sizeof err)
+                                         ek_trimesh_tris(trimesh))
                    : ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt,
-                                      ek_mesh_tets(mesh), err, sizeof err);
+                                      ek_mesh_tets(mesh));
     J = malloc(nt * sizeof(double));
     smin = malloc(nt * sizeof(double));
     psi = malloc(nt * sizeof(double));
@@ -764,8 +763,8 @@ int main(int argc, char **argv) {
     rates = malloc(3 * nt * sizeof(double));
     vrot = malloc(9 * nv * sizeof(double));
     if (!frames || !J || !smin || !psi || !smax || !Drate || !Wrate || !rates || !vrot) {
-      fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : err);
-      ek_frames_close(frames, NULL, 0);
+      fprintf(stderr, "ek-sim: %s\n", frames ? "out of memory" : ek_last_error());
+      ek_frames_close(frames);
       free_frame_fields(J, smin, psi, smax, Drate, Wrate, rates, vrot);
       free(step_s);
       free(res);
@@ -807,9 +806,8 @@ int main(int argc, char **argv) {
                  : ek_sim_tet_fields(sim, J, smin, psi)) != 0 ||
           ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
           ek_sim_vertex_rotations(sim, vrot) != 0 ||
-          ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff, err,
-                                 sizeof err) != 0) {
-        fprintf(stderr, "\nek-sim: %s\n", err[0] ? err : ek_last_error());
+          ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff) != 0) {
+        fprintf(stderr, "\nek-sim: %s\n", ek_last_error());
         rc = EK_EXIT_FAILED;
         break;
       }
@@ -830,7 +828,7 @@ int main(int argc, char **argv) {
       break;
     }
     if (src != 0) {
-      fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_sim_last_error(sim));
+      fprintf(stderr, "%sek-sim: %s: %s\n", tty ? "\n" : "", scene.path, ek_last_error());
       rc = EK_EXIT_FAILED;
       break;
     }
@@ -863,8 +861,8 @@ int main(int argc, char **argv) {
   const int wrote_frames = frames != NULL;
   long nframes = frames ? ek_frames_count(frames) : 0;
   if (frames) {
-    if (ek_frames_close(frames, err, sizeof err) != 0) {
-      fprintf(stderr, "ek-sim: %s\n", err);
+    if (ek_frames_close(frames) != 0) {
+      fprintf(stderr, "ek-sim: %s\n", ek_last_error());
       rc = EK_EXIT_FAILED;
     }
     char xdmf[EK_SCENE_PATH_MAX];

@@ -31,7 +31,8 @@
 // per frame and field: meshio's TimeSeriesReader (5.3) reads only those
 // (not HyperSlab items), and ParaView's Xdmf3 reader reads them too.
 #define _GNU_SOURCE // renameat2 (glibc >= 2.28)
-#include <ek/sim.h>
+#include "errbuf.h"
+#include <ek/sim/sim.h>
 
 #include <errno.h>
 #include <fcntl.h>
@@ -521,14 +522,14 @@ static void destroy(ek_frames *fr) {
   free(fr);
 }
 
-ek_frames *ek_frames_create(const char *path, int force, size_t nverts, const double *X,
-                            size_t ntets, const int32_t *tets, char *err, size_t errlen) {
-  return ek_frames_create_ex(path, force, nverts, X, ntets, 4, tets, err, errlen);
+ek_frames *ek_frames_create_errbuf(const char *path, int force, size_t nverts, const double *X,
+                                   size_t ntets, const int32_t *tets, char *err, size_t errlen) {
+  return ek_frames_create_ex_errbuf(path, force, nverts, X, ntets, 4, tets, err, errlen);
 }
 
-ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const double *X,
-                               size_t ntets, int nodes, const int32_t *tets, char *err,
-                               size_t errlen) {
+ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts, const double *X,
+                                      size_t ntets, int nodes, const int32_t *tets, char *err,
+                                      size_t errlen) {
   if (err && errlen)
     err[0] = '\0';
   if (!path || !path[0] || !X || !tets || nverts == 0 || ntets == 0 || (nodes != 3 && nodes != 4)) {
@@ -641,14 +642,14 @@ ek_frames *ek_frames_create_ex(const char *path, int force, size_t nverts, const
   return fr;
 }
 
-int ek_frames_write(ek_frames *fr, double time, long step, const double *x, const double *J,
-                    const double *smin, const double *psi, char *err, size_t errlen) {
+int ek_frames_write_errbuf(ek_frames *fr, double time, long step, const double *x, const double *J,
+                           const double *smin, const double *psi, char *err, size_t errlen) {
   const ek_frame_fields f = {.J = J, .smin = smin, .psi = psi};
-  return ek_frames_write_fields(fr, time, step, x, &f, err, errlen);
+  return ek_frames_write_fields_errbuf(fr, time, step, x, &f, err, errlen);
 }
 
-int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
-                           const ek_frame_fields *ff, char *err, size_t errlen) {
+int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const double *x,
+                                  const ek_frame_fields *ff, char *err, size_t errlen) {
   if (!fr || !x || !ff) {
     if (err && errlen)
       snprintf(err, errlen, "ek_frames_write: no open frames or no positions");
@@ -745,7 +746,7 @@ int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *
 
 long ek_frames_count(const ek_frames *fr) { return fr ? fr->nframes : 0; }
 
-int ek_frames_close(ek_frames *fr, char *err, size_t errlen) {
+int ek_frames_close_errbuf(ek_frames *fr, char *err, size_t errlen) {
   if (!fr)
     return 0;
   int rc = 0;

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "errbuf.h"
 #include "mesh_build.h"
 
 void mesh_error(char *err, size_t errlen, const char *fmt, ...) {
@@ -326,10 +327,9 @@ ek_mesh *mesh_build(size_t nverts, const double *X, size_t ntets, const int32_t 
     }
   }
   {
-    char el_err[256] = "";
-    m->el = ek_tets_create(nverts, X, ntets, T, el_err, sizeof el_err);
+    m->el = ek_tets_create(nverts, X, ntets, T);
     if (!m->el) {
-      mesh_error(err, errlen, "%s: %s", src, el_err);
+      mesh_error(err, errlen, "%s: %s", src, ek_last_error());
       goto fail;
     }
   }
@@ -359,13 +359,13 @@ fail:
   return NULL;
 }
 
-ek_mesh *ek_mesh_create_ex(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                           const ek_mesh_opts *opts, char *err, size_t errlen) {
+ek_mesh *ek_mesh_create_ex_errbuf(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                                  const ek_mesh_opts *opts, char *err, size_t errlen) {
   return mesh_build(nverts, X, ntets, tets, opts, NULL, err, errlen);
 }
 
-ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                        char *err, size_t errlen) {
+ek_mesh *ek_mesh_create_errbuf(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                               char *err, size_t errlen) {
   return mesh_build(nverts, X, ntets, tets, NULL, NULL, err, errlen);
 }
 
@@ -375,8 +375,8 @@ ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int3
 // are cut along the same diagonal and the mesh is conforming. Odd
 // permutations are listed with vertices 1 and 2 swapped so all volumes are
 // positive.
-ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
-                     size_t errlen) {
+ek_mesh *ek_mesh_box_errbuf(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
+                            size_t errlen) {
   if (nx < 1 || ny < 1 || nz < 1) {
     mesh_error(err, errlen, "ek_mesh_box: cell counts %d x %d x %d must be >= 1", nx, ny, nz);
     return NULL;

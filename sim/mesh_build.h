@@ -5,7 +5,7 @@
 #define EK_SIM_MESH_BUILD_H
 
 #include <ek/elements.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <stddef.h>
 #include <stdint.h>
 

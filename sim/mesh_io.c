@@ -16,6 +16,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "errbuf.h"
 #include "mesh_build.h"
 #include "mesh_read.h"
 
@@ -171,7 +172,8 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
   return m;
 }
 
-ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen) {
+ek_mesh *ek_mesh_load_ex_errbuf(const char *path, const ek_mesh_opts *opts, char *err,
+                                size_t errlen) {
   if (!path) {
     mesh_error(err, errlen, "ek_mesh_load: NULL path");
     return NULL;
@@ -202,6 +204,6 @@ ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, 
   return m;
 }
 
-ek_mesh *ek_mesh_load(const char *path, char *err, size_t errlen) {
-  return ek_mesh_load_ex(path, NULL, err, errlen);
+ek_mesh *ek_mesh_load_errbuf(const char *path, char *err, size_t errlen) {
+  return ek_mesh_load_ex_errbuf(path, NULL, err, errlen);
 }

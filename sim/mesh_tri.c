@@ -1,9 +1,9 @@
-// Triangle meshes for cloth (include/ek/trimesh.h): validation, the OBJ and
+// Triangle meshes for cloth (include/ek/sim/trimesh.h): validation, the OBJ and
 // Gmsh 2D readers and the grid generator. Readers collect everything first,
 // grow their arrays as data arrives (a header's count is checked against
 // the data, never trusted to size memory), then hand the arrays to one
 // builder, so a mesh never half-loads and every error names file:line.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 
 #include <errno.h>
 #include <float.h>
@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "errbuf.h"
 #include "mesh_build.h"
 #include "mesh_read.h"
 #include "text_escape.h"
@@ -228,8 +229,8 @@ fail:
   return NULL;
 }
 
-ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, const int32_t *tris,
-                              char *err, size_t errlen) {
+ek_trimesh *ek_trimesh_create_errbuf(size_t nverts, const double *X, size_t ntris,
+                                     const int32_t *tris, char *err, size_t errlen) {
   if (!X || !tris) {
     tm_error(err, errlen, "ek_trimesh_create: NULL arrays");
     return NULL;
@@ -247,8 +248,8 @@ ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, cons
   return tm_build(nverts, Xc, ntris, Tc, NULL, err, errlen);
 }
 
-ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *plane, char *err,
-                            size_t errlen) {
+ek_trimesh *ek_trimesh_grid_errbuf(int nx, int ny, double lx, double ly, const char *plane,
+                                   char *err, size_t errlen) {
   int xz = plane && strcmp(plane, "xz") == 0;
   if (plane && !xz && strcmp(plane, "xy") != 0) {
     tm_error(err, errlen, "ek_trimesh_grid: plane \"%s\": must be \"xy\" or \"xz\"", plane);
@@ -376,7 +377,7 @@ static ek_trimesh *read_msh(mesh_reader *r, mesh_arrays *a) {
   return build_from(r, a, 0);
 }
 
-ek_trimesh *ek_trimesh_load(const char *path, char *err, size_t errlen) {
+ek_trimesh *ek_trimesh_load_errbuf(const char *path, char *err, size_t errlen) {
   if (err && errlen)
     err[0] = 0;
   if (!path) {

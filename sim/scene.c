@@ -4,6 +4,7 @@
 // object is refused too (cJSON keeps both and lookups find the first, so
 // "dt": 1e-4, "dt": -1 would run with 1e-4), and text quoted from the file
 // is escaped (text_escape.h).
+#include "errbuf.h"
 #include "sim_internal.h"
 
 #include <cjson/cJSON.h>
@@ -1018,8 +1019,8 @@ static void scene_defaults(ek_scene *s) {
   s->output_every = 1;
 }
 
-int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene,
-                   char *err, size_t errlen) {
+int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_dir, ek_scene *scene,
+                          char *err, size_t errlen) {
   parse_ctx c = {name ? name : "(scene)", err, errlen};
   if (err && errlen)
     err[0] = '\0';
@@ -1092,7 +1093,7 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
   return 0;
 }
 
-int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
+int ek_scene_load_errbuf(const char *path, ek_scene *scene, char *err, size_t errlen) {
   if (err && errlen)
     err[0] = '\0';
   if (!path) {
@@ -1150,12 +1151,12 @@ int ek_scene_load(const char *path, ek_scene *scene, char *err, size_t errlen) {
     *slash = '\0';
   else
     snprintf(dir, sizeof dir, ".");
-  int rc = ek_scene_parse(text, path, dir, scene, err, errlen);
+  int rc = ek_scene_parse_errbuf(text, path, dir, scene, err, errlen);
   free(text);
   return rc;
 }
 
-ek_mesh *ek_scene_mesh(const ek_scene *s, char *err, size_t errlen) {
+ek_mesh *ek_scene_mesh_errbuf(const ek_scene *s, char *err, size_t errlen) {
   if (s->triangles) {
     if (err && errlen)
       snprintf(err, errlen, "%s: the mesh is a triangle mesh (cloth): use ek_scene_trimesh",
@@ -1165,20 +1166,20 @@ ek_mesh *ek_scene_mesh(const ek_scene *s, char *err, size_t errlen) {
   if (s->mesh_file[0]) {
     ek_mesh_opts opts = {0};
     opts.fix_orientation = s->fix_orientation;
-    return ek_mesh_load_ex(s->mesh_file, &opts, err, errlen);
+    return ek_mesh_load_ex_errbuf(s->mesh_file, &opts, err, errlen);
   }
-  return ek_mesh_box(s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0],
-                     s->box_size[1], s->box_size[2], err, errlen);
+  return ek_mesh_box_errbuf(s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0],
+                            s->box_size[1], s->box_size[2], err, errlen);
 }
 
-ek_trimesh *ek_scene_trimesh(const ek_scene *s, char *err, size_t errlen) {
+ek_trimesh *ek_scene_trimesh_errbuf(const ek_scene *s, char *err, size_t errlen) {
   if (!s->triangles) {
     if (err && errlen)
       snprintf(err, errlen, "%s: the mesh is a tet mesh: use ek_scene_mesh", s->path);
     return NULL;
   }
   if (s->mesh_file[0])
-    return ek_trimesh_load(s->mesh_file, err, errlen);
-  return ek_trimesh_grid(s->grid_cells[0], s->grid_cells[1], s->grid_size[0], s->grid_size[1],
-                         s->grid_plane, err, errlen);
+    return ek_trimesh_load_errbuf(s->mesh_file, err, errlen);
+  return ek_trimesh_grid_errbuf(s->grid_cells[0], s->grid_cells[1], s->grid_size[0],
+                                s->grid_size[1], s->grid_plane, err, errlen);
 }

@@ -3,6 +3,7 @@
 // integrator; the elastic body behind its operations (body.h: tets in
 // body_tets.c, triangles in body_cloth.c). Vertices under a boundary
 // condition follow it exactly; the ground is friction-free.
+#include "errbuf.h"
 #include "sim_internal.h"
 
 #include <math.h>
@@ -43,6 +44,7 @@ int sim_fail(ek_sim *s, const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(s->error, sizeof s->error, fmt, ap);
   va_end(ap);
+  ek_set_error("%s", s->error);
   return EK_EINVAL;
 }
 
@@ -55,12 +57,12 @@ void sim_warn(ek_sim *s, const char *fmt, ...) {
   va_end(ap);
 }
 
-const char *ek_sim_warning(ek_sim *s, char *buf, size_t len) {
+const char *ek_sim_warning(ek_sim *s) {
   if (!s || !s->warning[0])
     return NULL;
-  snprintf(buf, len, "%s", s->warning);
+  snprintf(s->warning_out, sizeof s->warning_out, "%s", s->warning);
   s->warning[0] = '\0';
-  return buf;
+  return s->warning_out;
 }
 
 static void cross3(const double *a, const double *b, double *c) {
@@ -288,18 +290,17 @@ static sim_body *make_triangles(const ek_scene *scene, const ek_material *mat, c
   return sim_body_triangles_create(scene, mat, mesh);
 }
 
-ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
+ek_sim *ek_sim_create_errbuf(const ek_scene *scene, const ek_mesh *mesh, char *err, size_t errlen) {
   return sim_create(scene, mesh, scene && !scene->triangles, make_tets, err, errlen);
 }
 
-ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh, char *err,
-                            size_t errlen) {
+ek_sim *ek_sim_create_cloth_errbuf(const ek_scene *scene, const ek_trimesh *mesh, char *err,
+                                   size_t errlen) {
   return sim_create(scene, mesh, scene && scene->triangles, make_triangles, err, errlen);
 }
 
 int ek_sim_is_cloth(const ek_sim *s) { return s->body->ops == &sim_body_triangles; }
 
-const char *ek_sim_last_error(const ek_sim *s) { return s ? s->error : "no simulation"; }
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
 size_t ek_sim_inverted_count(const ek_sim *s) { return s->body->ops->inverted_count(s); }
@@ -396,6 +397,7 @@ int sim_stop_requested(ek_sim *s, const char *where, long i, long n) {
            "step %ld (t = %g): stopped inside the step, at %s %ld of "
            "%ld; the step is not applied",
            s->n, s->t, where, i, n);
+  ek_set_error("%s", s->error);
   return EK_SIM_ESTOPPED;
 }
 

@@ -14,7 +14,7 @@
 #ifndef EK_SIM_INTERNAL_H
 #define EK_SIM_INTERNAL_H
 
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <stdio.h>
 
 #include "body.h"
@@ -82,7 +82,8 @@ struct ek_sim {
   void *integrator_data;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
-  char warning[512]; // pending, for ek_sim_warning; "" when none
+  char warning[512];     // pending, for ek_sim_warning; "" when none
+  char warning_out[512]; // what ek_sim_warning returned last
 };
 
 double sim_now(void);

@@ -1,5 +1,6 @@
 // One trial of a scene setting (trial.h): run, time, measure, compare.
 #include "trial.h"
+#include "errbuf.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -148,7 +149,7 @@ static double rotation_angle(const double *R) {
 static int monitor_sample(const ek_sim *sim, const ek_mesh *mesh, monitor_buf *b, long n,
                           ek_trial_monitor *m) {
   size_t nt = ek_mesh_ntets(mesh);
-  if (ek_fvm_deformation_gradients_f64(mesh, ek_sim_positions(sim), b->F) != 0 ||
+  if (ek_mesh_deformation_gradients_f64(mesh, ek_sim_positions(sim), b->F) != 0 ||
       ek_svd3_f64(nt, b->F, b->U, b->S, b->V, NULL) != 0)
     return -1;
   for (size_t e = 0; e < nt; ++e) {
@@ -230,7 +231,7 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     goto done;
   }
   char err[512];
-  ek_sim *sim = ek_sim_create(&s, mesh, err, sizeof err);
+  ek_sim *sim = ek_sim_create_errbuf(&s, mesh, err, sizeof err);
   if (!sim) {
     t->failed = 1;
     snprintf(t->error, sizeof t->error, "%s", err);
@@ -254,7 +255,7 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     step_s[n] = trial_now() - t0;
     if (src != 0) {
       t->failed = 1;
-      snprintf(t->error, sizeof t->error, "step %ld: %s", n + 1, ek_sim_last_error(sim));
+      snprintf(t->error, sizeof t->error, "step %ld: %s", n + 1, ek_last_error());
       break;
     }
     t->steps = n + 1;

@@ -27,7 +27,7 @@
 #ifndef EK_SIM_TRIAL_H
 #define EK_SIM_TRIAL_H
 
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #ifdef __cplusplus
 extern "C" {

@@ -22,13 +22,13 @@ int main(int argc, char **argv) {
   char path[2048], err[1024];
   snprintf(path, sizeof path, "%s/small_strain.json", scenes_dir);
   ek_scene scene;
-  if (ek_scene_load(path, &scene, err, sizeof err) != 0) {
-    printf("FAIL loading %s: %s\n", path, err);
+  if (ek_scene_load(path, &scene) != 0) {
+    printf("FAIL loading %s: %s\n", path, ek_last_error());
     return 1;
   }
-  ek_mesh *mesh = ek_scene_mesh(&scene, err, sizeof err);
+  ek_mesh *mesh = ek_scene_mesh(&scene);
   if (!mesh) {
-    printf("FAIL mesh: %s\n", err);
+    printf("FAIL mesh: %s\n", ek_last_error());
     return 1;
   }
   const double tol = EK_ADVISE_TOL_DEFAULT;

@@ -33,10 +33,10 @@
 #include <ek/cloth.h>
 #include <ek/elements.h>
 #include <ek/material.h>
-#include <ek/mesh.h>
-#include <ek/sim.h>
+#include <ek/sim/mesh.h>
+#include <ek/sim/sim.h>
+#include <ek/sim/trimesh.h>
 #include <ek/svd3.h>
-#include <ek/trimesh.h>
 
 #include <math.h>
 #include <signal.h>
@@ -104,24 +104,23 @@ static void mesh_refused(const char *what, ek_mesh *m, const char *err, const ch
   ek_mesh_destroy(m);
 }
 
-static ek_mesh *load(const char *name, char *err, size_t errlen) {
+static ek_mesh *load(const char *name) {
   char path[512];
   snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
-  err[0] = 0;
-  return ek_mesh_load(path, err, errlen);
+  return ek_mesh_load(path);
 }
 
 // The unit cube as 6 Kuhn tets (as ek_mesh_box(1,1,1)), scaled by s.
-static ek_mesh *cube(double s, char *err, size_t errlen) {
+static ek_mesh *cube(double s) {
   double X[8 * 3];
   for (int v = 0; v < 8; v++)
     for (int k = 0; k < 3; k++)
       X[v * 3 + k] = s * (double)(v >> k & 1);
-  ek_mesh *box = ek_mesh_box(1, 1, 1, 1, 1, 1, err, errlen);
+  ek_mesh *box = ek_mesh_box(1, 1, 1, 1, 1, 1);
   if (!box)
     return NULL;
   // ek_mesh_box numbers vertices x fastest, as above.
-  ek_mesh *m = ek_mesh_create(8, X, 6, ek_mesh_tets(box), err, errlen);
+  ek_mesh *m = ek_mesh_create(8, X, 6, ek_mesh_tets(box));
   ek_mesh_destroy(box);
   return m;
 }
@@ -129,11 +128,11 @@ static ek_mesh *cube(double s, char *err, size_t errlen) {
 // Loaded at scale s: 6 tets, V0 = s^3 / 6 each, Dm Dm^-1 = I, all to
 // EK_MESH_TOL relative.
 static void cube_loads(double s) {
-  char err[512] = "", what[96];
+  char what[96];
   snprintf(what, sizeof what, "cube of edge %g loads, V0 = s^3/6, Dm Dm^-1 = I", s);
-  ek_mesh *m = cube(s, err, sizeof err);
+  ek_mesh *m = cube(s);
   if (!m) {
-    verdict(what, 0, err);
+    verdict(what, 0, ek_last_error());
     return;
   }
   double worst = 0;
@@ -158,30 +157,29 @@ static void cube_loads(double s) {
 }
 
 static void meshes(void) {
-  char err[512];
   printf("-- meshes\n");
   // Scale: the shape tests hold at any scale; 6V must fit a double.
   cube_loads(1e-100);
   cube_loads(1e100);
-  mesh_refused("cube of edge 1e120: outside the range, not 'zero volume'",
-               cube(1e120, err, sizeof err), err, "tet 0", "6V = 1e+360",
-               "outside the supported range", "zero volume");
-  mesh_refused("cube of edge 1e-120: outside the range, not 'zero volume'",
-               cube(1e-120, err, sizeof err), err, "tet 0", "6V = 1e-360",
-               "outside the supported range", "zero volume");
+  mesh_refused("cube of edge 1e120: outside the range, not 'zero volume'", cube(1e120),
+               ek_last_error(), "tet 0", "6V = 1e+360", "outside the supported range",
+               "zero volume");
+  mesh_refused("cube of edge 1e-120: outside the range, not 'zero volume'", cube(1e-120),
+               ek_last_error(), "tet 0", "6V = 1e-360", "outside the supported range",
+               "zero volume");
 
   // Huge finite coordinates: 6V overflows (|x| ~ 1e160: it was NaN and
   // passed both the degenerate and the inverted test).
   write_text("huge.node", "4 3 0 0\n1 0 0 0\n2 1e160 0 0\n3 0 1e160 0\n4 0 0 1e160\n");
   write_text("huge.ele", "1 4 0\n1 1 2 3 4\n");
-  mesh_refused("TetGen tet at 1e160: refused, file:line and 6V", load("huge", err, sizeof err), err,
+  mesh_refused("TetGen tet at 1e160: refused, file:line and 6V", load("huge"), ek_last_error(),
                "huge.ele:2: tet 0", "6V = 1e+480", "outside the supported range", "nan");
   // An edge vector that overflows: x = 1e308 and -1e308 in one tet.
   write_text("edge.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 -1e308 0 0\n"
                          "2 1e308 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n1\n"
                          "1 4 0 1 2 3 4\n$EndElements\n");
-  mesh_refused("Gmsh edge from -1e308 to 1e308: overflow named", load("edge.msh", err, sizeof err),
-               err, "edge.msh:13: tet 0", "overflows", "x = 1e+308 - -1e+308", NULL);
+  mesh_refused("Gmsh edge from -1e308 to 1e308: overflow named", load("edge.msh"), ek_last_error(),
+               "edge.msh:13: tet 0", "overflows", "x = 1e+308 - -1e+308", NULL);
   // A needle tet near DBL_MAX (edges 1e307 along x, 1 across): its 6V =
   // 1e307 is finite, so the element layer takes it; the Morton order's
   // centroid (sum of four 1.5e308) must not overflow into an infinite key,
@@ -191,53 +189,47 @@ static void meshes(void) {
   {
     double X[4 * 3] = {1.5e308, 0, 0, 1.6e308, 0, 0, 1.5e308, 1, 0, 1.5e308, 0, 1};
     int32_t T[4] = {0, 1, 2, 3};
-    err[0] = 0;
-    ek_tets *el = ek_tets_create(4, X, 1, T, err, sizeof err);
+    ek_tets *el = ek_tets_create(4, X, 1, T);
     int ok = el && fabs(ek_tets_rest_volumes(el)[0] - 1e307 / 6) <= EK_MESH_TOL * 1e307 / 6;
-    verdict("element layer: needle tet at 1.5e308, V0 = 1e307/6", ok, el ? "" : err);
+    verdict("element layer: needle tet at 1.5e308, V0 = 1e307/6", ok, el ? "" : ek_last_error());
     ek_tets_destroy(el);
-    mesh_refused("mesh: the same needle is degenerate", ek_mesh_create(4, X, 1, T, err, sizeof err),
-                 err, "tet 0", "degenerate", NULL, NULL);
+    mesh_refused("mesh: the same needle is degenerate", ek_mesh_create(4, X, 1, T), ek_last_error(),
+                 "tet 0", "degenerate", NULL, NULL);
   }
   // A tet translated far from the origin: edges 2^-40 of the coordinates.
   {
     const double T0 = 1e110, T1 = 1e110 * (1 + 0x1p-40);
     double X[4 * 3] = {T0, T0, T0, T1, T0, T0, T0, T1, T0, T0, T0, T1};
     int32_t T[4] = {0, 1, 2, 3};
-    err[0] = 0;
-    ek_mesh *m = ek_mesh_create(4, X, 1, T, err, sizeof err);
+    ek_mesh *m = ek_mesh_create(4, X, 1, T);
     double d = T1 - T0, want = d * d * d / 6;
     int ok = m && fabs(ek_mesh_rest_volumes(m)[0] - want) <= EK_MESH_TOL * want;
-    verdict("tet of edge 9e97 at 1e110: loads, V0 = d^3/6", ok, m ? "" : err);
+    verdict("tet of edge 9e97 at 1e110: loads, V0 = d^3/6", ok, m ? "" : ek_last_error());
     ek_mesh_destroy(m);
   }
 
   // Header counts: 2e9 items declared, a few bytes follow.
   write_text("count.node", "2000000000 3 0 0\n1 0 0 0\n2 1 0 0\n");
   write_text("count.ele", "1 4 0\n1 1 2 3 4\n");
-  mesh_refused("TetGen header of 2e9 points: refused at its line",
-               load("count.node", err, sizeof err), err, "count.node:1",
-               "declares 2000000000 points", NULL, NULL);
+  mesh_refused("TetGen header of 2e9 points: refused at its line", load("count.node"),
+               ek_last_error(), "count.node:1", "declares 2000000000 points", NULL, NULL);
   write_text("count_ele.node", "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n");
   write_text("count_ele.ele", "499999999 4 0\n1 1 2 3 4\n");
-  mesh_refused("TetGen header of 5e8 tets: refused at its line", load("count_ele", err, sizeof err),
-               err, "count_ele.ele:1", "declares 499999999 tetrahedrons", NULL, NULL);
+  mesh_refused("TetGen header of 5e8 tets: refused at its line", load("count_ele"), ek_last_error(),
+               "count_ele.ele:1", "declares 499999999 tetrahedrons", NULL, NULL);
   write_text("count_v2.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2000000000\n"
                              "1 0 0 0\n$EndNodes\n");
-  mesh_refused("Gmsh v2 header of 2e9 nodes: refused at its line",
-               load("count_v2.msh", err, sizeof err), err, "count_v2.msh:5",
-               "declares 2000000000 nodes", NULL, NULL);
+  mesh_refused("Gmsh v2 header of 2e9 nodes: refused at its line", load("count_v2.msh"),
+               ek_last_error(), "count_v2.msh:5", "declares 2000000000 nodes", NULL, NULL);
   write_text("count_v4.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n"
                              "1 2000000000 1 2000000000\n0 1 0 1\n1\n0 0 0\n$EndNodes\n");
-  mesh_refused("Gmsh v4 header of 2e9 nodes: refused at its line",
-               load("count_v4.msh", err, sizeof err), err, "count_v4.msh:5",
-               "declares 2000000000 nodes", NULL, NULL);
+  mesh_refused("Gmsh v4 header of 2e9 nodes: refused at its line", load("count_v4.msh"),
+               ek_last_error(), "count_v4.msh:5", "declares 2000000000 nodes", NULL, NULL);
   write_text("count_el.msh",
              "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n"
              "4 0 0 1\n$EndNodes\n$Elements\n2000000000\n1 4 0 1 2 3 4\n$EndElements\n");
-  mesh_refused("Gmsh v2 header of 2e9 elements: refused at its line",
-               load("count_el.msh", err, sizeof err), err, "count_el.msh:12",
-               "declares 2000000000 elements", NULL, NULL);
+  mesh_refused("Gmsh v2 header of 2e9 elements: refused at its line", load("count_el.msh"),
+               ek_last_error(), "count_el.msh:12", "declares 2000000000 elements", NULL, NULL);
 
   // A directory, as a .msh name and as a TetGen base name.
   char path[512];
@@ -245,22 +237,22 @@ static void meshes(void) {
   mkdir(path, 0700);
   snprintf(path, sizeof path, "%s/dir.node", tmp_dir);
   mkdir(path, 0700);
-  mesh_refused("directory dir.msh: 'is a directory'", load("dir.msh", err, sizeof err), err,
+  mesh_refused("directory dir.msh: 'is a directory'", load("dir.msh"), ek_last_error(),
                "dir.msh: is a directory", NULL, NULL, "truncated");
-  mesh_refused("TetGen base whose .node is a directory", load("dir", err, sizeof err), err,
+  mesh_refused("TetGen base whose .node is a directory", load("dir"), ek_last_error(),
                "dir.node: is a directory", NULL, NULL, "truncated");
 
   // Binary bytes: a NUL, and raw bytes in a number, escaped in the message.
   write_file("nul.node", "2 3 0 0\n1 0 0 0\n2 1\0 0 0\n", 25);
   write_text("nul.ele", "1 4 0\n1 1 2 3 4\n");
-  mesh_refused("NUL byte in a .node: refused at its line", load("nul", err, sizeof err), err,
+  mesh_refused("NUL byte in a .node: refused at its line", load("nul"), ek_last_error(),
                "nul.node:3", "NUL byte", NULL, NULL);
   write_text("bytes.node", "2 3 0 0\n1 0 0 0\n2 1\x1b[31m\xff 0 0\n");
   write_text("bytes.ele", "1 4 0\n1 1 2 3 4\n");
-  mesh_refused("raw bytes in a number: escaped in the message", load("bytes", err, sizeof err), err,
+  mesh_refused("raw bytes in a number: escaped in the message", load("bytes"), ek_last_error(),
                "bytes.node:3", "bad number '1\\x1b[31m\\xff'", NULL, NULL);
   write_text("bytes.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n0\n\x01\x02\n");
-  mesh_refused("raw bytes for $EndNodes: escaped", load("bytes.msh", err, sizeof err), err,
+  mesh_refused("raw bytes for $EndNodes: escaped", load("bytes.msh"), ek_last_error(),
                "bytes.msh:6", "found '\\x01\\x02'", NULL, NULL);
 }
 
@@ -273,10 +265,10 @@ static void meshes(void) {
 static void scene_refused(const char *what, const char *json, const char *w1, const char *w2,
                           const char *w3) {
   ek_scene s;
-  char err[1024] = "";
-  int rc = ek_scene_parse(json, "bad.json", ".", &s, err, sizeof err);
-  int ok = rc == EK_EINVAL && contains_all(err, w1, w2, w3) && printable(err);
-  verdict(what, ok, err);
+  int rc = ek_scene_parse(json, "bad.json", ".", &s);
+  int ok =
+      rc == EK_EINVAL && contains_all(ek_last_error(), w1, w2, w3) && printable(ek_last_error());
+  verdict(what, ok, ek_last_error());
   if (!ok)
     printf("  rc %d; expected EK_EINVAL and a printable message with '%s' '%s' '%s'\n", rc, w1,
            w2 ? w2 : "", w3 ? w3 : "");
@@ -323,26 +315,28 @@ static void scenes(void) {
     const char text[] = "{" MESH ", " MAT ", " TAIL "}\0, \"dt\": -1}";
     write_file("nul.json", text, sizeof text - 1);
     ek_scene s;
-    char err[512] = "", path[512];
+    char path[512];
     snprintf(path, sizeof path, "%s/nul.json", tmp_dir);
-    int rc = ek_scene_load(path, &s, err, sizeof err);
-    verdict("NUL byte in a scene file: refused", rc < 0 && strstr(err, "NUL byte"), err);
+    int rc = ek_scene_load(path, &s);
+    verdict("NUL byte in a scene file: refused", rc < 0 && strstr(ek_last_error(), "NUL byte"),
+            ek_last_error());
     snprintf(path, sizeof path, "%s/dir.msh", tmp_dir);
-    rc = ek_scene_load(path, &s, err, sizeof err);
-    verdict("directory as the scene: 'is a directory'", rc < 0 && strstr(err, "is a directory"),
-            err);
+    rc = ek_scene_load(path, &s);
+    verdict("directory as the scene: 'is a directory'",
+            rc < 0 && strstr(ek_last_error(), "is a directory"), ek_last_error());
   }
   {
     // A directory as the mesh.
     write_text("dirmesh.json", "{\"mesh\": {\"file\": \"dir.msh\"}, " MAT ", " TAIL "}");
     ek_scene s;
-    char err[512] = "", path[512];
+    char path[512];
     snprintf(path, sizeof path, "%s/dirmesh.json", tmp_dir);
-    int rc = ek_scene_load(path, &s, err, sizeof err);
-    ek_mesh *m = rc == 0 ? ek_scene_mesh(&s, err, sizeof err) : NULL;
+    int rc = ek_scene_load(path, &s);
+    ek_mesh *m = rc == 0 ? ek_scene_mesh(&s) : NULL;
     verdict("directory as the scene's mesh: 'is a directory'",
-            rc == 0 && !m && strstr(err, "dir.msh: is a directory") && !strstr(err, "truncated"),
-            err);
+            rc == 0 && !m && strstr(ek_last_error(), "dir.msh: is a directory") &&
+                !strstr(ek_last_error(), "truncated"),
+            ek_last_error());
     ek_mesh_destroy(m);
   }
 }
@@ -359,88 +353,90 @@ static void frames_outputs(void) {
   printf("-- output paths\n");
   double X[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   int32_t tet[4] = {0, 1, 2, 3};
-  char path[512], err[1024];
+  char path[512];
   struct stat st;
   // A directory, a FIFO and a symbolic link at the frames' own name.
   snprintf(path, sizeof path, "%s/out_dir.h5", tmp_dir);
   mkdir(path, 0700);
-  ek_frames *fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  ek_frames *fr = ek_frames_create(path, 1, 4, X, 1, tet);
   verdict("frames to a directory, --force: refused",
-          !fr && strstr(err, "is a directory") && stat(path, &st) == 0 && S_ISDIR(st.st_mode), err);
-  ek_frames_close(fr, NULL, 0);
+          !fr && strstr(ek_last_error(), "is a directory") && stat(path, &st) == 0 &&
+              S_ISDIR(st.st_mode),
+          ek_last_error());
+  ek_frames_close(fr);
   snprintf(path, sizeof path, "%s/out_fifo.h5", tmp_dir);
   int made = mkfifo(path, 0600) == 0;
-  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  fr = ek_frames_create(path, 1, 4, X, 1, tet);
   verdict("frames to a FIFO, --force: refused, still a FIFO",
-          made && !fr && strstr(err, "is a FIFO") && lstat(path, &st) == 0 && S_ISFIFO(st.st_mode),
-          err);
-  ek_frames_close(fr, NULL, 0);
+          made && !fr && strstr(ek_last_error(), "is a FIFO") && lstat(path, &st) == 0 &&
+              S_ISFIFO(st.st_mode),
+          ek_last_error());
+  ek_frames_close(fr);
   write_text("target.txt", "not ek's\n");
   char target[512];
   snprintf(target, sizeof target, "%s/target.txt", tmp_dir);
   snprintf(path, sizeof path, "%s/out_link.h5", tmp_dir);
   made = symlink(target, path) == 0;
-  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  fr = ek_frames_create(path, 1, 4, X, 1, tet);
   verdict("frames to a symbolic link, --force: refused",
-          made && !fr && strstr(err, "symbolic link") && lstat(path, &st) == 0 &&
+          made && !fr && strstr(ek_last_error(), "symbolic link") && lstat(path, &st) == 0 &&
               S_ISLNK(st.st_mode) && stat(target, &st) == 0 && st.st_size == 9,
-          err);
-  ek_frames_close(fr, NULL, 0);
+          ek_last_error());
+  ek_frames_close(fr);
   // The scratch name (renamed over at each frame) as a directory.
   snprintf(path, sizeof path, "%s/out_scratch.h5.scratch", tmp_dir);
   mkdir(path, 0700);
   snprintf(path, sizeof path, "%s/out_scratch.h5", tmp_dir);
-  fr = ek_frames_create(path, 1, 4, X, 1, tet, err, sizeof err);
+  fr = ek_frames_create(path, 1, 4, X, 1, tet);
   verdict("frames whose scratch name is a directory: refused",
-          !fr && strstr(err, "out_scratch.h5.scratch: is a directory") && lstat(path, &st) != 0,
-          err);
-  ek_frames_close(fr, NULL, 0);
+          !fr && strstr(ek_last_error(), "out_scratch.h5.scratch: is a directory") &&
+              lstat(path, &st) != 0,
+          ek_last_error());
+  ek_frames_close(fr);
 }
 
 // The same element twice, and element counts that the blocks do not match.
 static void duplicates(void) {
   printf("-- duplicate elements\n");
-  char err[1024];
   write_text("dup.node", "5 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n");
   write_text("dup.ele", "3 4 0\n1 1 2 3 4\n2 2 3 4 5\n3 2 3 1 4\n");
   // Tet 3 is tet 1 with its first three vertices rotated (same
   // orientation: the same element in another order).
-  mesh_refused("TetGen: the same tet twice (any order): refused", load("dup", err, sizeof err), err,
+  mesh_refused("TetGen: the same tet twice (any order): refused", load("dup"), ek_last_error(),
                "dup.ele:4: tet 2", "duplicate element: vertices 2 3 1 4", "the same set as", NULL);
   {
     double X[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
     int32_t T[8] = {0, 1, 2, 3, 3, 2, 1, 0};
-    ek_mesh *m = ek_mesh_create(5, X, 2, T, err, sizeof err);
-    mesh_refused("in memory: the same tet twice: refused", m, err, "tet 1", "duplicate element",
-                 "tet 0", NULL);
+    ek_mesh *m = ek_mesh_create(5, X, 2, T);
+    mesh_refused("in memory: the same tet twice: refused", m, ek_last_error(), "tet 1",
+                 "duplicate element", "tet 0", NULL);
   }
   write_text("dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 3 1 2\n");
   char path[512];
   snprintf(path, sizeof path, "%s/dup.obj", tmp_dir);
-  ek_trimesh *tm = ek_trimesh_load(path, err, sizeof err);
+  ek_trimesh *tm = ek_trimesh_load(path);
   verdict("OBJ: the same triangle twice: refused, both lines",
           !tm &&
-              contains_all(err, "dup.obj:7", "duplicate element: triangle (3 1 2)",
+              contains_all(ek_last_error(), "dup.obj:7", "duplicate element: triangle (3 1 2)",
                            "the same vertices as") &&
-              strstr(err, "dup.obj:5") && printable(err),
-          err);
+              strstr(ek_last_error(), "dup.obj:5") && printable(ek_last_error()),
+          ek_last_error());
   ek_trimesh_destroy(tm);
   // Gmsh v4.1: two element blocks of 2 tets under a header of 3.
   write_text("blocks.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
                            "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
                            "$Elements\n2 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n"
                            "3 2 4 2\n3 1 2 3 5\n4 1 2 4 5\n$EndElements\n");
-  mesh_refused("Gmsh v4.1: blocks hold more elements than declared",
-               load("blocks.msh", err, sizeof err), err, "blocks.msh:23",
+  mesh_refused("Gmsh v4.1: blocks hold more elements than declared", load("blocks.msh"),
+               ek_last_error(), "blocks.msh:23",
                "element block of 2 elements exceeds the 3 "
                "declared",
                NULL, NULL);
   write_text("blocks2.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
                             "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
                             "$Elements\n1 3 1 4\n3 1 4 2\n1 1 2 3 4\n2 2 3 4 5\n$EndElements\n");
-  mesh_refused("Gmsh v4.1: blocks hold fewer elements than declared",
-               load("blocks2.msh", err, sizeof err), err, "2 elements in blocks, 3 declared", NULL,
-               NULL, NULL);
+  mesh_refused("Gmsh v4.1: blocks hold fewer elements than declared", load("blocks2.msh"),
+               ek_last_error(), "2 elements in blocks, 3 declared", NULL, NULL, NULL);
 }
 
 // One triangle of size s: loads with the area s^2 / 2 (scale-free shape
@@ -449,34 +445,34 @@ static void duplicates(void) {
 static void triangle_at(double s, int loads) {
   double X[9] = {0, 0, 0, s, 0, 0, 0, s, 0};
   int32_t T[3] = {0, 1, 2};
-  char err[1024] = "", what[96], detail[1200];
-  ek_trimesh *m = ek_trimesh_create(3, X, 1, T, err, sizeof err);
+  char what[96], detail[1200];
+  ek_trimesh *m = ek_trimesh_create(3, X, 1, T);
   double A = m ? ek_cloth_rest_areas(ek_trimesh_cloth(m))[0] : NAN;
   double rel = fabs(A / (0.5 * s * s) - 1);
   snprintf(what, sizeof what, "triangle of size %g: %s", s,
            loads ? "loads, area s^2 / 2" : "refused as out of range");
   snprintf(detail, sizeof detail, "area %g (relative error %.3g, budget %g) %s", A, rel,
-           EK_MESH_TOL, err);
+           EK_MESH_TOL, ek_last_error());
   verdict(what,
           loads ? m && rel <= EK_MESH_TOL
-                : !m && strstr(err, "outside the supported range") && !strstr(err, "degenerate") &&
-                      !strstr(err, "inf") && printable(err),
+                : !m && strstr(ek_last_error(), "outside the supported range") &&
+                      !strstr(ek_last_error(), "degenerate") && !strstr(ek_last_error(), "inf") &&
+                      printable(ek_last_error()),
           detail);
   ek_trimesh_destroy(m);
 }
 
 // The explicit limit of a 2x2x2 box of edge L and density rho.
 static double box_cfl(double L, double rho) {
-  char err[1024];
   ek_scene sc;
-  if (ek_scene_parse("{" MESH ", " MAT ", " TAIL "}", "cfl.json", ".", &sc, err, sizeof err))
+  if (ek_scene_parse("{" MESH ", " MAT ", " TAIL "}", "cfl.json", ".", &sc))
     return NAN;
   sc.density = rho;
-  ek_mesh *m = ek_mesh_box(2, 2, 2, L, L, L, err, sizeof err);
-  ek_sim *sim = m ? ek_sim_create(&sc, m, err, sizeof err) : NULL;
+  ek_mesh *m = ek_mesh_box(2, 2, 2, L, L, L);
+  ek_sim *sim = m ? ek_sim_create(&sc, m) : NULL;
   double dt = sim ? ek_sim_cfl_dt(sim) : NAN;
   if (!sim)
-    printf("  box %g, density %g: %s\n", L, rho, err);
+    printf("  box %g, density %g: %s\n", L, rho, ek_last_error());
   ek_sim_destroy(sim);
   ek_mesh_destroy(m);
   return dt;
@@ -515,18 +511,16 @@ static void scales(void) {
 // message naming a non-finite state (not inverted elements or an invertible
 // model), and the state stays the last finite one.
 static void nonfinite_run(const char *what, const char *json, const char *said, long at) {
-  char err[1024] = "";
   ek_scene sc;
   ek_mesh *m = NULL;
   ek_sim *sim = NULL;
-  if (ek_scene_parse(json, "nan.json", ".", &sc, err, sizeof err) == 0 &&
-      (m = ek_scene_mesh(&sc, err, sizeof err)))
-    sim = ek_sim_create(&sc, m, err, sizeof err);
+  if (ek_scene_parse(json, "nan.json", ".", &sc) == 0 && (m = ek_scene_mesh(&sc)))
+    sim = ek_sim_create(&sc, m);
   int rc = 0;
   long n = 0;
   for (; sim && n < 100 && (rc = ek_sim_step(sim)) == 0; n++) {
   }
-  const char *msg = sim ? ek_sim_last_error(sim) : err;
+  const char *msg = sim ? ek_last_error() : ek_last_error();
   int finite = sim != NULL;
   for (size_t i = 0; sim && i < 3 * ek_mesh_nverts(m); i++)
     finite = finite && isfinite(ek_sim_positions(sim)[i]) && isfinite(ek_sim_velocities(sim)[i]);
@@ -553,17 +547,15 @@ static void stop_flag(void) {
       "\"density\": 1000}, \"integrator\": {\"type\": \"implicit\"}, " PIN ", \"gravity\": "
       "[0, 0, -9.81], \"dt\": 1e-2, \"steps\": 10}"};
   for (int j = 0; j < 2; j++) {
-    char err[1024] = "";
     ek_scene sc;
     ek_mesh *m = NULL;
     ek_sim *a = NULL, *b = NULL;
-    if (ek_scene_parse(json[j], "stop.json", ".", &sc, err, sizeof err) == 0 &&
-        (m = ek_scene_mesh(&sc, err, sizeof err))) {
-      a = ek_sim_create(&sc, m, err, sizeof err);
-      b = ek_sim_create(&sc, m, err, sizeof err);
+    if (ek_scene_parse(json[j], "stop.json", ".", &sc) == 0 && (m = ek_scene_mesh(&sc))) {
+      a = ek_sim_create(&sc, m);
+      b = ek_sim_create(&sc, m);
     }
     if (!a || !b) {
-      verdict("stop flag: scene", 0, err);
+      verdict("stop flag: scene", 0, ek_last_error());
       ek_sim_destroy(a);
       ek_sim_destroy(b);
       ek_mesh_destroy(m);
@@ -591,8 +583,8 @@ static void stop_flag(void) {
         memcmp(x, ek_sim_positions(b), n3 * sizeof(double)) == 0 && ek_sim_steps_done(b) == 2;
     snprintf(what, sizeof what, "%s: flag set: step stopped, not applied", j ? "implicit" : "xpbd");
     snprintf(detail, sizeof detail, "rc %d (want %d), state kept %d: %s", rc, EK_SIM_ESTOPPED, kept,
-             ek_sim_last_error(b));
-    verdict(what, rc == EK_SIM_ESTOPPED && kept && strstr(ek_sim_last_error(b), "stopped"), detail);
+             ek_last_error());
+    verdict(what, rc == EK_SIM_ESTOPPED && kept && strstr(ek_last_error(), "stopped"), detail);
     free(x);
     ek_sim_destroy(a);
     ek_sim_destroy(b);

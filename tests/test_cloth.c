@@ -23,7 +23,7 @@
 // Usage: test_cloth [--seed N]
 #include <ek/batch.h>
 #include <ek/cloth.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -318,10 +318,9 @@ static void tri_velgrad(uint64_t seed, ek_isa isa, int bits) {
 
 // Tets: a jittered box (caller order), velocities of each family.
 static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
-  char err[256];
-  ek_mesh *mesh = ek_mesh_box(6, 5, 4, 1.2, 1.0, 0.8, err, sizeof err);
+  ek_mesh *mesh = ek_mesh_box(6, 5, 4, 1.2, 1.0, 0.8);
   if (!mesh) {
-    printf("FAIL tet velgrad: %s\n", err);
+    printf("FAIL tet velgrad: %s\n", ek_last_error());
     failures++;
     return;
   }
@@ -392,8 +391,7 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
 
 // A collapsed tet (det Ds = 0) gives NaN; the contract form on an ek_mesh.
 static void tet_collapsed(void) {
-  char err[256];
-  ek_mesh *mesh = ek_mesh_box(2, 1, 1, 1, 1, 1, err, sizeof err);
+  ek_mesh *mesh = ek_mesh_box(2, 1, 1, 1, 1, 1);
   size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
   const int32_t *tets = ek_mesh_tets(mesh);
   double *x = dalloc(3 * nv), *v = dalloc(3 * nv), *L = dalloc(9 * nt);
@@ -404,7 +402,7 @@ static void tet_collapsed(void) {
   int32_t a = tets[0], b = tets[3];
   for (int i = 0; i < 3; i++)
     x[3 * b + i] = x[3 * a + i];
-  int rc = ek_velocity_gradient_f64(mesh, x, v, L, NULL, NULL);
+  int rc = ek_mesh_velocity_gradient_f64(mesh, x, v, L, NULL, NULL);
   int ok = rc == EK_OK;
   size_t ncollapsed = 0;
   for (size_t t = 0; t < nt; t++) {

@@ -25,12 +25,13 @@
 #include "check.h"
 #include "cli.h"
 #include "cloth_force/cloth_force_ref.h"
+#include "test_tolerances.h"
 
 static int failures = 0;
 
 static void report(const char *what, double err, double budget) {
   double r = err / budget;
-  const char *v = !(r <= 1.0) ? "FAIL" : r > 0.5 ? "MARGINAL" : "PASS";
+  const char *v = ek_verdict_name(ek_check_verdict(err, budget));
   printf("%-64s err %.3e  budget %.1e  err/budget %.3f  %s\n", what, err, budget, r, v);
   if (!(r <= 1.0))
     failures++;

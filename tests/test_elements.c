@@ -10,7 +10,7 @@
 // on a randomly renumbered box built from plain arrays. Per-element state
 // round-trips through the Morton slots.
 #include <ek/elements.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -154,11 +154,11 @@ static void check_layout(const char *label, const ek_tets *el) {
 }
 
 static void check_box(int nx, int ny, int nz) {
-  char label[64], err[256];
+  char label[64];
   snprintf(label, sizeof label, "box %dx%dx%d", nx, ny, nz);
-  ek_mesh *m = ek_mesh_box(nx, ny, nz, nx, ny, nz, err, sizeof err);
+  ek_mesh *m = ek_mesh_box(nx, ny, nz, nx, ny, nz);
   if (!m) {
-    printf("%s: %s\n", label, err);
+    printf("%s: %s\n", label, ek_last_error());
     verdict(label, "builds", 0);
     return;
   }
@@ -169,8 +169,7 @@ static void check_box(int nx, int ny, int nz) {
 // ek_tets_create on plain arrays: the box's tets with the vertices
 // renumbered at random (the Morton order must not depend on the numbering).
 static void check_renumbered(ek_rng *rng) {
-  char err[256];
-  ek_mesh *b = ek_mesh_box(12, 9, 7, 1.2, 0.9, 0.7, err, sizeof err);
+  ek_mesh *b = ek_mesh_box(12, 9, 7, 1.2, 0.9, 0.7);
   size_t nv = ek_mesh_nverts(b), nt = ek_mesh_ntets(b);
   double *X = malloc(nv * 3 * sizeof(double));
   int32_t *T = malloc(nt * 4 * sizeof(int32_t)), *perm = malloc(nv * sizeof(int32_t));
@@ -186,9 +185,9 @@ static void check_renumbered(ek_rng *rng) {
     memcpy(X + (size_t)perm[v] * 3, ek_mesh_rest_positions(b) + v * 3, 3 * sizeof(double));
   for (size_t i = 0; i < nt * 4; i++)
     T[i] = perm[ek_mesh_tets(b)[i]];
-  ek_tets *el = ek_tets_create(nv, X, nt, T, err, sizeof err);
+  ek_tets *el = ek_tets_create(nv, X, nt, T);
   if (!el) {
-    printf("renumbered box: %s\n", err);
+    printf("renumbered box: %s\n", ek_last_error());
     verdict("renumbered box", "builds", 0);
   } else {
     check_layout("renumbered box (plain arrays)", el);
@@ -212,22 +211,20 @@ static void check_refusals(void) {
   const double X[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   const int32_t good[] = {0, 1, 2, 3}, flipped[] = {0, 2, 1, 3}, range[] = {0, 1, 2, 4},
                 flat[] = {0, 1, 1, 3};
-  char err[256];
-  err[0] = 0;
-  expect_refused("NULL arrays", ek_tets_create(4, NULL, 1, good, err, sizeof err), err, "NULL");
-  expect_refused("no tets", ek_tets_create(4, X, 0, good, err, sizeof err), err, "no tetra");
-  expect_refused("index out of range", ek_tets_create(4, X, 1, range, err, sizeof err), err,
+  expect_refused("NULL arrays", ek_tets_create(4, NULL, 1, good), ek_last_error(), "NULL");
+  expect_refused("no tets", ek_tets_create(4, X, 0, good), ek_last_error(), "no tetra");
+  expect_refused("index out of range", ek_tets_create(4, X, 1, range), ek_last_error(),
                  "tet 0: vertex index 4 out of range");
-  expect_refused("inverted tet", ek_tets_create(4, X, 1, flipped, err, sizeof err), err,
+  expect_refused("inverted tet", ek_tets_create(4, X, 1, flipped), ek_last_error(),
                  "tet 0: det(Dm) = 6V = -1");
-  expect_refused("zero-volume tet", ek_tets_create(4, X, 1, flat, err, sizeof err), err,
+  expect_refused("zero-volume tet", ek_tets_create(4, X, 1, flat), ek_last_error(),
                  "tet 0: det(Dm) = 6V = 0");
   double Xnan[12];
   memcpy(Xnan, X, sizeof Xnan);
   Xnan[7] = NAN;
-  expect_refused("NaN coordinate", ek_tets_create(4, Xnan, 1, good, err, sizeof err), err,
+  expect_refused("NaN coordinate", ek_tets_create(4, Xnan, 1, good), ek_last_error(),
                  "vertex 2: coordinate y = nan");
-  ek_tets *el = ek_tets_create(4, X, 1, good, err, sizeof err);
+  ek_tets *el = ek_tets_create(4, X, 1, good);
   verdict("ek_tets_create", "one unit tet: V0 = 1/6, Dm^-1 = I",
           el && ek_tets_rest_volumes(el)[0] == 1.0 / 6 && ek_tets_dm_inv(el)[0] == 1 &&
               ek_tets_dm_inv(el)[4] == 1 && ek_tets_dm_inv(el)[8] == 1 &&
@@ -238,8 +235,7 @@ static void check_refusals(void) {
 // Per-element state: set / get round trip through the Morton slots (f64
 // exact, f32 the float rounding), padding slots left at the identity.
 static void check_state(ek_rng *rng) {
-  char err[256];
-  ek_mesh *m = ek_mesh_box(5, 4, 3, 1, 1, 1, err, sizeof err);
+  ek_mesh *m = ek_mesh_box(5, 4, 3, 1, 1, 1);
   const ek_tets *el = ek_mesh_elements(m);
   size_t nt = el->ntets;
   double *in = malloc(nt * 9 * sizeof(double)), *out = malloc(nt * 9 * sizeof(double));

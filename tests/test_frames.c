@@ -9,7 +9,7 @@
 // an existing output is never overwritten without force (and is left
 // untouched), force does overwrite it, and a scratch file a killed run left
 // does not block a new one.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "cli.h"
 #include <errno.h>
@@ -205,18 +205,17 @@ static void verdict(const char *what, int ok, const char *detail) {
 // completed frame on fd (if >= 0). Returns 0 on success.
 static int writer(const char *path, int force, size_t nv, size_t nt, const double *X,
                   const int32_t *tets, long nframes, int fd) {
-  char err[512];
-  ek_frames *fr = ek_frames_create(path, force, nv, X, nt, tets, err, sizeof err);
+  ek_frames *fr = ek_frames_create(path, force, nv, X, nt, tets);
   if (!fr) {
-    printf("  ek_frames_create: %s\n", err);
+    printf("  ek_frames_create: %s\n", ek_last_error());
     return -1;
   }
   double *x = malloc(3 * nv * sizeof(double)), *J = malloc(nt * sizeof(double));
   double *smin = malloc(nt * sizeof(double)), *psi = malloc(nt * sizeof(double));
   for (long k = 0; nframes < 0 || k < nframes; ++k) {
     fill_frame(k, nv, nt, x, J, smin, psi);
-    if (ek_frames_write(fr, 0.125 * (double)k, 10 * k, x, J, smin, psi, err, sizeof err)) {
-      printf("  ek_frames_write: %s\n", err);
+    if (ek_frames_write(fr, 0.125 * (double)k, 10 * k, x, J, smin, psi)) {
+      printf("  ek_frames_write: %s\n", ek_last_error());
       return -1;
     }
     if (fd >= 0) {
@@ -229,7 +228,7 @@ static int writer(const char *path, int force, size_t nv, size_t nt, const doubl
   free(J);
   free(smin);
   free(psi);
-  return ek_frames_close(fr, err, sizeof err);
+  return ek_frames_close(fr);
 }
 
 static long count_in_file(const char *path, const char *needle) {
@@ -401,10 +400,9 @@ int main(int argc, char **argv) {
   // 2. The XDMF grows in place: the same file (inode) after the first and
   // the last frame, no temporary file beside it, whole after every frame.
   {
-    char err[512];
     snprintf(path, sizeof path, "%s/append.h5", dir);
     ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
-    ek_frames *fr = ek_frames_create(path, 0, nv, X, nt, tets, err, sizeof err);
+    ek_frames *fr = ek_frames_create(path, 0, nv, X, nt, tets);
     double *x = malloc(3 * nv * sizeof(double)), *J = malloc(nt * sizeof(double));
     double *sm = malloc(nt * sizeof(double)), *ps = malloc(nt * sizeof(double));
     ino_t first = 0;
@@ -414,8 +412,8 @@ int main(int argc, char **argv) {
     snprintf(tmp, sizeof tmp, "%s.tmp", xdmf);
     for (long k = 0; fr && k < n; ++k) {
       fill_frame(k, nv, nt, x, J, sm, ps);
-      if (ek_frames_write(fr, 0.125 * (double)k, 10 * k, x, J, sm, ps, err, sizeof err) != 0) {
-        printf("  ek_frames_write: %s\n", err);
+      if (ek_frames_write(fr, 0.125 * (double)k, 10 * k, x, J, sm, ps) != 0) {
+        printf("  ek_frames_write: %s\n", ek_last_error());
         same = 0;
         break;
       }
@@ -430,7 +428,7 @@ int main(int argc, char **argv) {
       listed = count_in_file(xdmf, "<Grid Name=\"frame_");
     }
     if (fr)
-      ek_frames_close(fr, NULL, 0);
+      ek_frames_close(fr);
     free(x);
     free(J);
     free(sm);
@@ -444,9 +442,8 @@ int main(int argc, char **argv) {
   // 2b. A reader that holds the file open across frames (HDF5 locks it)
   // neither blocks the writer nor sees its file change.
   {
-    char err2[512];
     snprintf(path, sizeof path, "%s/held.h5", dir);
-    ek_frames *fw = ek_frames_create(path, 0, nv, X, nt, tets, err2, sizeof err2);
+    ek_frames *fw = ek_frames_create(path, 0, nv, X, nt, tets);
     double *x = malloc(3 * nv * sizeof(double)), *J = malloc(nt * sizeof(double));
     double *sm = malloc(nt * sizeof(double)), *ps = malloc(nt * sizeof(double));
     long n = 8, written = 0, held_frames = -1, held_bad = -1;
@@ -455,14 +452,14 @@ int main(int argc, char **argv) {
       if (k == 2)
         held = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
       fill_frame(k, nv, nt, x, J, sm, ps);
-      if (ek_frames_write(fw, 0.125 * (double)k, 10 * k, x, J, sm, ps, err2, sizeof err2) != 0) {
-        printf("  ek_frames_write: %s\n", err2);
+      if (ek_frames_write(fw, 0.125 * (double)k, 10 * k, x, J, sm, ps) != 0) {
+        printf("  ek_frames_write: %s\n", ek_last_error());
         break;
       }
       written++;
     }
     if (fw)
-      ek_frames_close(fw, NULL, 0);
+      ek_frames_close(fw);
     if (held >= 0) {
       held_frames = series_length(held, "/frames/time");
       held_bad = check_file(held, nv, nt, X, tets, 2);
@@ -490,27 +487,27 @@ int main(int argc, char **argv) {
   snprintf(path, sizeof path, "%s/roundtrip.h5", dir);
   struct stat before, after;
   stat(path, &before);
-  char err[512];
-  ek_frames *fr = ek_frames_create(path, 0, nv, X, nt, tets, err, sizeof err);
+  ek_frames *fr = ek_frames_create(path, 0, nv, X, nt, tets);
   stat(path, &after);
-  ok = fr == NULL && strstr(err, path) && strstr(err, "refusing to overwrite") &&
-       before.st_size == after.st_size && before.st_mtime == after.st_mtime;
-  snprintf(detail, sizeof detail, "message: %s", err);
+  ok = fr == NULL && strstr(ek_last_error(), path) &&
+       strstr(ek_last_error(), "refusing to overwrite") && before.st_size == after.st_size &&
+       before.st_mtime == after.st_mtime;
+  snprintf(detail, sizeof detail, "message: %s", ek_last_error());
   verdict("existing file refused without force", ok, detail);
   if (fr)
-    ek_frames_close(fr, NULL, 0);
+    ek_frames_close(fr);
   // The XDMF alone existing also blocks.
   snprintf(path, sizeof path, "%s/only_xdmf.h5", dir);
   ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
   FILE *fx = fopen(xdmf, "w");
   if (fx)
     fclose(fx);
-  fr = ek_frames_create(path, 0, nv, X, nt, tets, err, sizeof err);
-  ok = fr == NULL && strstr(err, xdmf) && stat(path, &st) != 0;
-  snprintf(detail, sizeof detail, "message: %s", err);
+  fr = ek_frames_create(path, 0, nv, X, nt, tets);
+  ok = fr == NULL && strstr(ek_last_error(), xdmf) && stat(path, &st) != 0;
+  snprintf(detail, sizeof detail, "message: %s", ek_last_error());
   verdict("existing XDMF refused, no HDF5 created", ok, detail);
   if (fr)
-    ek_frames_close(fr, NULL, 0);
+    ek_frames_close(fr);
   // force overwrites.
   snprintf(path, sizeof path, "%s/roundtrip.h5", dir);
   ok = writer(path, 1, nv, nt, X, tets, 3, -1) == 0;
@@ -568,15 +565,15 @@ int main(int argc, char **argv) {
                  {" lead.h5", "blank"}};
   for (size_t i = 0; i < sizeof refused / sizeof refused[0]; ++i) {
     snprintf(path, sizeof path, "%s/%s", dir, refused[i].name);
-    fr = ek_frames_create(path, 0, nv, X, nt, tets, err, sizeof err);
-    int raw = strchr(err, '\001') || strchr(err, '\377');
-    ok = fr == NULL && strstr(err, refused[i].expect) && !raw && stat(path, &st) != 0;
-    snprintf(detail, sizeof detail, "message: %s", raw ? "(holds the raw bytes)" : err);
+    fr = ek_frames_create(path, 0, nv, X, nt, tets);
+    int raw = strchr(ek_last_error(), '\001') || strchr(ek_last_error(), '\377');
+    ok = fr == NULL && strstr(ek_last_error(), refused[i].expect) && !raw && stat(path, &st) != 0;
+    snprintf(detail, sizeof detail, "message: %s", raw ? "(holds the raw bytes)" : ek_last_error());
     char what[64];
     snprintf(what, sizeof what, "name refused (%s)", refused[i].expect);
     verdict(what, ok, detail);
     if (fr)
-      ek_frames_close(fr, NULL, 0);
+      ek_frames_close(fr);
   }
   snprintf(path, sizeof path, "%s/d\303\251formation.h5", dir);
   ok = writer(path, 0, nv, nt, X, tets, 1, -1) == 0 && frames_in(path, NULL) == 1;

@@ -11,7 +11,7 @@
 // exactly that many, the XDMF lists them all and no scratch file is left;
 // a signal inside a step that cannot end in reasonable time ends the run
 // within a second, the frames so far intact and named as partial.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <hdf5.h>
 #include <math.h>

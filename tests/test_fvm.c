@@ -9,7 +9,7 @@
 //   2. COLORED, THREAD_BUFFERS and GATHER give the same bits at 1 and 2
 //      threads (ATOMIC is exempt: non-deterministic by design);
 //   3. per-tet outputs (J, smallest singular value, energy density) and
-//      ek_fvm_energy_f64 match the reference;
+//      ek_mesh_fvm_energy_f64 match the reference;
 //   4. neo-Hookean without clamp: an inverted tet's vertices get NaN, the
 //      rest of the mesh is untouched by it;
 //   5. bad arguments give rc < 0 and leave f untouched; an ISA the CPU
@@ -47,7 +47,7 @@ static void run_case(const char *model, const ek_mesh *mesh, const ek_material *
       xf[i] = (float)x[i];
       ff[i] = 1e30f; // must be overwritten
     }
-    rc = ek_fvm_forces_ex_f32(mesh, mat, xf, ff, &o);
+    rc = ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, ff, &o);
     for (size_t i = 0; i < n3; i++)
       f[i] = ff[i];
     free(xf);
@@ -55,7 +55,7 @@ static void run_case(const char *model, const ek_mesh *mesh, const ek_material *
   } else {
     for (size_t i = 0; i < n3; i++)
       f[i] = 1e300;
-    rc = ek_fvm_forces_ex_f64(mesh, mat, x, f, &o);
+    rc = ek_mesh_fvm_forces_ex_f64(mesh, mat, x, f, &o);
   }
   char label[200];
   snprintf(label, sizeof label, "%-17s %-6s %s %-14s%s", model, ek_isa_name(isa),
@@ -96,11 +96,11 @@ static void check_threads(const char *model, const ek_mesh *mesh, const ek_mater
     float *a32 = malloc(n3 * sizeof(float)), *b32 = malloc(n3 * sizeof(float));
     double *a64 = malloc(n3 * sizeof(double)), *b64 = malloc(n3 * sizeof(double));
     omp_set_num_threads(1);
-    int rc =
-        ek_fvm_forces_ex_f32(mesh, mat, xf, a32, &o) | ek_fvm_forces_ex_f64(mesh, mat, x, a64, &o);
+    int rc = ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, a32, &o) |
+             ek_mesh_fvm_forces_ex_f64(mesh, mat, x, a64, &o);
     omp_set_num_threads(2);
-    rc |=
-        ek_fvm_forces_ex_f32(mesh, mat, xf, b32, &o) | ek_fvm_forces_ex_f64(mesh, mat, x, b64, &o);
+    rc |= ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, b32, &o) |
+          ek_mesh_fvm_forces_ex_f64(mesh, mat, x, b64, &o);
     int same32 = memcmp(a32, b32, n3 * sizeof(float)) == 0;
     int same64 = memcmp(a64, b64, n3 * sizeof(double)) == 0;
     printf("%-17s %-14s 1 vs 2 threads: f32 %s, f64 %s\n", model, ek_scatter_name(s),
@@ -130,7 +130,7 @@ static void check_fields(const char *model, const ek_mesh *mesh, const test_mesh
   double *J = malloc(nt * sizeof(double)), *smin = malloc(nt * sizeof(double));
   double *psi = malloc(nt * sizeof(double)), *f = malloc(n3 * sizeof(double));
   ek_fvm_opts o = {.R = R, .J = J, .sigma_min = smin, .psi = psi};
-  int rc = ek_fvm_forces_ex_f64(mesh, mat, x, f, &o);
+  int rc = ek_mesh_fvm_forces_ex_f64(mesh, mat, x, f, &o);
   ek_material_ref m = test_ref_material(mat);
   double eJ = 0, es = 0, ep = 0, psi_scale = 0;
   for (size_t e = 0; e < nt; e++) {
@@ -151,9 +151,9 @@ static void check_fields(const char *model, const ek_mesh *mesh, const test_mesh
   failures += ek_check_report(label, es, EK_FVM_TOL_F64);
   snprintf(label, sizeof label, "%-17s per-tet energy density", model);
   failures += ek_check_report(label, ep / psi_scale, EK_FVM_TOL_F64);
-  double El = ek_fvm_energy_ex_f64(mesh, mat, x, R);
+  double El = ek_mesh_fvm_energy_ex_f64(mesh, mat, x, R);
   double Er = ek_fvm_energy_ref(t->nverts, t->X, nt, t->T, &m, R, x);
-  snprintf(label, sizeof label, "%-17s ek_fvm_energy_f64", model);
+  snprintf(label, sizeof label, "%-17s ek_mesh_fvm_energy_f64", model);
   failures += ek_check_report(label, fabs(El - Er) / fabs(Er), EK_FVM_TOL_F64);
   free(J);
   free(smin);
@@ -175,13 +175,13 @@ static void check_bad_arguments(const ek_mesh *mesh, const double *x) {
     const char *what;
     int rc;
   } cases[] = {
-      {"NULL mesh", ek_fvm_forces_f64(NULL, &good, x, f)},
-      {"NULL material", ek_fvm_forces_f64(mesh, NULL, x, f)},
-      {"NULL x", ek_fvm_forces_f64(mesh, &good, NULL, f)},
-      {"mu = 0", ek_fvm_forces_f64(mesh, &bad_mu, x, f)},
-      {"corotated linear without R", ek_fvm_forces_f64(mesh, &corot, x, f)},
-      {"scatter = 99", ek_fvm_forces_ex_f64(mesh, &good, x, f, &bad_scatter)},
-      {"svd_sweeps = 12", ek_fvm_forces_ex_f64(mesh, &good, x, f, &bad_sweeps)},
+      {"NULL mesh", ek_mesh_fvm_forces_f64(NULL, &good, x, f)},
+      {"NULL material", ek_mesh_fvm_forces_f64(mesh, NULL, x, f)},
+      {"NULL x", ek_mesh_fvm_forces_f64(mesh, &good, NULL, f)},
+      {"mu = 0", ek_mesh_fvm_forces_f64(mesh, &bad_mu, x, f)},
+      {"corotated linear without R", ek_mesh_fvm_forces_f64(mesh, &corot, x, f)},
+      {"scatter = 99", ek_mesh_fvm_forces_ex_f64(mesh, &good, x, f, &bad_scatter)},
+      {"svd_sweeps = 12", ek_mesh_fvm_forces_ex_f64(mesh, &good, x, f, &bad_sweeps)},
   };
   for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
     int ok = cases[k].rc < 0;
@@ -193,8 +193,9 @@ static void check_bad_arguments(const ek_mesh *mesh, const double *x) {
     untouched &= f[i] == 42;
   printf("f untouched by the failed calls: %s\n", untouched ? "PASS" : "FAIL");
   failures += !untouched;
-  double E = ek_fvm_energy_f64(mesh, &bad_mu, x);
-  printf("ek_fvm_energy_f64 with mu = 0: %g (NaN expected): %s\n", E, isnan(E) ? "PASS" : "FAIL");
+  double E = ek_mesh_fvm_energy_f64(mesh, &bad_mu, x);
+  printf("ek_mesh_fvm_energy_f64 with mu = 0: %g (NaN expected): %s\n", E,
+         isnan(E) ? "PASS" : "FAIL");
   failures += !isnan(E);
   free(f);
 }
@@ -206,8 +207,7 @@ static void check_bad_arguments(const ek_mesh *mesh, const double *x) {
 static void check_inverted_nan(void) {
   double X[8 * 3] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 5, 0, 0, 6, 0, 0, 5, 1, 0, 5, 0, 1};
   int32_t T[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-  char err[256];
-  ek_mesh *m = ek_mesh_create(8, X, 2, T, err, sizeof err);
+  ek_mesh *m = ek_mesh_create(8, X, 2, T);
   double x[8 * 3];
   memcpy(x, X, sizeof x);
   x[3 * 3 + 2] = -0.5; // tet 0 inverted: vertex 3 through its base
@@ -225,11 +225,11 @@ static void check_inverted_nan(void) {
         float xf[24], ff[24];
         for (int i = 0; i < 24; i++)
           xf[i] = (float)x[i];
-        rc = ek_fvm_forces_ex_f32(m, &nh, xf, ff, &o);
+        rc = ek_mesh_fvm_forces_ex_f32(m, &nh, xf, ff, &o);
         for (int i = 0; i < 24; i++)
           f[i] = ff[i];
       } else {
-        rc = ek_fvm_forces_ex_f64(m, &nh, x, f, &o);
+        rc = ek_mesh_fvm_forces_ex_f64(m, &nh, x, f, &o);
       }
       int ok = rc == 0;
       double e = 0, scale = 0;
@@ -242,7 +242,7 @@ static void check_inverted_nan(void) {
       }
       double tol = f32 ? EK_FVM_TOL_F32 : EK_FVM_TOL_F64;
       ok &= e / scale <= tol;
-      printf("nh inverted tet, %s %s: NaN at its vertices only, other tet err %.3g "
+      printf("nh inverted tet, %s %s: NaN at its vertices only, other tet ek_last_error() %.3g "
              "(budget %g): %s\n",
              ek_scatter_name(strategies[si]), f32 ? "f32" : "f64", e / scale, tol,
              ok ? "PASS" : "FAIL");
@@ -277,12 +277,12 @@ static void check_R_state(const ek_mesh *mesh, const ek_material *mat, const dou
         continue; // its sums are not reproducible from run to run
       ek_fvm_opts a = {.scatter = strategies[si], .isa = (ek_isa)isa, .R = R};
       ek_fvm_opts b = {.scatter = strategies[si], .isa = (ek_isa)isa, .R_state = st32};
-      same &= ek_fvm_forces_ex_f32(mesh, mat, x32, fa32, &a) == 0 &&
-              ek_fvm_forces_ex_f32(mesh, mat, x32, fb32, &b) == 0 &&
+      same &= ek_mesh_fvm_forces_ex_f32(mesh, mat, x32, fa32, &a) == 0 &&
+              ek_mesh_fvm_forces_ex_f32(mesh, mat, x32, fb32, &b) == 0 &&
               memcmp(fa32, fb32, n3 * sizeof(float)) == 0;
       b.R_state = st64;
-      same &= ek_fvm_forces_ex_f64(mesh, mat, x, fa, &a) == 0 &&
-              ek_fvm_forces_ex_f64(mesh, mat, x, fb, &b) == 0 &&
+      same &= ek_mesh_fvm_forces_ex_f64(mesh, mat, x, fa, &a) == 0 &&
+              ek_mesh_fvm_forces_ex_f64(mesh, mat, x, fb, &b) == 0 &&
               memcmp(fa, fb, n3 * sizeof(double)) == 0;
       cases += 2;
     }
@@ -291,7 +291,7 @@ static void check_R_state(const ek_mesh *mesh, const ek_material *mat, const dou
          same ? "PASS" : "FAIL");
   failures += !same;
   ek_fvm_opts wrong = {.R_state = st32};
-  int rc = ek_fvm_forces_ex_f64(mesh, mat, x, fa, &wrong);
+  int rc = ek_mesh_fvm_forces_ex_f64(mesh, mat, x, fa, &wrong);
   printf("corot_linear: an f32 state in an f64 call refused (rc %d): %s\n", rc,
          rc == EK_EINVAL ? "PASS" : "FAIL");
   failures += rc != EK_EINVAL;
@@ -309,16 +309,15 @@ int main(int argc, char **argv) {
   printf("test_fvm: seed %llu\n", (unsigned long long)seed);
   ek_rng rng;
   ek_rng_seed(&rng, seed);
-  char err[256];
 
   for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++)
     if (!ek_isa_available((ek_isa)isa)) {
-      ek_mesh *m = ek_mesh_box(1, 1, 1, 1, 1, 1, err, sizeof err);
+      ek_mesh *m = ek_mesh_box(1, 1, 1, 1, 1, 1);
       double x[24], f[24];
       memcpy(x, ek_mesh_rest_positions(m), sizeof x);
       ek_material mat = {EK_MODEL_STVK, 1, 1, 0};
       ek_fvm_opts o = {.isa = (ek_isa)isa};
-      int rc = ek_fvm_forces_ex_f64(m, &mat, x, f, &o);
+      int rc = ek_mesh_fvm_forces_ex_f64(m, &mat, x, f, &o);
       printf("skipped %s: not available on this CPU/build (forced: rc = %d, %s)\n",
              ek_isa_name((ek_isa)isa), rc, rc == EK_EISA ? "PASS" : "FAIL");
       failures += rc != EK_EISA;
@@ -333,9 +332,9 @@ int main(int argc, char **argv) {
     // 5 x 4 x 3 cells = 360 tets: several blocks per colour, partial last
     // blocks, every colour's tail padded.
     test_mesh t = test_mesh_random(&rng, 5, 4, 3, 0.2);
-    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T, err, sizeof err);
+    ek_mesh *mesh = ek_mesh_create(t.nverts, t.X, t.ntets, t.T);
     if (!mesh) {
-      printf("ek_mesh_create: %s\nFAIL\n", err);
+      printf("ek_mesh_create: %s\nFAIL\n", ek_last_error());
       return 1;
     }
     size_t n3 = t.nverts * 3;
@@ -379,7 +378,7 @@ int main(int argc, char **argv) {
     // Thread determinism on a mesh big enough for every thread to get
     // blocks of every colour (12^3 cells, 10368 tets).
     test_mesh big = test_mesh_random(&rng, 12, 12, 12, 0.2);
-    ek_mesh *bm = ek_mesh_create(big.nverts, big.X, big.ntets, big.T, err, sizeof err);
+    ek_mesh *bm = ek_mesh_create(big.nverts, big.X, big.ntets, big.T);
     double *xb = malloc(big.nverts * 3 * sizeof(double));
     double *Rb = test_rotations(&rng, big.ntets);
     test_deform(&rng, &big, 0.15, 0.15, xb);

@@ -11,7 +11,7 @@
 #include <string.h>
 
 #include <ek/fvm.h>
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 
 #include "check.h"
 #include "fvm/fvm_ref.h"
@@ -30,10 +30,9 @@ static inline void test_mesh_free(test_mesh *t) {
 // Box of nx*ny*nz cells of size h (ek_mesh_box), interior vertices moved
 // by up to `jitter` cells, vertices renumbered at random.
 static inline test_mesh test_mesh_random(ek_rng *rng, int nx, int ny, int nz, double jitter) {
-  char err[256];
-  ek_mesh *b = ek_mesh_box(nx, ny, nz, nx * 0.1, ny * 0.1, nz * 0.1, err, sizeof err);
+  ek_mesh *b = ek_mesh_box(nx, ny, nz, nx * 0.1, ny * 0.1, nz * 0.1);
   if (!b) {
-    printf("ek_mesh_box: %s\n", err);
+    printf("ek_mesh_box: %s\n", ek_last_error());
     exit(1);
   }
   test_mesh t = {ek_mesh_nverts(b), ek_mesh_ntets(b), NULL, NULL};

@@ -26,6 +26,7 @@
 #include "check.h"
 #include "cli.h"
 #include "material/material_ref.h"
+#include "test_tolerances.h"
 
 extern void dsyev_(const char *jobz, const char *uplo, const int *n, double *a, const int *lda,
                    double *w, double *work, const int *lwork, int *info);
@@ -71,7 +72,7 @@ typedef struct {
 } check;
 static void report(const char *model, check *c) {
   double r = c->worst / c->budget;
-  const char *st = !(r <= 1) ? "FAIL" : r > 0.5 ? "MARGINAL" : "PASS";
+  const char *st = ek_verdict_name(ek_check_verdict(c->worst, c->budget));
   if (!(r <= 1))
     failures++;
   printf("  %-12s %-34s err %.3e  budget %.1e  err/budget %.3f  (%ld samples)  %s\n", model,

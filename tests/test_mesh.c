@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 
 #include "check.h"
 #include "cli.h"
@@ -104,10 +104,9 @@ static double check_precompute(const char *label, const ek_mesh *m) {
 }
 
 static void check_cube_file(const char *path) {
-  char err[512] = "";
-  ek_mesh *m = ek_mesh_load(path, err, sizeof err);
+  ek_mesh *m = ek_mesh_load(path);
   if (!m) {
-    printf("load %s: %s\n", path, err);
+    printf("load %s: %s\n", path, ek_last_error());
     fail("good file loads");
     return;
   }
@@ -140,10 +139,10 @@ static void expect_error(const char *label, ek_mesh *m, const char *err, const c
 
 static void bad_file(const char *name, const ek_mesh_opts *opts, const char *want1,
                      const char *want2, const char *want3) {
-  char path[1200], err[512] = "";
+  char path[1200];
   snprintf(path, sizeof path, "%s/%s", data_dir, name);
-  ek_mesh *m = ek_mesh_load_ex(path, opts, err, sizeof err);
-  expect_error(name, m, err, want1, want2, want3);
+  ek_mesh *m = ek_mesh_load_ex(path, opts);
+  expect_error(name, m, ek_last_error(), want1, want2, want3);
 }
 
 // Faces of the box mesh: each shared by at most two tets, and the boundary
@@ -157,11 +156,11 @@ static int cmp_face(const void *a, const void *b) {
 }
 
 static void check_box(int nx, int ny, int nz, double lx, double ly, double lz) {
-  char err[512] = "", label[128];
+  char label[128];
   snprintf(label, sizeof label, "box %dx%dx%d (%g x %g x %g)", nx, ny, nz, lx, ly, lz);
-  ek_mesh *m = ek_mesh_box(nx, ny, nz, lx, ly, lz, err, sizeof err);
+  ek_mesh *m = ek_mesh_box(nx, ny, nz, lx, ly, lz);
   if (!m) {
-    printf("%s: %s\n", label, err);
+    printf("%s: %s\n", label, ek_last_error());
     fail("box generator");
     return;
   }
@@ -250,12 +249,11 @@ int main(int argc, char **argv) {
 
   // Inverted with fix_orientation: loads, one fix, all volumes positive.
   {
-    char err[512] = "";
     ek_mesh_opts fix = {.fix_orientation = 1};
     snprintf(path, sizeof path, "%s/inverted", data_dir);
-    ek_mesh *m = ek_mesh_load_ex(path, &fix, err, sizeof err);
+    ek_mesh *m = ek_mesh_load_ex(path, &fix);
     if (!m) {
-      printf("inverted + fix_orientation: %s\n", err);
+      printf("inverted + fix_orientation: %s\n", ek_last_error());
       fail("fix_orientation loads");
     } else {
       printf("inverted + fix_orientation: %zu fixed\n", ek_mesh_nfixed(m));
@@ -271,36 +269,37 @@ int main(int argc, char **argv) {
     double X[5 * 3] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
     int32_t good[8] = {0, 1, 2, 3, 1, 2, 3, 4};
     // Second tet (1,2,3,4): det[X2-X1, X3-X1, X4-X1] = 2 > 0.
-    char err[512] = "";
-    ek_mesh *m = ek_mesh_create(5, X, 2, good, err, sizeof err);
+    ek_mesh *m = ek_mesh_create(5, X, 2, good);
     if (!m) {
-      printf("ek_mesh_create good: %s\n", err);
+      printf("ek_mesh_create good: %s\n", ek_last_error());
       fail("in-memory good mesh");
     } else {
       check_precompute("in-memory", m);
       ek_mesh_destroy(m);
     }
     int32_t range[8] = {0, 1, 2, 3, 1, 2, 3, 7};
-    m = ek_mesh_create(5, X, 2, range, err, sizeof err);
-    expect_error("create: index out of range", m, err, "tet 1", "vertex index 7", NULL);
+    m = ek_mesh_create(5, X, 2, range);
+    expect_error("create: index out of range", m, ek_last_error(), "tet 1", "vertex index 7", NULL);
     int32_t rep[8] = {0, 1, 2, 3, 1, 2, 2, 4};
-    m = ek_mesh_create(5, X, 2, rep, err, sizeof err);
-    expect_error("create: repeated vertex", m, err, "tet 1", "vertex 2 appears twice", NULL);
+    m = ek_mesh_create(5, X, 2, rep);
+    expect_error("create: repeated vertex", m, ek_last_error(), "tet 1", "vertex 2 appears twice",
+                 NULL);
     int32_t inv[8] = {0, 1, 2, 3, 0, 2, 1, 3};
-    m = ek_mesh_create(5, X, 2, inv, err, sizeof err);
-    expect_error("create: inverted", m, err, "tet 1", "inverted", NULL);
+    m = ek_mesh_create(5, X, 2, inv);
+    expect_error("create: inverted", m, ek_last_error(), "tet 1", "inverted", NULL);
     double Xflat[5 * 3] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 0};
     int32_t flat[8] = {0, 1, 2, 3, 0, 1, 4, 2};
-    m = ek_mesh_create(5, Xflat, 2, flat, err, sizeof err);
-    expect_error("create: degenerate", m, err, "tet 1", "degenerate", NULL);
+    m = ek_mesh_create(5, Xflat, 2, flat);
+    expect_error("create: degenerate", m, ek_last_error(), "tet 1", "degenerate", NULL);
     double Xnan[5 * 3] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, NAN, 1};
-    m = ek_mesh_create(5, Xnan, 2, good, err, sizeof err);
-    expect_error("create: NaN coordinate", m, err, "vertex 4", "y = nan", NULL);
+    m = ek_mesh_create(5, Xnan, 2, good);
+    expect_error("create: NaN coordinate", m, ek_last_error(), "vertex 4", "y = nan", NULL);
     int32_t few[4] = {0, 1, 1, 1};
-    m = ek_mesh_create(5, X, 1, few, err, sizeof err);
-    expect_error("create: fewer than 4 vertices", m, err, "only 2 distinct", NULL, NULL);
-    m = ek_mesh_box(0, 2, 2, 1, 1, 1, err, sizeof err);
-    expect_error("box: zero cells", m, err, "ek_mesh_box", "0 x 2 x 2", NULL);
+    m = ek_mesh_create(5, X, 1, few);
+    expect_error("create: fewer than 4 vertices", m, ek_last_error(), "only 2 distinct", NULL,
+                 NULL);
+    m = ek_mesh_box(0, 2, 2, 1, 1, 1);
+    expect_error("box: zero cells", m, ek_last_error(), "ek_mesh_box", "0 x 2 x 2", NULL);
   }
 
   // Box generator at seeded random sizes, and a colouring check on a
@@ -315,9 +314,8 @@ int main(int argc, char **argv) {
   {
     // Randomly jittered box (interior vertices moved by up to 20% of a
     // cell), vertices renumbered at random: still valid and well laid out.
-    char err[512] = "";
     int n = 6;
-    ek_mesh *b = ek_mesh_box(n, n, n, 1, 1, 1, err, sizeof err);
+    ek_mesh *b = ek_mesh_box(n, n, n, 1, 1, 1);
     size_t nv = ek_mesh_nverts(b), nt = ek_mesh_ntets(b);
     double *X = malloc(nv * 3 * sizeof(double));
     int32_t *T = malloc(nt * 4 * sizeof(int32_t)), *perm = malloc(nv * sizeof(int32_t));
@@ -337,9 +335,9 @@ int main(int argc, char **argv) {
       }
     for (size_t i = 0; i < nt * 4; i++)
       T[i] = perm[ek_mesh_tets(b)[i]];
-    ek_mesh *m = ek_mesh_create(nv, X, nt, T, err, sizeof err);
+    ek_mesh *m = ek_mesh_create(nv, X, nt, T);
     if (!m) {
-      printf("jittered box: %s\n", err);
+      printf("jittered box: %s\n", ek_last_error());
       fail("jittered box");
     } else {
       double vol = check_precompute("jittered renumbered box", m);

@@ -30,6 +30,7 @@
 #include "polar/polar_warm_ref.h"
 #include "svd3/svd3_ref.h"
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 enum { N_RANDOM = 4000, N_TAIL = 1001, N_THREADS_TEST = 40000 };
 
@@ -325,11 +326,11 @@ static void simulation(int bits, ek_isa isa) {
 // force's own rounding); f64: EK_POLAR_WARM_LOOP_TOL_F64 x the body size.
 static int loop_start_model(run *r, const char *scene, int prec, ek_polar_method polar,
                             ek_model model) {
-  char path[1200], err[1024];
+  char path[1200];
   snprintf(path, sizeof path, "%s/%s.json", scenes_dir, scene);
   memset(r, 0, sizeof *r);
-  if (ek_scene_load(path, &r->scene, err, sizeof err) != 0) {
-    printf("FAIL %s\n", err);
+  if (ek_scene_load(path, &r->scene) != 0) {
+    printf("FAIL %s\n", ek_last_error());
     failures++;
     return -1;
   }
@@ -337,10 +338,10 @@ static int loop_start_model(run *r, const char *scene, int prec, ek_polar_method
   r->scene.precision = prec;
   r->scene.material.model = model;
   r->scene.polar = polar;
-  r->mesh = ek_scene_mesh(&r->scene, err, sizeof err);
-  r->sim = r->mesh ? ek_sim_create(&r->scene, r->mesh, err, sizeof err) : NULL;
+  r->mesh = ek_scene_mesh(&r->scene);
+  r->sim = r->mesh ? ek_sim_create(&r->scene, r->mesh) : NULL;
   if (!r->sim) {
-    printf("FAIL %s: %s\n", path, err);
+    printf("FAIL %s: %s\n", path, ek_last_error());
     failures++;
     ek_mesh_destroy(r->mesh);
     return -1;
@@ -371,12 +372,12 @@ static void scene_key(void) {
                {", \"polar\": \"svd\"", EK_POLAR_SVD},
                {"", EK_POLAR_SVD}};
   for (int k = 0; k < 3; k++) {
-    char text[512], err[512], label[160];
+    char text[512], label[160];
     snprintf(text, sizeof text, base, cases[k].key);
     ek_scene sc;
-    int rc = ek_scene_parse(text, "polar.json", ".", &sc, err, sizeof err);
+    int rc = ek_scene_parse(text, "polar.json", ".", &sc);
     snprintf(label, sizeof label, "scene key '%s' -> polar %d", cases[k].key, (int)cases[k].want);
-    check(label, rc == 0 && sc.polar == cases[k].want, rc ? err : "");
+    check(label, rc == 0 && sc.polar == cases[k].want, rc ? ek_last_error() : "");
   }
 }
 
@@ -509,14 +510,13 @@ static void set_state_restarts(void) {
     size_t n3 = 0;
     int ok = 1;
     for (int warm = 0; warm < 2 && ok; warm++) {
-      char text[600], err[512];
+      char text[600];
       snprintf(text, sizeof text, base, models[m], warm ? "warm" : "svd");
       ek_scene sc;
       ek_mesh *mesh = NULL;
       ek_sim *sim = NULL;
-      ok = ek_scene_parse(text, "set_state.json", ".", &sc, err, sizeof err) == 0 &&
-           (mesh = ek_scene_mesh(&sc, err, sizeof err)) != NULL &&
-           (sim = ek_sim_create(&sc, mesh, err, sizeof err)) != NULL;
+      ok = ek_scene_parse(text, "set_state.json", ".", &sc) == 0 &&
+           (mesh = ek_scene_mesh(&sc)) != NULL && (sim = ek_sim_create(&sc, mesh)) != NULL;
       if (ok) {
         size_t nv = ek_mesh_nverts(mesh);
         n3 = 3 * nv;
@@ -533,11 +533,10 @@ static void set_state_restarts(void) {
         if (ok) {
           moved = fmax(moved, max_diff(n3, x[warm], ek_sim_positions(sim)));
           memcpy(x[warm], ek_sim_positions(sim), n3 * sizeof(double));
-        } else
-          snprintf(err, sizeof err, "%s", ek_sim_last_error(sim));
+        }
       }
       if (!ok) {
-        printf("FAIL set_state %s %s: %s\n", models[m], warm ? "warm" : "svd", err);
+        printf("FAIL set_state %s %s: %s\n", models[m], warm ? "warm" : "svd", ek_last_error());
         failures++;
       }
       ek_sim_destroy(sim);

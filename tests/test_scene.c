@@ -2,7 +2,7 @@
 // file states, and every kind of bad scene is refused (rc < 0, nothing
 // half-built) with a message that names the file, the key path and the
 // offending value; unknown keys are errors, never silently ignored.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "cli.h"
 #include <math.h>
@@ -233,7 +233,7 @@ int main(int argc, char **argv) {
   // Deterministic test (no random inputs); the seed is accepted and printed
   // for uniformity with the other tests.
   printf("test_scene --seed %llu (scenes from %s)\n", seed, scenes_dir);
-  char err[1024], path[1200], detail[1400];
+  char path[1200], detail[1400];
   static ek_scene s;
 
   // 1. Shipped scenes parse, with the values their files state.
@@ -249,20 +249,20 @@ int main(int argc, char **argv) {
                            "bracket"};
   for (int i = 0; i < (int)(sizeof shipped / sizeof shipped[0]); ++i) {
     snprintf(path, sizeof path, "%s/%s.json", scenes_dir, shipped[i]);
-    int rc = ek_scene_load(path, &s, err, sizeof err);
-    snprintf(detail, sizeof detail, "%s", rc ? err : "");
+    int rc = ek_scene_load(path, &s);
+    snprintf(detail, sizeof detail, "%s", rc ? ek_last_error() : "");
     char what[64];
     snprintf(what, sizeof what, "shipped scene %s parses", shipped[i]);
     verdict(what, rc == 0 && s.dt > 0 && s.steps > 0 && s.output_file[0], detail);
   }
   // No "integrator" key: explicit.
   snprintf(path, sizeof path, "%s/drop.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) == 0)
+  if (ek_scene_load(path, &s) == 0)
     verdict("integrator defaults to explicit", s.integrator == EK_INTEGRATOR_EXPLICIT,
             ek_scene_integrator_name(s.integrator));
   // The implicit integrator's defaults (sim.h, ek_scene_implicit) and keys.
   snprintf(path, sizeof path, "%s/cantilever_implicit.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) == 0) {
+  if (ek_scene_load(path, &s) == 0) {
     const ek_scene_implicit *im = &s.implicit;
     verdict("implicit defaults",
             s.integrator == EK_INTEGRATOR_IMPLICIT && close_to(im->newton_tol, 1e-6) &&
@@ -277,16 +277,16 @@ int main(int argc, char **argv) {
         " \"integrator\": {\"type\": \"implicit\", \"newton_tol\": 1e-8, \"max_newton\": 7,"
         " \"cg_tol\": 0.01, \"max_cg\": 99, \"preconditioner\": \"jacobi\", \"projection\": "
         "\"abs\"}}";
-    int rc = ek_scene_parse(json, "implicit.json", ".", &s, err, sizeof err);
+    int rc = ek_scene_parse(json, "implicit.json", ".", &s);
     const ek_scene_implicit *im = &s.implicit;
     verdict("implicit keys read",
             rc == 0 && close_to(im->newton_tol, 1e-8) && im->max_newton == 7 &&
                 close_to(im->cg_tol, 0.01) && im->max_cg == 99 &&
                 im->preconditioner == EK_PRECOND_JACOBI && im->projection == EK_PROJECT_ABS,
-            rc ? err : "");
+            rc ? ek_last_error() : "");
   }
   snprintf(path, sizeof path, "%s/cantilever.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) == 0) {
+  if (ek_scene_load(path, &s) == 0) {
     // E = 1e8, nu = 0: mu = E / 2, lambda = 0.
     int ok = s.box_cells[0] == 100 && s.box_cells[1] == 1 && s.box_cells[2] == 10 &&
              close_to(s.box_size[0], 1.0) && s.material.model == EK_MODEL_FIXED_COROTATED &&
@@ -300,14 +300,14 @@ int main(int argc, char **argv) {
     verdict("cantilever values", ok, detail);
   }
   snprintf(path, sizeof path, "%s/crush.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) == 0) {
+  if (ek_scene_load(path, &s) == 0) {
     int ok = s.nbc == 2 && s.bc[1].kind == EK_BC_STRETCH && close_to(s.bc[1].velocity[2], -0.36) &&
              close_to(s.bc[1].until, 0.5) && s.bc[1].release == 1 && s.bc[0].release == 0 &&
              isinf(s.bc[0].until) && close_to(s.material.clamp, 0.05);
     verdict("crush values (stretch, until, release)", ok, "");
   }
   snprintf(path, sizeof path, "%s/twist.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) == 0) {
+  if (ek_scene_load(path, &s) == 0) {
     int ok = s.bc[0].kind == EK_BC_TWIST && close_to(s.bc[0].axis[0], 1.0) &&
              close_to(s.bc[0].rate, -1.0) && close_to(s.bc[1].rate, 1.0) && s.precision == 32 &&
              s.material.model == EK_MODEL_STABLE_NEO_HOOKEAN;
@@ -315,32 +315,34 @@ int main(int argc, char **argv) {
   }
   // A relative mesh file resolves against the scene's directory.
   int rc = ek_scene_parse("{\"mesh\": {\"file\": \"meshes/bar.node\"}, " MAT ", " TAIL "}",
-                          "x/test.json", "x", &s, err, sizeof err);
+                          "x/test.json", "x", &s);
   verdict("mesh file relative to the scene",
-          rc == 0 && strcmp(s.mesh_file, "x/meshes/bar.node") == 0, rc ? err : s.mesh_file);
+          rc == 0 && strcmp(s.mesh_file, "x/meshes/bar.node") == 0,
+          rc ? ek_last_error() : s.mesh_file);
   // The twist axis is normalised.
   rc = ek_scene_parse("{" MESH ", " MAT ", " TAIL
                       ", \"boundary\": [{\"type\": \"twist\", \"axis\": [0, 3, 4], "
                       "\"center\": [0,0,0], \"rate\": 2, \"region\": {\"min\": [0,0,0], "
                       "\"max\": [1,1,0]}}]}",
-                      "test.json", ".", &s, err, sizeof err);
+                      "test.json", ".", &s);
   verdict("twist axis normalised",
-          rc == 0 && close_to(s.bc[0].axis[1], 0.6) && close_to(s.bc[0].axis[2], 0.8), err);
+          rc == 0 && close_to(s.bc[0].axis[1], 0.6) && close_to(s.bc[0].axis[2], 0.8),
+          ek_last_error());
   rc = ek_scene_parse("{" MESH ", " MAT ", " TAIL ", \"integrator\": {\"type\": \"explicit\"}}",
-                      "test.json", ".", &s, err, sizeof err);
+                      "test.json", ".", &s);
   verdict("integrator.type explicit",
           rc == 0 && s.integrator == EK_INTEGRATOR_EXPLICIT &&
               strcmp(ek_scene_integrator_name(s.integrator), "explicit") == 0,
-          err);
+          ek_last_error());
 
   // 2. Bad scenes: each refused with file, key path and value.
   int nbad = (int)(sizeof bad_cases / sizeof bad_cases[0]);
   for (int i = 0; i < nbad; ++i) {
     const bad_case *b = &bad_cases[i];
-    err[0] = '\0';
-    rc = ek_scene_parse(b->json, "test.json", ".", &s, err, sizeof err);
-    int ok = rc < 0 && strncmp(err, "test.json", 9) == 0 && contains_all(err, b->expect);
-    snprintf(detail, sizeof detail, "%s", err);
+    rc = ek_scene_parse(b->json, "test.json", ".", &s);
+    int ok = rc < 0 && strncmp(ek_last_error(), "test.json", 9) == 0 &&
+             contains_all(ek_last_error(), b->expect);
+    snprintf(detail, sizeof detail, "%s", ek_last_error());
     verdict(b->what, ok, detail);
     if (!ok)
       printf("    input: %s\n    expected message with: \"%s\" \"%s\" \"%s\"\n", b->json,
@@ -348,25 +350,29 @@ int main(int argc, char **argv) {
   }
 
   // 3. File-level errors.
-  rc = ek_scene_load("/nonexistent/dir/scene.json", &s, err, sizeof err);
+  rc = ek_scene_load("/nonexistent/dir/scene.json", &s);
   verdict("missing scene file",
-          rc < 0 && strstr(err, "/nonexistent/dir/scene.json") && strstr(err, "cannot open"), err);
+          rc < 0 && strstr(ek_last_error(), "/nonexistent/dir/scene.json") &&
+              strstr(ek_last_error(), "cannot open"),
+          ek_last_error());
   rc = ek_scene_parse("{\"mesh\": {\"file\": \"no_such_mesh.node\"}, " MAT ", " TAIL "}",
-                      "test.json", "/nonexistent", &s, err, sizeof err);
-  ek_mesh *m = rc == 0 ? ek_scene_mesh(&s, err, sizeof err) : NULL;
-  verdict("missing mesh file -> no mesh, file named", rc == 0 && !m && strstr(err, "no_such_mesh"),
-          err);
+                      "test.json", "/nonexistent", &s);
+  ek_mesh *m = rc == 0 ? ek_scene_mesh(&s) : NULL;
+  verdict("missing mesh file -> no mesh, file named",
+          rc == 0 && !m && strstr(ek_last_error(), "no_such_mesh"), ek_last_error());
   ek_mesh_destroy(m);
 
   // 4. A region that holds no vertex is caught when the sim is built.
   rc = ek_scene_parse("{" MESH ", " MAT ", " TAIL
                       ", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [5,5,5], "
                       "\"max\": [6,6,6]}}]}",
-                      "test.json", ".", &s, err, sizeof err);
-  m = rc == 0 ? ek_scene_mesh(&s, err, sizeof err) : NULL;
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+                      "test.json", ".", &s);
+  m = rc == 0 ? ek_scene_mesh(&s) : NULL;
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   verdict("region holding no vertex",
-          m && !sim && strstr(err, "boundary[0].region") && strstr(err, "no vertex"), err);
+          m && !sim && strstr(ek_last_error(), "boundary[0].region") &&
+              strstr(ek_last_error(), "no vertex"),
+          ek_last_error());
   ek_sim_destroy(sim);
   ek_mesh_destroy(m);
 

@@ -5,8 +5,9 @@
 #ifndef EK_TEST_SIM_COMMON_H
 #define EK_TEST_SIM_COMMON_H
 
+#include "check.h"
 #include "cli.h"
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,7 +20,7 @@ static char scenes_dir[1024];
 // budget) or FAIL.
 static void report(const char *what, double err, double budget, const char *detail) {
   double ratio = err / budget;
-  const char *v = !(ratio <= 1.0) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
+  const char *v = ek_verdict_name(ek_check_verdict(err, budget));
   printf("%-52s err %.3e  budget %.1e  err/budget %.3f  %s  %s\n", what, err, budget, ratio, v,
          detail);
   if (!(ratio <= 1.0))
@@ -61,20 +62,20 @@ typedef struct {
 } run;
 
 static inline int start(run *r, const char *json_or_name, int is_file) {
-  char err[1024], path[1200];
+  char path[1200];
   memset(r, 0, sizeof *r);
   int rc;
   if (is_file) {
     snprintf(path, sizeof path, "%s/%s.json", scenes_dir, json_or_name);
-    rc = ek_scene_load(path, &r->scene, err, sizeof err);
+    rc = ek_scene_load(path, &r->scene);
   } else {
-    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene, err, sizeof err);
+    rc = ek_scene_parse(json_or_name, "test.json", ".", &r->scene);
   }
   r->scene.output_file[0] = '\0';
-  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene, err, sizeof err)))
-    r->sim = ek_sim_create(&r->scene, r->mesh, err, sizeof err);
+  if (rc == 0 && (r->mesh = ek_scene_mesh(&r->scene)))
+    r->sim = ek_sim_create(&r->scene, r->mesh);
   if (!r->sim) {
-    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", err);
+    printf("%s: %s\nFAIL\n", is_file ? json_or_name : "scene", ek_last_error());
     failures++;
     ek_mesh_destroy(r->mesh);
     return -1;

@@ -9,7 +9,7 @@
 // The scene is the shipped drop (scenes/drop.json: a cube falling onto the
 // ground), with stable neo-Hookean as shipped and with corotated linear (no
 // rest value to subtract); 1000 steps take it past the impact.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <math.h>
 #include <stdio.h>
@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 // Psi(F) per tet of positions x, not shifted: what the field held before it
 // was measured from the rest shape. Corotated linear is evaluated with
@@ -29,18 +30,18 @@ static int raw_psi(const ek_mesh *m, const ek_scene *s, const double *x, double 
   ek_fvm_opts o = {0};
   o.psi = psi;
   o.R = R;
-  int rc = f && R ? ek_fvm_forces_ex_f64(m, &s->material, x, f, &o) : EK_ENOMEM;
+  int rc = f && R ? ek_mesh_fvm_forces_ex_f64(m, &s->material, x, f, &o) : EK_ENOMEM;
   free(f);
   free(R);
   return rc;
 }
 
 static void field_test(const char *model) {
-  char path[1200], err[1024], what[96], detail[256];
+  char path[1200], what[96], detail[256];
   ek_scene s;
   snprintf(path, sizeof path, "%s/drop.json", scenes_dir);
-  if (ek_scene_load(path, &s, err, sizeof err) != 0) {
-    printf("cannot load %s: %s\n", path, err);
+  if (ek_scene_load(path, &s) != 0) {
+    printf("cannot load %s: %s\n", path, ek_last_error());
     failures++;
     return;
   }
@@ -49,12 +50,12 @@ static void field_test(const char *model) {
     ek_scene_model_from_name(model, &s.material.model);
     snprintf(s.model_name, sizeof s.model_name, "%s", model);
   }
-  ek_mesh *m = ek_scene_mesh(&s, err, sizeof err);
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+  ek_mesh *m = ek_scene_mesh(&s);
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   size_t nt = m ? ek_mesh_ntets(m) : 0;
   double *psi = malloc(nt * sizeof(double)), *psi_rest = malloc(nt * sizeof(double));
   if (!sim || !psi || !psi_rest || raw_psi(m, &s, ek_mesh_rest_positions(m), psi_rest) != 0) {
-    printf("drop (%s): %s\n", model, sim ? ek_last_error() : err);
+    printf("drop (%s): %s\n", model, sim ? ek_last_error() : ek_last_error());
     failures++;
     goto done;
   }
@@ -94,7 +95,7 @@ static void field_test(const char *model) {
   report(what, rc == 0 && size > 0 ? fabs(sum - en.elastic) / size : INFINITY,
          EK_SIM_ENERGY_FIELD_TOL, detail);
   if (rc)
-    printf("    step %ld failed: %s\n", ek_sim_steps_done(sim), ek_sim_last_error(sim));
+    printf("    step %ld failed: %s\n", ek_sim_steps_done(sim), ek_last_error());
   // The body must have deformed, or the sum compares zeros.
   snprintf(detail, sizeof detail, "elastic energy %.3g J", rc == 0 ? en.elastic : NAN);
   snprintf(what, sizeof what, "%s: deformed after the impact", model);
@@ -107,17 +108,16 @@ done:
 }
 
 static void integrator_test(void) {
-  char err[1024];
   ek_scene s;
   int rc = ek_scene_parse("{\"mesh\": {\"box\": [2, 2, 2], \"size\": [1, 1, 1]}, "
                           "\"material\": {\"model\": \"arap\", \"E\": 1e5, \"nu\": 0.3, "
                           "\"density\": 1000}, \"dt\": 1e-4, \"steps\": 10, "
                           "\"integrator\": {\"type\": \"explicit\"}}",
-                          "integrator.json", ".", &s, err, sizeof err);
-  ek_mesh *m = rc == 0 ? ek_scene_mesh(&s, err, sizeof err) : NULL;
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+                          "integrator.json", ".", &s);
+  ek_mesh *m = rc == 0 ? ek_scene_mesh(&s) : NULL;
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   rc = sim ? ek_sim_step(sim) : -1;
-  const char *name = sim ? ek_sim_integrator_name(sim) : err;
+  const char *name = sim ? ek_sim_integrator_name(sim) : ek_last_error();
   char detail[1100];
   snprintf(detail, sizeof detail, "integrator \"%s\", step rc %d", name, rc);
   check("sim steps with the scene's integrator", rc == 0 && strcmp(name, "explicit") == 0, detail);

@@ -22,7 +22,7 @@
 // long runs use 1 thread: results do not depend on the thread count
 // (checked by the threads test) and 1 thread keeps the run time steady on
 // a shared 2-core machine.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include <math.h>
 #include <omp.h>
@@ -31,6 +31,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 static unsigned long long rng_state;
 static double uniform(double lo, double hi) {
@@ -39,10 +40,10 @@ static double uniform(double lo, double hi) {
 }
 
 static int load_scene(const char *name, ek_scene *s) {
-  char path[1200], err[1024];
+  char path[1200];
   snprintf(path, sizeof path, "%s/%s.json", scenes_dir, name);
-  if (ek_scene_load(path, s, err, sizeof err) != 0) {
-    printf("cannot load %s: %s\n", path, err);
+  if (ek_scene_load(path, s) != 0) {
+    printf("cannot load %s: %s\n", path, ek_last_error());
     failures++;
     return -1;
   }
@@ -53,7 +54,7 @@ static int load_scene(const char *name, ek_scene *s) {
 // ------------------------------------------------------------ 1. energy
 
 static void energy_test(const char *model, int precision) {
-  char json[1024], err[1024], what[96];
+  char json[1024], what[96];
   // Random stretch and drift (seeded): the body starts away from rest.
   double sx = uniform(1.05, 1.15), sy = uniform(0.9, 1.0), sz = uniform(1.0, 1.1);
   double vx = uniform(-0.5, 0.5), vy = uniform(-0.5, 0.5), vz = uniform(-0.5, 0.5);
@@ -64,15 +65,15 @@ static void energy_test(const char *model, int precision) {
            " \"precision\": \"f%d\", \"dt\": 1e-5, \"steps\": 1000}",
            sx, sy, sz, vx, vy, vz, model, precision);
   ek_scene s;
-  if (ek_scene_parse(json, "energy.json", ".", &s, err, sizeof err) != 0) {
-    printf("energy scene: %s\n", err);
+  if (ek_scene_parse(json, "energy.json", ".", &s) != 0) {
+    printf("energy scene: %s\n", ek_last_error());
     failures++;
     return;
   }
-  ek_mesh *m = ek_scene_mesh(&s, err, sizeof err);
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+  ek_mesh *m = ek_scene_mesh(&s);
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   if (!sim) {
-    printf("energy sim: %s\n", err);
+    printf("energy sim: %s\n", ek_last_error());
     failures++;
     ek_mesh_destroy(m);
     return;
@@ -81,7 +82,7 @@ static void energy_test(const char *model, int precision) {
   // ek_sim_cfl_dt.
   s.dt = EK_SIM_ENERGY_DT_CFL * ek_sim_cfl_dt(sim);
   ek_sim_destroy(sim);
-  sim = ek_sim_create(&s, m, err, sizeof err);
+  sim = ek_sim_create(&s, m);
   size_t nv = ek_mesh_nverts(m);
   const double *mass = ek_sim_masses(sim);
   ek_sim_energies e;
@@ -118,7 +119,7 @@ static void energy_test(const char *model, int precision) {
   snprintf(what, sizeof what, "energy, %s f%d, 1000 steps", model, precision);
   report(what, rc == 0 ? max_dE / E_avail : INFINITY, EK_SIM_ENERGY_TOL, detail);
   if (rc)
-    printf("    step failed: %s\n", ek_sim_last_error(sim));
+    printf("    step failed: %s\n", ek_last_error());
   if (precision == 64) {
     snprintf(what, sizeof what, "momentum, %s f64", model);
     snprintf(detail, sizeof detail, "|p0| = %.6g, max |p - p0| = %.3g",
@@ -136,11 +137,10 @@ static void cantilever_test(void) {
   ek_scene s;
   if (load_scene("cantilever", &s))
     return;
-  char err[1024];
-  ek_mesh *m = ek_scene_mesh(&s, err, sizeof err);
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+  ek_mesh *m = ek_scene_mesh(&s);
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   if (!sim) {
-    printf("cantilever: %s\n", err);
+    printf("cantilever: %s\n", ek_last_error());
     failures++;
     ek_mesh_destroy(m);
     return;
@@ -181,7 +181,7 @@ static void cantilever_test(void) {
   report("cantilever tip deflection vs Euler-Bernoulli",
          rc ? INFINITY : fabs(tip - delta_eb) / delta_eb, EK_SIM_CANTILEVER_TOL, detail);
   if (rc)
-    printf("    step failed: %s\n", ek_sim_last_error(sim));
+    printf("    step failed: %s\n", ek_last_error());
   ek_sim_destroy(sim);
   ek_mesh_destroy(m);
 }
@@ -193,11 +193,11 @@ static void crush_test(void) {
   ek_scene s;
   if (load_scene("crush", &s))
     return;
-  char err[1024], detail[256];
-  ek_mesh *m = ek_scene_mesh(&s, err, sizeof err);
-  ek_sim *sim = m ? ek_sim_create(&s, m, err, sizeof err) : NULL;
+  char detail[256];
+  ek_mesh *m = ek_scene_mesh(&s);
+  ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
   if (!sim) {
-    printf("crush: %s\n", err);
+    printf("crush: %s\n", ek_last_error());
     failures++;
     ek_mesh_destroy(m);
     return;
@@ -224,7 +224,7 @@ static void crush_test(void) {
            s.material.clamp);
   report(what, rc ? INFINITY : fabs(V - V0) / V0, EK_SIM_VOLUME_TOL, detail);
   if (rc)
-    printf("    step failed: %s\n", ek_sim_last_error(sim));
+    printf("    step failed: %s\n", ek_last_error());
   ek_sim_destroy(sim);
 
   // Neo-Hookean without clamp is undefined for J <= 0: push the top face
@@ -234,7 +234,7 @@ static void crush_test(void) {
   s.material.clamp = 0;
   snprintf(s.model_name, sizeof s.model_name, "neo_hookean");
   s.bc[1].until = 0.7;
-  sim = ek_sim_create(&s, m, err, sizeof err);
+  sim = ek_sim_create(&s, m);
   rc = 0;
   long n = 0;
   for (; n < s.steps && rc == 0; ++n)
@@ -243,7 +243,7 @@ static void crush_test(void) {
   int finite = 1;
   for (size_t i = 0; i < 3 * ek_mesh_nverts(m); ++i)
     finite &= isfinite(x[i]) != 0;
-  const char *msg = ek_sim_last_error(sim);
+  const char *msg = ek_last_error();
   snprintf(detail, sizeof detail, "rc %d at step %ld, state finite %d: %s", rc, n - 1, finite, msg);
   check("neo-Hookean crush reports inversion",
         rc == EK_SIM_EINVERTED && finite && strstr(msg, "inverted") && strstr(msg, "neo_hookean") &&
@@ -262,10 +262,9 @@ static void threads_test(void) {
   ek_scene s;
   if (load_scene("cantilever", &s))
     return;
-  char err[1024];
-  ek_mesh *m = ek_scene_mesh(&s, err, sizeof err);
+  ek_mesh *m = ek_scene_mesh(&s);
   if (!m) {
-    printf("cantilever: %s\n", err);
+    printf("cantilever: %s\n", ek_last_error());
     failures++;
     return;
   }
@@ -279,7 +278,7 @@ static void threads_test(void) {
   long mismatches = 0;
   for (int threads = 1; threads <= 2; ++threads) {
     omp_set_num_threads(threads);
-    ek_sim *sim = ek_sim_create(&s, m, err, sizeof err);
+    ek_sim *sim = ek_sim_create(&s, m);
     int rc = 0;
     for (int n = 0; n < 300 && rc == 0; ++n)
       rc = ek_sim_step(sim);

@@ -1,5 +1,5 @@
 // Invariants of the implicit integrator (sim/implicit.c; contract in
-// include/ek/sim.h, ek_scene_implicit):
+// include/ek/sim/sim.h, ek_scene_implicit):
 //   1. Newton on a small problem: the objective decreases at every
 //      accepted iterate, CG reaches cg_tol in every iteration, and near the
 //      solution the residual falls quadratically (orders and ratios
@@ -16,7 +16,7 @@
 //      clamp) stays finite and recovers its volume within
 //      EK_SIM_VOLUME_TOL;
 //   6. 1 and 2 threads give the same bits (a mesh above every grain).
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "test_sim_common.h"
+#include "test_tolerances.h"
 
 // A 0.1 m cube of stable neo-Hookean, stretched and moving, no gravity, no
 // pins: the small problem of 1-3.
@@ -184,7 +185,7 @@ static void energy_momentum_test(void) {
   }
   char detail[200];
   snprintf(detail, sizeof detail, "100 steps at dt = 0.01 s: energy %.4g -> %.4g J (%s)", E0, E,
-           rc ? ek_sim_last_error(r.sim) : "ok");
+           rc ? ek_last_error() : "ok");
   // Per step, E_{n+1} <= E_n up to the rounding of the energy sums and the
   // Newton tolerance (1e-12 of the body size): 1e-10 of E0.
   report("undamped backward Euler never gains energy", rc ? INFINITY : worst_gain, 1e-10, detail);
@@ -250,7 +251,7 @@ static void crush_test(const char *name) {
            "smallest V %.3g V0, final V %.6g V0, %ld of %ld steps stopped above newton_tol "
            "(worst residual %.2g)%s",
            Vmin / V0, V / V0, t->unconverged_steps, t->steps, t->worst_residual,
-           rc ? ek_sim_last_error(r.sim) : "");
+           rc ? ek_last_error() : "");
   snprintf(what, sizeof what, "%s: finite, recovers its volume", name);
   report(what, rc || !finite ? INFINITY : fabs(V - V0) / V0, EK_SIM_VOLUME_TOL, detail);
   finish(&r);

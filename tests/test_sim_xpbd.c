@@ -1,5 +1,5 @@
 // Invariants of the XPBD integrator (sim/xpbd.c; contract in
-// include/ek/sim.h, ek_scene_xpbd, and include/ek/xpbd.h):
+// include/ek/sim/sim.h, ek_scene_xpbd, and include/ek/xpbd.h):
 //   1. a free body without gravity keeps its momentum to rounding (tets
 //      and clusters, Gauss-Seidel and Jacobi, f64 and f32);
 //   2. XPBD against the implicit loop (backward Euler, StVK, same scene) at
@@ -11,7 +11,7 @@
 //      displacement at the default settings against the implicit loop's,
 //      within EK_SIM_XPBD_STATIC_TOL;
 //   4. 1 and 2 threads give the same bits (a mesh above the parallel grain).
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -65,7 +65,7 @@ static void momentum_test(const char *elements, const char *solver, int prec) {
   char what[128], detail[256];
   snprintf(what, sizeof what, "momentum kept: %s %s f%d", elements, solver, prec);
   snprintf(detail, sizeof detail, "50 steps of 4 substeps, largest |p - p0| / sum m|v0|%s%s",
-           rc ? ": " : "", rc ? ek_sim_last_error(r.sim) : "");
+           rc ? ": " : "", rc ? ek_last_error() : "");
   report(what, rc ? INFINITY : worst, prec == 64 ? MOMENTUM_TOL_F64 : MOMENTUM_TOL_F32, detail);
   finish(&r);
 }
@@ -108,7 +108,7 @@ static int tip_trajectory(const char *json, long steps, long every, double *tip)
     tip[(n + 1) / every - 1] = s / c;
   }
   if (rc)
-    printf("step failed: %s\n", ek_sim_last_error(r.sim));
+    printf("step failed: %s\n", ek_last_error());
   finish(&r);
   return rc ? -1 : 0;
 }

@@ -12,6 +12,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "check.h"
 #include "cli.h"
 #include "timer.h"
 
@@ -22,7 +23,7 @@ static void check_close(const char *what, double got, double expected, const dou
                         size_t n) {
   double err = fabs(got - expected) / (expected != 0 ? fabs(expected) : 1);
   double ratio = err / EK_TIMER_STATS_RTOL;
-  const char *verdict = !(ratio <= 1) ? "FAIL" : ratio > 0.5 ? "MARGINAL" : "PASS";
+  const char *verdict = ek_verdict_name(ek_check_verdict(err, EK_TIMER_STATS_RTOL));
   printf("%-8s %-40s rel.err %.3g  err/budget %.3g\n", verdict, what, err, ratio);
   if (!(ratio <= 1)) {
     failures++;

@@ -1,4 +1,4 @@
-// Triangle meshes (include/ek/trimesh.h): the OBJ and Gmsh 2D readers, the
+// Triangle meshes (include/ek/sim/trimesh.h): the OBJ and Gmsh 2D readers, the
 // grid, and their errors:
 //   a. OBJ: triangles, quads (fan-triangulated), "i/t/n" index forms,
 //      negative (relative) indices, comments and ignored statements; unused
@@ -9,7 +9,7 @@
 //   d. errors name file:line and the value: bad numbers, index 0 or out of
 //      range, short faces, a zero-area triangle, truncated files, counts
 //      that the data does not match, undefined nodes; nothing half-loads.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,13 +48,12 @@ static double total_area(const ek_trimesh *m) {
 // message.
 static void expect_error(const char *what, const char *name, const char *text,
                          const char *const *want) {
-  char err[1024] = "";
   const char *path = write_file(name, text);
-  ek_trimesh *m = ek_trimesh_load(path, err, sizeof err);
-  int ok = m == NULL && err[0];
+  ek_trimesh *m = ek_trimesh_load(path);
+  int ok = m == NULL && ek_last_error()[0];
   for (int i = 0; want[i] && ok; ++i)
-    ok = strstr(err, want[i]) != NULL;
-  check(what, ok, err);
+    ok = strstr(ek_last_error(), want[i]) != NULL;
+  check(what, ok, ek_last_error());
   ek_trimesh_destroy(m);
 }
 
@@ -65,7 +64,7 @@ int main(int argc, char **argv) {
   snprintf(cmd, sizeof cmd, "mkdir -p %s", dir);
   if (system(cmd) != 0)
     return 1;
-  char err[1024], detail[1100];
+  char detail[1100];
 
   // a. OBJ: a unit square as one quad (fan: 2 triangles) plus a triangle
   // on top written with relative indices and slashes; vertex 7 unused.
@@ -77,8 +76,8 @@ int main(int argc, char **argv) {
                     "s off\ng top\n"
                     "f -2/1 3 4 # relative: vertex 5\n"
                     "l 1 2\n";
-  ek_trimesh *m = ek_trimesh_load(write_file("a.obj", obj), err, sizeof err);
-  snprintf(detail, sizeof detail, "%s", m ? "" : err);
+  ek_trimesh *m = ek_trimesh_load(write_file("a.obj", obj));
+  snprintf(detail, sizeof detail, "%s", m ? "" : ek_last_error());
   check("a. OBJ loads", m != NULL, detail);
   if (m) {
     snprintf(detail, sizeof detail, "%zu vertices, %zu triangles, area %g", ek_trimesh_nverts(m),
@@ -102,8 +101,8 @@ int main(int argc, char **argv) {
                    "10 0 0 0\n20 1 0 0\n30 1 1 0\n40 0 1 0\n$EndNodes\n"
                    "$Elements\n3\n1 1 2 0 1 10 20\n2 2 2 0 1 10 20 30\n3 2 2 0 1 10 30 40\n"
                    "$EndElements\n";
-  m = ek_trimesh_load(write_file("b2.msh", v2), err, sizeof err);
-  snprintf(detail, sizeof detail, "%s", m ? "" : err);
+  m = ek_trimesh_load(write_file("b2.msh", v2));
+  snprintf(detail, sizeof detail, "%s", m ? "" : ek_last_error());
   check("b. Gmsh v2 loads (line element skipped)",
         m && ek_trimesh_ntris(m) == 2 && ek_trimesh_nverts(m) == 4 &&
             fabs(total_area(m) - 1) < 1e-15,
@@ -113,8 +112,8 @@ int main(int argc, char **argv) {
                    "$Nodes\n2 4 1 4\n0 1 0 1\n1\n0 0 0\n2 1 0 3\n2\n3\n4\n1 0 0\n1 1 0\n0 1 0\n"
                    "$EndNodes\n$Elements\n2 3 1 3\n1 1 1 1\n1 1 2\n2 1 2 2\n2 1 2 3\n3 1 3 4\n"
                    "$EndElements\n";
-  m = ek_trimesh_load(write_file("b4.msh", v4), err, sizeof err);
-  snprintf(detail, sizeof detail, "%s", m ? "" : err);
+  m = ek_trimesh_load(write_file("b4.msh", v4));
+  snprintf(detail, sizeof detail, "%s", m ? "" : ek_last_error());
   check("b. Gmsh v4.1 loads (blocks, line block skipped)",
         m && ek_trimesh_ntris(m) == 2 && ek_trimesh_nverts(m) == 4 &&
             fabs(total_area(m) - 1) < 1e-15,
@@ -122,17 +121,18 @@ int main(int argc, char **argv) {
   ek_trimesh_destroy(m);
 
   // c. the grid.
-  m = ek_trimesh_grid(4, 3, 2.0, 1.5, "xz", err, sizeof err);
+  m = ek_trimesh_grid(4, 3, 2.0, 1.5, "xz");
   check("c. grid 4 x 3: 20 vertices, 24 triangles, area 3, in y = 0",
         m && ek_trimesh_nverts(m) == 20 && ek_trimesh_ntris(m) == 24 &&
             fabs(total_area(m) - 3) < 1e-14 && ek_trimesh_rest_positions(m)[3 * 19 + 1] == 0 &&
             ek_trimesh_rest_positions(m)[3 * 19 + 2] == 1.5,
-        m ? "" : err);
+        m ? "" : ek_last_error());
   ek_trimesh_destroy(m);
-  m = ek_trimesh_grid(4, 3, 2.0, 1.5, "yz", err, sizeof err);
-  check("c. grid: plane \"yz\" refused", m == NULL && strstr(err, "yz"), err);
-  m = ek_trimesh_grid(0, 3, 2.0, 1.5, "xy", err, sizeof err);
-  check("c. grid: 0 cells refused", m == NULL && err[0], err);
+  m = ek_trimesh_grid(4, 3, 2.0, 1.5, "yz");
+  check("c. grid: plane \"yz\" refused", m == NULL && strstr(ek_last_error(), "yz"),
+        ek_last_error());
+  m = ek_trimesh_grid(0, 3, 2.0, 1.5, "xy");
+  check("c. grid: 0 cells refused", m == NULL && ek_last_error()[0], ek_last_error());
 
   // d. errors.
   expect_error("d. OBJ bad number names file:line and value", "d1.obj", "v 0 0 0\nv 1 zero 0\n",
@@ -174,8 +174,9 @@ int main(int argc, char **argv) {
                (const char *const[]){"e5.msh:2", "ASCII", NULL});
   expect_error("d. unknown extension", "f.stl", "solid\n",
                (const char *const[]){"f.stl", "unknown", NULL});
-  m = ek_trimesh_load("/nonexistent/x.obj", err, sizeof err);
-  check("d. missing file names the path", m == NULL && strstr(err, "/nonexistent/x.obj"), err);
+  m = ek_trimesh_load("/nonexistent/x.obj");
+  check("d. missing file names the path",
+        m == NULL && strstr(ek_last_error(), "/nonexistent/x.obj"), ek_last_error());
 
   snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
   if (system(cmd) != 0)

@@ -9,7 +9,7 @@
 #include <ek/batch.h>
 #include <ek/fvm.h>
 #include <ek/polar.h>
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "svd3/svd3_ref.h"
 
@@ -114,10 +114,9 @@ int ek_check_run_polar_warm(int bits, int aosoa, size_t n, const double *A, doub
 }
 
 // The scene, its model made one that takes a polar when it takes none.
-static int open_scene(const char *path, ek_scene *sc, ek_mesh **mesh, ek_sim **sim, char *err,
-                      size_t errlen) {
+static int open_scene(const char *path, ek_scene *sc, ek_mesh **mesh, ek_sim **sim) {
   *mesh = NULL, *sim = NULL;
-  if (ek_scene_load(path, sc, err, errlen) != 0)
+  if (ek_scene_load(path, sc) != 0)
     return -1;
   sc->output_file[0] = '\0';
   // The warm polar stands in for R(F) of the models that need it (fixed
@@ -126,9 +125,9 @@ static int open_scene(const char *path, ek_scene *sc, ek_mesh **mesh, ek_sim **s
     ek_model_from_name("fixed_corotated", &sc->material.model);
     snprintf(sc->model_name, sizeof sc->model_name, "fixed_corotated");
   }
-  if (!(*mesh = ek_scene_mesh(sc, err, errlen)))
+  if (!(*mesh = ek_scene_mesh(sc)))
     return -1;
-  if (!(*sim = ek_sim_create(sc, *mesh, err, errlen))) {
+  if (!(*sim = ek_sim_create(sc, *mesh))) {
     ek_mesh_destroy(*mesh);
     *mesh = NULL;
     return -1;
@@ -145,8 +144,10 @@ int ek_check_sim_F(const char *scene_path, long steps, long stride, double **F_o
     snprintf(err, errlen, "ek_check_sim_F: steps %ld, stride %ld", steps, stride);
     return -1;
   }
-  if (open_scene(scene_path, &sc, &mesh, &sim, err, errlen) != 0)
+  if (open_scene(scene_path, &sc, &mesh, &sim) != 0) {
+    snprintf(err, errlen, "%s", ek_last_error());
     return -1;
+  }
   size_t nt = ek_mesh_ntets(mesh), ns = (size_t)(steps / stride) + 1;
   double *F = ek_check_malloc(ns * nt * 9 * sizeof(double));
   double *R = ek_check_malloc(ns * nt * 9 * sizeof(double));
@@ -154,13 +155,13 @@ int ek_check_sim_F(const char *scene_path, long steps, long stride, double **F_o
   int rc = 0;
   for (long n = 0; rc == 0 && n <= steps; n++) {
     if (n % stride == 0) {
-      ek_fvm_deformation_gradients_f64(mesh, ek_sim_positions(sim), F + k * nt * 9);
+      ek_mesh_deformation_gradients_f64(mesh, ek_sim_positions(sim), F + k * nt * 9);
       for (size_t e = 0; e < nt; e++)
         ek_polar3_ref(F + (k * nt + e) * 9, R + (k * nt + e) * 9, NULL);
       k++;
     }
     if (n < steps && ek_sim_step(sim) != 0) {
-      snprintf(err, errlen, "%s: step %ld: %s", scene_path, n, ek_sim_last_error(sim));
+      snprintf(err, errlen, "%s: step %ld: %s", scene_path, n, ek_last_error());
       rc = -1;
     }
   }

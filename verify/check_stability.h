@@ -18,6 +18,7 @@
 #ifndef EK_CHECK_STABILITY_H
 #define EK_CHECK_STABILITY_H
 
+#include "test_tolerances.h"
 #include <stddef.h>
 #include <stdint.h>
 

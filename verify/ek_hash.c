@@ -32,6 +32,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <ek/cloth_force.h>
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
 #include <stdarg.h>
@@ -513,11 +514,10 @@ static ek_tet_state *gRstate[2];
 static const char *state_name[] = {"mild", "inv"};
 
 static void setup_mesh(void) {
-  char err[256];
   double L[3] = {1.0, 0.9, 0.8};
-  ek_mesh *box = ek_mesh_box(BOX_NX, BOX_NY, BOX_NZ, L[0], L[1], L[2], err, sizeof err);
+  ek_mesh *box = ek_mesh_box(BOX_NX, BOX_NY, BOX_NZ, L[0], L[1], L[2]);
   if (!box) {
-    fprintf(stderr, "ek-hash: ek_mesh_box: %s\n", err);
+    fprintf(stderr, "ek-hash: ek_mesh_box: %s\n", ek_last_error());
     exit(2);
   }
   gnv = ek_mesh_nverts(box), gnt = ek_mesh_ntets(box);
@@ -535,9 +535,9 @@ static void setup_mesh(void) {
     X[i] = xi + (interior ? 0.1 * cell * urand() : 0);
   }
   ek_mesh_destroy(box);
-  gmesh = ek_mesh_create(gnv, X, gnt, T, err, sizeof err);
+  gmesh = ek_mesh_create(gnv, X, gnt, T);
   if (!gmesh) {
-    fprintf(stderr, "ek-hash: ek_mesh_create: %s\n", err);
+    fprintf(stderr, "ek-hash: ek_mesh_create: %s\n", ek_last_error());
     exit(2);
   }
   gel = ek_mesh_elements(gmesh);
@@ -573,7 +573,7 @@ static void setup_mesh(void) {
   ek_svd3_opts so = {.isa = EK_ISA_SCALAR};
   for (int s = 0; s < 2; s++) {
     gRtet[s] = malloc(gnt * 9 * sizeof(double));
-    if (ek_fvm_deformation_gradients_f64(gmesh, s ? x2 : x, F) ||
+    if (ek_mesh_deformation_gradients_f64(gmesh, s ? x2 : x, F) ||
         ek_polar3_f64(gnt, F, gRtet[s], NULL, &so)) {
       fprintf(stderr, "ek-hash: setup rotations: %s\n", ek_last_error());
       exit(2);
@@ -605,8 +605,8 @@ static void hash_fvm(int f64, int s, const ek_material *m, ek_fvm_opts *o, const
     rc = f64 ? ek_fvm_tet_forces_ex_f64(gel, m, gx[s].d, f, o)
              : ek_fvm_tet_forces_ex_f32(gel, m, gx[s].f, f, o);
   else
-    rc = f64 ? ek_fvm_forces_ex_f64(gmesh, m, gx[s].d, f, o)
-             : ek_fvm_forces_ex_f32(gmesh, m, gx[s].f, f, o);
+    rc = f64 ? ek_mesh_fvm_forces_ex_f64(gmesh, m, gx[s].d, f, o)
+             : ek_mesh_fvm_forces_ex_f32(gmesh, m, gx[s].f, f, o);
   uint64_t h = fnv(FNV_OFFSET, f, fb);
   if (ps) {
     double *st = (double *)scratch(o2, gnt * 9 * sizeof(double));
@@ -698,14 +698,14 @@ static void run_fvm_auto(int f64) {
         ek_material m = material(model, clamps[c]);
         const char *mn = ek_model_name(m.model);
         size_t fb = 3 * gnv * (f64 ? 8 : 4);
-        int rc = f64 ? ek_fvm_forces_f64(gmesh, &m, gx[s].d, scratch(o1, fb))
-                     : ek_fvm_forces_f32(gmesh, &m, gx[s].f, scratch(o1, fb));
+        int rc = f64 ? ek_mesh_fvm_forces_f64(gmesh, &m, gx[s].d, scratch(o1, fb))
+                     : ek_mesh_fvm_forces_f32(gmesh, &m, gx[s].f, scratch(o1, fb));
         out(rc, fnv(FNV_OFFSET, o1, fb), "fvm/forces/%s/%s/clamp=%g/entry", mn, state_name[s],
             clamps[c]);
         if (f64) {
           const double *R = ek_model_need(m.model, 0) == EK_NEEDS_R_INPUT ? gRtet[s] : NULL;
-          double E[3] = {ek_fvm_energy_f64(gmesh, &m, gx[s].d),
-                         ek_fvm_energy_ex_f64(gmesh, &m, gx[s].d, R),
+          double E[3] = {ek_mesh_fvm_energy_f64(gmesh, &m, gx[s].d),
+                         ek_mesh_fvm_energy_ex_f64(gmesh, &m, gx[s].d, R),
                          ek_fvm_tet_energy_f64(gel, &m, gx[s].d, R)};
           out(0, fnv(FNV_OFFSET, E, sizeof E), "fvm/energy/%s/%s/clamp=%g/entry", mn, state_name[s],
               clamps[c]);
@@ -713,7 +713,7 @@ static void run_fvm_auto(int f64) {
       }
   if (f64)
     for (int s = 0; s < 2; s++) {
-      int rc = ek_fvm_deformation_gradients_f64(gmesh, gx[s].d, scratch(o1, gnt * 72));
+      int rc = ek_mesh_deformation_gradients_f64(gmesh, gx[s].d, scratch(o1, gnt * 72));
       out(rc, fnv(FNV_OFFSET, o1, gnt * 72), "fvm/F/%s/mesh", state_name[s]);
       rc = ek_fvm_tet_deformation_gradients_f64(gel, gx[s].d, scratch(o1, gnt * 72));
       out(rc, fnv(FNV_OFFSET, o1, gnt * 72), "fvm/F/%s/tets", state_name[s]);
@@ -1052,10 +1052,10 @@ static void run_cloth_auto(int f64) {
   out(rc, fnv(FNV_OFFSET, o1, bk), "cloth/kabsch/weighted/entry");
   for (int s = 0; s < 2; s++) {
     size_t b = gnt * 9 * (f64 ? 8 : 4);
-    rc = f64 ? ek_velocity_gradient_f64(gmesh, gx[s].d, gv.d, scratch(o1, b), scratch(o2, b),
-                                        scratch(o3, b))
-             : ek_velocity_gradient_f32(gmesh, gx[s].f, gv.f, scratch(o1, b), scratch(o2, b),
-                                        scratch(o3, b));
+    rc = f64 ? ek_mesh_velocity_gradient_f64(gmesh, gx[s].d, gv.d, scratch(o1, b), scratch(o2, b),
+                                             scratch(o3, b))
+             : ek_mesh_velocity_gradient_f32(gmesh, gx[s].f, gv.f, scratch(o1, b), scratch(o2, b),
+                                             scratch(o3, b));
     out(rc, fnv(fnv(fnv(FNV_OFFSET, o1, b), o2, b), o3, b), "cloth/mesh_velocity_gradient/%s/entry",
         state_name[s]);
   }

@@ -36,6 +36,7 @@
 // the state leaves EK_STAB_BLOWUP_FACTOR body sizes.
 #include <cjson/cJSON.h>
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
@@ -47,6 +48,7 @@
 #include "check.h"
 #include "check_stability.h"
 #include "scene_find.h"
+#include "test_tolerances.h"
 #include "verify.h"
 
 // ---- The scenes ----
@@ -246,19 +248,18 @@ static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c
   double c_s = sqrt(s.material.mu / s.density), tc = L / c_s, duration = DURATION_TC * tc;
   s.damping = c->kind == CASE_REST ? 0.0 : DAMPING_TC / tc;
 
-  char err[512];
-  ek_mesh *mesh = ek_scene_mesh(&s, err, sizeof err);
+  ek_mesh *mesh = ek_scene_mesh(&s);
   if (!mesh) {
-    copy_error(r->error, sizeof r->error, err);
+    copy_error(r->error, sizeof r->error, ek_last_error());
     return -1;
   }
   // The CFL step is the sim's (ek_sim_cfl_dt); a first sim at a small dt
   // reads it, the row's sim is built at its multiple.
   if (l->kind == LOOP_EXPLICIT) {
     s.dt = 1e-30;
-    ek_sim *probe = ek_sim_create(&s, mesh, err, sizeof err);
+    ek_sim *probe = ek_sim_create(&s, mesh);
     if (!probe) {
-      copy_error(r->error, sizeof r->error, err);
+      copy_error(r->error, sizeof r->error, ek_last_error());
       ek_mesh_destroy(mesh);
       return -1;
     }
@@ -286,14 +287,14 @@ static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c
     if (devnull >= 0)
       close(devnull);
   }
-  ek_sim *sim = ek_sim_create(&s, mesh, err, sizeof err);
+  ek_sim *sim = ek_sim_create(&s, mesh);
   if (saved_stderr >= 0) {
     fflush(stderr);
     dup2(saved_stderr, STDERR_FILENO);
     close(saved_stderr);
   }
   if (!sim) {
-    copy_error(r->error, sizeof r->error, err);
+    copy_error(r->error, sizeof r->error, ek_last_error());
     ek_mesh_destroy(mesh);
     return -1;
   }
@@ -318,7 +319,7 @@ static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c
     rc = ek_sim_set_state(sim, x, NULL);
     free(x);
     if (rc) {
-      copy_error(r->error, sizeof r->error, ek_sim_last_error(sim));
+      copy_error(r->error, sizeof r->error, ek_last_error());
       ek_sim_destroy(sim);
       ek_mesh_destroy(mesh);
       return -1;
@@ -330,7 +331,7 @@ static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c
     rc = ek_sim_step(sim);
     if (rc) {
       char msg[160];
-      snprintf(msg, sizeof msg, "%s", ek_sim_last_error(sim));
+      snprintf(msg, sizeof msg, "%s", ek_last_error());
       snprintf(r->error, sizeof r->error, "%s%s",
                rc == EK_SIM_EINVERTED ? "inverted: " : "step failed: ", msg);
       copy_error(r->error, sizeof r->error, r->error);
@@ -438,10 +439,11 @@ int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *k
   ek_scene base[2];
   const char *base_names[2] = {"crush", "crush_implicit"};
   for (int b = 0; b < 2; b++) {
-    char path[1024], err[1024];
+    char path[1024], err[1024] = "";
     if (ek_shipped_scene(base_names[b], path, sizeof path, err, sizeof err) != 0 ||
-        ek_scene_load(path, &base[b], err, sizeof err) != 0) {
-      fprintf(stderr, "ek-verify --extremes: base scene %s: %s\n", base_names[b], err);
+        ek_scene_load(path, &base[b]) != 0) {
+      fprintf(stderr, "ek-verify --extremes: base scene %s: %s\n", base_names[b],
+              err[0] ? err : ek_last_error());
       return -1;
     }
   }

@@ -12,6 +12,7 @@
 //     each projection (none, clamp, abs; the reference projects the 9x9
 //     Hessian with LAPACK).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,8 +31,7 @@ typedef struct {
 } fvm_case;
 
 static int make_case(fvm_case *c, uint64_t seed) {
-  char err[256];
-  ek_mesh *box = ek_mesh_box(5, 3, 3, 0.5, 0.3, 0.3, err, sizeof err); // 270 tets
+  ek_mesh *box = ek_mesh_box(5, 3, 3, 0.5, 0.3, 0.3); // 270 tets
   if (!box)
     return -1;
   ek_rng rng;
@@ -73,7 +73,7 @@ static int make_case(fvm_case *c, uint64_t seed) {
   for (size_t e = 0; e < c->nt; e++)
     ek_rng_rotation(&rng, c->R + 9 * e);
   ek_mesh_destroy(box);
-  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T, err, sizeof err);
+  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T);
   c->R_state = c->mesh ? ek_tet_state_create(ek_mesh_elements(c->mesh), 9, 1) : NULL;
   if (!c->R_state || ek_tet_state_set_f64(c->R_state, c->R) < 0)
     return -1;
@@ -104,10 +104,10 @@ static int forces(fvm_case *c, const ek_material *m, ek_isa isa, int f32, ek_sca
   ek_fvm_opts o = {.scatter = s, .isa = isa, .R = c->R};
   size_t n3 = 3 * c->nv;
   if (!f32)
-    return ek_fvm_forces_ex_f64(c->mesh, m, c->x, c->out, &o);
+    return ek_mesh_fvm_forces_ex_f64(c->mesh, m, c->x, c->out, &o);
   float *xf = ek_check_malloc(n3 * sizeof(float)), *ff = ek_check_malloc(n3 * sizeof(float));
   ek_check_to_f32(n3, c->x, xf);
-  int rc = ek_fvm_forces_ex_f32(c->mesh, m, xf, ff, &o);
+  int rc = ek_mesh_fvm_forces_ex_f32(c->mesh, m, xf, ff, &o);
   ek_check_from_f32(n3, ff, c->out);
   free(xf), free(ff);
   return rc;

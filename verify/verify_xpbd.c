@@ -7,6 +7,7 @@
 // lambda| after the sweeps against the reference's (metric "residual",
 // the absolute difference; C is dimensionless).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,8 +28,7 @@ typedef struct {
 } xpbd_case;
 
 static int make_case(xpbd_case *c, uint64_t seed) {
-  char err[256];
-  ek_mesh *box = ek_mesh_box(5, 4, 3, 0.5, 0.4, 0.3, err, sizeof err); // 360 tets
+  ek_mesh *box = ek_mesh_box(5, 4, 3, 0.5, 0.4, 0.3); // 360 tets
   if (!box)
     return -1;
   ek_rng rng;
@@ -63,7 +63,7 @@ static int make_case(xpbd_case *c, uint64_t seed) {
       c->x[3 * v + i] = s + 0.005 * (2 * ek_rng_uniform(&rng) - 1);
     }
   ek_mesh_destroy(box);
-  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T, err, sizeof err);
+  c->mesh = ek_mesh_create(c->nv, c->X, c->nt, c->T);
   if (!c->mesh)
     return -1;
   // Masses of density 1000; the face x = 0 pinned (w = 0).

@@ -39,7 +39,6 @@
 
 #include "core.h"
 #include "elements.h"
-#include "mesh.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -171,17 +170,14 @@ int ek_kabsch_ex_f64(size_t nsets, const size_t *offsets, const double *P, const
 // = Vs Dm^-1, D = (L + L^T)/2 (rate of strain), W = (L - L^T)/2 (spin)
 // (seed 003 eqs. 28-31). Dm cancels: L = Vs Ds^-1, which is how it is
 // computed (no rest data enters, and no rounding from Dm^-1). ntets x 9
-// each, caller tet order; any of L, D, W may be NULL. x, v: nverts x 3.
+// each, caller tet order (ek_mesh_velocity_gradient_*, <ek/sim/mesh.h>, on
+// an ek_mesh); any of L, D, W may be NULL. x, v: nverts x 3.
 // For a rigid motion v = omega x x + c, L = W = [omega]x (the spin matrix,
 // W y = omega x y) and D = 0; for a stretch rate v_i = r_i x_i (no sum),
 // D = diag(r) = the logarithmic stretch rates lambda_i' / lambda_i of seed
 // eqs. 32-36. A tet collapsed in the current state (det Ds = 0) has no
 // velocity gradient: NaN in its L, D, W (inverted tets, det Ds < 0, are
 // fine).
-int ek_velocity_gradient_f64(const ek_mesh *m, const double *x, const double *v, double *L,
-                             double *D, double *W);
-int ek_velocity_gradient_f32(const ek_mesh *m, const float *x, const float *v, float *L, float *D,
-                             float *W);
 int ek_tet_velocity_gradient_f32(const ek_tets *el, const float *x, const float *v, float *L,
                                  float *D, float *W, const ek_cloth_opts *opts);
 int ek_tet_velocity_gradient_f64(const ek_tets *el, const double *x, const double *v, double *L,

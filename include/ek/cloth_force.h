@@ -88,16 +88,11 @@ typedef struct {
 // EK_TRI_DEGENERATE_REL, and of mesh.h's for tets).
 #define EK_CLOTH_DEGENERATE_REL 1e-12
 
-// Tolerances checked by tests/test_cloth_force.c (named here, never
-// literals in test bodies).
-// Forces and Hessian products against central differences of the energy
-// (of the forces), relative to the largest entry; eps swept, best kept.
-#define EK_CLOTH_FORCE_FD_TOL 1e-6
+// Budgets checked by tests/test_cloth_force.c and ek-verify (the test
+// scenarios' own tolerances are in verify/test_tolerances.h).
 // Kernel forces against the double reference, max |f - f_ref| / max |f_ref|.
 #define EK_CLOTH_FORCE_TOL_F32 1e-4
 #define EK_CLOTH_FORCE_TOL_F64 1e-11
-// Sum of the forces relative to the sum of their magnitudes (momentum).
-#define EK_CLOTH_FORCE_MOMENTUM_TOL_F64 1e-12
 // A flat cloth at rest: max |f| relative to the force scale mu h + k_b / h
 // (h the longest rest edge): rounding of F = I in that precision.
 #define EK_CLOTH_FORCE_REST_TOL_F32 1e-5

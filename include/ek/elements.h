@@ -40,12 +40,11 @@ extern "C" {
 typedef struct ek_tets ek_tets;
 
 // X: nverts x 3 rest positions; tets: ntets x 4 vertex indices (0-based),
-// every tet with a positive rest volume. Refused (NULL, message in err,
-// truncated to errlen) on: a NULL array, ntets == 0, more than 2^31 - 1
+// every tet with a positive rest volume. Refused (NULL, message in
+// ek_last_error) on: a NULL array, ntets == 0, more than 2^31 - 1
 // vertices or tet corners, an index out of range, a non-finite coordinate,
 // a tet with det(Dm) <= 0 (it names the tet and the value), or no memory.
-ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                        char *err, size_t errlen);
+ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets);
 void ek_tets_destroy(ek_tets *el);
 
 // Accessors (caller order). Pointers stay valid until ek_tets_destroy.

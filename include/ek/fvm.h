@@ -17,7 +17,6 @@
 #include "core.h"
 #include "elements.h"
 #include "material.h"
-#include "mesh.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -31,10 +30,6 @@ extern "C" {
 // budget (EK_PK1_TOL_*) and valid where that one is.
 #define EK_FVM_TOL_F32 1e-4
 #define EK_FVM_TOL_F64 1e-10
-// The double reference against central differences of its own energy
-// (forces = -dE/dx), same norm; bounded by the differencing, not by the
-// kernel.
-#define EK_FVM_FD_TOL 1e-8
 
 // How per-tet forces are summed into vertices.
 //   COLORED: the element layer's coloured order (elements.h): Morton chunks
@@ -139,39 +134,24 @@ typedef struct {
   ek_fvm_phase_times *phase_times;
 } ek_fvm_opts;
 
-// f = -dE/dx for E = sum_e V0_e Psi(F_e); x, f: nverts x 3.
-// 0 on success, < 0 on error (invalid material, NULL pointer, R missing for
-// corotated linear, unavailable ISA); f untouched on error. Elements outside
-// the model's domain (neo-Hookean with J <= 0 and no clamp) give NaN forces
-// at their vertices, as ek_pk1_* gives NaN stress.
-int ek_fvm_forces_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f);
-int ek_fvm_forces_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f);
-int ek_fvm_forces_ex_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f,
-                         const ek_fvm_opts *opts);
-int ek_fvm_forces_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f,
-                         const ek_fvm_opts *opts);
-
-// E = sum_e V0_e Psi(F_e), summed in a fixed order. R as in ek_fvm_opts
-// (ntets x 9, caller order; only corotated linear reads it, NULL
-// otherwise). NaN on an invalid argument (message in ek_last_error); +inf
-// when an element is outside the model's domain.
-double ek_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x);
-double ek_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
-                            const double *R);
-
-// Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
-// tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
-int ek_fvm_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F);
-
-// The same on an element layer built from plain arrays (ek_tets_create),
-// for simulators with their own mesh code: the ek_mesh forms above are
-// these on ek_mesh_elements(m).
+// f = -dE/dx for E = sum_e V0_e Psi(F_e) on an element layer (elements.h:
+// ek_tets_create from plain arrays, or an ek_mesh's, <ek/sim/mesh.h>);
+// x, f: nverts x 3. 0 on success, < 0 on error (invalid material, NULL
+// pointer, R missing for corotated linear, unavailable ISA); f untouched on
+// error. Elements outside the model's domain (neo-Hookean with J <= 0 and
+// no clamp) give NaN forces at their vertices, as ek_pk1_* gives NaN stress.
 int ek_fvm_tet_forces_ex_f32(const ek_tets *el, const ek_material *mat, const float *x, float *f,
                              const ek_fvm_opts *opts);
 int ek_fvm_tet_forces_ex_f64(const ek_tets *el, const ek_material *mat, const double *x, double *f,
                              const ek_fvm_opts *opts);
+// E = sum_e V0_e Psi(F_e), summed in a fixed order. R as in ek_fvm_opts
+// (ntets x 9, caller order; only corotated linear reads it, NULL
+// otherwise). NaN on an invalid argument (message in ek_last_error); +inf
+// when an element is outside the model's domain.
 double ek_fvm_tet_energy_f64(const ek_tets *el, const ek_material *mat, const double *x,
                              const double *R);
+// Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
+// tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
 int ek_fvm_tet_deformation_gradients_f64(const ek_tets *el, const double *x, double *F);
 
 #ifdef __cplusplus

@@ -118,12 +118,6 @@ typedef struct {
 #define EK_PK1_TOL_F32 1e-4
 #define EK_PK1_TOL_F64 1e-10
 
-// Budget of the reference's own consistency checks (tests/test_material_ref.c,
-// double): P against central differences of psi and dP against central
-// differences of P, best over the step sizes h = 1e-3 .. 1e-6, in the norms
-// above. Truncation (h^2) and rounding (eps/h) errors meet near 1e-8.
-#define EK_MATERIAL_FD_TOL 1e-6
-
 // At F = I every model's dP is linear elasticity, dP = mu' (dF + dF^T) +
 // lambda' tr(dF) I, with (mu', lambda') = (mu, lambda) except ARAP and
 // Psi_R: (mu, 0), and stable neo-Hookean: (3 mu / 4, lambda - 5 mu / 8)

@@ -13,17 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void set_err(char *err, size_t errlen, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, size_t errlen, const char *fmt, ...) {
-  if (!err || errlen == 0)
-    return;
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(err, errlen, fmt, ap);
-  va_end(ap);
-}
-
 static void blocks_free(ek_tet_blocks *bl) {
   free(bl->slot_tet);
   ek_free(bl->idx_f32);
@@ -353,39 +342,37 @@ done:
   return rc;
 }
 
-ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                        char *err, size_t errlen) {
+ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets) {
   static const char fn[] = "ek_tets_create";
   if ((nverts && !X) || !tets) {
-    set_err(err, errlen, "%s: NULL vertex or tet array", fn);
+    ek_set_error("%s: NULL vertex or tet array", fn);
     return NULL;
   }
   if (ntets == 0) {
-    set_err(err, errlen, "%s: no tetrahedra", fn);
+    ek_set_error("%s: no tetrahedra", fn);
     return NULL;
   }
   // Kernels gather coordinates at int32 offsets 3 v + k (vgather_points).
   if (nverts > INT32_MAX / 3 || ntets > (size_t)INT32_MAX / 4) {
-    set_err(err, errlen,
-            "%s: too large (%zu vertices, %zu tets; limits 2^31 / 3 vertices, 2^31 / 4 tets)", fn,
-            nverts, ntets);
+    ek_set_error("%s: too large (%zu vertices, %zu tets; limits 2^31 / 3 vertices, 2^31 / 4 tets)",
+                 fn, nverts, ntets);
     return NULL;
   }
   for (size_t i = 0; i < nverts * 3; i++)
     if (!isfinite(X[i])) {
-      set_err(err, errlen, "%s: vertex %zu: coordinate %c = %g is not finite", fn, i / 3,
-              "xyz"[i % 3], X[i]);
+      ek_set_error("%s: vertex %zu: coordinate %c = %g is not finite", fn, i / 3, "xyz"[i % 3],
+                   X[i]);
       return NULL;
     }
   for (size_t i = 0; i < ntets * 4; i++)
     if (tets[i] < 0 || (size_t)tets[i] >= nverts) {
-      set_err(err, errlen, "%s: tet %zu: vertex index %d out of range [0, %zu)", fn, i / 4,
-              (int)tets[i], nverts);
+      ek_set_error("%s: tet %zu: vertex index %d out of range [0, %zu)", fn, i / 4, (int)tets[i],
+                   nverts);
       return NULL;
     }
   ek_tets *el = calloc(1, sizeof *el);
   if (!el) {
-    set_err(err, errlen, "%s: out of memory", fn);
+    ek_set_error("%s: out of memory", fn);
     return NULL;
   }
   el->nverts = nverts;
@@ -404,7 +391,7 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   for (size_t t = 0; t < ntets; t++) {
     double six_v = rest_frame(X, el->tets + t * 4, el->Dm_inv + t * 9);
     if (!(six_v > 0) || !isfinite(six_v)) {
-      set_err(err, errlen, "%s: tet %zu: det(Dm) = 6V = %g, must be finite and > 0", fn, t, six_v);
+      ek_set_error("%s: tet %zu: det(Dm) = 6V = %g, must be finite and > 0", fn, t, six_v);
       ek_tets_destroy(el);
       return NULL;
     }
@@ -423,7 +410,7 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   return el;
 oom:
   ek_tets_destroy(el);
-  set_err(err, errlen, "%s: out of memory (%zu vertices, %zu tets)", fn, nverts, ntets);
+  ek_set_error("%s: out of memory (%zu vertices, %zu tets)", fn, nverts, ntets);
   return NULL;
 }
 

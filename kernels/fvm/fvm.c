@@ -1,4 +1,4 @@
-// FVM force driver (ek_fvm_tet_* API on the element layer; sim/mesh.c
+// FVM force driver (ek_fvm_tet_* API on the element layer; sim/fvm_mesh.c
 // forwards the ek_mesh forms): argument checks and dispatch; the scatter
 // strategies (scatter.c) own the OpenMP region and the block kernel in
 // fvm_block.c does one range of blocks. Built once per precision.

@@ -8,6 +8,7 @@
 // EK_CONSUMER_SCENES: the installed scenes' folder, from the build (CMake's
 // ek_SCENES_DIR, or `pkg-config --variable=scenesdir ek`).
 #include <ek/ek.h>
+#include <ek/sim/sim.h>
 
 #include <float.h>
 #include <math.h>
@@ -38,23 +39,22 @@ static int check_svd(void) {
 // The installed drop scene (JSON, cJSON) and the cube mesh (TetGen): the
 // cube is the unit cube, so its rest volumes sum to 1.
 static int check_scene_and_mesh(ek_mesh **mesh_out) {
-  char err[1024];
   static ek_scene scene;
-  if (ek_scene_load(EK_CONSUMER_SCENES "/drop.json", &scene, err, sizeof err) != 0) {
-    fprintf(stderr, "ek_scene_load: %s\n", err);
+  if (ek_scene_load(EK_CONSUMER_SCENES "/drop.json", &scene) != 0) {
+    fprintf(stderr, "ek_scene_load: %s\n", ek_last_error());
     return 1;
   }
-  ek_mesh *box = ek_scene_mesh(&scene, err, sizeof err);
+  ek_mesh *box = ek_scene_mesh(&scene);
   if (!box) {
-    fprintf(stderr, "ek_scene_mesh: %s\n", err);
+    fprintf(stderr, "ek_scene_mesh: %s\n", ek_last_error());
     return 1;
   }
   printf("scene %s: model %s, %zu tets\n", scene.path, scene.model_name, ek_mesh_ntets(box));
   ek_mesh_destroy(box);
 
-  ek_mesh *cube = ek_mesh_load(EK_CONSUMER_SCENES "/meshes/cube.node", err, sizeof err);
+  ek_mesh *cube = ek_mesh_load(EK_CONSUMER_SCENES "/meshes/cube.node");
   if (!cube) {
-    fprintf(stderr, "ek_mesh_load: %s\n", err);
+    fprintf(stderr, "ek_mesh_load: %s\n", ek_last_error());
     return 1;
   }
   const double *V0 = ek_mesh_rest_volumes(cube);
@@ -63,7 +63,7 @@ static int check_scene_and_mesh(ek_mesh **mesh_out) {
     volume += V0[e];
   printf("mesh cube: %zu vertices, %zu tets, volume %.17g (expected 1)\n", ek_mesh_nverts(cube),
          ek_mesh_ntets(cube), volume);
-  // Each V0 within EK_MESH_TOL of its own (include/ek/mesh.h), plus the
+  // Each V0 within EK_MESH_TOL of its own (include/ek/sim/mesh.h), plus the
   // sum's rounding.
   if (!(fabs(volume - 1) <= EK_MESH_TOL + (double)ek_mesh_ntets(cube) * DBL_EPSILON)) {
     ek_mesh_destroy(cube);
@@ -75,20 +75,18 @@ static int check_scene_and_mesh(ek_mesh **mesh_out) {
 
 // One frame of the rest shape through HDF5.
 static int check_frames(const ek_mesh *mesh, const char *out) {
-  char err[1024];
   ek_frames *fr = ek_frames_create(out, 1, ek_mesh_nverts(mesh), ek_mesh_rest_positions(mesh),
-                                   ek_mesh_ntets(mesh), ek_mesh_tets(mesh), err, sizeof err);
+                                   ek_mesh_ntets(mesh), ek_mesh_tets(mesh));
   if (!fr) {
-    fprintf(stderr, "ek_frames_create: %s\n", err);
+    fprintf(stderr, "ek_frames_create: %s\n", ek_last_error());
     return 1;
   }
-  int failed = ek_frames_write(fr, 0.0, 0, ek_mesh_rest_positions(mesh), NULL, NULL, NULL, err,
-                               sizeof err) != 0;
+  int failed = ek_frames_write(fr, 0.0, 0, ek_mesh_rest_positions(mesh), NULL, NULL, NULL) != 0;
   if (failed)
-    fprintf(stderr, "ek_frames_write: %s\n", err);
+    fprintf(stderr, "ek_frames_write: %s\n", ek_last_error());
   long frames = ek_frames_count(fr);
-  if (ek_frames_close(fr, err, sizeof err) != 0) {
-    fprintf(stderr, "ek_frames_close: %s\n", err);
+  if (ek_frames_close(fr) != 0) {
+    fprintf(stderr, "ek_frames_close: %s\n", ek_last_error());
     failed = 1;
   }
   printf("frames %s: %ld written\n", out, frames);

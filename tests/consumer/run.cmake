@@ -3,8 +3,11 @@
 # against that prefix only:
 #   1. the installed tree has its headers, libraries, programs, scenes,
 #      ekConfig.cmake (+ version, targets) and ek.pc / ek-sim.pc;
-#   2. consumer.c built out of tree with find_package(ek) (CMake) and run;
-#   3. consumer.c built with `pkg-config --cflags --libs ek-sim` and run;
+#   2. consumer.c (the simulation library, ek::sim) and consumer_kernels.c
+#      (the kernels alone, <ek/ek.h> and ek::ek) built out of tree with
+#      find_package(ek) (CMake) and run;
+#   3. the same with `pkg-config --cflags --libs ek-sim` and `... ek` (the
+#      kernels' flags only: no libek_sim, HDF5 or cJSON) and run;
 #   4. the installed ek-sim and ek-bench find the installed scenes (from
 #      WORK_DIR, not the source tree), EK_SCENES_DIR overrides, and a scene
 #      not found is an error naming the paths tried.
@@ -62,7 +65,9 @@ file(MAKE_DIRECTORY ${WORK_DIR})
 unset(ENV{EK_SCENES_DIR})
 
 step("cmake --install into ${prefix}" COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
-foreach(file ${INCLUDEDIR}/ek/ek.h ${INCLUDEDIR}/ek/svd3.h ${INCLUDEDIR}/ek/sim.h
+foreach(file ${INCLUDEDIR}/ek/ek.h ${INCLUDEDIR}/ek/svd3.h ${INCLUDEDIR}/ek/sim/sim.h
+        ${INCLUDEDIR}/ek/sim/scene.h ${INCLUDEDIR}/ek/sim/frames.h ${INCLUDEDIR}/ek/sim/mesh.h
+        ${INCLUDEDIR}/ek/sim/trimesh.h
         ${LIBDIR}/libek.a ${LIBDIR}/libek_sim.a ${BINDIR}/ek-bench ${BINDIR}/ek-sim
         ${BINDIR}/ek-verify ${DATADIR}/ek/scenes/drop.json ${DATADIR}/ek/scenes/meshes/cube.node
         ${DATADIR}/ek/scenes/meshes/bracket.msh ${LIBDIR}/cmake/ek/ekConfig.cmake
@@ -87,6 +92,8 @@ endif()
 step("consumer: build (find_package)" COMMAND ${CMAKE_COMMAND} --build ${cmake_build})
 step("consumer: run (find_package)" CONTAINS "PASS" "scene ${scenes}/drop.json"
      COMMAND ${cmake_build}/ek-consumer ${WORK_DIR}/find_package.h5)
+step("kernels-only consumer: run (find_package, ek::ek)" CONTAINS "PASS"
+     COMMAND ${cmake_build}/ek-consumer-kernels)
 
 # 3. pkg-config, with only this prefix's .pc files added.
 find_program(PKG_CONFIG NAMES pkg-config pkgconf)
@@ -104,6 +111,18 @@ step("consumer: compile and link with pkg-config's flags"
              "-DEK_CONSUMER_SCENES=\"${pc_scenes}\"" ${build_flags} ${pc_flags} -lm)
 step("consumer: run (pkg-config)" CONTAINS "PASS"
      COMMAND ${WORK_DIR}/ek-consumer-pc ${WORK_DIR}/pkg-config.h5)
+step("pkg-config --cflags --libs ek" COMMAND ${PKG_CONFIG} --cflags --libs ek)
+separate_arguments(pc_kernel_flags UNIX_COMMAND "${step_out}")
+foreach(flag ${pc_kernel_flags})
+  if(flag MATCHES "ek_sim|hdf5|cjson")
+    message(FATAL_ERROR "FAIL pkg-config ek names ${flag}: the kernels need no libek_sim, HDF5 or cJSON")
+  endif()
+endforeach()
+step("kernels-only consumer: compile and link with pkg-config ek's flags"
+     COMMAND ${C_COMPILER} ${SOURCE_DIR}/consumer_kernels.c -o ${WORK_DIR}/ek-consumer-kernels-pc
+             ${build_flags} ${pc_kernel_flags} -lm)
+step("kernels-only consumer: run (pkg-config)" CONTAINS "PASS"
+     COMMAND ${WORK_DIR}/ek-consumer-kernels-pc)
 
 # 4. The installed programs and their scenes (WORK_DIR is the current folder).
 # They print the path as found from /proc/self/exe, which has no links.

@@ -4,7 +4,7 @@
 #ifndef EK_FUZZ_COMMON_H
 #define EK_FUZZ_COMMON_H
 
-#include <ek/mesh.h>
+#include <ek/sim/mesh.h>
 
 #include <math.h>
 #include <stdint.h>

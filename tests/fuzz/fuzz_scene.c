@@ -8,7 +8,7 @@
 // say why in printable text, and a step that succeeds must leave a finite
 // state (sim.h, ek_sim_step; issue 28). Mesh files are not loaded (a scene
 // may name any path); the mesh readers have their own harnesses.
-#include <ek/sim.h>
+#include <ek/sim/sim.h>
 
 #include "fuzz_common.h"
 
@@ -26,19 +26,18 @@ static void run_scene(const ek_scene *s) {
       (double)s->xpbd.substeps * (double)s->xpbd.iterations > FUZZ_MAX_SWEEPS ||
       (double)s->implicit.max_newton * (double)s->implicit.max_cg > FUZZ_MAX_PRODUCTS)
     return;
-  char err[1024] = "";
   ek_mesh *mesh = NULL;
   ek_trimesh *tm = NULL;
   ek_sim *sim = NULL;
-  if (s->triangles && (tm = ek_scene_trimesh(s, err, sizeof err)))
-    sim = ek_sim_create_cloth(s, tm, err, sizeof err);
-  else if (!s->triangles && (mesh = ek_scene_mesh(s, err, sizeof err)))
-    sim = ek_sim_create(s, mesh, err, sizeof err);
+  if (s->triangles && (tm = ek_scene_trimesh(s)))
+    sim = ek_sim_create_cloth(s, tm);
+  else if (!s->triangles && (mesh = ek_scene_mesh(s)))
+    sim = ek_sim_create(s, mesh);
   if (!sim)
-    fuzz_check_message(err);
+    fuzz_check_message(ek_last_error());
   for (int n = 0; sim && n < 3; n++) {
     if (ek_sim_step(sim) != 0) {
-      fuzz_check_message(ek_sim_last_error(sim));
+      fuzz_check_message(ek_last_error());
       break;
     }
     const size_t n3 = 3 * (tm ? ek_trimesh_nverts(tm) : ek_mesh_nverts(mesh));
@@ -48,8 +47,8 @@ static void run_scene(const ek_scene *s) {
         abort();
       }
   }
-  char w[600];
-  if (sim && ek_sim_warning(sim, w, sizeof w))
+  const char *w = sim ? ek_sim_warning(sim) : NULL;
+  if (w)
     fuzz_check_message(w);
   ek_sim_destroy(sim);
   ek_mesh_destroy(mesh);
@@ -60,8 +59,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   char path[300];
   fuzz_write(fuzz_path("scene.json", path, sizeof path), data, size);
   ek_scene s;
-  char err[1024] = "";
-  int rc = ek_scene_load(path, &s, err, sizeof err);
+  int rc = ek_scene_load(path, &s);
   if (rc == 0) {
     if (!isfinite(s.material.mu) || !isfinite(s.material.lambda) || !(s.dt > 0) ||
         !isfinite(s.dt) || !(s.density > 0) || !isfinite(s.density)) {
@@ -71,7 +69,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     }
     run_scene(&s);
   } else {
-    fuzz_check_message(err);
+    fuzz_check_message(ek_last_error());
   }
   return 0;
 }

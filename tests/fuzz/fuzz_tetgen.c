@@ -21,12 +21,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   fuzz_write(fuzz_path("m.ele", ele, sizeof ele), data + ele_start, size - ele_start);
   fuzz_path("m", base, sizeof base);
   ek_mesh_opts opts = {.fix_orientation = size ? data[size - 1] & 1 : 0};
-  char err[512] = "";
-  ek_mesh *m = ek_mesh_load_ex(base, &opts, err, sizeof err);
+  ek_mesh *m = ek_mesh_load_ex(base, &opts);
   if (m)
     fuzz_check_mesh(m);
   else
-    fuzz_check_message(err);
+    fuzz_check_message(ek_last_error());
   ek_mesh_destroy(m);
   return 0;
 }

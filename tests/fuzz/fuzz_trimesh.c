@@ -4,7 +4,7 @@
 // in range, finite rest positions and triangles of positive finite area; a
 // refusal must say why in printable text. ASan, UBSan and leak checks do
 // the rest.
-#include <ek/trimesh.h>
+#include <ek/sim/trimesh.h>
 
 #include "fuzz_common.h"
 
@@ -47,12 +47,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   char path[300];
   int obj = size ? data[size - 1] & 1 : 1;
   fuzz_write(fuzz_path(obj ? "m.obj" : "m.msh", path, sizeof path), data, size);
-  char err[512] = "";
-  ek_trimesh *m = ek_trimesh_load(path, err, sizeof err);
+  ek_trimesh *m = ek_trimesh_load(path);
   if (m)
     check_trimesh(m);
   else
-    fuzz_check_message(err);
+    fuzz_check_message(ek_last_error());
   ek_trimesh_destroy(m);
   return 0;
 }

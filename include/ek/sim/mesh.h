@@ -1,5 +1,5 @@
-// Tetrahedral meshes: creation, validation, loading, and the precomputed
-// rest-shape data the FVM force kernel reads (Teran et al. 2003, seed 004).
+// ek simulation library (libek_sim, ek::sim). Tetrahedral meshes: creation, validation, loading,
+// and the precomputed rest-shape data the FVM force kernel reads (Teran et al. 2003, seed 004).
 //
 // Vertex and tet order: every array the API takes or returns is in the
 // caller's order (the order of the file, of ek_mesh_create's arrays, or of
@@ -29,19 +29,21 @@
 //     ek_mesh_nfixed).
 // Errors name the file, the line (or the element index for in-memory
 // meshes) and the offending value; a mesh never half-loads: on error the
-// functions return NULL and write the message into err (when err != NULL,
-// truncated to errlen). Files: counts in headers are checked against the
+// functions return NULL and leave the message in ek_last_error (core.h).
+// Files: counts in headers are checked against the
 // bytes that follow and memory grows only as items arrive; a directory, a
 // NUL byte or a read error is reported as such; bytes quoted from a file
 // are escaped (\xNN) in messages.
-#ifndef EK_MESH_H
-#define EK_MESH_H
+#ifndef EK_SIM_MESH_H
+#define EK_SIM_MESH_H
 
 #include <stddef.h>
 #include <stdint.h>
 
-#include "core.h"
-#include "elements.h"
+#include <ek/core.h>
+#include <ek/elements.h>
+#include <ek/fvm.h>
+#include <ek/material.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -67,24 +69,22 @@ typedef struct {
 } ek_mesh_opts;
 
 // X: nverts x 3 rest positions; tets: ntets x 4 vertex indices (0-based).
-ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                        char *err, size_t errlen);
+ek_mesh *ek_mesh_create(size_t nverts, const double *X, size_t ntets, const int32_t *tets);
 ek_mesh *ek_mesh_create_ex(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
-                           const ek_mesh_opts *opts, char *err, size_t errlen);
+                           const ek_mesh_opts *opts);
 
 // path: a TetGen base name ("bar" -> bar.node + bar.ele), either of the
 // .node/.ele files, or a Gmsh .msh file (ASCII v2 or v4; only tetrahedra,
 // element type 4, become elements, other element types are skipped).
 // TetGen indices are 0- or 1-based as the .node file's first index says.
-ek_mesh *ek_mesh_load(const char *path, char *err, size_t errlen);
-ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts, char *err, size_t errlen);
+ek_mesh *ek_mesh_load(const char *path);
+ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts);
 
 // A box [0,lx] x [0,ly] x [0,lz] of nx*ny*nz cubes, each split into 6 tets
 // around its main diagonal (Kuhn / Freudenthal split, so faces of
 // neighbouring cubes match). (nx+1)(ny+1)(nz+1) vertices, x fastest;
 // 6 nx ny nz tets, all positive. nx, ny, nz >= 1, lengths > 0 and finite.
-ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
-                     size_t errlen);
+ek_mesh *ek_mesh_box(int nx, int ny, int nz, double lx, double ly, double lz);
 
 void ek_mesh_destroy(ek_mesh *m);
 
@@ -107,6 +107,40 @@ int ek_mesh_ncolors(const ek_mesh *m);
 size_t ek_mesh_nfixed(const ek_mesh *m);
 // Shortest edge of the rest mesh (for a CFL time-step estimate).
 double ek_mesh_min_edge(const ek_mesh *m);
+
+// ---- FVM forces, energy and deformation gradients on a mesh (fvm.h) ----
+// The fvm.h element-layer forms (ek_fvm_tet_*) on ek_mesh_elements(m).
+// f = -dE/dx for E = sum_e V0_e Psi(F_e); x, f: nverts x 3.
+// 0 on success, < 0 on error (invalid material, NULL pointer, R missing for
+// corotated linear, unavailable ISA); f untouched on error. Elements outside
+// the model's domain (neo-Hookean with J <= 0 and no clamp) give NaN forces
+// at their vertices, as ek_pk1_* gives NaN stress.
+int ek_mesh_fvm_forces_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f);
+int ek_mesh_fvm_forces_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f);
+int ek_mesh_fvm_forces_ex_f32(const ek_mesh *m, const ek_material *mat, const float *x, float *f,
+                              const ek_fvm_opts *opts);
+int ek_mesh_fvm_forces_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x, double *f,
+                              const ek_fvm_opts *opts);
+
+// E = sum_e V0_e Psi(F_e), summed in a fixed order. R as in ek_fvm_opts
+// (ntets x 9, caller order; only corotated linear reads it, NULL
+// otherwise). NaN on an invalid argument (message in ek_last_error); +inf
+// when an element is outside the model's domain.
+double ek_mesh_fvm_energy_f64(const ek_mesh *m, const ek_material *mat, const double *x);
+double ek_mesh_fvm_energy_ex_f64(const ek_mesh *m, const ek_material *mat, const double *x,
+                                 const double *R);
+
+// Per-tet deformation gradients F = Ds Dm^-1 (ntets x 9, row-major, caller
+// tet order), e.g. to refresh corotated-linear rotations with ek_polar3_*.
+int ek_mesh_deformation_gradients_f64(const ek_mesh *m, const double *x, double *F);
+
+// ---- Velocity gradient on a mesh (cloth.h) ----
+// L = Fdot F^-1, D, W per tet (ntets x 9 each, caller tet order; any may
+// be NULL): cloth.h's ek_tet_velocity_gradient_* on ek_mesh_elements(m).
+int ek_mesh_velocity_gradient_f64(const ek_mesh *m, const double *x, const double *v, double *L,
+                                  double *D, double *W);
+int ek_mesh_velocity_gradient_f32(const ek_mesh *m, const float *x, const float *v, float *L,
+                                  float *D, float *W);
 
 #ifdef __cplusplus
 }

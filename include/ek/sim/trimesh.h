@@ -1,5 +1,5 @@
-// Triangle meshes for cloth: creation, validation, loading (Wavefront OBJ,
-// Gmsh 2D triangles) and a generated grid; each holds the cloth element
+// ek simulation library (libek_sim, ek::sim). Triangle meshes for cloth: creation, validation,
+// loading (Wavefront OBJ, Gmsh 2D triangles) and a generated grid; each holds the cloth element
 // layer the force kernels read (cloth_force.h).
 //
 // Order: vertices and triangles keep the file's order (OBJ: as defined;
@@ -31,14 +31,14 @@
 //   triangles (element type 2) become triangles; other element types are
 //   skipped. Counts in headers are checked against the data that follows,
 //   never used to size memory before the data arrives.
-#ifndef EK_TRIMESH_H
-#define EK_TRIMESH_H
+#ifndef EK_SIM_TRIMESH_H
+#define EK_SIM_TRIMESH_H
 
 #include <stddef.h>
 #include <stdint.h>
 
-#include "cloth_force.h"
-#include "core.h"
+#include <ek/cloth_force.h>
+#include <ek/core.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -46,15 +46,13 @@ extern "C" {
 
 typedef struct ek_trimesh ek_trimesh;
 
-ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, const int32_t *tris,
-                              char *err, size_t errlen);
+ek_trimesh *ek_trimesh_create(size_t nverts, const double *X, size_t ntris, const int32_t *tris);
 // An .obj or a .msh file (by extension).
-ek_trimesh *ek_trimesh_load(const char *path, char *err, size_t errlen);
+ek_trimesh *ek_trimesh_load(const char *path);
 // A rectangle of nx x ny cells of lx x ly, each cut into two triangles
 // along alternating diagonals, in the plane `plane` = "xy" (z = 0) or "xz"
 // (y = 0), corner at the origin; (nx+1)(ny+1) vertices, first axis fastest.
-ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *plane, char *err,
-                            size_t errlen);
+ek_trimesh *ek_trimesh_grid(int nx, int ny, double lx, double ly, const char *plane);
 void ek_trimesh_destroy(ek_trimesh *m);
 
 size_t ek_trimesh_nverts(const ek_trimesh *m);
