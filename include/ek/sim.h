@@ -569,6 +569,14 @@ long ek_frames_count(const ek_frames *fr);
 // Close the XDMF and remove the scratch copy (every frame is already in
 // `path`). 0 on success.
 int ek_frames_close(ek_frames *fr, char *err, size_t errlen);
+// The run, as string attributes on the file's root (docs/outputs.md; the
+// units and description of every dataset are written at creation). NULL
+// members are not written. Call before the first frame: 0, EK_EINVAL
+// (frames already written) or EK_EIO.
+typedef struct {
+  const char *program, *scene, *model, *precision, *integrator, *git_revision;
+} ek_frames_info;
+int ek_frames_set_info(ek_frames *fr, const ek_frames_info *info, char *err, size_t errlen);
 // Path of the XDMF companion of an HDF5 path (".h5" replaced by ".xmf", or
 // ".xmf" appended).
 void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen);
