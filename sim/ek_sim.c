@@ -34,6 +34,7 @@
 
 #include "advise.h"
 #include "cli.h"
+#include "ek_git_revision.h"
 #include "omp_env.h"
 #include "scene_find.h"
 
@@ -157,6 +158,38 @@ static int box_fits_memory(const ek_scene *s) {
           s->path, s->box_cells[0], s->box_cells[1], s->box_cells[2], tets, need / 1e9,
           BOX_BYTES_PER_TET, have / 1e9);
   return EK_EXIT_FAILED;
+}
+
+// The run, as attributes of the frames file (docs/outputs.md).
+static int describe_frames(ek_frames *frames, const ek_scene *s, const ek_sim *sim, char *err,
+                           size_t errlen) {
+  const ek_frames_info info = {.program = "ek-sim",
+                               .scene = s->path,
+                               .model = s->model_name,
+                               .precision = s->precision == 32 ? "f32" : "f64",
+                               .integrator = ek_sim_integrator_name(sim),
+                               .git_revision = EK_BUILD_GIT_REVISION};
+  return ek_frames_set_info(frames, &info, err, errlen);
+}
+
+// The ETA from a running mean of the last ETA_WINDOW steps' wall times
+// (frames included): a mean since the start underestimates a run whose
+// steps slow down (issue 23: a 240 s bracket run's ETA said 80 s), and one
+// step alone jitters.
+enum { ETA_WINDOW = 16 };
+typedef struct {
+  double t[ETA_WINDOW], sum;
+  long n;
+} eta_mean;
+static void eta_add(eta_mean *e, double dt) {
+  double *slot = &e->t[e->n % ETA_WINDOW];
+  e->sum += dt - (e->n >= ETA_WINDOW ? *slot : 0);
+  *slot = dt;
+  e->n++;
+}
+static double eta_seconds(const eta_mean *e, long remaining) {
+  long k = e->n < ETA_WINDOW ? e->n : ETA_WINDOW;
+  return k > 0 ? e->sum / (double)k * (double)remaining : 0;
 }
 
 // The library's pending warning (ek_sim_warning), on its own line.
@@ -774,6 +807,8 @@ int main(int argc, char **argv) {
       ek_trimesh_destroy(trimesh);
       return 1;
     }
+    if (describe_frames(frames, &scene, sim, err, sizeof err) != 0)
+      fprintf(stderr, "ek-sim: warning: %s (the frames are written without them)\n", err);
   }
   t_setup = now() - t_setup;
   if (cloth)
@@ -792,7 +827,8 @@ int main(int argc, char **argv) {
 
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
-  double t_start = now(), t_last_progress = t_start;
+  double t_start = now(), t_last_progress = t_start, t_prev = t_start;
+  eta_mean eta_steps = {{0}, 0, 0};
   long stopped_at = -1;   // the step a signal stopped the run before
   int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
@@ -845,16 +881,18 @@ int main(int argc, char **argv) {
                tm->xpbd_last_residual, tm->xpbd_last_cmax);
     }
     double t = now();
+    eta_add(&eta_steps, t - t_prev);
+    t_prev = t;
     if (t - t_last_progress > 0.5 || n + 1 == steps) {
       t_last_progress = t;
       double frac = (double)(n + 1) / (double)steps;
-      double eta = (t - t_start) * (1.0 - frac) / frac;
+      double eta = eta_seconds(&eta_steps, steps - (n + 1));
       if (tty)
         fprintf(stderr, "\r  step %ld / %ld  (%5.1f%%)  t = %.4g s  eta %.1f s   ", n + 1, steps,
                 100.0 * frac, ek_sim_time(sim), eta);
       else if ((n + 1) % (steps / 10 > 0 ? steps / 10 : 1) == 0)
-        fprintf(stderr, "  step %ld / %ld  (%5.1f%%)  t = %.4g s\n", n + 1, steps, 100.0 * frac,
-                ek_sim_time(sim));
+        fprintf(stderr, "  step %ld / %ld  (%5.1f%%)  t = %.4g s  eta %.1f s\n", n + 1, steps,
+                100.0 * frac, ek_sim_time(sim), eta);
     }
   }
   double wall = now() - t_start;
