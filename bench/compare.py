@@ -17,9 +17,10 @@ non-aggregate entries' times. Negative changes are faster.
 The summary comes first: per row (run_name) the change of the median
 aggregate (ek-bench writes one per row), their geometric mean, and the rows
 whose change is beyond noise: |change| above --noise (default 0.05) and
-above twice the larger coefficient of variation (the cv aggregate) of the
-two runs; with per-sample entries on both sides, also a U test p-value
-below --alpha. The detail of google/benchmark's compare.py follows.
+above twice the larger relative spread of the two runs (1.4826 MAD / median
+from ek-bench's mad_ns counter, robust to a few disturbed samples; the cv
+aggregate for other files); with per-sample entries on both sides, also a
+U test p-value below --alpha. The detail of google/benchmark's compare.py follows.
 
 Options: --no-utest, --alpha A (U test significance, default 0.05),
 --filter REGEX (names, as compare.py's --benchmark_filter),
@@ -36,6 +37,8 @@ import sys
 TIME_UNITS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 UTEST_MIN_REPETITIONS = 2
 UTEST_OPTIMAL_REPETITIONS = 9
+# sigma = 1.4826 MAD for a normal sample (the unscaled MAD ek-bench writes).
+MAD_TO_SIGMA = 1.4826
 
 
 class BadInput(Exception):
@@ -269,15 +272,27 @@ def summarize(lhs, rhs, diff, noise, alpha):
         a, b = aggregate(lhs, name, "median"), aggregate(rhs, name, "median")
         if not a or not b or a["time_unit"] != b["time_unit"] or a["real_time"] <= 0 or b["real_time"] <= 0:
             continue
-        cvs = [x["real_time"] for x in (aggregate(lhs, name, "cv"), aggregate(rhs, name, "cv")) if x]
-        cv = max(cvs) if cvs else 0.0
+        # The spread of a row's samples: ek-bench's MAD over the median
+        # (robust: a few descheduled samples do not make the whole row
+        # noise), else the cv aggregate of Google Benchmark's files.
+        spreads = []
+        for m, side in ((a, lhs), (b, rhs)):
+            if isinstance(m.get("mad_ns"), (int, float)) and m["mad_ns"] >= 0:
+                spreads.append(MAD_TO_SIGMA * m["mad_ns"] / m["real_time"])
+            else:
+                cv_entry = aggregate(side, name, "cv")
+                if cv_entry:
+                    spreads.append(cv_entry["real_time"])
+        cv = max(spreads) if spreads else 0.0
         c = change(a["real_time"], b["real_time"])
         p = pvalues.get(name)
         beyond = abs(c) > max(noise, 2 * cv) and (p is None or p < alpha)
         rows.append({"name": name, "old": a["real_time"], "new": b["real_time"], "unit": a["time_unit"],
                      "change": c, "cv": cv, "pvalue": p, "beyond_noise": beyond})
     geo = math.exp(sum(math.log(1 + x["change"]) for x in rows) / len(rows)) - 1 if rows else None
-    return {"rows": rows, "geomean_change": geo}
+    changes = sorted(x["change"] for x in rows)
+    median = (changes[(len(changes) - 1) // 2] + changes[len(changes) // 2]) / 2 if rows else None
+    return {"rows": rows, "geomean_change": geo, "median_change": median}
 
 
 def print_summary(s, noise, top):
@@ -285,17 +300,18 @@ def print_summary(s, noise, top):
     print(f"Summary: {len(rows)} rows with a median in both files")
     if not rows:
         return
-    print(f"  geometric mean of the median changes: {s['geomean_change']:+.2%} (negative = faster)")
+    print(f"  geometric mean of the changes of the row medians: {s['geomean_change']:+.2%} "
+          f"(median change {s['median_change']:+.2%}; negative = faster)")
     beyond = sorted((x for x in rows if x["beyond_noise"]), key=lambda x: x["change"])
     faster = sum(1 for x in beyond if x["change"] < 0)
-    print(f"  beyond noise (|change| > max({noise:g}, 2 cv)): {len(beyond)} rows, "
+    print(f"  beyond noise (|change| > max({noise:g}, 2 sigma of either run)): {len(beyond)} rows, "
           f"{faster} faster, {len(beyond) - faster} slower; {len(rows) - len(beyond)} within noise")
     shown = beyond if len(beyond) <= top else beyond[: top // 2] + beyond[-(top - top // 2):]
     if shown:
         width = max(len(x["name"]) for x in shown)
         for x in shown:
             print(f"    {x['name']:<{width}} {x['change']:+8.1%}  {x['old']:10.4g} -> {x['new']:10.4g} {x['unit']}"
-                  f"  (cv {x['cv']:.1%})")
+                  f"  (sigma {x['cv']:.1%})")
         if len(shown) < len(beyond):
             print(f"    ... {len(beyond) - len(shown)} more beyond noise in the detail below")
     print()
