@@ -129,6 +129,9 @@ def verify_section(data, out):
 def extremes_section(data, out):
     rows = data.get("rows", [])
     out.append(f"## ek-verify --extremes: {len(rows)} rows, result {data.get('result', '?')}\n")
+    out.append("Rows per model, loop and status, both precisions: PASS / FAIL expected to survive; "
+               "xfail expected not to and did not; ok / broke no expectation (the table of "
+               "expectations and their sources is in verify/verify_extremes.c).\n")
     table = OrderedDict()
     keys = ("model", "loop", "status")
     for r in rows:
@@ -145,8 +148,9 @@ def extremes_section(data, out):
         out.append("")
     known = data.get("known_failures") or []
     if known:
-        out.append(f"Known failures ({len(known)}): " + "; ".join(
-            k if isinstance(k, str) else json.dumps(k) for k in known[:40]) + ("; ..." if len(known) > 40 else ""))
+        out.append(f"Known failures ({len(known)}; rows expected to survive that did not, which "
+                   "make `ek-verify --extremes` exit 1):\n")
+        out.extend(f"- {k if isinstance(k, str) else json.dumps(k)}" for k in known)
         out.append("")
 
 
