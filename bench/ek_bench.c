@@ -656,6 +656,7 @@ int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
   omp_env_defaults("ek-bench", argv);
+  ek_results_set_program("ek-bench"); // the harness's messages say who prints them
   // As in ek-sim: HDF5 < 1.14.1 crashes in its exit handler on a file whose
   // close failed (a full disk); every file is closed here explicitly.
   H5dont_atexit();
