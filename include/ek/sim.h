@@ -523,7 +523,10 @@ typedef struct ek_frames ek_frames;
 //   /frames/positions/NNNNNN               nverts x 3 double
 //   /frames/J/NNNNNN, /frames/smin/NNNNNN  ntets double
 //   /frames/energy_density_from_rest/NNNNNN ntets double
-// with NNNNNN the frame index (0-based, at least 6 digits). The XDMF (3.0)
+// with NNNNNN the frame index (0-based, at least 6 digits); every field of
+// ek_frame_fields has its group; each group and mesh dataset has the string
+// attributes "units" and "description", the root "ek_version" and
+// "element" (docs/outputs.md lists them all). The XDMF (3.0)
 // is a temporal collection of one grid per frame whose data items are
 // these whole datasets, the positions also as a point vector "positions";
 // it names the HDF5 file by its base name, XML-escaped. The energy density
