@@ -66,6 +66,15 @@ static void run_steps(void *p) {
   }
 }
 
+// The library's pending warning for a row's sim (ek_sim_warning: a CFL or
+// Newton warning of its steps), as an ek-bench note on its own line. Read
+// after the row, not inside the timed steps.
+static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim) {
+  const char *w = sim ? ek_sim_warning(sim) : NULL;
+  if (w)
+    ek_bench_note(b, "warning: %s: %s", name, w);
+}
+
 // A shipped scene by name, from the build or the installed tree
 // (sim/scene_find.h); the error names every path tried.
 static int load_shipped(const char *name, ek_scene *scene, char *err, size_t errlen) {
@@ -251,7 +260,9 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
           row.isa = isa;
         row.precision = scene.precision == 32 ? "f32" : "f64";
       }
-      if (ek_bench_run(b, &row) != 0 || ctx.failed) {
+      const int run_rc = ek_bench_run(b, &row);
+      note_sim_warning(b, name, ctx.sim);
+      if (run_rc != 0 || ctx.failed) {
         rc = -1;
         ek_sim_destroy(ctx.sim);
         continue;
@@ -396,6 +407,7 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
                             .ctx = &ctx};
         if (ek_bench_run(b, &row) != 0)
           rc = -1;
+        note_sim_warning(b, name, ctx.sim);
         if (ctx.sim && !ctx.failed) {
           ek_sim_times before, after;
           double n = phase_timed_steps(ctx.sim, &before, &after);
@@ -586,6 +598,7 @@ int bench_sim(ek_bench *b) {
                           .ctx = &ctx};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
+      note_sim_warning(b, name, ctx.sim);
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
       } else if (ctx.sim && !ctx.failed && xpbd) {

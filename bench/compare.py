@@ -14,9 +14,18 @@ files have at least 2 (ek-bench writes one entry per sample with
 --samples); and OVERALL_GEOMEAN, the change of the geometric means of the
 non-aggregate entries' times. Negative changes are faster.
 
+The summary comes first: per row (run_name) the change of the median
+aggregate (ek-bench writes one per row), their geometric mean, and the rows
+whose change is beyond noise: |change| above --noise (default 0.05) and
+above twice the larger relative spread of the two runs (1.4826 MAD / median
+from ek-bench's mad_ns counter, robust to a few disturbed samples; the cv
+aggregate for other files); with per-sample entries on both sides, also a
+U test p-value below --alpha. The detail of google/benchmark's compare.py follows.
+
 Options: --no-utest, --alpha A (U test significance, default 0.05),
 --filter REGEX (names, as compare.py's --benchmark_filter),
---display-aggregates-only, --dump-to-json FILE (the report as JSON).
+--display-aggregates-only, --dump-to-json FILE (the report as JSON),
+--noise F, --top N (rows beyond noise listed, default 20), --summary-only.
 Exit status: 0 compared, 1 a file is not valid benchmark JSON, 2 usage.
 """
 import argparse
@@ -28,6 +37,8 @@ import sys
 TIME_UNITS = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}
 UTEST_MIN_REPETITIONS = 2
 UTEST_OPTIMAL_REPETITIONS = 9
+# sigma = 1.4826 MAD for a normal sample (the unscaled MAD ek-bench writes).
+MAD_TO_SIGMA = 1.4826
 
 
 class BadInput(Exception):
@@ -239,6 +250,73 @@ def report(lhs, rhs, utest=True):
     return out
 
 
+def aggregate(runs, run_name, which):
+    for r in runs:
+        if r.get("run_type") == "aggregate" and (r.get("run_name") or r["name"]) == run_name \
+                and r.get("aggregate_name") == which and comparable(r):
+            return r
+    return None
+
+
+def summarize(lhs, rhs, diff, noise, alpha):
+    """Per row in both files: the change of its median (real time), the
+    geometric mean of (1 + change) over the rows, and the rows beyond noise
+    (see the module's docstring), sorted by change."""
+    pvalues = {d["name"]: d["utest"]["time_pvalue"] for d in diff if d["utest"]}
+    rows, seen = [], set()
+    for r in lhs:
+        name = r.get("run_name") or r["name"]
+        if name in seen:
+            continue
+        seen.add(name)
+        a, b = aggregate(lhs, name, "median"), aggregate(rhs, name, "median")
+        if not a or not b or a["time_unit"] != b["time_unit"] or a["real_time"] <= 0 or b["real_time"] <= 0:
+            continue
+        # The spread of a row's samples: ek-bench's MAD over the median
+        # (robust: a few descheduled samples do not make the whole row
+        # noise), else the cv aggregate of Google Benchmark's files.
+        spreads = []
+        for m, side in ((a, lhs), (b, rhs)):
+            if isinstance(m.get("mad_ns"), (int, float)) and m["mad_ns"] >= 0:
+                spreads.append(MAD_TO_SIGMA * m["mad_ns"] / m["real_time"])
+            else:
+                cv_entry = aggregate(side, name, "cv")
+                if cv_entry:
+                    spreads.append(cv_entry["real_time"])
+        cv = max(spreads) if spreads else 0.0
+        c = change(a["real_time"], b["real_time"])
+        p = pvalues.get(name)
+        beyond = abs(c) > max(noise, 2 * cv) and (p is None or p < alpha)
+        rows.append({"name": name, "old": a["real_time"], "new": b["real_time"], "unit": a["time_unit"],
+                     "change": c, "cv": cv, "pvalue": p, "beyond_noise": beyond})
+    geo = math.exp(sum(math.log(1 + x["change"]) for x in rows) / len(rows)) - 1 if rows else None
+    changes = sorted(x["change"] for x in rows)
+    median = (changes[(len(changes) - 1) // 2] + changes[len(changes) // 2]) / 2 if rows else None
+    return {"rows": rows, "geomean_change": geo, "median_change": median}
+
+
+def print_summary(s, noise, top):
+    rows = s["rows"]
+    print(f"Summary: {len(rows)} rows with a median in both files")
+    if not rows:
+        return
+    print(f"  geometric mean of the changes of the row medians: {s['geomean_change']:+.2%} "
+          f"(median change {s['median_change']:+.2%}; negative = faster)")
+    beyond = sorted((x for x in rows if x["beyond_noise"]), key=lambda x: x["change"])
+    faster = sum(1 for x in beyond if x["change"] < 0)
+    print(f"  beyond noise (|change| > max({noise:g}, 2 sigma of either run)): {len(beyond)} rows, "
+          f"{faster} faster, {len(beyond) - faster} slower; {len(rows) - len(beyond)} within noise")
+    shown = beyond if len(beyond) <= top else beyond[: top // 2] + beyond[-(top - top // 2):]
+    if shown:
+        width = max(len(x["name"]) for x in shown)
+        for x in shown:
+            print(f"    {x['name']:<{width}} {x['change']:+8.1%}  {x['old']:10.4g} -> {x['new']:10.4g} {x['unit']}"
+                  f"  (sigma {x['cv']:.1%})")
+        if len(shown) < len(beyond):
+            print(f"    ... {len(beyond) - len(shown)} more beyond noise in the detail below")
+    print()
+
+
 def print_report(diff, aggregates_only, alpha):
     width = max([len("Benchmark")] + [len(d["name"]) + len("_pvalue") for d in diff])
     head = f"{'Benchmark':<{width}} {'Time':>9} {'CPU':>9} {'Time Old':>12} {'Time New':>12} {'CPU Old':>12} {'CPU New':>12}"
@@ -273,6 +351,9 @@ def main(argv):
     p.add_argument("--filter", default=None, help="only names matching this regex")
     p.add_argument("--display-aggregates-only", action="store_true")
     p.add_argument("--dump-to-json", default=None, help="also write the report to this file")
+    p.add_argument("--noise", type=float, default=0.05, help="smallest relative change reported as beyond noise")
+    p.add_argument("--top", type=int, default=20, help="rows beyond noise listed in the summary")
+    p.add_argument("--summary-only", action="store_true", help="print the summary, not the detail")
     args = p.parse_args(argv)
     try:
         lhs = load(args.baseline, args.filter)
@@ -282,7 +363,9 @@ def main(argv):
         return 1
     diff = report(lhs, rhs, utest=not args.no_utest)
     print(f"Comparing {args.baseline} to {args.contender}")
-    print_report(diff, args.display_aggregates_only, args.alpha)
+    print_summary(summarize(lhs, rhs, diff, args.noise, args.alpha), args.noise, args.top)
+    if not args.summary_only:
+        print_report(diff, args.display_aggregates_only, args.alpha)
     if args.dump_to_json:
         with open(args.dump_to_json, "w") as f:
             json.dump(diff, f, indent=1)

@@ -48,6 +48,11 @@ enum { NFAMILIES = sizeof families / sizeof families[0] };
 
 _Static_assert(EK_BENCH_NAME_MAX == EK_RESULTS_NAME_MAX, "row name limits must agree");
 
+// The progress line's ETA: rows left times the running mean of the last
+// ETA_WINDOW rows' wall times (setup included), so a run of slow rows (the
+// sim family's) raises it within a few rows, unlike a mean since the start.
+enum { ETA_WINDOW = 16 };
+
 struct ek_bench {
   // options
   int has_filter;
@@ -73,6 +78,9 @@ struct ek_bench {
   int second_passes;         // rows timed a second time (capped)
   int second_passes_skipped; // rows that wanted one past the cap
   char notes[2048];
+  double row_start;                    // wall time the current row started
+  double row_s[ETA_WINDOW], row_s_sum; // the last rows' wall times, for the ETA
+  int rows_timed;
   ek_results results;
   ek_machine machine;
 };
@@ -132,9 +140,10 @@ double ek_bench_median_ns(const ek_bench *b, const char *name) {
 static void vnote(ek_bench *b, const char *prefix, const char *fmt, va_list ap) {
   char msg[512];
   vsnprintf(msg, sizeof msg, fmt, ap);
+  // On its own line, named: the progress line (\r) is cleared first.
   if (b->tty)
     fputs("\r\033[K", stderr);
-  fprintf(stderr, "%s%s\n", prefix, msg);
+  fprintf(stderr, "ek-bench: %s%s\n", prefix, msg);
   size_t used = strlen(b->notes);
   if (used + strlen(msg) + 3 < sizeof b->notes)
     snprintf(b->notes + used, sizeof b->notes - used, "%s%s%s", used ? "; " : "", prefix, msg);
@@ -238,8 +247,15 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
     return 0;
   }
   b->index++;
-  if (b->tty)
-    fprintf(stderr, "\r\033[K[%d/%d] %s ...", b->index, b->total, row->name);
+  if (b->tty) {
+    const int k = b->rows_timed < ETA_WINDOW ? b->rows_timed : ETA_WINDOW;
+    if (k > 0)
+      fprintf(stderr, "\r\033[K[%d/%d] %s ... (eta %.0f s)", b->index, b->total, row->name,
+              b->row_s_sum / k * (b->total - b->index + 1));
+    else
+      fprintf(stderr, "\r\033[K[%d/%d] %s ...", b->index, b->total, row->name);
+  }
+  b->row_start = omp_get_wtime();
   omp_set_num_threads(row->threads);
   ek_timing t;
   if (ek_time(row->fn, row->ctx, row->items, &b->timer, &t) != 0) {
@@ -317,6 +333,11 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
           b->tty ? "\r\033[K" : "", b->index, b->total, row->name, r->stats.median, r->stats.min,
           100 * r->stats.mad / r->stats.median, passes > 1 ? ", 2 passes" : "",
           flags[0] ? ", flags " : "", flags, b->tty ? "" : "\n");
+  double *slot = &b->row_s[b->rows_timed % ETA_WINDOW];
+  const double row_s = omp_get_wtime() - b->row_start;
+  b->row_s_sum += row_s - (b->rows_timed >= ETA_WINDOW ? *slot : 0);
+  *slot = row_s;
+  b->rows_timed++;
   return 0;
 }
 
@@ -635,6 +656,7 @@ int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
   omp_env_defaults("ek-bench", argv);
+  ek_results_set_program("ek-bench"); // the harness's messages say who prints them
   // As in ek-sim: HDF5 < 1.14.1 crashes in its exit handler on a file whose
   // close failed (a full disk); every file is closed here explicitly.
   H5dont_atexit();

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "kernels.h" // ek_kernels_for: the fma_probe entries of each ISA
+#include "results.h" // ek_results_program: the name messages start with
 #include "timer.h"
 
 void ek_machine_init(ek_machine *m) {
@@ -47,8 +48,8 @@ static void peak_call(void *p) {
 double ek_machine_measure_peak(ek_isa isa, int f64, int threads, double min_time) {
   const ek_kernel_table *k = ek_kernels_for(isa);
   if (!k || threads < 1) {
-    fprintf(stderr, "ek machine: cannot measure peak of ISA '%s' at %d threads\n", ek_isa_name(isa),
-            threads);
+    fprintf(stderr, "%s: cannot measure peak of ISA '%s' at %d threads\n", ek_results_program(),
+            ek_isa_name(isa), threads);
     return NAN;
   }
   // 2^16 rounds: a call of a fraction of a millisecond, long next to the
@@ -98,7 +99,7 @@ double ek_machine_measure_triad(int threads, double array_bytes, double min_time
   t.c = aligned_alloc(64, bytes);
   double gbs = NAN;
   if (!t.a || !t.b || !t.c || threads < 1) {
-    fprintf(stderr, "ek machine: cannot allocate 3 x %.0f MiB for the triad\n",
+    fprintf(stderr, "%s: cannot allocate 3 x %.0f MiB for the triad\n", ek_results_program(),
             array_bytes / (1 << 20));
   } else {
     // First touch with the triad's own schedule: each thread's pages are
@@ -184,7 +185,8 @@ int ek_machine_measure(ek_machine *m, const int *threads, int nthreads, double m
   for (int i = 0; i < nthreads; i++) {
     int t = threads[i];
     if (t < 1 || t > EK_MACHINE_MAX_THREADS) {
-      fprintf(stderr, "ek machine: thread count %d outside 1..%d\n", t, EK_MACHINE_MAX_THREADS);
+      fprintf(stderr, "%s: thread count %d outside 1..%d\n", ek_results_program(), t,
+              EK_MACHINE_MAX_THREADS);
       rc = -1;
       continue;
     }

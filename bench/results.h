@@ -183,6 +183,10 @@ int ek_results_write_h5_with(const char *who, const char *path, int force, const
                              int (*body)(long long file, const void *ctx), const void *ctx);
 // A text file: text and a newline; frees text.
 int ek_results_write_text(const char *who, const char *path, char *text, int force);
+// The name the harness's messages (results files, machine probes) start
+// with: the running program's (ek-bench sets it), "ek results" until set.
+void ek_results_set_program(const char *name);
+const char *ek_results_program(void);
 
 #ifdef __cplusplus
 }

@@ -34,6 +34,7 @@
 
 #include "advise.h"
 #include "cli.h"
+#include "ek_git_revision.h"
 #include "omp_env.h"
 #include "scene_find.h"
 
@@ -157,6 +158,70 @@ static int box_fits_memory(const ek_scene *s) {
           s->path, s->box_cells[0], s->box_cells[1], s->box_cells[2], tets, need / 1e9,
           BOX_BYTES_PER_TET, have / 1e9);
   return EK_EXIT_FAILED;
+}
+
+// The run, as attributes of the frames file (docs/outputs.md).
+static int describe_frames(ek_frames *frames, const ek_scene *s, const ek_sim *sim, char *err,
+                           size_t errlen) {
+  const ek_frames_info info = {.program = "ek-sim",
+                               .scene = s->path,
+                               .model = s->model_name,
+                               .precision = s->precision == 32 ? "f32" : "f64",
+                               .integrator = ek_sim_integrator_name(sim),
+                               .git_revision = EK_BUILD_GIT_REVISION};
+  if (ek_frames_set_info(frames, &info) == 0)
+    return 0;
+  snprintf(err, errlen, "%s", ek_last_error());
+  return EK_EIO;
+}
+
+// The ETA from a running mean of the recent steps' wall times (frames
+// included): a mean since the start misleads when the steps change speed
+// (issue 23: a 240 s bracket run's ETA said 80 s). The mean is over the
+// last ETA_SPAN_S seconds (from (time, step) marks taken every
+// ETA_MARK_S), or over the last ETA_MIN_STEPS steps where those seconds
+// hold fewer: long enough to average fast steps' jitter and the
+// phase-timed step in ten, short enough to follow slow steps.
+enum { ETA_MARKS = 32, ETA_MIN_STEPS = 4 };
+#define ETA_SPAN_S 5.0
+#define ETA_MARK_S 0.25
+typedef struct {
+  double mark_t[ETA_MARKS]; // a ring of (time, steps done) marks
+  long mark_n[ETA_MARKS];
+  long nmarks;
+  double end[ETA_MIN_STEPS + 1]; // a ring: the end of the last steps
+  long n;                        // steps done
+} eta_mean;
+static void eta_init(eta_mean *e, double t_start) {
+  memset(e, 0, sizeof *e);
+  e->mark_t[0] = t_start;
+  e->nmarks = 1;
+  e->end[0] = t_start; // "step 0" ends at the start
+}
+static void eta_add(eta_mean *e, double t_end) {
+  e->n++;
+  e->end[e->n % (ETA_MIN_STEPS + 1)] = t_end;
+  if (t_end - e->mark_t[(e->nmarks - 1) % ETA_MARKS] >= ETA_MARK_S) {
+    e->mark_t[e->nmarks % ETA_MARKS] = t_end;
+    e->mark_n[e->nmarks % ETA_MARKS] = e->n;
+    e->nmarks++;
+  }
+}
+static double eta_seconds(const eta_mean *e, long remaining) {
+  if (e->n == 0)
+    return 0;
+  const double t = e->end[e->n % (ETA_MIN_STEPS + 1)];
+  // The oldest mark within the span.
+  long first = e->nmarks > ETA_MARKS ? e->nmarks - ETA_MARKS : 0, m = e->nmarks - 1;
+  while (m > first && t - e->mark_t[(m - 1) % ETA_MARKS] <= ETA_SPAN_S)
+    m--;
+  long k = e->n - e->mark_n[m % ETA_MARKS];
+  double span = t - e->mark_t[m % ETA_MARKS];
+  if (k < ETA_MIN_STEPS) { // slow steps: the last few
+    k = e->n < ETA_MIN_STEPS ? e->n : ETA_MIN_STEPS;
+    span = t - e->end[(e->n - k) % (ETA_MIN_STEPS + 1)];
+  }
+  return span / (double)k * (double)remaining;
 }
 
 // The library's pending warning (ek_sim_warning), on its own line.
@@ -773,6 +838,8 @@ int main(int argc, char **argv) {
       ek_trimesh_destroy(trimesh);
       return 1;
     }
+    if (describe_frames(frames, &scene, sim, err, sizeof err) != 0)
+      fprintf(stderr, "ek-sim: warning: %s (the frames are written without them)\n", err);
   }
   t_setup = now() - t_setup;
   if (cloth)
@@ -792,6 +859,8 @@ int main(int argc, char **argv) {
   double t_output = 0;
   int rc = 0, tty = isatty(fileno(stderr));
   double t_start = now(), t_last_progress = t_start;
+  eta_mean eta_steps;
+  eta_init(&eta_steps, t_start);
   long stopped_at = -1;   // the step a signal stopped the run before
   int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
@@ -843,16 +912,17 @@ int main(int argc, char **argv) {
                tm->xpbd_last_residual, tm->xpbd_last_cmax);
     }
     double t = now();
+    eta_add(&eta_steps, t);
     if (t - t_last_progress > 0.5 || n + 1 == steps) {
       t_last_progress = t;
       double frac = (double)(n + 1) / (double)steps;
-      double eta = (t - t_start) * (1.0 - frac) / frac;
+      double eta = eta_seconds(&eta_steps, steps - (n + 1));
       if (tty)
         fprintf(stderr, "\r  step %ld / %ld  (%5.1f%%)  t = %.4g s  eta %.1f s   ", n + 1, steps,
                 100.0 * frac, ek_sim_time(sim), eta);
       else if ((n + 1) % (steps / 10 > 0 ? steps / 10 : 1) == 0)
-        fprintf(stderr, "  step %ld / %ld  (%5.1f%%)  t = %.4g s\n", n + 1, steps, 100.0 * frac,
-                ek_sim_time(sim));
+        fprintf(stderr, "  step %ld / %ld  (%5.1f%%)  t = %.4g s  eta %.1f s\n", n + 1, steps,
+                100.0 * frac, ek_sim_time(sim), eta);
     }
   }
   double wall = now() - t_start;

@@ -46,5 +46,6 @@ int ek_frames_write_errbuf(ek_frames *fr, double time, long step, const double *
 int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const double *x,
                                   const ek_frame_fields *fields, char *err, size_t errlen);
 int ek_frames_close_errbuf(ek_frames *fr, char *err, size_t errlen);
+int ek_frames_set_info_errbuf(ek_frames *fr, const ek_frames_info *info, char *err, size_t errlen);
 
 #endif

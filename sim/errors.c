@@ -153,6 +153,14 @@ int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *
   return rc;
 }
 
+int ek_frames_set_info(ek_frames *fr, const ek_frames_info *info) {
+  char err[EK_ERRBUF_LEN] = "";
+  int rc = ek_frames_set_info_errbuf(fr, info, err, sizeof err);
+  if (rc != 0)
+    ek_set_error("%s", err);
+  return rc;
+}
+
 int ek_frames_close(ek_frames *fr) {
   char err[EK_ERRBUF_LEN] = "";
   int rc = ek_frames_close_errbuf(fr, err, sizeof err);

@@ -282,6 +282,119 @@ static hid_t file_access(void) {
   return fapl;
 }
 
+// ------------------------------------------------------------ attributes
+// What a reader needs to interpret the file without ek's sources
+// (docs/outputs.md lists the same): "units" and "description" on each
+// dataset group and mesh dataset, ek's version and the element kind on the
+// file at creation, and the run (scene, model, precision, ...) from
+// ek_frames_set_info. Attributes only: the datasets' bytes are the same with
+// or without them (tools/hash_scenes.sh hashes datasets).
+#ifndef EK_VERSION_STRING
+#define EK_VERSION_STRING "unknown"
+#endif
+
+// A variable-length UTF-8 string attribute on `loc` (replaced if present):
+// h5py reads it as str, h5dump and ParaView show it as text.
+static int attr_string(hid_t loc, const char *name, const char *value) {
+  if (H5Aexists(loc, name) > 0 && H5Adelete(loc, name) < 0)
+    return -1;
+  hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  hid_t space = H5Screate(H5S_SCALAR);
+  hid_t a = H5Acreate2(loc, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  herr_t rc = a < 0 ? -1 : H5Awrite(a, type, &value);
+  if (a >= 0)
+    H5Aclose(a);
+  H5Sclose(space);
+  H5Tclose(type);
+  return rc < 0 ? -1 : 0;
+}
+
+// "units" and "description" on the object at `path` (a group or dataset).
+static int attr_doc(hid_t file, const char *path, const char *units, const char *description) {
+  hid_t o = H5Oopen(file, path, H5P_DEFAULT);
+  if (o < 0)
+    return -1;
+  int rc = attr_string(o, "units", units) | attr_string(o, "description", description);
+  H5Oclose(o);
+  return rc ? -1 : 0;
+}
+
+// Units and descriptions of the frame fields (fields_spec's order), for
+// tets and for triangles where they differ (sim.h: ek_sim_tet_fields,
+// ek_sim_cloth_fields, ek_sim_rate_fields, ek_sim_vertex_rotations).
+static const char *const field_units[NFIELDS] = {"1", "1", "J/m^3", "1", "1/s", "1/s", "1/s", "1"};
+static const char *const field_text_tet[NFIELDS] = {
+    "per tet: J = det F, the volume ratio (current / rest volume)",
+    "per tet: the smallest signed singular value of F (negative when inverted)",
+    "per tet: Psi(F) - Psi(F_rest), elastic energy per unit rest volume, 0 at rest; "
+    "sum of V0 * value = the elastic energy",
+    "",
+    "per tet: rate of deformation D = (L + L^T) / 2 of the velocity gradient L = dF/dt F^-1, "
+    "3x3 row-major",
+    "per tet: spin W = (L - L^T) / 2 of the velocity gradient L, 3x3 row-major",
+    "per tet: the principal strain rates, the eigenvalues of D, descending",
+    "per vertex: the rotation (3x3 row-major) that best maps the vertex's one-ring from rest "
+    "to current positions (Kabsch)"};
+static const char *const field_text_tri[NFIELDS] = {
+    "per triangle: the area ratio (current / rest area)",
+    "per triangle: the smaller in-plane stretch (singular value of the 3x2 F)",
+    "per triangle: membrane energy per unit rest area of the sheet (Psi h), from the rest "
+    "shape",
+    "per triangle: the larger in-plane stretch (singular value of the 3x2 F)",
+    "per triangle: rate of deformation D = (L + L^T) / 2 of the surface velocity gradient "
+    "L = dF/dt F^+, 3x3 row-major",
+    "per triangle: spin W = (L - L^T) / 2 of the surface velocity gradient L, 3x3 row-major",
+    "per triangle: the two in-plane principal strain rates (larger first), then 0",
+    "per vertex: the rotation (3x3 row-major) that best maps the vertex's one-ring from rest "
+    "to current positions (Kabsch)"};
+
+// The attributes known at creation, on an open file that create_base built.
+static int write_base_attrs(const ek_frames *fr, hid_t f) {
+  const int tri = fr->nodes == 3;
+  char path[96];
+  int rc = attr_string(f, "ek_version", EK_VERSION_STRING) |
+           attr_string(f, "element", tri ? "triangle" : "tetrahedron") |
+           attr_string(f, "layout",
+                       "/frames/<field>/<frame, 6 digits>: one dataset per frame "
+                       "and field; docs/outputs.md") |
+           attr_doc(f, "/mesh/vertices", "m", "rest positions, nverts x 3") |
+           attr_doc(f, tri ? "/mesh/triangles" : "/mesh/tets", "1",
+                    tri ? "vertex indices (0-based) of each triangle"
+                        : "vertex indices (0-based) of each tet, positive orientation") |
+           attr_doc(f, "/frames/time", "s", "simulated time of each frame") |
+           attr_doc(f, "/frames/step", "1", "step number of each frame (0 = initial state)") |
+           attr_doc(f, "/frames/positions", "m", "current vertex positions, nverts x 3");
+  if (tri)
+    rc |= attr_doc(f, "/frames/energy_density_from_rest", "J/m^2",
+                   field_text_tri[2]); // per unit area
+  for (int i = 0; i < NFIELDS; ++i) {
+    if (!fr->has[i] || (tri && i == 2))
+      continue;
+    snprintf(path, sizeof path, "/frames/%s", fields_spec[i].name);
+    rc |= attr_doc(f, path, field_units[i], tri ? field_text_tri[i] : field_text_tet[i]);
+  }
+  return rc ? -1 : 0;
+}
+
+// The run's attributes on one closed file; 0 or -1.
+static int write_info_attrs(const char *file, const ek_frames_info *in) {
+  hid_t f = H5Fopen(file, H5F_ACC_RDWR, H5P_DEFAULT);
+  if (f < 0)
+    return -1;
+  const char *names[] = {"program", "scene", "model", "precision", "integrator", "git_revision"};
+  const char *values[] = {in->program,   in->scene,      in->model,
+                          in->precision, in->integrator, in->git_revision};
+  int rc = 0;
+  for (int i = 0; i < 6; ++i)
+    if (values[i])
+      rc |= attr_string(f, names[i], values[i]);
+  if (H5Fclose(f) < 0)
+    rc = -1;
+  return rc ? -1 : 0;
+}
+
 // Create `file` (truncating) with the rest mesh and no frames; closed on
 // return. Returns 0, or -1 with what failed in *what.
 static int create_base(const ek_frames *fr, const char *file, const double *X, const int32_t *tets,
@@ -316,6 +429,10 @@ static int create_base(const ek_frames *fr, const char *file, const double *X, c
     }
     if (frames >= 0)
       H5Gclose(frames);
+  }
+  if (ok) {
+    *what = "write the attributes of";
+    ok = write_base_attrs(fr, f) == 0;
   }
   if (H5Fclose(f) < 0 && ok) {
     *what = "close";
@@ -760,4 +877,39 @@ int ek_frames_close_errbuf(ek_frames *fr, char *err, size_t errlen) {
     snprintf(err, errlen, "%s: closing failed: %s", fr->xdmf_path, strerror(errno));
   destroy(fr);
   return rc ? EK_EIO : 0;
+}
+
+int ek_frames_set_info_errbuf(ek_frames *fr, const ek_frames_info *info, char *err, size_t errlen) {
+  if (err && errlen)
+    err[0] = '\0';
+  if (!fr || !info || fr->nframes != 0 || fr->failed) {
+    if (err && errlen)
+      snprintf(err, errlen, "ek_frames_set_info: no open frames, or frames already written");
+    return EK_EINVAL;
+  }
+  // As a frame is committed: into the scratch copy (never yet at `path`,
+  // so no reader holds it), swap, then the other copy, now the scratch. A
+  // reader may hold that one open (HDF5's lock refuses the writer): then,
+  // as for a frame, the scratch becomes a fresh byte copy of `path`, which
+  // has the attributes. `path` is a closed, whole file throughout.
+  h5_quiet q;
+  quiet_on(&q);
+  errno = 0;
+  int wrote = write_info_attrs(fr->scratch_path, info) == 0;
+  int ok = wrote && swap_files(fr) == 0;
+  if (ok && write_info_attrs(fr->scratch_path, info) != 0)
+    ok = scratch_from_committed(fr) == 0;
+  // Not written: the scratch copy may hold a partial attribute; a copy of
+  // `path` replaces it, and the frames go on without the attributes.
+  int e = errno;
+  int usable = ok || (!wrote && scratch_from_committed(fr) == 0);
+  quiet_off(&q);
+  if (!ok) {
+    fr->failed = !usable;
+    if (err && errlen)
+      snprintf(err, errlen, "%s: cannot write its attributes (%s)%s", fr->h5path,
+               e ? strerror(e) : "HDF5 error", usable ? "" : "; no frames can follow");
+    return EK_EIO;
+  }
+  return 0;
 }

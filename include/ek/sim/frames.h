@@ -33,7 +33,10 @@ typedef struct ek_frames ek_frames;
 //   /frames/positions/NNNNNN               nverts x 3 double
 //   /frames/J/NNNNNN, /frames/smin/NNNNNN  ntets double
 //   /frames/energy_density_from_rest/NNNNNN ntets double
-// with NNNNNN the frame index (0-based, at least 6 digits). The XDMF (3.0)
+// with NNNNNN the frame index (0-based, at least 6 digits); every field of
+// ek_frame_fields has its group; each group and mesh dataset has the string
+// attributes "units" and "description", the root "ek_version" and
+// "element" (docs/outputs.md lists them all). The XDMF (3.0)
 // is a temporal collection of one grid per frame whose data items are
 // these whole datasets, the positions also as a point vector "positions";
 // it names the HDF5 file by its base name, XML-escaped. The energy density
@@ -78,6 +81,14 @@ long ek_frames_count(const ek_frames *fr);
 // Close the XDMF and remove the scratch copy (every frame is already in
 // `path`). 0 on success.
 int ek_frames_close(ek_frames *fr);
+// The run, as string attributes on the file's root (docs/outputs.md; the
+// units and description of every dataset are written at creation). NULL
+// members are not written. Call before the first frame: 0, EK_EINVAL
+// (frames already written) or EK_EIO, the message in ek_last_error.
+typedef struct {
+  const char *program, *scene, *model, *precision, *integrator, *git_revision;
+} ek_frames_info;
+int ek_frames_set_info(ek_frames *fr, const ek_frames_info *info);
 // Path of the XDMF companion of an HDF5 path (".h5" replaced by ".xmf", or
 // ".xmf" appended).
 void ek_frames_xdmf_path(const char *h5path, char *out, size_t outlen);
