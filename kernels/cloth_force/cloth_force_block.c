@@ -9,8 +9,8 @@
 //   corner i = -k_b k_i s (the gradient of k_b / 2 |s|^2).
 #include "../simd/simd.h"
 
+#include "../elements/tri_polar.h"
 #include "cloth_force_kernel.h"
-#include "cloth_polar.h"
 
 #if defined(EK_REAL_F32)
 typedef struct ek_cloth_force_args_f32 cloth_args;
