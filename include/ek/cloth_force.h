@@ -156,7 +156,11 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
 // to EK_CLOTH_MEMBRANE_TOL_F32/_F64 (max |q - q_ref| / max |q_ref|, and
 // |E - E_ref| / sum_t A_t |Psi_t| for the energy), checked against the
 // double reference by tests/test_cloth_force.c and ek-verify. The default
-// double paths keep their scalar form: their bits are every cloth scene's.
+// ek_cloth_energy_f64 / ek_cloth_hessian_apply_f64 run them for StVK (the
+// kernels follow the double path's operation order without fused
+// operations: the same bits as before on every ISA); for ARAP, and for
+// the diagonal blocks and fields, they stay scalar double (the vector
+// polar rounds differently, and those bits are every ARAP scene's).
 int ek_cloth_energy_ex_f32(const ek_cloth *cl, const ek_cloth_params *p, const float *x, double *E,
                            const ek_cloth_force_opts *opts);
 int ek_cloth_energy_ex_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x, double *E,

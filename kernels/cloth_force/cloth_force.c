@@ -281,10 +281,13 @@ int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, c
 
 #if defined(EK_REAL_F64)
 // ---------------------------------------------------------------------------
-// Double paths: energy, Hessian product, diagonal blocks, fields. The
-// default paths of the implicit loop and the frames, kept in plain double
-// with their operation order (their bits are every cloth scene's): the
-// vector forms above are their verified, benchmarked twins.
+// Double paths: energy, Hessian product, diagonal blocks, fields: the
+// default paths of the implicit loop and the frames. StVK's energy and
+// Hessian product run the vector kernels (written in the operation order
+// below, no fused operations: the same bits as this code on every ISA);
+// ARAP's, the diagonal blocks and the fields stay in plain double here
+// (the vector polar rounds differently from cloth_svd32_of, and their
+// bits are every ARAP scene's and ek-hash row's).
 
 // F = [x1-x0, x2-x0] Dm^-1 of triangle t (3x2 row-major).
 static void tri_F(const ek_cloth *cl, const double *x, size_t t, double F[6]) {
@@ -317,6 +320,11 @@ double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const d
   if (check_params("ek_cloth_energy_f64", cl, p) || !x)
     return NAN;
   double E = 0;
+  // StVK: the vector kernel, written in this path's operation order (the
+  // same bits on every ISA). ARAP stays here: the vector kernel's polar
+  // rounds differently from cloth_svd32_of.
+  if (p->model == EK_MEMBRANE_STVK)
+    return ek_cloth_energy_ex_f64(cl, p, x, &E, NULL) ? NAN : E;
   for (size_t t = 0; t < cl->nt; ++t) {
     double F[6];
     tri_F(cl, x, t, F);
@@ -445,6 +453,9 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
     ek_set_error("ek_cloth_hessian_apply_f64: NULL x, dx or q");
     return EK_EINVAL;
   }
+  // StVK: the vector kernel, in this path's operation order (above).
+  if (p->model == EK_MEMBRANE_STVK)
+    return ek_cloth_hessian_apply_ex_f64(cl, p, x, project, dx, q, NULL);
   ek_cloth *mut = (ek_cloth *)cl;
   double *tc = mut->tri_corner_f64, *hc = mut->hinge_corner_f64;
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;

@@ -21,6 +21,8 @@
 //
 // Padding lanes (area 0) read point 0 (F = 0): their results are set to 0
 // (ARAP's 1 / sigma is infinite there).
+#include <math.h>
+
 #include "../simd/simd.h"
 
 #include "../elements/tri_polar_vec.h"
@@ -60,8 +62,10 @@ static inline vreal membrane_psi(const cloth_args *a, const vreal F[6]) {
     tri_C(F, &C00, &C01, &C11);
     vreal E00 = vmul(half, vsub(C00, one)), E11 = vmul(half, vsub(C11, one));
     vreal E01 = vmul(half, C01), tr = vadd(E00, E11);
+    // The double path's order: mu (E00^2 + E11^2 + 2 E01^2) + ((lambda /
+    // 2) tr) tr (2 E01 E01 = 2 (E01 E01) exactly).
     vreal EE = vadd(vadd(vmul(E00, E00), vmul(E11, E11)), vmul(vset(2), vmul(E01, E01)));
-    return vadd(vmul(mu, EE), vmul(vmul(half, vset(a->lambda)), vmul(tr, tr)));
+    return vadd(vmul(mu, EE), vmul(vmul(vmul(half, vset(a->lambda)), tr), tr));
   }
   // ARAP: |F - R|^2 = sum (sigma_i - 1)^2.
   tri_svd_vec d;
@@ -92,6 +96,46 @@ void EK_SYM(cloth_membrane_energy_block)(const cloth_args *a, size_t b0, size_t 
 }
 
 // ---- Hessian product ----------------------------------------------------
+// The projection's fast-lane test (membrane_dP): m in (PD_MIN, PD_MAX) so
+// that m^2 neither underflows nor overflows, and m^2 (1 - PD_MARGIN) >=
+// r^2, a margin far above the few-ulp rounding of the test and of hypot.
+#if defined(EK_REAL_F32)
+#define PD_MIN 1e-18f
+#define PD_MAX 1e18f
+#define PD_MARGIN 1e-5f
+#define HYPOT hypotf
+#else
+#define PD_MIN 1e-150
+#define PD_MAX 1e150
+#define PD_MARGIN 1e-12
+#define HYPOT hypot
+#endif
+
+// S's negative eigenvalues to 0, lane by lane where !pd, in the double
+// path's operations (cloth_force.c membrane_dP): l0,1 = m +- r with r =
+// hypot((S00 - S11) / 2, S01); l1 < 0 < l0: S+ = l0 / (l0 - l1) (S - l1 I),
+// the projector onto l0's eigenvector scaled by l0; l0 <= 0: S+ = 0.
+static void stvk_project_lanes(vmask pd, vreal *S00, vreal *S11, vreal *S01) {
+  _Alignas(64) real a[EK_W], c[EK_W], b[EK_W], keep[EK_W];
+  vstore(a, *S00), vstore(c, *S11), vstore(b, *S01);
+  vstore(keep, vsel(pd, vset(1), vzero()));
+  for (int l = 0; l < EK_W; l++) {
+    if (keep[l] != 0)
+      continue;
+    real m = (real)0.5 * (a[l] + c[l]), r = HYPOT((real)0.5 * (a[l] - c[l]), b[l]);
+    real l0 = m + r, l1 = m - r;
+    if (l1 < 0) {
+      if (l0 <= 0) {
+        a[l] = c[l] = b[l] = 0;
+      } else {
+        real w = l0 / (l0 - l1);
+        a[l] = w * (a[l] - l1), c[l] = w * (c[l] - l1), b[l] = w * b[l];
+      }
+    }
+  }
+  *S00 = vload(a), *S11 = vload(c), *S01 = vload(b);
+}
+
 // dP of one vector of triangles for dF, projected when a->project.
 static inline void membrane_dP(const cloth_args *a, const vreal F[6], const vreal dF[6],
                                vreal dP[6]) {
@@ -104,17 +148,17 @@ static inline void membrane_dP(const cloth_args *a, const vreal F[6], const vrea
     vreal ltr = vmul(lam, vadd(E00, E11));
     vreal S00 = vadd(vmul(mu2, E00), ltr), S11 = vadd(vmul(mu2, E11), ltr), S01 = vmul(mu2, E01);
     if (a->project) {
-      // S's negative eigenvalues to 0 (2x2 symmetric, closed form):
-      // l0,1 = m +- r; l1 < 0 < l0: S+ = l0 (S - l1 I) / (l0 - l1).
+      // S's negative eigenvalues to 0 (2x2 symmetric): lanes where S is
+      // clearly positive definite keep it (l1 = m - r > 0 with a margin far
+      // above the rounding of r, so the double path's l1 is >= 0 too); the
+      // others take the double path's closed form lane by lane, with its
+      // hypot (stvk_project_lanes), so the f64 product keeps its bits.
       vreal m = vmul(half, vadd(S00, S11)), dh = vmul(half, vsub(S00, S11));
-      vreal r = vsqrt(vadd(vmul(dh, dh), vmul(S01, S01)));
-      vreal l0 = vadd(m, r), l1 = vsub(m, r);
-      vmask neg = vlt(l1, zero), none = vle(l0, zero);
-      vreal w = vdiv(l0, vsel(neg, vsub(l0, l1), one));
-      vreal P00 = vsel(none, zero, vmul(w, vsub(S00, l1)));
-      vreal P11 = vsel(none, zero, vmul(w, vsub(S11, l1)));
-      vreal P01 = vsel(none, zero, vmul(w, S01));
-      S00 = vsel(neg, P00, S00), S11 = vsel(neg, P11, S11), S01 = vsel(neg, P01, S01);
+      vreal r2 = vadd(vmul(dh, dh), vmul(S01, S01));
+      vmask pd = vmand(vmand(vgt(m, vset(PD_MIN)), vlt(m, vset(PD_MAX))),
+                       vge(vmul(vmul(m, m), vset(1 - PD_MARGIN)), r2));
+      if (!vall(pd))
+        stvk_project_lanes(pd, &S00, &S11, &S01);
     }
     // dE = sym(F^T dF), dS = 2 mu dE + lambda tr(dE) I.
     vreal G00 = vadd(vadd(vmul(F[0], dF[0]), vmul(F[2], dF[2])), vmul(F[4], dF[4]));
@@ -126,9 +170,10 @@ static inline void membrane_dP(const cloth_args *a, const vreal F[6], const vrea
     vreal dS01 = vmul(mu2, dE01);
     for (int i = 0; i < 3; i++) {
       const vreal f0 = F[2 * i], f1 = F[2 * i + 1], d0 = dF[2 * i], d1 = dF[2 * i + 1];
-      dP[2 * i] = vadd(vadd(vmul(d0, S00), vmul(d1, S01)), vadd(vmul(f0, dS00), vmul(f1, dS01)));
+      // Summed left to right, as the double path.
+      dP[2 * i] = vadd(vadd(vadd(vmul(d0, S00), vmul(d1, S01)), vmul(f0, dS00)), vmul(f1, dS01));
       dP[2 * i + 1] =
-          vadd(vadd(vmul(d0, S01), vmul(d1, S11)), vadd(vmul(f0, dS01), vmul(f1, dS11)));
+          vadd(vadd(vadd(vmul(d0, S01), vmul(d1, S11)), vmul(f0, dS01)), vmul(f1, dS11));
     }
     return;
   }
