@@ -21,11 +21,12 @@
 //       vector energy / projected Hessian product of a cloth
 //       (ek_cloth_energy_ex_*, ek_cloth_hessian_apply_ex_*, membrane
 //       kernels + bending + gather) per triangle, on a 64 x 64 grid (8192
-//       triangles, crumpled); baseline: the double path of the same model
+//       triangles, crumpled); baseline: the default path of the same model
 //       and threads,
-//   cloth/membrane_{energy,hessian}/<model>/double/f64/threads:T  the
-//       default scalar double ek_cloth_energy_f64 /
-//       ek_cloth_hessian_apply_f64 (project = 1).
+//   cloth/membrane_{energy,hessian}/<model>/default/f64/threads:T  the
+//       default ek_cloth_energy_f64 / ek_cloth_hessian_apply_f64
+//       (project = 1): scalar double for ARAP, the vector kernels (auto
+//       ISA, the double path's bits) for StVK.
 // Inputs: seeded Gaussian F / rotated noisy point sets / a jittered grid.
 #include <ek/batch.h>
 #include <ek/cloth.h>
@@ -160,7 +161,7 @@ static void free_kabsch(kabsch_ctx *c) {
 // ---- Membrane energy and Hessian product ---------------------------------
 #define MEMBRANE_N 64
 typedef struct {
-  int f64, hessian, plain, rc; // plain: the default double path
+  int f64, hessian, plain, rc; // plain: the default f64 path
   ek_isa isa;
   ek_cloth_params p;
   ek_cloth *cl;
@@ -312,17 +313,17 @@ int bench_cloth(ek_bench *b) {
           timed(b, &row, &c.rc);
           free_polar(&c);
         }
-        // The membrane rows: the double path first (its baseline).
+        // The membrane rows: the default path first (their baseline).
         for (int hessian = 0; hessian <= 1; hessian++)
           for (int model = 0; model < EK_MEMBRANE_COUNT; model++) {
             const char *kind = hessian ? "membrane_hessian" : "membrane_energy";
             const char *mn = model == EK_MEMBRANE_STVK ? "stvk" : "arap";
-            snprintf(base, sizeof base, "cloth/%s/%s/double/f64/threads:%d", kind, mn, threads);
+            snprintf(base, sizeof base, "cloth/%s/%s/default/f64/threads:%d", kind, mn, threads);
             snprintf(name, sizeof name, "cloth/%s/%s/%s/%s/threads:%d", kind, mn, ek_isa_name(isa),
                      prec, threads);
             for (int plain = 1; plain >= 0; plain--) {
               const char *row_name = plain ? base : name;
-              // The double path once per thread count (its first row).
+              // The default path once per thread count (its first row).
               if (plain && (ii != 0 || f64))
                 continue;
               if (!ek_bench_wants(b, row_name))
@@ -340,10 +341,10 @@ int bench_cloth(ek_bench *b) {
               ek_bench_row row = {.name = row_name,
                                   .family = "cloth",
                                   .isa = plain ? EK_ISA_AUTO : isa,
-                                  .isa_label = plain ? "double" : NULL,
+                                  .isa_label = plain ? "default" : NULL,
                                   .precision = plain ? "f64" : prec,
                                   .threads = threads,
-                                  .knobs = plain ? "api=cloth;path=double;project=1"
+                                  .knobs = plain ? "api=cloth;path=default;project=1"
                                                  : "api=cloth;path=vector;project=1",
                                   .items = 2 * MEMBRANE_N * MEMBRANE_N,
                                   .baseline = plain ? NULL : base,

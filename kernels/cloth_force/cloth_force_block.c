@@ -66,7 +66,9 @@ static inline void membrane_P(const cloth_args *a, const vreal F[6], vreal P[6])
     }
     return;
   }
-  // ARAP: P = 2 mu (F - R). R = F Uc^-1 with Uc = sqrt(C) in closed form:
+  // ARAP: P = 2 mu (F - R). (This closed form, not the polar of
+  // kernels/elements/tri_polar_vec.h, because the force's bits are every
+  // ARAP scene's: cloth_drop.) R = F Uc^-1 with Uc = sqrt(C) in closed form:
   // sqrt(C) = (C + s I) / t, s = sqrt(det C), t = sqrt(tr C + 2 s) (the
   // Cayley-Hamilton square root of a 2x2 SPD matrix), so
   // R = F adj(C + s I) / (s t). s = |f0 x f1| (no cancellation).
