@@ -22,7 +22,7 @@ typedef struct ek_cloth_force_args_f64 cloth_args;
 
 // ARAP's R for lanes whose F is near rank-deficient (sigma1 / sigma0 below
 // ~1/64), where the closed form below loses digits: the Jacobi polar of
-// cloth_polar.h in double, lane by lane.
+// kernels/elements/tri_polar.h in double, lane by lane.
 static void arap_R_slow(const vreal F[6], vmask slow, vreal R[6]) {
   _Alignas(64) real Fl[6][EK_W], Rl[6][EK_W], m[EK_W];
   for (int k = 0; k < 6; k++) {

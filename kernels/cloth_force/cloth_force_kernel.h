@@ -1,8 +1,8 @@
 // Internal: arguments of the cloth force block kernels
 // (kernels/cloth_force/cloth_force_block.c), shared with their driver
-// (cloth_force.c) and the element layer (cloth_layer.c). One struct per
-// precision because the packed planes and positions are in the working
-// precision.
+// (cloth_force.c) and the element layer (kernels/elements/tris.c). One
+// struct per precision because the packed planes and positions are in the
+// working precision.
 //
 // Blocks: AoSoA blocks of EK_LANES_F32 = 16 / EK_LANES_F64 = 8 triangles
 // (hinges) in the caller's order. Triangle block b: idx[(b*3 + c)*L + l],
