@@ -17,10 +17,22 @@
 //   cloth/kabsch_lapack/f64/threads:T      the double reference per set:
 //       centroids, covariance, dgesvd, R = V diag(1, 1, d) U^T
 //       (ek_kabsch_ref), sets split over OpenMP threads.
-// Inputs: seeded Gaussian F / rotated noisy point sets.
+//   cloth/membrane_{energy,hessian}/<model>/<isa>/<prec>/threads:T  the
+//       vector energy / projected Hessian product of a cloth
+//       (ek_cloth_energy_ex_*, ek_cloth_hessian_apply_ex_*, membrane
+//       kernels + bending + gather) per triangle, on a 64 x 64 grid (8192
+//       triangles, crumpled); baseline: the default path of the same model
+//       and threads,
+//   cloth/membrane_{energy,hessian}/<model>/default/f64/threads:T  the
+//       default ek_cloth_energy_f64 / ek_cloth_hessian_apply_f64
+//       (project = 1): scalar double for ARAP, the vector kernels (auto
+//       ISA, the double path's bits) for StVK.
+// Inputs: seeded Gaussian F / rotated noisy point sets / a jittered grid.
 #include <ek/batch.h>
 #include <ek/cloth.h>
+#include <ek/cloth_force.h>
 #include <ek/svd3.h>
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -146,6 +158,83 @@ static void free_kabsch(kabsch_ctx *c) {
   free(c->offsets), free(c->P), free(c->Q), free(c->R), free(c->Pf), free(c->Qf), free(c->Rf);
 }
 
+// ---- Membrane energy and Hessian product ---------------------------------
+#define MEMBRANE_N 64
+typedef struct {
+  int f64, hessian, plain, rc; // plain: the default f64 path
+  ek_isa isa;
+  ek_cloth_params p;
+  ek_cloth *cl;
+  size_t n3;
+  double *x, *dx, *q, E;
+  float *xf, *dxf, *qf;
+} membrane_ctx;
+
+static void call_membrane(void *p) {
+  membrane_ctx *c = p;
+  ek_cloth_force_opts o = {.isa = c->isa};
+  int rc = 0;
+  if (c->plain && !c->hessian)
+    c->E = ek_cloth_energy_f64(c->cl, &c->p, c->x), rc = isnan(c->E) ? -1 : 0;
+  else if (c->plain)
+    rc = ek_cloth_hessian_apply_f64(c->cl, &c->p, c->x, 1, c->dx, c->q);
+  else if (!c->hessian)
+    rc = c->f64 ? ek_cloth_energy_ex_f64(c->cl, &c->p, c->x, &c->E, &o)
+                : ek_cloth_energy_ex_f32(c->cl, &c->p, c->xf, &c->E, &o);
+  else
+    rc = c->f64 ? ek_cloth_hessian_apply_ex_f64(c->cl, &c->p, c->x, 1, c->dx, c->q, &o)
+                : ek_cloth_hessian_apply_ex_f32(c->cl, &c->p, c->xf, 1, c->dxf, c->qf, &o);
+  if (rc)
+    c->rc = rc;
+}
+
+// A jittered MEMBRANE_N^2 grid of 1 cm cells, stretched by 10% and
+// crumpled by 15% of a cell.
+static int setup_membrane(ek_bench *b, membrane_ctx *c) {
+  const int N = MEMBRANE_N;
+  const size_t nv = (size_t)(N + 1) * (N + 1), nt = 2 * (size_t)N * N;
+  ek_bench_rng rng;
+  ek_bench_rng_init(&rng, ek_bench_seed(b));
+  double *X = malloc(3 * nv * sizeof(double));
+  int32_t *T = malloc(3 * nt * sizeof(int32_t));
+  c->n3 = 3 * nv;
+  c->x = malloc(c->n3 * sizeof(double)), c->dx = malloc(c->n3 * sizeof(double));
+  c->q = malloc(c->n3 * sizeof(double));
+  c->xf = malloc(c->n3 * sizeof(float)), c->dxf = malloc(c->n3 * sizeof(float));
+  c->qf = malloc(c->n3 * sizeof(float));
+  if (!X || !T || !c->x || !c->dx || !c->q || !c->xf || !c->dxf || !c->qf) {
+    free(X), free(T);
+    return -1;
+  }
+  for (int j = 0; j <= N; j++)
+    for (int i = 0; i <= N; i++) {
+      size_t v = (size_t)j * (N + 1) + (size_t)i;
+      X[3 * v] = 0.01 * i, X[3 * v + 1] = 0.01 * j, X[3 * v + 2] = 0;
+      for (int k = 0; k < 3; k++)
+        c->x[3 * v + k] = 1.1 * X[3 * v + k] + 0.0015 * ek_bench_rng_gauss(&rng);
+    }
+  size_t t = 0;
+  for (int j = 0; j < N; j++)
+    for (int i = 0; i < N; i++) {
+      int32_t a = j * (N + 1) + i, bb = a + 1, cc = a + N + 1, d = cc + 1;
+      int32_t q[6] = {a, bb, d, a, d, cc};
+      memcpy(T + 3 * t, q, sizeof q);
+      t += 2;
+    }
+  for (size_t i = 0; i < c->n3; i++) {
+    c->dx[i] = ek_bench_rng_gauss(&rng);
+    c->xf[i] = (float)c->x[i], c->dxf[i] = (float)c->dx[i];
+  }
+  c->cl = ek_cloth_create(nv, X, nt, T);
+  free(X), free(T);
+  return c->cl ? 0 : -1;
+}
+
+static void free_membrane(membrane_ctx *c) {
+  ek_cloth_destroy(c->cl);
+  free(c->x), free(c->dx), free(c->q), free(c->xf), free(c->dxf), free(c->qf);
+}
+
 // Time one row after a checked first call.
 static void timed(ek_bench *b, ek_bench_row *row, int *rc) {
   if (ek_bench_listing(b)) {
@@ -224,6 +313,47 @@ int bench_cloth(ek_bench *b) {
           timed(b, &row, &c.rc);
           free_polar(&c);
         }
+        // The membrane rows: the default path first (their baseline).
+        for (int hessian = 0; hessian <= 1; hessian++)
+          for (int model = 0; model < EK_MEMBRANE_COUNT; model++) {
+            const char *kind = hessian ? "membrane_hessian" : "membrane_energy";
+            const char *mn = model == EK_MEMBRANE_STVK ? "stvk" : "arap";
+            snprintf(base, sizeof base, "cloth/%s/%s/default/f64/threads:%d", kind, mn, threads);
+            snprintf(name, sizeof name, "cloth/%s/%s/%s/%s/threads:%d", kind, mn, ek_isa_name(isa),
+                     prec, threads);
+            for (int plain = 1; plain >= 0; plain--) {
+              const char *row_name = plain ? base : name;
+              // The default path once per thread count (its first row).
+              if (plain && (ii != 0 || f64))
+                continue;
+              if (!ek_bench_wants(b, row_name))
+                continue;
+              membrane_ctx c = {.f64 = f64,
+                                .hessian = hessian,
+                                .plain = plain,
+                                .isa = isa,
+                                .p = {(ek_membrane_model)model, 1e3, 5e2, 1e-3}};
+              if (!listing && setup_membrane(b, &c) != 0) {
+                ek_bench_fail(b, "%s: setup failed (%s)", row_name, ek_last_error());
+                free_membrane(&c);
+                continue;
+              }
+              ek_bench_row row = {.name = row_name,
+                                  .family = "cloth",
+                                  .isa = plain ? EK_ISA_AUTO : isa,
+                                  .isa_label = plain ? "default" : NULL,
+                                  .precision = plain ? "f64" : prec,
+                                  .threads = threads,
+                                  .knobs = plain ? "api=cloth;path=default;project=1"
+                                                 : "api=cloth;path=vector;project=1",
+                                  .items = 2 * MEMBRANE_N * MEMBRANE_N,
+                                  .baseline = plain ? NULL : base,
+                                  .fn = call_membrane,
+                                  .ctx = &c};
+              timed(b, &row, &c.rc);
+              free_membrane(&c);
+            }
+          }
         snprintf(name, sizeof name, "cloth/kabsch/%s/%s/threads:%d", ek_isa_name(isa), prec,
                  threads);
         if (ek_bench_wants(b, name)) {

@@ -101,6 +101,8 @@ typedef void ek_xpbd_block_f32_fn(const ek_xpbd_args_f32 *a, size_t b0, size_t b
 typedef void ek_xpbd_block_f64_fn(const ek_xpbd_args_f64 *a, size_t b0, size_t b1);
 
 // cloth_membrane_block / cloth_bending_block: corner forces of AoSoA
+// (cloth_membrane_energy_block / _hessian_block: the membrane energy per
+// triangle and the corners of its Hessian product, same arguments)
 // triangle / hinge blocks [b0, b1) (contract in
 // kernels/cloth_force/cloth_force_kernel.h).
 typedef struct ek_cloth_force_args_f32 ek_cloth_force_args_f32;
@@ -152,6 +154,8 @@ typedef struct {
   ek_xpbd_block_f64_fn *xpbd_block_f64;
   ek_cloth_force_block_f32_fn *cloth_membrane_block_f32, *cloth_bending_block_f32;
   ek_cloth_force_block_f64_fn *cloth_membrane_block_f64, *cloth_bending_block_f64;
+  ek_cloth_force_block_f32_fn *cloth_membrane_energy_block_f32, *cloth_membrane_hessian_block_f32;
+  ek_cloth_force_block_f64_fn *cloth_membrane_energy_block_f64, *cloth_membrane_hessian_block_f64;
   ek_cloth_block_f32_fn *cloth_tri_F_block_f32;
   ek_cloth_block_f64_fn *cloth_tri_F_block_f64;
   ek_cloth_block_f32_fn *cloth_polar32_block_f32;

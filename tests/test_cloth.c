@@ -131,6 +131,20 @@ static void rest(uint64_t seed) {
              r, untouched, msg);
     check(r == EK_EINVAL && untouched && named, what);
   }
+  // The one degeneracy test (ek_tri_degenerate) decides alike at any scale
+  // (its edges are scaled by a power of two): a right triangle is good and
+  // a thin one (height 1e-13 of its base: 2A / l^2 = 1e-13) degenerate from
+  // 1e-150 to 1e150, where the unscaled (2A)^2 would underflow / overflow.
+  for (int e = -150; e <= 150; e += 150) {
+    double sc = pow(10.0, e), P[3][3] = {{0, 0, 0}, {sc, 0, 0}, {0, sc, 0}};
+    double Q[3][3] = {{0, 0, 0}, {sc, 0, 0}, {0.5 * sc, 1e-13 * sc, 0}}, a2, l2;
+    int good = ek_tri_degenerate(P[0], P[1], P[2], &a2, &l2);
+    int thin = ek_tri_degenerate(Q[0], Q[1], Q[2], NULL, NULL);
+    char what[160];
+    snprintf(what, sizeof what, "ek_tri_degenerate at scale 1e%d: right %d (2A %.3g), thin %d", e,
+             good, a2, thin);
+    check(!good && thin && fabs(a2 / (sc * sc) - 1) <= EK_CLOTH_TOL_F64, what);
+  }
   free(X), free(Dm), free(A);
 }
 

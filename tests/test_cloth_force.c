@@ -14,7 +14,11 @@
 //   f. the same bits at 1 and 2 threads above the parallel threshold;
 //   g. bad input is refused with a message naming the triangle;
 //   h. ARAP on near rank-deficient triangles (the kernel's slow lanes)
-//      against the reference, and finite on collapsed ones.
+//      against the reference, and finite on collapsed ones;
+//   i. the vector energy and Hessian product of every ISA x precision
+//      against the reference's energy and the double Hessian product
+//      (EK_CLOTH_MEMBRANE_TOL_F32 / _F64), projected and not, stretched and
+//      compressed; f64 against central differences of the reference forces.
 #include <ek/cloth_force.h>
 #include <math.h>
 #include <omp.h>
@@ -326,6 +330,79 @@ int main(int argc, char **argv) {
     snprintf(what, sizeof what, "d. %s: projected = unprojected on a stretched cloth",
              model_name(model));
     report(what, maxdiff(n3, q, q2) / maxabs(n3, q2), EK_CLOTH_FORCE_TOL_F64);
+
+    // i. the vector energy and Hessian product (ek_cloth_energy_ex_*,
+    // ek_cloth_hessian_apply_ex_*): every ISA x precision against the
+    // reference's energy and the double Hessian product, on a crumpled
+    // stretched state and a crumpled compressed one (the projection
+    // clamps there); f64 unprojected against central differences of the
+    // reference's forces.
+    for (int state = 0; state < 2; ++state) {
+      double *xs = malloc(n3 * sizeof(double)), *qr = malloc(n3 * sizeof(double));
+      float *xsf = malloc(n3 * sizeof(float)), *dxf = malloc(n3 * sizeof(float)),
+            *qf = malloc(n3 * sizeof(float));
+      const char *sn = state ? "compressed" : "stretched";
+      deform(&rng, &m, state ? 0.85 : 1.1, 0.15, xs);
+      for (size_t i = 0; i < n3; ++i) {
+        dx[i] = 2 * ek_rng_uniform(&rng) - 1;
+        xsf[i] = (float)xs[i], dxf[i] = (float)dx[i];
+      }
+      double Ers = cloth_ref_forces(&rp, m.nv, m.X, m.nt, m.T, nh, ek_cloth_hinges(cl), xs, NULL);
+      double E64 = NAN;
+      ek_cloth_hessian_apply_ex_f64(cl, &p, xs, 0, dx, q, NULL);
+      best = INFINITY;
+      for (double eps = 1e-3; eps >= 1e-8; eps /= 10) {
+        double h = eps * CELL;
+        for (size_t i = 0; i < n3; ++i)
+          xp[i] = xs[i] + h * dx[i];
+        cloth_ref_forces(&rp, m.nv, m.X, m.nt, m.T, nh, ek_cloth_hinges(cl), xp, f1);
+        for (size_t i = 0; i < n3; ++i)
+          xp[i] = xs[i] - h * dx[i];
+        cloth_ref_forces(&rp, m.nv, m.X, m.nt, m.T, nh, ek_cloth_hinges(cl), xp, f2);
+        for (size_t i = 0; i < n3; ++i)
+          fd[i] = -(f1[i] - f2[i]) / (2 * h);
+        best = fmin(best, maxdiff(n3, q, fd) / maxabs(n3, q));
+      }
+      snprintf(what, sizeof what, "i. %s %s: H_ex dx (f64) vs reference central differences",
+               model_name(model), sn);
+      report(what, best, EK_CLOTH_FORCE_FD_TOL);
+      for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; ++isa) {
+        if (!ek_isa_available((ek_isa)isa)) {
+          printf("i. %s: %s not available here: skipped\n", model_name(model),
+                 ek_isa_name((ek_isa)isa));
+          continue;
+        }
+        ek_cloth_force_opts o = {.isa = (ek_isa)isa};
+        for (int f32 = 0; f32 < 2; ++f32) {
+          double tol = f32 ? EK_CLOTH_MEMBRANE_TOL_F32 : EK_CLOTH_MEMBRANE_TOL_F64;
+          const char *pn = f32 ? "f32" : "f64";
+          int rc = f32 ? ek_cloth_energy_ex_f32(cl, &p, xsf, &E64, &o)
+                       : ek_cloth_energy_ex_f64(cl, &p, xs, &E64, &o);
+          snprintf(what, sizeof what, "i. %s %s %s %s: energy_ex vs reference", model_name(model),
+                   sn, ek_isa_name((ek_isa)isa), pn);
+          report(what, rc ? INFINITY : fabs(E64 - Ers) / fabs(Ers), tol);
+          for (int project = 0; project < 2; ++project) {
+            ek_cloth_hessian_apply_f64(cl, &p, xs, project, dx, qr);
+            if (f32) {
+              rc = ek_cloth_hessian_apply_ex_f32(cl, &p, xsf, project, dxf, qf, &o);
+              for (size_t i = 0; i < n3; ++i)
+                q[i] = qf[i];
+            } else {
+              rc = ek_cloth_hessian_apply_ex_f64(cl, &p, xs, project, dx, q, &o);
+            }
+            snprintf(what, sizeof what, "i. %s %s %s %s: hessian_apply_ex%s vs double path",
+                     model_name(model), sn, ek_isa_name((ek_isa)isa), pn,
+                     project ? " projected" : "");
+            double err = rc ? INFINITY : maxdiff(n3, q, qr) / maxabs(n3, qr);
+            report(what, err, tol);
+            if (!(err <= tol))
+              for (size_t i = 0; i < n3 && i < 12; ++i)
+                printf("   q[%zu] expected %.17g actual %.17g\n", i, qr[i], q[i]);
+          }
+        }
+      }
+      free(xs), free(qr), free(xsf), free(dxf), free(qf);
+    }
 
     // e. a flat cloth at rest: no force, every ISA x precision.
     double longest = 1.5 * CELL * sqrt(2.0), scale = MU * longest + BENDING / longest;

@@ -1133,6 +1133,20 @@ static void run_cloth_force(ek_isa isa, int f64) {
       out(rc, fnv(FNV_OFFSET, f, b), "cloth_force/forces/params%zu/%s", k,
           timed ? "phase_times" : "plain");
     }
+    // The vector energy and Hessian product (cloth_membrane_block.c).
+    double E = 0;
+    int rc = f64 ? ek_cloth_energy_ex_f64(gcloth, p, gcx.d, &E, &(ek_cloth_force_opts){isa, NULL})
+                 : ek_cloth_energy_ex_f32(gcloth, p, gcx.f, &E, &(ek_cloth_force_opts){isa, NULL});
+    out(rc, fnv(FNV_OFFSET, &E, 8), "cloth_force/energy_ex/params%zu", k);
+    for (int project = 0; project < 2; project++) {
+      size_t b = gcnv * 3 * (f64 ? 8 : 4);
+      void *q = scratch(o1, b);
+      ek_cloth_force_opts o = {isa, NULL};
+      rc = f64 ? ek_cloth_hessian_apply_ex_f64(gcloth, p, gcx.d, project, gcp.d, q, &o)
+               : ek_cloth_hessian_apply_ex_f32(gcloth, p, gcx.f, project, gcp.f, q, &o);
+      out(rc, fnv(FNV_OFFSET, q, b), "cloth_force/hessian_apply_ex/params%zu/project=%d", k,
+          project);
+    }
   }
 }
 

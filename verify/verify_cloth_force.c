@@ -7,6 +7,12 @@
 //     EK_CLOTH_FORCE_TOL_F32 / _F64), "momentum" = |sum f| / sum |f|;
 //   "rest": the flat rest shape; metric "f_rest" = max |f| / (mu h + k_b /
 //     h), h the longest rest edge (EK_CLOTH_FORCE_REST_TOL_F32 / _F64).
+// Kernel "cloth_membrane": the vector energy and Hessian product
+// (ek_cloth_energy_ex_*, ek_cloth_hessian_apply_ex_*) on the crumpled state:
+// "energy" = |E - E_ref| / E_ref against the reference, "hessian" =
+// max |q - q64| / max |q64| against the double path
+// (ek_cloth_hessian_apply_f64), projected and not
+// (EK_CLOTH_MEMBRANE_TOL_F32 / _F64).
 #include <ek/ek.h>
 #include <math.h>
 #include <stdio.h>
@@ -130,6 +136,67 @@ int verify_cloth_force(ek_verify_ctx *ctx) {
       }
     }
   }
+  // The vector energy and Hessian product (kernel "cloth_membrane").
+  double *dx = ek_check_malloc(n3 * sizeof(double)), *q = ek_check_malloc(n3 * sizeof(double));
+  float *dxf = ek_check_malloc(n3 * sizeof(float)), *qf = ek_check_malloc(n3 * sizeof(float));
+  for (size_t i = 0; i < n3; ++i) {
+    dx[i] = 2 * ek_rng_uniform(&rng) - 1;
+    dxf[i] = (float)dx[i];
+    xf[i] = (float)x[i];
+  }
+  for (int model = 0; model < EK_MEMBRANE_COUNT; ++model) {
+    const ek_cloth_params p = {(ek_membrane_model)model, MU, LAMBDA, BENDING};
+    const cloth_ref_params rp = {model, MU, LAMBDA, BENDING};
+    const double Eref =
+        cloth_ref_forces(&rp, nv, X, nt, T, ek_cloth_nhinges(cl), ek_cloth_hinges(cl), x, NULL);
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+      if (!ek_isa_available((ek_isa)isa))
+        continue;
+      for (int f32 = 1; f32 >= 0; f32--) {
+        ek_verify_row row = {.kernel = "cloth_membrane"};
+        snprintf(row.variant, sizeof row.variant, "%s f%d %s", ek_isa_name((ek_isa)isa),
+                 f32 ? 32 : 64, model == EK_MEMBRANE_STVK ? "stvk" : "arap");
+        snprintf(row.inputs, sizeof row.inputs, "grid %zu tris: crumpled", nt);
+        if (!ek_verify_selected(ctx, row.kernel, row.variant, row.inputs))
+          continue;
+        const ek_cloth_force_opts o = {.isa = (ek_isa)isa};
+        double E = NAN, eh = 0;
+        int rc = f32 ? ek_cloth_energy_ex_f32(cl, &p, xf, &E, &o)
+                     : ek_cloth_energy_ex_f64(cl, &p, x, &E, &o);
+        if (rc || !isfinite(E))
+          row.nonfinite++;
+        for (int project = 0; project < 2; ++project) {
+          ek_cloth_hessian_apply_f64(cl, &p, x, project, dx, fr);
+          if (f32) {
+            rc = ek_cloth_hessian_apply_ex_f32(cl, &p, xf, project, dxf, qf, &o);
+            for (size_t i = 0; i < n3; ++i)
+              q[i] = qf[i];
+          } else {
+            rc = ek_cloth_hessian_apply_ex_f64(cl, &p, x, project, dx, q, &o);
+          }
+          double qmax = 0, d = 0;
+          for (size_t i = 0; i < n3; ++i) {
+            qmax = fmax(qmax, fabs(fr[i]));
+            if (rc || !isfinite(q[i]))
+              row.nonfinite++;
+            else
+              d = fmax(d, fabs(q[i] - fr[i]));
+          }
+          eh = fmax(eh, d / qmax);
+        }
+        row.nmetrics = 2;
+        row.metric[0] = "energy";
+        row.value[0] = fabs(E - Eref) / fabs(Eref);
+        row.metric[1] = "hessian";
+        row.value[1] = eh;
+        row.budget = f32 ? EK_CLOTH_MEMBRANE_TOL_F32 : EK_CLOTH_MEMBRANE_TOL_F64;
+        row.worst = fmax(row.value[0], row.value[1]);
+        row.count = nt;
+        ek_verify_emit(ctx, &row);
+      }
+    }
+  }
+  free(dx), free(q), free(dxf), free(qf);
   ek_cloth_destroy(cl);
   free(X), free(x), free(f), free(fr), free(xf), free(ff), free(T);
   return 0;

@@ -49,6 +49,16 @@ extern "C" {
 // (the triangle form of mesh.h's EK_MESH_DEGENERATE_REL for tets).
 #define EK_TRI_DEGENERATE_REL 1e-12
 
+// The one degeneracy test of a rest triangle (X0, X1, X2: 3 coordinates
+// each), used by ek_tri_rest_f64 and ek_cloth_create: 1 when degenerate
+// (or an edge vector is not finite), else 0. The test runs on the edges
+// scaled by a power of two (exact), so it decides at any scale as the
+// formula above does wherever that is in range. two_area and longest2
+// (either may be NULL) receive 2 A and the longest edge squared, for a
+// message.
+int ek_tri_degenerate(const double X0[3], const double X1[3], const double X2[3], double *two_area,
+                      double *longest2);
+
 // Error budgets against the double references (reference/cloth/), max over
 // the batch; measured by ek-verify and asserted by tests/test_cloth.c:
 //   polar32: relative to sigma1 = the largest singular value of F:

@@ -93,6 +93,10 @@ typedef struct {
 // Kernel forces against the double reference, max |f - f_ref| / max |f_ref|.
 #define EK_CLOTH_FORCE_TOL_F32 1e-4
 #define EK_CLOTH_FORCE_TOL_F64 1e-11
+// The vector energy and Hessian product (ek_cloth_energy_ex_*,
+// ek_cloth_hessian_apply_ex_*) against the double paths (norms above).
+#define EK_CLOTH_MEMBRANE_TOL_F32 1e-4
+#define EK_CLOTH_MEMBRANE_TOL_F64 1e-11
 // A flat cloth at rest: max |f| relative to the force scale mu h + k_b / h
 // (h the longest rest edge): rounding of F = I in that precision.
 #define EK_CLOTH_FORCE_REST_TOL_F32 1e-5
@@ -139,6 +143,29 @@ double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const d
 // q = H(x) p (nverts x 3 each), projected to PSD when `project` (above).
 int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
                                int project, const double *dx, double *q);
+// Vector forms (every ISA x precision, opts->isa; phase_times unused):
+// the membrane's energy and Hessian product run as vector kernels
+// (kernels/cloth_force/cloth_membrane_block.c, ARAP through the vectorised
+// 3x2 polar of ek_polar32), the bending and the sums as above; the energy
+// is summed in double (E receives it). They equal the double paths above
+// to EK_CLOTH_MEMBRANE_TOL_F32/_F64 (max |q - q_ref| / max |q_ref|, and
+// |E - E_ref| / sum_t A_t |Psi_t| for the energy), checked against the
+// double reference by tests/test_cloth_force.c and ek-verify. The default
+// ek_cloth_energy_f64 / ek_cloth_hessian_apply_f64 run them for StVK (the
+// kernels follow the double path's operation order without fused
+// operations: the same bits as before on every ISA); for ARAP, and for
+// the diagonal blocks and fields, they stay scalar double (the vector
+// polar rounds differently, and those bits are every ARAP scene's).
+int ek_cloth_energy_ex_f32(const ek_cloth *cl, const ek_cloth_params *p, const float *x, double *E,
+                           const ek_cloth_force_opts *opts);
+int ek_cloth_energy_ex_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x, double *E,
+                           const ek_cloth_force_opts *opts);
+int ek_cloth_hessian_apply_ex_f32(const ek_cloth *cl, const ek_cloth_params *p, const float *x,
+                                  int project, const float *dx, float *q,
+                                  const ek_cloth_force_opts *opts);
+int ek_cloth_hessian_apply_ex_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
+                                  int project, const double *dx, double *q,
+                                  const ek_cloth_force_opts *opts);
 // 3x3 diagonal blocks of the projected Hessian per vertex (nverts x 9), for
 // a block-Jacobi preconditioner.
 int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
@@ -150,7 +177,7 @@ int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const doub
                         double *s1, double *s2, double *psi);
 
 // XPBD (Macklin et al. 2016) for cloth, scalar double
-// (kernels/cloth_force/cloth_xpbd.c): one membrane constraint per triangle
+// (kernels/xpbd/cloth_xpbd.c): one membrane constraint per triangle
 // in the form of the tets' (xpbd.h, seed 001), C = sqrt(2 W / k) with
 // compliance 1 / (A k), W = Psi per unit area, k = the sheet's Young's
 // modulus per unit area (E h), so C^2 / (2 alpha) = A Psi: the membrane

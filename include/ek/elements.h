@@ -25,6 +25,9 @@
 // Every order and colouring depends on the mesh alone, never on the thread
 // count, so kernels that sum in these orders give the same bits on any
 // number of threads.
+// Triangles (ek_cloth, cloth_force.h) are built by the same layer
+// (kernels/elements/tris.c beside tets.c), with the same incidence lists,
+// greedy colouring and AoSoA packing (kernels/elements/layer.h).
 #ifndef EK_ELEMENTS_H
 #define EK_ELEMENTS_H
 

@@ -7,6 +7,7 @@
 #include <omp.h>
 #include <string.h>
 
+#include "elements/tris.h"
 #include "kernels.h"
 #include "real.h"
 
@@ -77,7 +78,7 @@ static void io_aos_chunk(void *ctx, size_t i0, size_t m, real *const *buf) {
   for (int k = 0; k < 3; k++)
     if (buf[2 + k])
       EK_P(aosoa_unpack)
-      (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
+  (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
 }
 
 static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
@@ -132,42 +133,21 @@ int ek_tri_rest_f64(size_t n, const double *X, double *Dm_inv, double *area) {
         ek_set_error("ek_tri_rest_f64: triangle %zu: coordinate %d is %g (not finite)", t, i, p[i]);
         return EK_EINVAL;
       }
-    double e1[3], e2[3], e3[3];
-    for (int i = 0; i < 3; i++)
-      e1[i] = p[3 + i] - p[i], e2[i] = p[6 + i] - p[i], e3[i] = p[6 + i] - p[3 + i];
-    double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                   e1[0] * e2[1] - e1[1] * e2[0]};
-    double twoA = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    double l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2];
-    double l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
-    double l3 = e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2];
-    double lmax2 = fmax(l1, fmax(l2, l3));
-    if (!(twoA > EK_TRI_DEGENERATE_REL * lmax2)) {
+    double twoA, lmax2;
+    if (ek_tri_degenerate(p, p + 3, p + 6, &twoA, &lmax2)) {
       ek_set_error("ek_tri_rest_f64: triangle %zu is degenerate: 2 x area = %g <= %g x (longest "
                    "edge)^2 = %g",
                    t, twoA, EK_TRI_DEGENERATE_REL, EK_TRI_DEGENERATE_REL * lmax2);
       return EK_EINVAL;
     }
   }
+  // The element layer's rest frame (kernels/elements/tris.c), E2.t2
+  // rounded as |E1 x E2| / |E1|.
   for (size_t t = 0; t < n; t++) {
     const double *p = X + 9 * t;
-    double e1[3], e2[3];
-    for (int i = 0; i < 3; i++)
-      e1[i] = p[3 + i] - p[i], e2[i] = p[6 + i] - p[i];
-    double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                   e1[0] * e2[1] - e1[1] * e2[0]};
-    double twoA = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    double l1 = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-    double m01 = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / l1; // E2.t1
-    double m11 = twoA / l1;                                            // E2.t2
-    // Inverse of the upper-triangular [[l1, m01], [0, m11]].
-    double *d = Dm_inv + 4 * t;
-    d[0] = 1 / l1;
-    d[1] = -m01 / (l1 * m11);
-    d[2] = 0;
-    d[3] = 1 / m11;
+    double A = ek_tri_rest_frame(p, p + 3, p + 6, EK_TRI_REST_DIRECT, Dm_inv + 4 * t);
     if (area)
-      area[t] = 0.5 * twoA;
+      area[t] = A;
   }
   return EK_OK;
 }

@@ -15,21 +15,25 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../elements/tri_polar.h"
+#include "../elements/tris.h"
 #include "../kernels.h"
 #include "../real.h"
 #include "cloth_force_kernel.h"
-#include "cloth_layer.h"
-#include "cloth_polar.h"
 
 #if defined(EK_REAL_F32)
 typedef struct ek_cloth_force_args_f32 cloth_args;
 #define MEMBRANE(t) ((t)->cloth_membrane_block_f32)
 #define BENDING(t) ((t)->cloth_bending_block_f32)
+#define MEMBRANE_ENERGY(t) ((t)->cloth_membrane_energy_block_f32)
+#define MEMBRANE_HESSIAN(t) ((t)->cloth_membrane_hessian_block_f32)
 #define SFX(name) name##_f32
 #else
 typedef struct ek_cloth_force_args_f64 cloth_args;
 #define MEMBRANE(t) ((t)->cloth_membrane_block_f64)
 #define BENDING(t) ((t)->cloth_bending_block_f64)
+#define MEMBRANE_ENERGY(t) ((t)->cloth_membrane_energy_block_f64)
+#define MEMBRANE_HESSIAN(t) ((t)->cloth_membrane_hessian_block_f64)
 #define SFX(name) name##_f64
 #endif
 #define L EK_LANES
@@ -90,7 +94,7 @@ int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real 
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
-  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (cloth_layer.h)
+  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (tris.h)
   cloth_args a = {
       .tri_idx = SFX(cl->tri_idx),
       .hinge_idx = SFX(cl->hinge_idx),
@@ -157,9 +161,133 @@ int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real 
   return 0;
 }
 
+// ---------------------------------------------------------------------------
+// Vector forms of the energy and the Hessian product (cloth_force.h): the
+// membrane through the kernels of cloth_membrane_block.c, the bending (a
+// constant quadratic form, a few flops per hinge) and the sums here.
+
+int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, double *E,
+                          const ek_cloth_force_opts *opts) {
+  const char *fn = "ek_cloth_energy_ex";
+  int rc = check_params(fn, cl, p);
+  if (rc)
+    return rc;
+  if (!x || !E) {
+    ek_set_error("%s: NULL x or E", fn);
+    return EK_EINVAL;
+  }
+  const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
+  if (!kt)
+    return EK_EISA;
+  const size_t ntb = SFX(cl->ntb);
+  real *te = ek_alloc(ntb * L * sizeof(real));
+  if (!te) {
+    ek_set_error("%s: out of memory (%zu triangles)", fn, cl->nt);
+    return EK_ENOMEM;
+  }
+  cloth_args a = {
+      .tri_idx = SFX(cl->tri_idx),
+      .dm_inv = SFX(cl->dm),
+      .area = SFX(cl->area),
+      .model = p->model,
+      .mu = (real)p->mu,
+      .lambda = (real)p->lambda,
+      .x = x,
+      .tri_energy = te,
+  };
+  void (*energy)(const cloth_args *, size_t, size_t) = MEMBRANE_ENERGY(kt);
+#pragma omp parallel if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
+  {
+    size_t b0, b1;
+    part(ntb, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
+    energy(&a, b0, b1);
+  }
+  // Summed in double, in triangle (caller) order, then the hinges'.
+  double sum = 0;
+  for (size_t t = 0; t < cl->nt; ++t)
+    sum += (double)te[t];
+  ek_free(te);
+  for (size_t h = 0; h < cl->nh && p->bending > 0; ++h) {
+    const int32_t *q = cl->hinges + 4 * h;
+    const double *k = cl->hinge_k + 4 * h;
+    double s[3] = {0, 0, 0};
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i)
+        s[i] += k[c] * (double)x[3 * (size_t)q[c] + i];
+    sum += 0.5 * p->bending * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  }
+  *E = sum;
+  return 0;
+}
+
+int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, const real *x,
+                                 int project, const real *dx, real *q,
+                                 const ek_cloth_force_opts *opts) {
+  const char *fn = "ek_cloth_hessian_apply_ex";
+  int rc = check_params(fn, cl, p);
+  if (rc)
+    return rc;
+  if (!x || !dx || !q) {
+    ek_set_error("%s: NULL x, dx or q", fn);
+    return EK_EINVAL;
+  }
+  const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
+  if (!kt)
+    return EK_EISA;
+  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (tris.h)
+  cloth_args a = {
+      .tri_idx = SFX(cl->tri_idx),
+      .dm_inv = SFX(cl->dm),
+      .area = SFX(cl->area),
+      .model = p->model,
+      .mu = (real)p->mu,
+      .lambda = (real)p->lambda,
+      .x = x,
+      .tri_corner = SFX(mut->tri_corner),
+      .hinge_corner = SFX(mut->hinge_corner),
+      .dx = dx,
+      .project = project != 0,
+  };
+  const size_t ntb = SFX(cl->ntb), nh = p->bending > 0 ? cl->nh : 0;
+  if (nh == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
+    memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
+  void (*hessian)(const cloth_args *, size_t, size_t) = MEMBRANE_HESSIAN(kt);
+#pragma omp parallel if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
+  {
+    int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    size_t b0, b1;
+    part(ntb, t, nt, &b0, &b1);
+    hessian(&a, b0, b1);
+    // Bending: k_b Q (x) I3, Q = k k^T, in double.
+    part(nh, t, nt, &b0, &b1);
+    for (size_t h = b0; h < b1; ++h) {
+      const int32_t *hq = cl->hinges + 4 * h;
+      const double *k = cl->hinge_k + 4 * h;
+      double s[3] = {0, 0, 0};
+      for (int c = 0; c < 4; ++c)
+        for (int i = 0; i < 3; ++i)
+          s[i] += k[c] * (double)dx[3 * (size_t)hq[c] + i];
+      for (int c = 0; c < 4; ++c)
+        for (int i = 0; i < 3; ++i)
+          a.hinge_corner[(h / L * 12 + (size_t)(c * 3 + i)) * L + h % L] =
+              (real)(p->bending * k[c] * s[i]);
+    }
+#pragma omp barrier
+    part(cl->nv, t, nt, &b0, &b1);
+    gather(cl, a.tri_corner, a.hinge_corner, q, b0, b1);
+  }
+  return 0;
+}
+
 #if defined(EK_REAL_F64)
 // ---------------------------------------------------------------------------
-// Double paths: energy, Hessian product, diagonal blocks, fields.
+// Double paths: energy, Hessian product, diagonal blocks, fields: the
+// default paths of the implicit loop and the frames. StVK's energy and
+// Hessian product run the vector kernels (written in the operation order
+// below, no fused operations: the same bits as this code on every ISA);
+// ARAP's, the diagonal blocks and the fields stay in plain double here
+// (the vector polar rounds differently from cloth_svd32_of, and their
+// bits are every ARAP scene's and ek-hash row's).
 
 // F = [x1-x0, x2-x0] Dm^-1 of triangle t (3x2 row-major).
 static void tri_F(const ek_cloth *cl, const double *x, size_t t, double F[6]) {
@@ -192,6 +320,11 @@ double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const d
   if (check_params("ek_cloth_energy_f64", cl, p) || !x)
     return NAN;
   double E = 0;
+  // StVK: the vector kernel, written in this path's operation order (the
+  // same bits on every ISA). ARAP stays here: the vector kernel's polar
+  // rounds differently from cloth_svd32_of.
+  if (p->model == EK_MEMBRANE_STVK)
+    return ek_cloth_energy_ex_f64(cl, p, x, &E, NULL) ? NAN : E;
   for (size_t t = 0; t < cl->nt; ++t) {
     double F[6];
     tri_F(cl, x, t, F);
@@ -320,6 +453,9 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
     ek_set_error("ek_cloth_hessian_apply_f64: NULL x, dx or q");
     return EK_EINVAL;
   }
+  // StVK: the vector kernel, in this path's operation order (above).
+  if (p->model == EK_MEMBRANE_STVK)
+    return ek_cloth_hessian_apply_ex_f64(cl, p, x, project, dx, q, NULL);
   ek_cloth *mut = (ek_cloth *)cl;
   double *tc = mut->tri_corner_f64, *hc = mut->hinge_corner_f64;
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;

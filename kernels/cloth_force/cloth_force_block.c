@@ -9,8 +9,8 @@
 //   corner i = -k_b k_i s (the gradient of k_b / 2 |s|^2).
 #include "../simd/simd.h"
 
+#include "../elements/tri_polar.h"
 #include "cloth_force_kernel.h"
-#include "cloth_polar.h"
 
 #if defined(EK_REAL_F32)
 typedef struct ek_cloth_force_args_f32 cloth_args;
@@ -22,7 +22,7 @@ typedef struct ek_cloth_force_args_f64 cloth_args;
 
 // ARAP's R for lanes whose F is near rank-deficient (sigma1 / sigma0 below
 // ~1/64), where the closed form below loses digits: the Jacobi polar of
-// cloth_polar.h in double, lane by lane.
+// kernels/elements/tri_polar.h in double, lane by lane.
 static void arap_R_slow(const vreal F[6], vmask slow, vreal R[6]) {
   _Alignas(64) real Fl[6][EK_W], Rl[6][EK_W], m[EK_W];
   for (int k = 0; k < 6; k++) {
@@ -66,7 +66,9 @@ static inline void membrane_P(const cloth_args *a, const vreal F[6], vreal P[6])
     }
     return;
   }
-  // ARAP: P = 2 mu (F - R). R = F Uc^-1 with Uc = sqrt(C) in closed form:
+  // ARAP: P = 2 mu (F - R). (This closed form, not the polar of
+  // kernels/elements/tri_polar_vec.h, because the force's bits are every
+  // ARAP scene's: cloth_drop.) R = F Uc^-1 with Uc = sqrt(C) in closed form:
   // sqrt(C) = (C + s I) / t, s = sqrt(det C), t = sqrt(tr C + 2 s) (the
   // Cayley-Hamilton square root of a 2x2 SPD matrix), so
   // R = F adj(C + s I) / (s t). s = |f0 x f1| (no cancellation).

@@ -2,8 +2,11 @@
 // V0; Teran et al. 2003 sec. 4, seed 004), the Morton order of the
 // centroids, the coloured order (colours formed inside Morton chunks, the
 // chunks coloured too), the AoSoA packing the kernels read, and the vertex
-// incidence lists. Built once per mesh, at baseline ISA.
+// incidence lists; the last three through the primitives triangles and
+// XPBD share (layer.h). Built once per mesh, at baseline ISA.
 #include "tets.h"
+
+#include "layer.h"
 
 #include "../kernels.h"
 
@@ -43,7 +46,7 @@ void ek_tets_destroy(ek_tets *el) {
 }
 
 // Pack one slot order (bl->slot_tet, bl->nslots set) into AoSoA blocks of
-// both precisions; padding slots get index -1, Dm^-1 = 0, V0 = 0.
+// both precisions (layer.h); padding slots get index -1, Dm^-1 = 0, V0 = 0.
 static int blocks_pack(const ek_tets *el, ek_tet_blocks *bl) {
   const size_t W32 = EK_LANES_F32, W64 = EK_LANES_F64;
   size_t ns = bl->nslots, nb32 = ns / W32, nb64 = ns / W64;
@@ -56,23 +59,12 @@ static int blocks_pack(const ek_tets *el, ek_tet_blocks *bl) {
   if (!bl->idx_f32 || !bl->idx_f64 || !bl->dm_inv_f32 || !bl->dm_inv_f64 || !bl->v0_f32 ||
       !bl->v0_f64)
     return -1;
-  for (size_t s = 0; s < ns; s++) {
-    int32_t t = bl->slot_tet[s];
-    size_t b32 = s / W32, l32 = s % W32, b64 = s / W64, l64 = s % W64;
-    for (int c = 0; c < 4; c++) {
-      int32_t vi = t >= 0 ? el->tets[(size_t)t * 4 + c] : -1;
-      bl->idx_f32[(b32 * 4 + c) * W32 + l32] = vi;
-      bl->idx_f64[(b64 * 4 + c) * W64 + l64] = vi;
-    }
-    for (int k = 0; k < 9; k++) {
-      double d = t >= 0 ? el->Dm_inv[(size_t)t * 9 + k] : 0.0;
-      bl->dm_inv_f32[(b32 * 9 + k) * W32 + l32] = (float)d;
-      bl->dm_inv_f64[(b64 * 9 + k) * W64 + l64] = d;
-    }
-    double v0 = t >= 0 ? el->V0[t] : 0.0;
-    bl->v0_f32[b32 * W32 + l32] = (float)v0;
-    bl->v0_f64[b64 * W64 + l64] = v0;
-  }
+  ek_layer_pack_index(ns, bl->slot_tet, 4, el->tets, W32, bl->idx_f32);
+  ek_layer_pack_index(ns, bl->slot_tet, 4, el->tets, W64, bl->idx_f64);
+  ek_layer_pack_values(ns, bl->slot_tet, 9, el->Dm_inv, NULL, W32, 0, bl->dm_inv_f32);
+  ek_layer_pack_values(ns, bl->slot_tet, 9, el->Dm_inv, NULL, W64, 1, bl->dm_inv_f64);
+  ek_layer_pack_values(ns, bl->slot_tet, 1, el->V0, NULL, W32, 0, bl->v0_f32);
+  ek_layer_pack_values(ns, bl->slot_tet, 1, el->V0, NULL, W64, 1, bl->v0_f64);
   return 0;
 }
 
@@ -159,31 +151,32 @@ static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
   return 0;
 }
 
-// Vertex incidence (CSR) over the Morton slots: entries ascending by slot
-// then corner, because slots are visited in order.
-static int incidence(ek_tets *el) {
-  size_t nv = el->nverts;
-  el->vert_start = calloc(nv + 1, sizeof(int32_t));
-  el->vert_entries = malloc(el->ntets * 4 * sizeof(int32_t));
-  int32_t *next = malloc(nv * sizeof(int32_t));
-  if (!el->vert_start || !el->vert_entries || !next) {
-    free(next);
+// The vertices of the Morton slots, slot-major (slot * 4 + corner; -1 in
+// padding slots): the sequence the incidence lists and the colourings read.
+static int32_t *morton_vertices(const ek_tets *el) {
+  int32_t *seq = malloc(el->morton.nslots * 4 * sizeof(int32_t));
+  if (seq)
+    ek_layer_pack_index(el->morton.nslots, el->morton.slot_tet, 4, el->tets, 1, seq);
+  return seq;
+}
+
+// Vertex incidence (CSR) over the Morton slots (layer.h): entries
+// slot * 4 + corner, ascending.
+static int incidence(ek_tets *el, const int32_t *seq) {
+  size_t nv = el->nverts, *start, *entries;
+  if (ek_layer_incidence(nv, el->morton.nslots * 4, seq, &start, &entries))
     return -1;
+  el->vert_start = malloc((nv + 1) * sizeof(int32_t));
+  el->vert_entries = malloc((start[nv] ? start[nv] : 1) * sizeof(int32_t));
+  if (el->vert_start && el->vert_entries) {
+    for (size_t v = 0; v <= nv; v++)
+      el->vert_start[v] = (int32_t)start[v];
+    for (size_t e = 0; e < start[nv]; e++)
+      el->vert_entries[e] = (int32_t)entries[e];
   }
-  for (size_t i = 0; i < el->ntets * 4; i++)
-    el->vert_start[el->tets[i] + 1]++;
-  for (size_t v = 0; v < nv; v++)
-    el->vert_start[v + 1] += el->vert_start[v];
-  memcpy(next, el->vert_start, nv * sizeof(int32_t));
-  for (size_t s = 0; s < el->morton.nslots; s++) {
-    int32_t t = el->morton.slot_tet[s];
-    if (t < 0)
-      continue;
-    for (int c = 0; c < 4; c++)
-      el->vert_entries[next[el->tets[(size_t)t * 4 + c]]++] = (int32_t)(s * 4 + (size_t)c);
-  }
-  free(next);
-  return 0;
+  free(start);
+  free(entries);
+  return el->vert_start && el->vert_entries ? 0 : -1;
 }
 
 // Tets per Morton chunk of the coloured order: small enough that a chunk's
@@ -199,83 +192,43 @@ static size_t chunk_tets(size_t ntets) {
 
 // The coloured order. Chunks are consecutive ranges of the Morton order.
 // Chunk colours: greedy over the chunks in Morton order, each taking the
-// smallest colour no chunk sharing a vertex with it has (neighbours found
-// through the incidence lists). Tet colours: greedy inside each chunk in
+// smallest colour no chunk sharing a vertex with it has (a chunk's members:
+// its tets' distinct vertices). Tet colours: greedy inside each chunk in
 // Morton order, each tet taking the smallest colour no tet of its chunk
-// sharing a vertex has (per-vertex bit sets, cleared after the chunk).
-static int colored_order(ek_tets *el) {
+// sharing a vertex has. Both through the one greedy colouring of layer.h.
+static int colored_order(ek_tets *el, const int32_t *seq) {
   const size_t W = EK_LANES_F32, nt = el->ntets, nv = el->nverts;
-  const int32_t *T = el->tets, *morton = el->morton.slot_tet;
+  const int32_t *morton = el->morton.slot_tet;
   const size_t ct = chunk_tets(nt), nchunks = (nt + ct - 1) / ct;
   el->nchunks = nchunks;
   int rc = -1;
-  int *chunk_color = malloc(nchunks * sizeof(int));
-  int *tet_color = malloc(nt * sizeof(int)); // by Morton position
-  size_t *stamp = malloc(nchunks * sizeof(size_t));
-  int *busy = calloc(nchunks + 1, sizeof(int));
-  int32_t maxdeg = 0;
-  for (size_t v = 0; v < nv; v++)
-    if (el->vert_start[v + 1] - el->vert_start[v] > maxdeg)
-      maxdeg = el->vert_start[v + 1] - el->vert_start[v];
-  // Greedy needs at most (tets sharing a vertex with one tet) + 1 colours.
-  const size_t words = ((size_t)4 * (size_t)maxdeg + 1 + 63) / 64;
-  uint64_t *used = calloc(nv * words, sizeof(uint64_t));
+  int32_t *chunk_color = malloc(nchunks * sizeof(int32_t));
+  int32_t *tet_color = malloc(nt * sizeof(int32_t)); // by Morton position
+  // Chunk members: each chunk's distinct vertices, in first-seen order.
+  size_t *cstart = malloc((nchunks + 1) * sizeof(size_t));
+  int32_t *cvert = malloc(nt * 4 * sizeof(int32_t));
+  size_t *seen = malloc((nv ? nv : 1) * sizeof(size_t));
   size_t *count = NULL, *fill = NULL;
-  if (!chunk_color || !tet_color || !stamp || !busy || !used)
+  if (!chunk_color || !tet_color || !cstart || !cvert || !seen)
     goto done;
-
-  el->nphases = 0;
-  for (size_t k = 0; k < nchunks; k++)
-    stamp[k] = (size_t)-1;
+  for (size_t v = 0; v < nv; v++)
+    seen[v] = (size_t)-1;
+  size_t nm = 0;
   for (size_t k = 0; k < nchunks; k++) {
-    size_t t0 = k * ct, t1 = t0 + ct < nt ? t0 + ct : nt;
-    int nbusy = 0;
-    for (size_t i = t0; i < t1; i++)
-      for (int c = 0; c < 4; c++) {
-        int32_t v = T[(size_t)morton[i] * 4 + c];
-        for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
-          size_t other = ((size_t)el->vert_entries[e] >> 2) / ct;
-          if (other < k && stamp[other] != k) {
-            stamp[other] = k;
-            busy[nbusy++] = chunk_color[other];
-          }
-        }
+    cstart[k] = nm;
+    for (size_t i = k * ct * 4; i < (k * ct + ct < nt ? k * ct + ct : nt) * 4; i++)
+      if (seen[seq[i]] != k) {
+        seen[seq[i]] = k;
+        cvert[nm++] = seq[i];
       }
-    int *taken = calloc((size_t)el->nphases + 1, sizeof(int));
-    if (!taken)
-      goto done;
-    for (int i = 0; i < nbusy; i++)
-      taken[busy[i]] = 1;
-    int c = 0;
-    while (taken[c])
-      c++;
-    free(taken);
-    chunk_color[k] = c;
-    if (c + 1 > el->nphases)
-      el->nphases = c + 1;
-
-    for (size_t i = t0; i < t1; i++) {
-      const int32_t *tv = T + (size_t)morton[i] * 4;
-      int col = 0;
-      for (size_t w = 0; w < words; w++) {
-        uint64_t b = 0;
-        for (int j = 0; j < 4; j++)
-          b |= used[(size_t)tv[j] * words + w];
-        if (~b) {
-          col = (int)(w * 64) + __builtin_ctzll(~b);
-          break;
-        }
-      }
-      tet_color[i] = col;
-      for (int j = 0; j < 4; j++)
-        used[(size_t)tv[j] * words + (size_t)col / 64] |= 1ULL << (col % 64);
-      if (col + 1 > el->ncolors)
-        el->ncolors = col + 1;
-    }
-    for (size_t i = t0; i < t1; i++)
-      for (int j = 0; j < 4; j++)
-        memset(used + (size_t)T[(size_t)morton[i] * 4 + j] * words, 0, words * sizeof(uint64_t));
   }
+  cstart[nchunks] = nm;
+  // Chunk colours (the phases) and tet colours inside each chunk, both
+  // greedy in Morton order (layer.h).
+  el->nphases = ek_layer_color(nv, nchunks, 0, 0, cstart, cvert, chunk_color);
+  el->ncolors = el->nphases < 0 ? -1 : ek_layer_color(nv, nt, ct, 4, NULL, seq, tet_color);
+  if (el->nphases < 0 || el->ncolors < 0)
+    goto done;
 
   // Lay out: phase by phase, its chunks in Morton order, each chunk colour
   // group by colour group, every group padded to a whole f32 block.
@@ -334,9 +287,9 @@ static int colored_order(ek_tets *el) {
 done:
   free(chunk_color);
   free(tet_color);
-  free(stamp);
-  free(busy);
-  free(used);
+  free(cstart);
+  free(cvert);
+  free(seen);
   free(count);
   free(fill);
   return rc;
@@ -399,8 +352,12 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   }
   for (size_t s = ntets; s < el->morton.nslots; s++)
     el->morton.slot_tet[s] = -1;
-  if (morton_order(el, X, el->morton.slot_tet) || blocks_pack(el, &el->morton) || incidence(el) ||
-      colored_order(el))
+  if (morton_order(el, X, el->morton.slot_tet) || blocks_pack(el, &el->morton))
+    goto oom;
+  int32_t *seq = morton_vertices(el);
+  int bad = !seq || incidence(el, seq) || colored_order(el, seq);
+  free(seq);
+  if (bad)
     goto oom;
   el->morton_slot = malloc(ntets * sizeof(int32_t));
   if (!el->morton_slot)

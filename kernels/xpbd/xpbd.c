@@ -11,6 +11,7 @@
 
 #include <ek/xpbd.h>
 
+#include "../elements/layer.h"
 #include "../elements/tets.h"
 #include "../kernels.h"
 #include "../real.h"
@@ -412,7 +413,7 @@ static int build_clusters(ek_xpbd *xp, const double *mass, double **stiff64) {
   const ek_tets *el = xp->el;
   const size_t nv = el->nverts, L = (size_t)xp->lanes;
   size_t *rs = NULL;
-  int32_t *ring = NULL, *color = NULL, *mark = NULL;
+  int32_t *ring = NULL, *color = NULL;
   cluster_key *keys = NULL;
   double *vol = NULL, *bc = NULL;
   int rc = build_rings(el, &rs, &ring);
@@ -487,31 +488,12 @@ static int build_clusters(ek_xpbd *xp, const double *mass, double **stiff64) {
             m * (Qi[3 * i] * rb[0] + Qi[3 * i + 1] * rb[1] + Qi[3 * i + 2] * rb[2]);
     }
   }
-  // Greedy colouring: the clusters sharing a vertex with v's are those of
-  // its members' rings.
-  mark = malloc((nv + 1) * sizeof(int32_t));
-  if (!mark)
+  // Greedy colouring in vertex order (kernels/elements/layer.h): a
+  // cluster's members are its ring, clusters sharing a member get
+  // different colours; an empty ring gets colour -1 (no cluster).
+  xp->ncolors = ek_layer_color(nv, nv, 0, 0, rs, ring, color);
+  if (xp->ncolors < 0)
     goto done;
-  for (size_t i = 0; i <= nv; i++)
-    mark[i] = -1;
-  xp->ncolors = 0;
-  for (size_t v = 0; v < nv; v++) {
-    color[v] = -1;
-    if (rs[v] == rs[v + 1])
-      continue;
-    for (size_t e = rs[v]; e < rs[v + 1]; e++) {
-      const int32_t u = ring[e];
-      for (size_t f = rs[u]; f < rs[u + 1]; f++)
-        if (color[ring[f]] >= 0 && (size_t)ring[f] < v)
-          mark[color[ring[f]]] = (int32_t)v;
-    }
-    int32_t c = 0;
-    while (mark[c] == (int32_t)v)
-      c++;
-    color[v] = c;
-    if (c + 1 > xp->ncolors)
-      xp->ncolors = c + 1;
-  }
   size_t nk = 0;
   for (size_t v = 0; v < nv; v++)
     if (color[v] >= 0)
@@ -579,39 +561,21 @@ done:
   free(rs);
   free(ring);
   free(color);
-  free(mark);
   free(keys);
   free(vol);
   free(bc);
   return rc;
 }
 
-// Vertex -> its correction entries (Jacobi), in block order.
+// Vertex -> its correction entries (Jacobi), in block order: the
+// incidence of the member planes (kernels/elements/layer.h), position
+// p * L + l mapped to its correction offset p * 3L + l.
 static int build_incidence(ek_xpbd *xp) {
   const size_t L = (size_t)xp->lanes, nv = xp->nverts;
-  xp->vert_start = calloc(nv + 1, sizeof(size_t));
-  if (!xp->vert_start)
+  if (ek_layer_incidence(nv, xp->nplanes * L, xp->idx, &xp->vert_start, &xp->vert_entries))
     return EK_ENOMEM;
-  for (size_t p = 0; p < xp->nplanes; p++)
-    for (size_t l = 0; l < L; l++)
-      if (xp->idx[p * L + l] >= 0)
-        xp->vert_start[xp->idx[p * L + l] + 1]++;
-  for (size_t v = 0; v < nv; v++)
-    xp->vert_start[v + 1] += xp->vert_start[v];
-  size_t *next = malloc((nv ? nv : 1) * sizeof(size_t));
-  xp->vert_entries = malloc((xp->vert_start[nv] ? xp->vert_start[nv] : 1) * sizeof(size_t));
-  if (!next || !xp->vert_entries) {
-    free(next);
-    return EK_ENOMEM;
-  }
-  memcpy(next, xp->vert_start, nv * sizeof(size_t));
-  for (size_t p = 0; p < xp->nplanes; p++)
-    for (size_t l = 0; l < L; l++) {
-      const int32_t v = xp->idx[p * L + l];
-      if (v >= 0)
-        xp->vert_entries[next[v]++] = p * 3 * L + l;
-    }
-  free(next);
+  for (size_t e = 0; e < xp->vert_start[nv]; e++)
+    xp->vert_entries[e] = xp->vert_entries[e] / L * 3 * L + xp->vert_entries[e] % L;
   return EK_OK;
 }
 

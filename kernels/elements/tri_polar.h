@@ -6,11 +6,16 @@
 // sigma1 >= 0. Rank-deficient F: U is completed to an orthonormal pair, so
 // R = U V^T is orthonormal and finite.
 //
-// A local helper of the cloth force driver and of the ARAP kernel's slow
-// lanes: the public ek_polar32_f64 (include/ek/cloth.h, issue 11 item 1) is
-// written on another branch; this one is what the forces use meanwhile.
-#ifndef EK_CLOTH_POLAR_H
-#define EK_CLOTH_POLAR_H
+// Why a second polar beside the vectorised one (tri_polar_vec.h, behind
+// ek_polar32 and the vector membrane kernels): this scalar Jacobi form is
+// what the default double paths have always run (ek_cloth_energy_f64,
+// ek_cloth_hessian_apply_f64 / _diagonal_f64 and ek_cloth_fields_f64 for
+// ARAP and the fields J, s1, s2 of every cloth frame; the cloth XPBD; the
+// force kernel's slow ARAP lanes), so every cloth scene and ek-hash row
+// keeps its bits; the two algorithms round differently. Retiring it means
+// moving those paths to the vector kernels and re-baselining the hashes.
+#ifndef EK_KERNELS_ELEMENTS_TRI_POLAR_H
+#define EK_KERNELS_ELEMENTS_TRI_POLAR_H
 
 #include <math.h>
 

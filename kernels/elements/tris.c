@@ -1,7 +1,10 @@
-// The cloth element layer (include/ek/cloth_force.h): rest frames, bending
-// hinges with the coefficients of Bergou et al. 2006, AoSoA blocks in both
-// precisions and the vertex incidence the deterministic gather walks.
-// Built once, at baseline ISA (integer and setup work).
+// The triangle element layer (include/ek/cloth_force.h): rest frames (the
+// one triangle rest frame and degeneracy check of ek, also behind
+// ek_tri_rest_f64), bending hinges with the coefficients of Bergou et al.
+// 2006, AoSoA blocks in both precisions and the vertex incidence the
+// deterministic gather walks, through the primitives tets share
+// (layer.h). Built once, at baseline ISA (integer and setup work).
+#include <ek/cloth.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,7 +12,8 @@
 #include <ek/batch.h>
 
 #include "../kernels.h"
-#include "cloth_layer.h"
+#include "layer.h"
+#include "tris.h"
 
 static double dot3(const double *a, const double *b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -24,7 +28,8 @@ static void sub3(const double *a, const double *b, double *c) {
     c[i] = a[i] - b[i];
 }
 
-double ek_cloth_rest_frame(const double *X0, const double *X1, const double *X2, double dm_inv[4]) {
+double ek_tri_rest_frame(const double *X0, const double *X1, const double *X2, int rounding,
+                         double dm_inv[4]) {
   double e1[3], e2[3], n[3], t2[3];
   sub3(X1, X0, e1);
   sub3(X2, X0, e2);
@@ -34,14 +39,52 @@ double ek_cloth_rest_frame(const double *X0, const double *X1, const double *X2,
   if (!(area > 0))
     return area;
   // t1 = e1 / |e1|, t2 = n x t1 / |n|: Dm = [[|e1|, e2.t1], [0, e2.t2]].
-  cross3(n, e1, t2);
-  double a = l1, b = dot3(e2, e1) / l1, d = dot3(e2, t2) / (ln * l1);
+  double a = l1, b = dot3(e2, e1) / l1, d;
+  if (rounding == EK_TRI_REST_VIA_T2) {
+    cross3(n, e1, t2);
+    d = dot3(e2, t2) / (ln * l1);
+  } else {
+    d = ln / l1;
+  }
   // Dm^-1 of the upper-triangular [[a, b], [0, d]].
   dm_inv[0] = 1 / a;
   dm_inv[1] = -b / (a * d);
   dm_inv[2] = 0;
   dm_inv[3] = 1 / d;
   return area;
+}
+
+// The degeneracy rule (cloth.h), on the edges scaled by 2^-e (the largest
+// component in [0.5, 1), exact), so that it decides at any scale as the
+// unscaled test does wherever that one is in range (the scaling of
+// sim/mesh_tri.c, issue 28).
+int ek_tri_degenerate(const double X0[3], const double X1[3], const double X2[3], double *two_area,
+                      double *longest2) {
+  double e1[3], e2[3], e3[3], n[3], emax = 0;
+  sub3(X1, X0, e1);
+  sub3(X2, X0, e2);
+  sub3(X2, X1, e3);
+  for (int k = 0; k < 3; ++k)
+    emax = fmax(emax, fmax(fabs(e1[k]), fmax(fabs(e2[k]), fabs(e3[k]))));
+  if (!isfinite(emax)) {
+    if (two_area)
+      *two_area = NAN;
+    if (longest2)
+      *longest2 = INFINITY;
+    return 1;
+  }
+  int e = 0;
+  frexp(emax, &e);
+  for (int k = 0; k < 3; ++k)
+    e1[k] = ldexp(e1[k], -e), e2[k] = ldexp(e2[k], -e), e3[k] = ldexp(e3[k], -e);
+  cross3(e1, e2, n);
+  double a2 = sqrt(dot3(n, n));
+  double l2 = fmax(dot3(e1, e1), fmax(dot3(e2, e2), dot3(e3, e3)));
+  if (two_area)
+    *two_area = ldexp(a2, 2 * e);
+  if (longest2)
+    *longest2 = ldexp(l2, 2 * e);
+  return !(a2 > EK_TRI_DEGENERATE_REL * l2);
 }
 
 // cot of the angle between u and v.
@@ -167,55 +210,51 @@ static int build_hinges(ek_cloth *cl) {
   return 0;
 }
 
-// Vertex -> element corners, in element order (counting sort).
-static int build_incidence(size_t nv, size_t ne, int nc, const int32_t *el, size_t **off_out,
-                           int32_t **ref_out) {
-  size_t *off = calloc(nv + 1, sizeof *off);
-  int32_t *ref = malloc((ne ? ne : 1) * (size_t)nc * sizeof *ref);
-  size_t *pos = malloc((nv ? nv : 1) * sizeof *pos);
-  if (!off || !ref || !pos) {
-    free(off);
-    free(ref);
-    free(pos);
-    return EK_ENOMEM;
-  }
-  for (size_t e = 0; e < ne * (size_t)nc; ++e)
-    off[el[e] + 1]++;
-  for (size_t v = 0; v < nv; ++v)
-    off[v + 1] += off[v];
-  memcpy(pos, off, nv * sizeof *pos);
-  for (size_t e = 0; e < ne * (size_t)nc; ++e)
-    ref[pos[el[e]]++] = (int32_t)e;
-  free(pos);
-  *off_out = off;
-  *ref_out = ref;
-  return 0;
+// Caller-order slots of ne elements in blocks of L lanes (-1 padding; at
+// least one block, so an empty set still has valid planes).
+static int32_t *caller_slots(size_t ne, size_t L, size_t *nslots) {
+  size_t nb = (ne + L - 1) / L;
+  *nslots = (nb ? nb : 1) * L;
+  int32_t *s = malloc(*nslots * sizeof *s);
+  if (s)
+    for (size_t i = 0; i < *nslots; ++i)
+      s[i] = i < ne ? (int32_t)i : -1;
+  return s;
 }
 
-// AoSoA planes of one precision: idx (nc planes), values (nval planes, the
-// padding value pad[k] for plane k).
-static int pack_blocks(size_t ne, int nc, const int32_t *el, int nval, const double *val,
-                       const double *pad, size_t L, int f64, size_t *nblocks, int32_t **idx,
-                       void **vals) {
-  size_t nb = (ne + L - 1) / L;
-  *nblocks = nb;
-  size_t slots = (nb ? nb : 1) * L;
-  *idx = ek_alloc(slots * (size_t)nc * sizeof(int32_t));
-  *vals = ek_alloc(slots * (size_t)nval * (f64 ? sizeof(double) : sizeof(float)));
-  if (!*idx || !*vals)
-    return EK_ENOMEM;
-  for (size_t s = 0; s < slots; ++s) {
-    size_t b = s / L, l = s % L;
-    for (int c = 0; c < nc; ++c)
-      (*idx)[(b * (size_t)nc + (size_t)c) * L + l] = s < ne ? el[s * (size_t)nc + (size_t)c] : -1;
-    for (int k = 0; k < nval; ++k) {
-      double v = s < ne ? val[s * (size_t)nval + (size_t)k] : pad[k];
-      size_t at = (b * (size_t)nval + (size_t)k) * L + l;
-      if (f64)
-        ((double *)*vals)[at] = v;
-      else
-        ((float *)*vals)[at] = (float)v;
+// Both precisions' AoSoA blocks (layer.h): triangles 3 index planes,
+// Dm^-1 4 (padding I), area 1 (padding 0); hinges 4 index planes, k 4
+// (padding 0).
+static int pack_layer(ek_cloth *cl) {
+  static const double dm_pad[4] = {1, 0, 0, 1};
+  for (int f64 = 0; f64 < 2; ++f64) {
+    size_t L = f64 ? EK_LANES_F64 : EK_LANES_F32, es = f64 ? sizeof(double) : sizeof(float);
+    size_t nts, nhs;
+    int32_t *ts = caller_slots(cl->nt, L, &nts), *hs = caller_slots(cl->nh, L, &nhs);
+    int32_t *tidx = ek_alloc(nts * 3 * sizeof(int32_t)),
+            *hidx = ek_alloc(nhs * 4 * sizeof(int32_t));
+    void *dm = ek_alloc(nts * 4 * es), *ar = ek_alloc(nts * es), *hk = ek_alloc(nhs * 4 * es);
+    if (f64) {
+      cl->ntb_f64 = (cl->nt + L - 1) / L, cl->nhb_f64 = (cl->nh + L - 1) / L;
+      cl->tri_idx_f64 = tidx, cl->hinge_idx_f64 = hidx, cl->dm_f64 = dm, cl->area_f64 = ar,
+      cl->hk_f64 = hk;
+    } else {
+      cl->ntb_f32 = (cl->nt + L - 1) / L, cl->nhb_f32 = (cl->nh + L - 1) / L;
+      cl->tri_idx_f32 = tidx, cl->hinge_idx_f32 = hidx, cl->dm_f32 = dm, cl->area_f32 = ar,
+      cl->hk_f32 = hk;
     }
+    int ok = ts && hs && tidx && hidx && dm && ar && hk;
+    if (ok) {
+      ek_layer_pack_index(nts, ts, 3, cl->tris, L, tidx);
+      ek_layer_pack_values(nts, ts, 4, cl->dm_inv, dm_pad, L, f64, dm);
+      ek_layer_pack_values(nts, ts, 1, cl->area, NULL, L, f64, ar);
+      ek_layer_pack_index(nhs, hs, 4, cl->hinges, L, hidx);
+      ek_layer_pack_values(nhs, hs, 4, cl->hinge_k, NULL, L, f64, hk);
+    }
+    free(ts);
+    free(hs);
+    if (!ok)
+      return EK_ENOMEM;
   }
   return 0;
 }
@@ -263,69 +302,23 @@ ek_cloth *ek_cloth_create(size_t nverts, const double *X, size_t ntris, const in
   for (size_t t = 0; t < ntris; ++t) {
     const int32_t *q = tris + 3 * t;
     const double *X0 = X + 3 * (size_t)q[0], *X1 = X + 3 * (size_t)q[1], *X2 = X + 3 * (size_t)q[2];
-    double longest = 0, e[3];
-    for (int c = 0; c < 3; ++c) {
-      sub3(X + 3 * (size_t)q[(c + 1) % 3], X + 3 * (size_t)q[c], e);
-      longest = fmax(longest, dot3(e, e));
-    }
-    double A = ek_cloth_rest_frame(X0, X1, X2, cl->dm_inv + 4 * t);
-    if (!(2 * A > EK_CLOTH_DEGENERATE_REL * longest)) {
+    double twoA, longest;
+    if (ek_tri_degenerate(X0, X1, X2, &twoA, &longest)) {
       ek_set_error("ek_cloth_create: triangle %zu (%d %d %d): twice the rest area %g <= %g "
                    "(longest edge squared %g): degenerate (zero-area) triangle",
-                   t, q[0], q[1], q[2], 2 * A, EK_CLOTH_DEGENERATE_REL * longest, longest);
+                   t, q[0], q[1], q[2], twoA, EK_CLOTH_DEGENERATE_REL * longest, longest);
       ek_cloth_destroy(cl);
       return NULL;
     }
+    double A = ek_tri_rest_frame(X0, X1, X2, EK_TRI_REST_VIA_T2, cl->dm_inv + 4 * t);
     cl->area[t] = A;
     for (int c = 0; c < 3; ++c)
       cl->lumped[q[c]] += A / 3;
   }
   if (build_hinges(cl) != 0 ||
-      build_incidence(nverts, ntris, 3, cl->tris, &cl->tri_off, &cl->tri_ref) != 0 ||
-      build_incidence(nverts, cl->nh, 4, cl->hinges, &cl->hinge_off, &cl->hinge_ref) != 0)
-    goto oom;
-  // Tri planes: Dm^-1 (4) then the area (1), split after packing.
-  double *tv = malloc(5 * ntris * sizeof(double));
-  if (!tv)
-    goto oom;
-  for (size_t t = 0; t < ntris; ++t) {
-    memcpy(tv + 5 * t, cl->dm_inv + 4 * t, 4 * sizeof(double));
-    tv[5 * t + 4] = cl->area[t];
-  }
-  const double tri_pad[5] = {1, 0, 0, 1, 0}, hinge_pad[4] = {0, 0, 0, 0};
-  int rc = 0;
-  for (int f64 = 0; f64 < 2 && rc == 0; ++f64) {
-    size_t L = f64 ? EK_LANES_F64 : EK_LANES_F32, nb;
-    int32_t *idx;
-    void *vals;
-    rc = pack_blocks(ntris, 3, cl->tris, 5, tv, tri_pad, L, f64, &nb, &idx, &vals);
-    void *dm = ek_alloc((nb ? nb : 1) * L * 4 * (f64 ? 8 : 4)),
-         *ar = ek_alloc((nb ? nb : 1) * L * (f64 ? 8 : 4));
-    if (rc == 0 && dm && ar) {
-      size_t es = f64 ? 8 : 4;
-      for (size_t b = 0; b < nb; ++b) {
-        memcpy((char *)dm + b * 4 * L * es, (char *)vals + b * 5 * L * es, 4 * L * es);
-        memcpy((char *)ar + b * L * es, (char *)vals + (b * 5 + 4) * L * es, L * es);
-      }
-    } else {
-      rc = EK_ENOMEM;
-    }
-    ek_free(vals);
-    if (f64) {
-      cl->ntb_f64 = nb, cl->tri_idx_f64 = idx, cl->dm_f64 = dm, cl->area_f64 = ar;
-    } else {
-      cl->ntb_f32 = nb, cl->tri_idx_f32 = idx, cl->dm_f32 = dm, cl->area_f32 = ar;
-    }
-    if (rc == 0) {
-      rc = pack_blocks(cl->nh, 4, cl->hinges, 4, cl->hinge_k, hinge_pad, L, f64, &nb, &idx, &vals);
-      if (f64)
-        cl->nhb_f64 = nb, cl->hinge_idx_f64 = idx, cl->hk_f64 = vals;
-      else
-        cl->nhb_f32 = nb, cl->hinge_idx_f32 = idx, cl->hk_f32 = vals;
-    }
-  }
-  free(tv);
-  if (rc)
+      ek_layer_incidence(nverts, 3 * ntris, cl->tris, &cl->tri_off, &cl->tri_ref) != 0 ||
+      ek_layer_incidence(nverts, 4 * cl->nh, cl->hinges, &cl->hinge_off, &cl->hinge_ref) != 0 ||
+      pack_layer(cl) != 0)
     goto oom;
   cl->tri_corner_f32 = ek_alloc((cl->ntb_f32 ? cl->ntb_f32 : 1) * 9 * EK_LANES_F32 * sizeof(float));
   cl->tri_corner_f64 =

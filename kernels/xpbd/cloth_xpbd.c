@@ -24,9 +24,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../elements/layer.h"
+#include "../elements/tri_polar.h"
+#include "../elements/tris.h"
 #include "../kernels.h"
-#include "cloth_layer.h"
-#include "cloth_polar.h"
 
 struct ek_cloth_xpbd {
   const ek_cloth *cl;
@@ -39,35 +40,6 @@ struct ek_cloth_xpbd {
   double *lambda, *w;
   double h;
 };
-
-// Greedy colouring of elements with nc vertices each, in element order.
-static int color_elements(size_t nv, size_t ne, int nc, const int32_t *el, int *color, int first) {
-  // last[v]: per vertex a bit set of used colours would be general; the
-  // greedy colour count is small (<= ~12 for a grid), so a 64-bit mask.
-  uint64_t *used = calloc(nv ? nv : 1, sizeof *used);
-  if (!used)
-    return -1;
-  int maxc = first;
-  for (size_t e = 0; e < ne; ++e) {
-    uint64_t m = 0;
-    for (int c = 0; c < nc; ++c)
-      m |= used[el[e * (size_t)nc + (size_t)c]];
-    int col = 0;
-    while (col < 64 && (m >> col & 1))
-      col++;
-    if (col == 64) {
-      free(used);
-      return -2;
-    }
-    for (int c = 0; c < nc; ++c)
-      used[el[e * (size_t)nc + (size_t)c]] |= 1ull << col;
-    color[e] = first + col;
-    if (first + col + 1 > maxc)
-      maxc = first + col + 1;
-  }
-  free(used);
-  return maxc;
-}
 
 void ek_cloth_xpbd_destroy(ek_cloth_xpbd *x) {
   if (!x)
@@ -93,7 +65,7 @@ ek_cloth_xpbd *ek_cloth_xpbd_create(const ek_cloth *cl, const ek_cloth_params *p
   x->k = k;
   size_t nh = p->bending > 0 ? cl->nh : 0;
   x->n = cl->nt + nh;
-  int *color = malloc(x->n * sizeof *color);
+  int32_t *color = malloc((x->n ? x->n : 1) * sizeof *color);
   x->order = malloc(x->n * sizeof *x->order);
   x->lambda = calloc(x->n, sizeof *x->lambda);
   x->w = calloc(cl->nv, sizeof *x->w);
@@ -103,15 +75,19 @@ ek_cloth_xpbd *ek_cloth_xpbd_create(const ek_cloth *cl, const ek_cloth_params *p
     ek_set_error("ek_cloth_xpbd_create: out of memory");
     return NULL;
   }
-  int nct = color_elements(cl->nv, cl->nt, 3, cl->tris, color, 0);
-  int ncol = nct < 0 ? nct : color_elements(cl->nv, nh, 4, cl->hinges, color + cl->nt, nct);
-  if (ncol < 0) {
+  // Greedy colours in element order (kernels/elements/layer.h), the
+  // triangles' first, the hinges' after them (no colour mixes the two).
+  int nct = ek_layer_color(cl->nv, cl->nt, 0, 3, NULL, cl->tris, color);
+  int nch = nct < 0 ? -1 : ek_layer_color(cl->nv, nh, 0, 4, NULL, cl->hinges, color + cl->nt);
+  if (nct < 0 || nch < 0) {
     free(color);
     ek_cloth_xpbd_destroy(x);
-    ek_set_error("ek_cloth_xpbd_create: colouring failed (%s)",
-                 ncol == -1 ? "out of memory" : "more than 64 colours: vertex valence too high");
+    ek_set_error("ek_cloth_xpbd_create: out of memory (colouring)");
     return NULL;
   }
+  for (size_t j = cl->nt; j < x->n; ++j)
+    color[j] += nct;
+  int ncol = nct + nch;
   x->ncolors = ncol;
   x->color_off = calloc((size_t)ncol + 1, sizeof *x->color_off);
   if (!x->color_off) {
