@@ -10,7 +10,7 @@
 // of that signal after printing how many frames it wrote, the file holds
 // exactly that many, the XDMF lists them all and no scratch file is left;
 // a signal inside a step that cannot end in reasonable time ends the run
-// within a second, the frames so far intact and named as partial.
+// long before the step would end, the frames so far intact and named as partial.
 #include <ek/sim/sim.h>
 
 #include <hdf5.h>
@@ -316,8 +316,8 @@ static double now_s(void) {
 // SIGINT inside one long step (issue 28: an XPBD scene of 1e5 substeps x
 // 1e5 iterations ignored SIGINT and SIGTERM, which were looked at only
 // between steps): the step looks at the signal between sweeps, so the run
-// ends within a second, dies of SIGINT, and the frame written before the
-// step is intact and named as a partial series.
+// ends long before the step would (seconds, not hours), dies of SIGINT, and the frame written
+// before the step is intact and named as a partial series.
 static void stop_inside_step_case(const char *long_scene) {
   char out[400], log[400], err[440], detail[1024], why[512] = "";
   snprintf(out, sizeof out, "%s/inside.h5", dir);
@@ -330,21 +330,33 @@ static void stop_inside_step_case(const char *long_scene) {
   snprintf(scene, sizeof scene, "%s", saved);
   long seen = wait_for_frames(out, 1); // frame 0, then the first step runs
   sleep_ms(300);                       // well inside it
+  // The step is hours of sweeps: a run that ends within STOP_LIMIT_S of
+  // the signal looked at it inside the step. A generous limit (no timing
+  // claim: a busy machine may deschedule ek-sim for a while); a run still
+  // going then is killed and fails.
+  const double STOP_LIMIT_S = 30.0;
   double t0 = now_s();
   kill(pid, SIGINT);
   int status = 0;
-  waitpid(pid, &status, 0);
+  while (waitpid(pid, &status, WNOHANG) == 0) {
+    if (now_s() - t0 > STOP_LIMIT_S) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      break;
+    }
+    sleep_ms(5);
+  }
   double took = now_s() - t0;
   int died = WIFSIGNALED(status) && WTERMSIG(status) == SIGINT;
   long n = check_output(out, why, sizeof why);
   int inside = file_contains(err, "stopped by SIGINT inside");
   int partial = file_contains(err, "a partial series");
   int warned = file_contains(err, "sweeps over");
-  int ok = died && seen == 1 && n == 1 && took < 1.0 && inside && partial && warned;
+  int ok = died && seen == 1 && n == 1 && took < STOP_LIMIT_S && inside && partial && warned;
   snprintf(detail, sizeof detail,
-           "died of SIGINT: %d after %.3f s (limit 1 s); file %ld frames%s%s (want 1); "
+           "died of SIGINT: %d after %.3f s (limit %.0f s); file %ld frames%s%s (want 1); "
            "'inside' %s, 'partial' %s, long-step warning %s",
-           died, took, n, why[0] ? ": " : "", why, inside ? "said" : "MISSING",
+           died, took, STOP_LIMIT_S, n, why[0] ? ": " : "", why, inside ? "said" : "MISSING",
            partial ? "said" : "MISSING", warned ? "printed" : "MISSING");
   verdict("SIGINT inside a long XPBD step", ok, detail);
 }
