@@ -293,23 +293,42 @@ static void check_extremes(int f32, ek_isa isa, const ek_material *m, int projec
   }
 }
 
-// A NaN in one element: that element's output is NaN, the others keep the
-// bits they have without it.
+// Non-finite input (include/ek/material.h): an element with a NaN or an
+// infinity in F (or in R, for the models that read it) gets NaN in every
+// output entry, for every op, whichever entry holds it; the other elements
+// keep the bits they have without it.
 static void check_nan_lane(int f32, ek_isa isa, const ek_material *m) {
-  const size_t n = 21;
-  double F[21 * 9], R[21 * 9], a[21 * 9], b[21 * 9];
-  for (size_t e = 0; e < n; e++)
-    make_F(NEAR_ID, F + 9 * e), rotation(R + 9 * e);
-  eval(f32, m, EK_MAT_PK1, isa, n, F, R, NULL, a, 0);
-  F[9 * 5 + 4] = NAN;
-  eval(f32, m, EK_MAT_PK1, isa, n, F, R, NULL, b, 0);
-  for (size_t e = 0; e < n; e++) {
-    int nan = isnan(b[9 * e]);
-    int same = memcmp(a + 9 * e, b + 9 * e, 9 * sizeof(double)) == 0;
-    if (e == 5 ? !nan : !same) {
-      printf("    NaN lane: element %zu %s\n", e, e == 5 ? "not NaN" : "changed");
-      fail("NaN in one element");
-    }
+  enum { N = 21, BAD = 5 };
+  static const double bad_values[3] = {NAN, INFINITY, -INFINITY};
+  const int reads_r = ek_model_need(m->model, m->clamp) == EK_NEEDS_R_INPUT;
+  double F[N * 9], R[N * 9], dF[N * 9];
+  static double a[N * 81], b[N * 81];
+  for (size_t e = 0; e < N; e++)
+    make_F(NEAR_ID, F + 9 * e), rotation(R + 9 * e), make_F(NEAR_ID, dF + 9 * e);
+  for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++) {
+    const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+    eval(f32, m, (ek_material_op)op, isa, N, F, R, dF, a, 0);
+    for (int in_r = 0; in_r <= reads_r; in_r++)
+      for (int entry = 0; entry < 9; entry++)
+        for (int v = 0; v < 3; v++) {
+          double *X = in_r ? R : F, keep = X[9 * BAD + entry];
+          X[9 * BAD + entry] = bad_values[v];
+          eval(f32, m, (ek_material_op)op, isa, N, F, R, dF, b, 0);
+          X[9 * BAD + entry] = keep;
+          for (size_t e = 0; e < N; e++) {
+            size_t finite = 0;
+            for (size_t i = 0; i < nout; i++)
+              finite += !isnan(b[nout * e + i]);
+            int same = memcmp(a + nout * e, b + nout * e, nout * sizeof(double)) == 0;
+            if (e == BAD ? finite != 0 : !same) {
+              printf("    %s %s[%d] = %g: element %zu %s (%zu of %zu entries not NaN)\n",
+                     op_names[op], in_r ? "R" : "F", entry, bad_values[v], e,
+                     e == BAD ? "not all NaN" : "changed", finite, nout);
+              fail("non-finite input");
+              return;
+            }
+          }
+        }
   }
 }
 

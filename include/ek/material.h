@@ -24,6 +24,10 @@
 // - Neo-Hookean without clamp is defined for J > 0 only: an element with
 //   J <= 0 gets psi = +inf, P = NaN and dP = NaN, and is counted in the
 //   return value. Every other model is finite for every finite F.
+// - Non-finite input: an element whose F (or R, for corotated linear) holds
+//   a NaN or an infinity gets NaN in every entry of psi, P, dP and H, as
+//   the SVD gives NaN in all of U, S, V (svd3.h); other elements are not
+//   affected.
 // - Fixed corotated and ARAP: R(F) is not differentiable where two signed
 //   singular values sum to zero (sigma_i + sigma_j = 0, e.g. a flat or
 //   inverted element); dP contains 1/(sigma_i + sigma_j) there.

@@ -194,6 +194,33 @@ EK_INLINE void material_hessian(const ek_material_lanes *m, const vreal F[9], co
 
 // ---- Block loop over AoSoA data (layout of include/ek/batch.h) ----
 
+// The lanes whose F (and R, for a model that reads one) is finite: a NaN or
+// an infinity in an input gives NaN in every output entry of its lane, for
+// every op (include/ek/material.h), as the SVD does for its factors; the
+// formulas alone would leave some entries finite (P of linear at F = inf).
+EK_INLINE vmask material_finite_lanes(const vreal F[9], const vreal R[9]) {
+  const vreal inf = vset((real)INFINITY);
+  vmask ok = vlt(vabs(F[0]), inf);
+  for (int i = 1; i < 9; i++)
+    ok = vmand(ok, vlt(vabs(F[i]), inf));
+  if (MODEL_READS_R)
+    for (int i = 0; i < 9; i++)
+      ok = vmand(ok, vlt(vabs(R[i]), inf));
+  return ok;
+}
+
+// Store n output planes; lanes outside `ok` get NaN (material_finite_lanes).
+EK_INLINE void material_store(real *o, const vreal *v, int n, vmask ok) {
+  if (vall(ok)) {
+    for (int i = 0; i < n; i++)
+      vstore(o + (size_t)i * EK_LANES, v[i]);
+    return;
+  }
+  const vreal nan = vset((real)NAN);
+  for (int i = 0; i < n; i++)
+    vstore(o + (size_t)i * EK_LANES, vsel(ok, v[i], nan));
+}
+
 // Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
 EK_INLINE size_t material_vec_offset(size_t j, int planes) {
   return (j / EK_VPB) * (size_t)planes * EK_LANES + (j % EK_VPB) * EK_W;
@@ -214,34 +241,37 @@ EK_INLINE void material_vectors_svd(const ek_material_lanes *m, const ek_materia
   for (int j = 0; j < n; j++) {
     real *o = out + material_vec_offset(j0 + (size_t)j, nout);
     vreal P[9], dFv[9], zero = vzero(), one = vset(1);
+    const vmask ok = material_finite_lanes(Fv[j], Fv[j]);
     mat_frame fr;
     switch (k->op) {
     case EK_MAT_ENERGY:
-      vstore(o, material_psi_svd(m, S[j]));
+      P[0] = material_psi_svd(m, S[j]);
+      material_store(o, P, 1, ok);
       break;
     case EK_MAT_PK1:
       material_pk1_svd(m, U[j], S[j], V[j], P);
-      for (int i = 0; i < 9; i++)
-        vstore(o + (size_t)i * EK_LANES, P[i]);
+      material_store(o, P, 9, ok);
       break;
     case EK_MAT_PK1_DIFF:
       material_frame_svd(m, Fv[j], U[j], S[j], V[j], k->project, &fr);
       for (int i = 0; i < 9; i++)
         dFv[i] = vload(dF + material_vec_offset(j0 + (size_t)j, 9) + (size_t)i * EK_LANES);
       mat_frame_apply(&fr, dFv, P);
-      for (int i = 0; i < 9; i++)
-        vstore(o + (size_t)i * EK_LANES, P[i]);
+      material_store(o, P, 9, ok);
       break;
-    case EK_MAT_HESSIAN:
+    case EK_MAT_HESSIAN: {
+      vreal H[81];
       material_frame_svd(m, Fv[j], U[j], S[j], V[j], k->project, &fr);
       for (int b = 0; b < 9; b++) {
         for (int i = 0; i < 9; i++)
           dFv[i] = i == b ? one : zero;
         mat_frame_apply(&fr, dFv, P);
         for (int a = 0; a < 9; a++)
-          vstore(o + (size_t)(9 * a + b) * EK_LANES, P[a]);
+          H[9 * a + b] = P[a];
       }
+      material_store(o, H, 81, ok);
       break;
+    }
     }
   }
 }
@@ -282,27 +312,26 @@ EK_INLINE void material_blocks(size_t nblocks, const real *F, const real *R, con
         Fv[i] = vload(F + in + (size_t)i * EK_LANES);
         Rv[i] = MODEL_READS_R ? vload(R + in + (size_t)i * EK_LANES) : vzero();
       }
+      const vmask ok = material_finite_lanes(Fv, Rv);
       switch (k->op) {
       case EK_MAT_ENERGY:
-        vstore(out + o, material_psi(&m, Fv, Rv));
+        P[0] = material_psi(&m, Fv, Rv);
+        material_store(out + o, P, 1, ok);
         break;
       case EK_MAT_PK1:
         material_pk1(&m, Fv, Rv, P);
-        for (int i = 0; i < 9; i++)
-          vstore(out + o + (size_t)i * EK_LANES, P[i]);
+        material_store(out + o, P, 9, ok);
         break;
       case EK_MAT_PK1_DIFF:
         for (int i = 0; i < 9; i++)
           dFv[i] = vload(dF + in + (size_t)i * EK_LANES);
         material_diff_direct(&m, Fv, Rv, dFv, P);
-        for (int i = 0; i < 9; i++)
-          vstore(out + o + (size_t)i * EK_LANES, P[i]);
+        material_store(out + o, P, 9, ok);
         break;
       case EK_MAT_HESSIAN: {
         vreal H[81];
         material_hessian(&m, Fv, Rv, H);
-        for (int i = 0; i < 81; i++)
-          vstore(out + o + (size_t)i * EK_LANES, H[i]);
+        material_store(out + o, H, 81, ok);
         break;
       }
       }
