@@ -74,6 +74,45 @@ static void where(char *buf, size_t n, const tm_origin *o, const long *lines, si
     snprintf(buf, n, "%s %zu", what, i);
 }
 
+// An edge shared by more than two triangles (a non-manifold edge: a
+// bending hinge joins exactly two, cloth_force.h): 1 with the edge and the
+// first three triangles on it, 0 if there is none, EK_ENOMEM.
+typedef struct {
+  int32_t a, b;
+  size_t t;
+} tm_edge;
+
+static int tm_edge_cmp(const void *x, const void *y) {
+  const tm_edge *p = x, *q = y;
+  if (p->a != q->a)
+    return p->a < q->a ? -1 : 1;
+  if (p->b != q->b)
+    return p->b < q->b ? -1 : 1;
+  return p->t < q->t ? -1 : p->t > q->t;
+}
+
+static int find_nonmanifold_edge(const int32_t *T, size_t nt, int32_t edge[2], size_t tris[3]) {
+  tm_edge *e = malloc((nt > 0 ? 3 * nt : 1) * sizeof *e);
+  if (!e)
+    return EK_ENOMEM;
+  for (size_t t = 0; t < nt; ++t)
+    for (int c = 0; c < 3; ++c) {
+      int32_t u = T[3 * t + c], v = T[3 * t + (c + 1) % 3];
+      e[3 * t + c] = (tm_edge){u < v ? u : v, u < v ? v : u, t};
+    }
+  qsort(e, 3 * nt, sizeof *e, tm_edge_cmp);
+  int found = 0;
+  for (size_t i = 0; !found && i + 2 < 3 * nt; ++i)
+    if (e[i].a == e[i + 2].a && e[i].b == e[i + 2].b) {
+      edge[0] = e[i].a, edge[1] = e[i].b;
+      for (int k = 0; k < 3; ++k)
+        tris[k] = e[i + k].t;
+      found = 1;
+    }
+  free(e);
+  return found;
+}
+
 // Validate and build. Takes ownership of X and T (freed on failure too).
 static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const tm_origin *o,
                             char *err, size_t errlen) {
@@ -185,6 +224,27 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
       tm_error(err, errlen,
                "%s: duplicate element: triangle (%ld %ld %ld), the same vertices as %s", at,
                q[0] + b, q[1] + b, q[2] + b, at1);
+      goto fail;
+    }
+  }
+  {
+    // An edge of three or more triangles would get no bending hinge at all
+    // (a hinge joins two): refused, not silently left without bending.
+    int32_t edge[2];
+    size_t tris[3];
+    int nm = find_nonmanifold_edge(T, nt, edge, tris);
+    if (nm < 0)
+      goto oom;
+    if (nm) {
+      char at1[1100], at2[1100];
+      where(at, sizeof at, o, o ? o->tline : NULL, tris[2], "triangle");
+      where(at1, sizeof at1, o, o ? o->tline : NULL, tris[0], "triangle");
+      where(at2, sizeof at2, o, o ? o->tline : NULL, tris[1], "triangle");
+      long b = o ? o->base : 0;
+      tm_error(err, errlen,
+               "%s: non-manifold edge (%ld %ld): a third triangle on the edge of %s and %s; a "
+               "cloth's edges may join at most two triangles (its bending hinges, cloth_force.h)",
+               at, edge[0] + b, edge[1] + b, at1, at2);
       goto fail;
     }
   }

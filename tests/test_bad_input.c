@@ -422,6 +422,17 @@ static void duplicates(void) {
               strstr(ek_last_error(), "dup.obj:5") && printable(ek_last_error()),
           ek_last_error());
   ek_trimesh_destroy(tm);
+  // Three triangles on the edge (1 2): no bending hinge could join them.
+  write_text("fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 2 2 2\n"
+                        "f 1 2 3\nf 2 1 4\nf 2 6 3\nf 1 2 5\n");
+  snprintf(path, sizeof path, "%s/fin.obj", tmp_dir);
+  tm = ek_trimesh_load(path);
+  verdict("OBJ: a non-manifold edge (three triangles): refused, the three lines named",
+          !tm &&
+              contains_all(ek_last_error(), "fin.obj:10", "non-manifold edge (1 2)", "fin.obj:7") &&
+              strstr(ek_last_error(), "fin.obj:8") && printable(ek_last_error()),
+          ek_last_error());
+  ek_trimesh_destroy(tm);
   // Gmsh v4.1: two element blocks of 2 tets under a header of 3.
   write_text("blocks.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 1 5\n3 1 0 5\n"
                            "1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
