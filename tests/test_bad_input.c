@@ -26,7 +26,8 @@
 //     goes non-finite fails the step that made it ("non-finite", never
 //     "invertible"), the state kept finite; the stop flag leaves the bits
 //     of a run unchanged and, set, stops a step without applying it; cloth
-//     thickness 1e300 is refused naming cloth.thickness.
+//     thickness 1e300 is refused naming cloth.thickness; XPBD clusters
+//     build and run at 1e+-30 m (f64).
 // Run under the asan preset it also checks that every error path frees
 // what it took (ctest --preset asan -R bad_input).
 #include <ek/batch.h>
@@ -489,6 +490,8 @@ static double box_cfl(double L, double rho) {
   return dt;
 }
 
+static void clusters_at(double L);
+
 static void scales(void) {
   printf("-- extreme but valid scales\n");
   triangle_at(1e-70, 1);
@@ -516,6 +519,41 @@ static void scales(void) {
            d3);
   verdict("CFL finite and > 0 at 1e+-100 m and 1e-300 kg/m^3",
           isfinite(d1) && d1 > 0 && isfinite(d2) && d2 > 0 && isfinite(d3) && d3 > 0, detail);
+  clusters_at(1);
+  clusters_at(1e30);
+  clusters_at(1e-30);
+}
+
+// XPBD clusters on a 2x2x2 box of edge L (f64): Q = sum m rbar rbar^T
+// scales as L^5 here, its determinant as L^15, which overflows at 1e30 and
+// underflows at 1e-30; the singularity test and the inverse are
+// scale-free, so the clusters are built and two steps stay finite.
+static void clusters_at(double L) {
+  char json[1024];
+  snprintf(json, sizeof json,
+           "{\"mesh\": {\"box\": [2, 2, 2], \"size\": [%g, %g, %g]}, \"material\": "
+           "{\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000}, "
+           "\"precision\": \"f64\", \"dt\": 0.01, \"steps\": 2, \"integrator\": {\"type\": "
+           "\"xpbd\", \"substeps\": 2, \"iterations\": 2, \"elements\": \"clusters\"}}",
+           L, L, L);
+  ek_scene sc;
+  ek_mesh *m = NULL;
+  ek_sim *sim = NULL;
+  if (ek_scene_parse(json, "clusters.json", ".", &sc) == 0 && (m = ek_scene_mesh(&sc)))
+    sim = ek_sim_create(&sc, m);
+  char detail[1200], what[96];
+  snprintf(detail, sizeof detail, "%s", sim ? "" : ek_last_error());
+  int rc = sim ? ek_sim_step(sim) : -1;
+  rc = rc == 0 ? ek_sim_step(sim) : rc;
+  int finite = sim && rc == 0;
+  for (size_t i = 0; finite && i < 3 * ek_mesh_nverts(m); i++)
+    finite = isfinite(ek_sim_positions(sim)[i]);
+  if (sim && !finite)
+    snprintf(detail, sizeof detail, "rc %d: %s", rc, ek_last_error());
+  snprintf(what, sizeof what, "XPBD clusters on a box of edge %g (f64): built, 2 finite steps", L);
+  verdict(what, finite, detail);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
 }
 
 // A run whose state goes non-finite fails at the step that made it, with a

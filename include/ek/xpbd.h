@@ -29,7 +29,9 @@
 //             share of the mesh volume (a quarter of each incident tet's),
 //             so the V_j sum to the mesh volume. A cluster whose Q is
 //             singular (members coplanar, or massless) is refused at
-//             creation, naming the vertex.
+//             creation, naming the vertex: det Q < 1e-12 (tr Q / 3)^3, a
+//             test relative to Q's own scale, so any length and mass the
+//             precision holds are accepted (tested at 1e+-30 m in f64).
 //
 // The projection (Macklin 2016 eqs. 18, 17): per constraint,
 //   dlambda_j = (-C_j - alpha~_j lambda_j) / (sum_i w_i |grad_i C_j|^2

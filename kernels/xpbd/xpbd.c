@@ -4,6 +4,7 @@
 // residual and the profile. Built once per
 // precision: the sweeps of each precision here; creation and the
 // precision-free functions in the f64 instance.
+#include <float.h>
 #include <math.h>
 #include <omp.h>
 #include <stdlib.h>
@@ -468,17 +469,35 @@ static int build_clusters(ek_xpbd *xp, const double *mass, double **stiff64) {
                        Q[2] * (Q[3] * Q[7] - Q[4] * Q[6]);
     const double tr = Q[0] + Q[4] + Q[8];
     // Singular (coplanar or massless members): det Q tiny against the
-    // cube of its mean eigenvalue.
-    if (!(msum > 0) || !(det > 1e-12 * tr * tr * tr / 27)) {
+    // cube of its mean eigenvalue s = tr / 3. Q scales as mass x length^2:
+    // where s^3 overflows or underflows (a body of 1e30 m or 1e-30 m), the
+    // test and the inverse take Q / s (scale-free); elsewhere Q itself, as
+    // always (the same bits).
+    const double s = tr / 3, s3 = s * s * s;
+    const int plain = isfinite(s3) && s3 > DBL_MIN * 1e12;
+    double Qn[9], detn = 0;
+    if (!plain && s > 0 && isfinite(s)) {
+      for (int i = 0; i < 9; i++)
+        Qn[i] = Q[i] / s;
+      detn = Qn[0] * (Qn[4] * Qn[8] - Qn[5] * Qn[7]) - Qn[1] * (Qn[3] * Qn[8] - Qn[5] * Qn[6]) +
+             Qn[2] * (Qn[3] * Qn[7] - Qn[4] * Qn[6]);
+    }
+    if (!(msum > 0) || !(plain ? det > 1e-12 * s3 : detn > 1e-12)) {
       ek_set_error("%s: the cluster of vertex %zu (%zu members, total mass %g) has a singular "
-                   "Q = sum m rbar rbar^T (det %g, trace %g): its members are coplanar or "
-                   "massless",
-                   fn, v, r1 - r0, msum, det, tr);
+                   "Q = sum m rbar rbar^T (det Q / (tr Q / 3)^3 = %g, at least 1e-12 needed; "
+                   "trace %g): its members are coplanar or massless",
+                   fn, v, r1 - r0, msum, plain ? det / s3 : detn, tr);
       rc = EK_EINVAL;
       goto done;
     }
     double Qi[9];
-    inv3(Q, det, Qi);
+    if (plain) {
+      inv3(Q, det, Qi);
+    } else {
+      inv3(Qn, detn, Qi);
+      for (int i = 0; i < 9; i++)
+        Qi[i] /= s;
+    }
     for (size_t e = r0; e < r1; e++) {
       double rb[3], m = mass[ring[e]];
       for (int d = 0; d < 3; d++)
