@@ -211,6 +211,8 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
   s->body_size = diag;
+  for (int k = 0; k < 3; ++k)
+    s->body_center[k] = 0.5 * (lo[k] + hi[k]);
   for (size_t i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
       double c = 0.5 * (lo[k] + hi[k]);
@@ -304,6 +306,39 @@ int ek_sim_is_cloth(const ek_sim *s) { return s->body->ops == &sim_body_triangle
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
 size_t ek_sim_inverted_count(const ek_sim *s) { return s->body->ops->inverted_count(s); }
+
+int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
+  if (!s || !h) {
+    ek_set_error("ek_sim_check: NULL argument");
+    return EK_EINVAL;
+  }
+  *h = (ek_sim_health){0};
+  h->elements = s->body->ne;
+  h->inverted = s->body->ops->inverted_count(s);
+  // Relative to the rest bounding box (centre c, diagonal L): scale-free,
+  // so a millimetre body and a 100 m one blow up at the same ratio.
+  double r2 = 0;
+  for (size_t i = 0; i < s->nv; ++i) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double x = s->x[3 * i + k], v = s->v[3 * i + k];
+      h->nonfinite += !isfinite(x) + !isfinite(v);
+      d2 += (x - s->body_center[k]) * (x - s->body_center[k]);
+    }
+    if (d2 > r2) // NaN compares false: counted above instead
+      r2 = d2;
+  }
+  h->extent = s->body_size > 0 ? sqrt(r2) / s->body_size : (r2 > 0 ? INFINITY : 0);
+  h->blown_up = h->nonfinite > 0 || !(h->extent <= EK_SIM_BLOWUP_EXTENT);
+  return 0;
+}
+
+size_t ek_count_nonfinite(const double *a, size_t n) {
+  size_t c = 0;
+  for (size_t i = 0; a && i < n; ++i)
+    c += !isfinite(a[i]);
+  return c;
+}
 
 int sim_forces(ek_sim *s, const double *x) { return s->body->ops->forces(s, x); }
 

@@ -74,8 +74,9 @@ struct ek_sim {
   double t;
   long n;
   double cfl_dt, h_min, wave_speed;
-  double body_size;    // the rest mesh's bounding-box diagonal
-  double elastic_rest; // E(X): not 0 for every model (stable neo-Hookean)
+  double body_size;      // the rest mesh's bounding-box diagonal
+  double body_center[3]; // ... and its centre (ek_sim_check)
+  double elastic_rest;   // E(X): not 0 for every model (stable neo-Hookean)
   ek_sim_times times;
   ek_sim_newton_trace newton; // filled by the implicit integrator
   const sim_integrator *integrator;

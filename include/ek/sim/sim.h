@@ -151,6 +151,29 @@ void ek_sim_set_stop_flag(ek_sim *sim, const volatile sig_atomic_t *flag);
 const char *ek_sim_integrator_name(const ek_sim *sim);
 // Tets with J <= 0 in the current state.
 size_t ek_sim_inverted_count(const ek_sim *sim);
+// The state check every loop reports (issue 25: no run turns a body inside
+// out or writes NaN silently): ek-sim at every frame time, the advisor's
+// trials and ek-bench's sim rows at their end.
+//   elements   the body's elements
+//   inverted   of them with J <= 0 (ek_sim_inverted_count; 0 for
+//              triangles, which have no orientation in 3D)
+//   nonfinite  NaN / inf entries of the positions and velocities (0 after a
+//              successful ek_sim_step, which refuses a non-finite state;
+//              ek-sim adds the frame fields' own count, ek_count_nonfinite)
+//   extent     max_i |x_i - c| / L, c and L the rest bounding box's centre
+//              and diagonal: scale-free, 0.5 at rest, ~1-10 for a body that
+//              moved by its size
+//   blown_up   nonfinite > 0 or extent > EK_SIM_BLOWUP_EXTENT: a finite
+//              blow-up (positions of 1e10 m for a 1 m body) fails like NaN
+#define EK_SIM_BLOWUP_EXTENT 1e6
+typedef struct {
+  size_t elements, inverted, nonfinite;
+  double extent;
+  int blown_up;
+} ek_sim_health;
+int ek_sim_check(const ek_sim *sim, ek_sim_health *h);
+// Entries of a[0..n) that are NaN or inf (a may be NULL: 0).
+size_t ek_count_nonfinite(const double *a, size_t n);
 // Ask for the per-phase split on the next steps (costs extra passes).
 void ek_sim_time_phases(ek_sim *sim, int on);
 const ek_sim_times *ek_sim_timings(const ek_sim *sim);
