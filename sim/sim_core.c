@@ -315,6 +315,8 @@ int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
   *h = (ek_sim_health){0};
   h->elements = s->body->ne;
   h->inverted = s->body->ops->inverted_count(s);
+  h->allow_inverted = s->scene.allow_inverted;
+  h->allow_nonfinite = s->scene.allow_nonfinite;
   // Relative to the rest bounding box (centre c, diagonal L): scale-free,
   // so a millimetre body and a 100 m one blow up at the same ratio.
   double r2 = 0;

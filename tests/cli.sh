@@ -160,6 +160,10 @@ sed 's/^{/{"allow": {"inverted": true},/' "$data/inverts.json" >"$work/inv_allow
 expect "ek-sim: inversion allowed" 0 "$bin/ek-sim" "$work/inv_allowed.json" --no-output
 grep -q "allowed: the scene studies inversion" "$out" ||
   fail "ek-sim: inversion allowed: the summary does not say so"
+expect "ek-sim --advise on a scene that inverts" 0 "$bin/ek-sim" "$data/inverts.json" --advise --time 2
+grep -q "failed .*ends with 24 of 24 tets inverted" "$out" ||
+  fail "ek-sim --advise: the inverted reference is not flagged"
+grep -q "^pick .*none" "$out" || fail "ek-sim --advise: picked a setting that inverts"
 expect "ek-sim: frames hold NaN" 3 "$bin/ek-sim" "$data/flattens.json" --out "$work/flat.h5"
 grep -q "FAILED: frames hold NaN/inf" "$err" || fail "ek-sim: frames hold NaN: not said"
 grep -q "warning: .*holds [0-9]* NaN/inf values" "$err" ||

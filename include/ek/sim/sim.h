@@ -165,11 +165,14 @@ size_t ek_sim_inverted_count(const ek_sim *sim);
 //              moved by its size
 //   blown_up   nonfinite > 0 or extent > EK_SIM_BLOWUP_EXTENT: a finite
 //              blow-up (positions of 1e10 m for a 1 m body) fails like NaN
+//   allow_inverted, allow_nonfinite  the scene's "allow" key (scene.h),
+//              copied for the caller's verdict
 #define EK_SIM_BLOWUP_EXTENT 1e6
 typedef struct {
   size_t elements, inverted, nonfinite;
   double extent;
   int blown_up;
+  int allow_inverted, allow_nonfinite;
 } ek_sim_health;
 int ek_sim_check(const ek_sim *sim, ek_sim_health *h);
 // Entries of a[0..n) that are NaN or inf (a may be NULL: 0).
