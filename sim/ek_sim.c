@@ -869,29 +869,18 @@ int main(int argc, char **argv) {
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();
-  // A tet scene has an ek_mesh, a cloth scene (triangles) an ek_trimesh.
-  const int cloth = scene.triangles;
-  const char *elem = cloth ? "triangles" : "tets";
-  ek_mesh *mesh = NULL;
-  ek_trimesh *trimesh = NULL;
-  if (cloth)
-    trimesh = ek_scene_trimesh(&scene);
-  else
-    mesh = ek_scene_mesh(&scene);
-  if (!mesh && !trimesh) {
-    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
-    return 1;
-  }
-  ek_sim *sim = cloth ? ek_sim_create_cloth(&scene, trimesh) : ek_sim_create(&scene, mesh);
+  // The sim builds the scene's mesh, whichever its element kind, and owns
+  // it; ek-sim reads the elements through ek_sim_elements.
+  ek_sim *sim = ek_sim_create_scene(&scene);
   if (!sim) {
     fprintf(stderr, "ek-sim: %s\n", ek_last_error());
-    ek_mesh_destroy(mesh);
-    ek_trimesh_destroy(trimesh);
     return 1;
   }
   print_sim_warning(sim, 0);
-  size_t nv = cloth ? ek_trimesh_nverts(trimesh) : ek_mesh_nverts(mesh);
-  size_t nt = cloth ? ek_trimesh_ntris(trimesh) : ek_mesh_ntets(mesh);
+  ek_sim_elements el;
+  ek_sim_elements_of(sim, &el);
+  const char *elem = el.kind;
+  size_t nv = el.nverts, nt = el.count;
   // Wall time of each step that ran the fused force kernel (one in ten runs
   // the phases as separate passes, for the split): their median and p95.
   double *step_s = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
@@ -903,8 +892,6 @@ int main(int argc, char **argv) {
     free(res);
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
-    ek_mesh_destroy(mesh);
-    ek_trimesh_destroy(trimesh);
     return 1;
   }
   double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL, *Drate = NULL, *Wrate = NULL,
@@ -917,10 +904,7 @@ int main(int argc, char **argv) {
   if (xpbd)
     warn_long_xpbd_step(&scene, ek_sim_xpbd_constraints(sim), steps);
   if (out) {
-    frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
-                                         ek_trimesh_tris(trimesh))
-                   : ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt,
-                                      ek_mesh_tets(mesh));
+    frames = ek_frames_create_ex(out, force, nv, el.rest, nt, el.corners, el.incidence);
     J = malloc(nt * sizeof(double));
     smin = malloc(nt * sizeof(double));
     psi = malloc(nt * sizeof(double));
@@ -936,25 +920,17 @@ int main(int argc, char **argv) {
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
-      ek_mesh_destroy(mesh);
-      ek_trimesh_destroy(trimesh);
       return 1;
     }
     if (describe_frames(frames, &scene, sim, err, sizeof err) != 0)
       fprintf(stderr, "ek-sim: warning: %s (the frames are written without them)\n", err);
   }
   t_setup = now() - t_setup;
-  if (cloth)
-    printf("ek-sim %s: %zu vertices, %zu triangles, %zu hinges, membrane %s, integrator %s, f%d, "
-           "%d threads, dt %g (CFL limit %g), %ld steps\n",
-           scene.path, nv, nt, ek_cloth_nhinges(ek_trimesh_cloth(trimesh)), scene.model_name,
-           ek_sim_integrator_name(sim), scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim),
-           steps);
-  else
-    printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
-           "threads, dt %g (CFL limit %g), %ld steps\n",
-           scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
-           scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
+  char body[160];
+  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads, dt %g (CFL limit %g), %ld "
+         "steps\n",
+         scene.path, nv, ek_sim_describe(sim, body, sizeof body), ek_sim_integrator_name(sim),
+         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
@@ -972,11 +948,10 @@ int main(int argc, char **argv) {
       break;
     }
     const int frame_time = n % scene.output_every == 0 || n == steps;
-    const ek_frame_fields ff = {J, smin, psi, cloth ? smax : NULL, Drate, Wrate, rates, vrot};
+    const ek_frame_fields ff = {J, smin, psi, el.has_smax ? smax : NULL, Drate, Wrate, rates, vrot};
     if (frames && frame_time) {
       double t0 = now();
-      if ((cloth ? ek_sim_cloth_fields(sim, J, smax, smin, psi)
-                 : ek_sim_tet_fields(sim, J, smin, psi)) != 0 ||
+      if (ek_sim_fields(sim, J, smin, psi, smax) != 0 ||
           ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
           ek_sim_vertex_rotations(sim, vrot) != 0 ||
           ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff) != 0) {
@@ -1084,22 +1059,18 @@ int main(int argc, char **argv) {
       printf(", R^n refresh %.4f ms", polar_ms);
     printf("\n");
     print_step_times(step_s, nstep_s, "fused-kernel steps");
-    double phase_sum = cloth ? tm->cloth_membrane + tm->cloth_bending + tm->cloth_gather
-                             : tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
+    const char *names[EK_SIM_MAX_PHASES];
+    double vals[EK_SIM_MAX_PHASES];
+    const int nphases = ek_sim_force_phases(sim, names, vals, EK_SIM_MAX_PHASES);
+    double phase_sum = 0;
+    for (int i = 0; i < nphases; ++i)
+      phase_sum += vals[i];
     if (tm->phase_timed_steps > 0 && phase_sum > 0) {
       double p = (double)tm->phase_timed_steps;
       printf("force split (separate passes on %ld steps, %.4f ms per step; shares applied to "
              "the fused time):\n",
              tm->phase_timed_steps, 1e3 * phase_sum / p);
-      const char *tet_names[] = {"deformation gradient", "SVD/polar", "P(F)", "scatter"};
-      const char *cloth_names[] = {"membrane (F, P, corners)", "bending (hinges)",
-                                   "gather (per vertex)"};
-      const char **names = cloth ? cloth_names : tet_names;
-      double vals[4] = {tm->deformation_gradient, tm->svd_polar, tm->pk1, tm->scatter};
-      if (cloth) {
-        vals[0] = tm->cloth_membrane, vals[1] = tm->cloth_bending, vals[2] = tm->cloth_gather;
-      }
-      for (int i = 0; i < (cloth ? 3 : 4); ++i)
+      for (int i = 0; i < nphases; ++i)
         printf("  %-22s %5.1f%%  %.4f ms separate, ~%.4f ms fused\n", names[i],
                100.0 * vals[i] / phase_sum, 1e3 * vals[i] / p,
                fused > 0 ? force_ms * vals[i] / phase_sum : NAN);
@@ -1128,8 +1099,6 @@ int main(int argc, char **argv) {
   free(step_s);
   free(res);
   ek_sim_destroy(sim);
-  ek_mesh_destroy(mesh);
-  ek_trimesh_destroy(trimesh);
   if (stopped_at >= 0) {
     // Die of the signal, as the caller asked, now that everything is
     // closed: a shell or a job runner sees the signal, not an exit code.

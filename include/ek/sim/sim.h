@@ -125,6 +125,34 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh);
 // the cloth forces (cloth_force.h) in place of the FVM force.
 ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh);
 int ek_sim_is_cloth(const ek_sim *sim);
+// The scene's simulation whichever element kind it has: builds the mesh
+// (ek_scene_mesh, or ek_scene_trimesh for a cloth) and the sim, which owns
+// the mesh (ek_sim_destroy frees it). NULL on failure (message in
+// ek_last_error: the mesh's or the sim's, as the calls above give it).
+ek_sim *ek_sim_create_scene(const ek_scene *scene);
+// The body's elements, for programs that write or print them without
+// knowing their kind (frames.h: ek_frames_create_ex takes corners and the
+// incidence): pointers valid while the sim lives.
+typedef struct {
+  const char *kind;         // "tets", "triangles"
+  size_t count;             // elements
+  int corners;              // vertices per element: 4, 3
+  const int32_t *incidence; // count x corners, the caller's (mesh's) order
+  size_t nverts;            // vertices
+  const double *rest;       // nverts x 3 rest positions
+  int has_smax;             // ek_sim_fields fills smax (triangles: s1)
+} ek_sim_elements;
+int ek_sim_elements_of(const ek_sim *sim, ek_sim_elements *e);
+// One line naming the body's counts and model, for a run's header:
+// "1296 tets, 8 colours, model stvk" or "800 triangles, 1160 hinges,
+// membrane arap". Returns buf.
+const char *ek_sim_describe(const ek_sim *sim, char *buf, size_t len);
+// The force's phase split of the phase-timed steps (ek_sim_time_phases):
+// up to max phases, each its name and its seconds summed so far (tets:
+// deformation gradient, SVD/polar, P(F), scatter; triangles: membrane,
+// bending, gather). Returns the count (<= EK_SIM_MAX_PHASES).
+#define EK_SIM_MAX_PHASES 4
+int ek_sim_force_phases(const ek_sim *sim, const char **names, double *seconds, int max);
 // A condition the run goes on with, for the caller to report (the library
 // prints nothing, core.h): an explicit dt above the CFL limit (set by
 // ek_sim_create), the first step whose Newton loop stopped above
@@ -228,6 +256,11 @@ int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
 // density per unit rest area (per unit area of the sheet, Psi h). On a
 // cloth, ek_sim_tet_fields gives (J, s2, psi) and ek_sim_volume the area.
 int ek_sim_cloth_fields(const ek_sim *sim, double *J, double *s1, double *s2, double *psi);
+// Per-element fields of the current state, whichever the kind (any may
+// be NULL): as ek_sim_tet_fields for tets (smax not written), as
+// ek_sim_cloth_fields for triangles (smin = s2, smax = s1);
+// ek_sim_elements' has_smax says which.
+int ek_sim_fields(const ek_sim *sim, double *J, double *smin, double *psi, double *smax);
 // The velocity gradient L = D + W of every element in the current state
 // (seed 003 eqs. 28-31, cloth.h): tets L = Fdot F^-1, triangles
 // L = Fdot F^+ (the surface gradient of v); D, W nelems x 9 row-major and
