@@ -250,7 +250,8 @@ typedef struct {
   long checks, last_step;
   ek_sim_health last, worst;
   double t_last, t_worst, extent_max, t_extent;
-  int warned; // the first frame with NaN / inf was said on stderr
+  int warned;       // the first frame with NaN / inf was said on stderr
+  const char *path; // the scene, for the messages
 } state_watch;
 
 static size_t frame_nonfinite(const ek_frame_fields *ff, size_t nv, size_t ne) {
@@ -272,8 +273,8 @@ static int watch_state(state_watch *w, const ek_sim *sim, long step, const ek_fr
   if (h.nonfinite > 0 && !w->warned) {
     w->warned = 1;
     fprintf(stderr,
-            "%sek-sim: warning: the frame at step %ld (t = %g s) holds %zu NaN/inf values\n",
-            tty ? "\n" : "", step, t, h.nonfinite);
+            "%sek-sim: warning: %s: the frame at step %ld (t = %g s) holds %zu NaN/inf values\n",
+            tty ? "\n" : "", w->path, step, t, h.nonfinite);
   }
   if (w->checks == 0 || h.nonfinite > w->worst.nonfinite ||
       (h.nonfinite == w->worst.nonfinite && h.inverted > w->worst.inverted))
@@ -939,7 +940,7 @@ int main(int argc, char **argv) {
   double t_start = now(), t_last_progress = t_start;
   eta_mean eta_steps;
   eta_init(&eta_steps, t_start);
-  state_watch watch = {0};
+  state_watch watch = {.path = scene.path};
   long stopped_at = -1;   // the step a signal stopped the run before
   int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
