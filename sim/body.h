@@ -43,6 +43,7 @@ typedef struct {
   const char *kind;
   const int32_t *caller_elems;
   int has_smax;
+  int oriented; // J <= 0 is an inverted element (tets; not triangles in 3D)
   int nphases;
   const char *phase_names[EK_SIM_MAX_PHASES];
   size_t phase_times[EK_SIM_MAX_PHASES];

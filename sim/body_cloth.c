@@ -369,6 +369,7 @@ sim_body *sim_body_triangles_create(const ek_scene *scene, const ek_material *ma
       .kind = "triangles",
       .caller_elems = ek_trimesh_tris(tm),
       .has_smax = 1,
+      .oriented = 0,
       .nphases = 3,
       .phase_names = {"membrane (F, P, corners)", "bending (hinges)", "gather (per vertex)"},
       .phase_times = {offsetof(ek_sim_times, cloth_membrane), offsetof(ek_sim_times, cloth_bending),

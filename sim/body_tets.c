@@ -680,6 +680,7 @@ sim_body *sim_body_tets_create(const ek_scene *scene, const ek_material *mat, co
                  .kind = "tets",
                  .caller_elems = ek_mesh_tets(mesh),
                  .has_smax = 0,
+                 .oriented = 1,
                  .nphases = 4,
                  .phase_names = {"deformation gradient", "SVD/polar", "P(F)", "scatter"},
                  .phase_times = {offsetof(ek_sim_times, deformation_gradient),

@@ -288,13 +288,19 @@ static int watch_state(state_watch *w, const ek_sim *sim, long step, const ek_fr
 
 // The summary's check lines and the verdict: 0, EK_EXIT_NONFINITE or
 // EK_EXIT_INVERTED (the scene's "allow" key turns each off).
-static int watch_report(const state_watch *w, const ek_scene *s, const char *elem) {
+static int watch_report(const state_watch *w, const ek_scene *s, const ek_sim_elements *el) {
   if (w->checks == 0)
     return 0;
+  const char *elem = el->kind;
   const ek_sim_health *l = &w->last, *b = &w->worst;
-  printf("check      last frame (t = %g s): %zu of %zu %s inverted (J <= 0), %zu non-finite "
-         "values, extent %.3g body sizes\n",
-         w->t_last, l->inverted, l->elements, elem, l->nonfinite, l->extent);
+  if (el->oriented)
+    printf("check      last frame (t = %g s): %zu of %zu %s inverted (J <= 0), %zu non-finite "
+           "values, extent %.3g body sizes\n",
+           w->t_last, l->inverted, l->elements, elem, l->nonfinite, l->extent);
+  else // no orientation: no inversion to count
+    printf("check      last frame (t = %g s): %zu %s (no orientation: none can invert), %zu "
+           "non-finite values, extent %.3g body sizes\n",
+           w->t_last, l->elements, elem, l->nonfinite, l->extent);
   printf("           worst frame (t = %g s): %zu inverted, %zu non-finite; largest extent "
          "%.3g (t = %g s), %ld checks\n",
          w->t_worst, b->inverted, b->nonfinite, w->extent_max, w->t_extent, w->checks);
@@ -1093,7 +1099,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     rc = EK_EXIT_FAILED;
   }
-  const int verdict = watch_report(&watch, &scene, elem);
+  const int verdict = watch_report(&watch, &scene, &el);
   if (rc == 0)
     rc = verdict;
   free_frame_fields(J, smin, psi, smax, Drate, Wrate, rates, vrot);

@@ -336,7 +336,8 @@ int ek_sim_elements_of(const ek_sim *s, ek_sim_elements *e) {
     return EK_EINVAL;
   }
   const sim_body *b = s->body;
-  *e = (ek_sim_elements){b->kind, b->ne, b->corners, b->caller_elems, b->nv, b->X, b->has_smax};
+  *e = (ek_sim_elements){b->kind, b->ne, b->corners,  b->caller_elems,
+                         b->nv,   b->X,  b->has_smax, b->oriented};
   return 0;
 }
 

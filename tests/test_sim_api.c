@@ -56,7 +56,7 @@ static void kind_test(const char *name, int cloth, int steps) {
            e.nverts);
   check(what,
         strcmp(e.kind, cloth ? "triangles" : "tets") == 0 && e.count == ne &&
-            e.corners == corners && e.nverts == nv && e.has_smax == cloth &&
+            e.corners == corners && e.nverts == nv && e.has_smax == cloth && e.oriented == !cloth &&
             same_bits(e.incidence, inc, ne * (size_t)corners * sizeof(int32_t)) &&
             same_bits(e.rest, X, 3 * nv * sizeof(double)),
         detail);

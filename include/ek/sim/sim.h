@@ -141,6 +141,8 @@ typedef struct {
   size_t nverts;            // vertices
   const double *rest;       // nverts x 3 rest positions
   int has_smax;             // ek_sim_fields fills smax (triangles: s1)
+  int oriented;             // J <= 0 is inverted (tets); triangles in 3D have no
+                            // orientation: ek_sim_inverted_count is 0
 } ek_sim_elements;
 int ek_sim_elements_of(const ek_sim *sim, ek_sim_elements *e);
 // One line naming the body's counts and model, for a run's header:
