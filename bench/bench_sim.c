@@ -69,10 +69,24 @@ static void run_steps(void *p) {
 // The library's pending warning for a row's sim (ek_sim_warning: a CFL or
 // Newton warning of its steps), as an ek-bench note on its own line. Read
 // after the row, not inside the timed steps.
+// Also the state check of ek-sim's summary (ek_sim_check, issue 25): a
+// row whose run blew up fails, one that ends with inverted elements is
+// flagged, unless the scene's "allow" key says so.
 static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim) {
   const char *w = sim ? ek_sim_warning(sim) : NULL;
   if (w)
     ek_bench_note(b, "warning: %s: %s", name, w);
+  ek_sim_health h;
+  if (!sim || ek_sim_check(sim, &h) != 0)
+    return;
+  if (h.blown_up && !h.allow_nonfinite)
+    ek_bench_fail(b,
+                  "%s: the positions blew up (a vertex %.3g body sizes from the rest centre, %zu "
+                  "non-finite values)",
+                  name, h.extent, h.nonfinite);
+  if (h.inverted > 0 && !h.allow_inverted)
+    ek_bench_note(b, "warning: %s: the run ends with %zu of %zu elements INVERTED (J <= 0)", name,
+                  h.inverted, h.elements);
 }
 
 // A shipped scene by name, from the build or the installed tree

@@ -227,12 +227,18 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
     return EK_EINVAL;
   }
   a->reach = rt.monitor;
+  a->reference_inverted = scene->allow_inverted ? 0 : rt.health.inverted;
   ek_advise_row *r0 = &a->rows[0];
   r0->deviation = 0;
   r0->cost = rt.cost_median;
   r0->cost_min = rt.cost_min;
   r0->drift = rt.energy_drift;
   r0->steps = rt.steps;
+  if (rt.health.inverted > 0 && !scene->allow_inverted) {
+    r0->failed = 1; // the rows are still measured against it (the reach)
+    snprintf(r0->reason, sizeof r0->reason, "ends with %zu of %zu tets inverted (J <= 0)",
+             rt.health.inverted, rt.health.elements);
+  }
 
   // Candidates: the scene's own setting first, then every model.
   if (add_row(&b, scene, NULL) != 0)
@@ -265,6 +271,13 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
     r->failed = t.failed;
     if (t.failed)
       snprintf(r->reason, sizeof r->reason, "%s", t.error);
+    // A candidate that turns the body inside out is no answer (issue 25),
+    // however close its positions come to the reference's.
+    if (!t.failed && t.health.inverted > 0 && !scene->allow_inverted) {
+      r->failed = 1;
+      snprintf(r->reason, sizeof r->reason, "ends with %zu of %zu tets inverted (J <= 0)",
+               t.health.inverted, t.health.elements);
+    }
     r->deviation = ek_trial_deviation(mesh, t.x, rt.x);
     r->cost = t.cost_median;
     r->cost_min = t.cost_min;
@@ -292,6 +305,11 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
           "reached    (reference run) min J %.4g, min sigma %.4g, max |F^T F - I| %.3g, max "
           "rotation %.3g rad, max rotation per step %.3g rad\n",
           m->min_J, m->min_sigma, m->max_strain, m->max_rotation, m->max_rotation_step);
+  if (a->reference_inverted > 0)
+    fprintf(out,
+            "inverted   the reference run ends with %zu tets inverted (J <= 0): it and every "
+            "setting that does so fail (the scene's allow.inverted is not set)\n",
+            a->reference_inverted);
   fprintf(out, "%4s  %-10s  %-12s  %-9s  %-4s  %-10s  %s\n", "#", "deviation", "cost s/sim-s",
           "drift", "svd", "verdict", "setting");
   for (size_t i = 0; i < a->n; ++i) {

@@ -84,6 +84,9 @@ typedef struct {
   double tol, sim_time, body_size;
   int threads;
   ek_trial_monitor reach; // what the reference run reached
+  // Tets inverted at the end of the reference run (ek_sim_check), 0 when
+  // the scene allows it: the reference row then fails too.
+  size_t reference_inverted;
 } ek_advice;
 
 // Run the advisor on a tet scene and its mesh. 0 with *a filled (free with

@@ -34,6 +34,19 @@ typedef struct {
   // the sheet's thickness.
   const double *lumped;
   double mass_scale;
+  // What programs read through the public API (sim.h: ek_sim_elements,
+  // ek_sim_fields, ek_sim_force_phases), so that they never test the kind:
+  // its name ("tets"), the incidence in the caller's order (the frames'
+  // topology; elems above may be the body's own order), whether `fields`
+  // fills smax, and the force's phase split (names, and where each phase's
+  // seconds sit in ek_sim_times: offsetof).
+  const char *kind;
+  const int32_t *caller_elems;
+  int has_smax;
+  int oriented; // J <= 0 is an inverted element (tets; not triangles in 3D)
+  int nphases;
+  const char *phase_names[EK_SIM_MAX_PHASES];
+  size_t phase_times[EK_SIM_MAX_PHASES];
 } sim_body;
 
 // The implicit integrator's view of a body's Hessian (hessian_create).
@@ -47,6 +60,9 @@ typedef struct {
 
 struct sim_body_ops {
   void (*destroy)(sim_body *body);
+  // One line for the run's header: counts and model, as "1296 tets, 8
+  // colours, model stvk" (ek_sim_describe).
+  void (*describe)(const ek_sim *sim, char *buf, size_t len);
 
   // ---- Core ----
   // The CFL quantities (sim.h, ek_sim_cfl_dt): the smallest element length

@@ -8,6 +8,7 @@
 
 #include <ek/cloth.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -307,8 +308,15 @@ static int tris_xpbd_residual(const void *c, const float *x_base, const float *x
 
 static size_t tris_xpbd_count(const void *c) { return ek_cloth_xpbd_count(c); }
 
+static void tris_describe(const ek_sim *s, char *buf, size_t len) {
+  const triangles *b = s->body->data;
+  snprintf(buf, len, "%zu triangles, %zu hinges, membrane %s", s->body->ne,
+           ek_cloth_nhinges(b->cloth), s->scene.model_name);
+}
+
 const sim_body_ops sim_body_triangles = {
     .destroy = tris_destroy,
+    .describe = tris_describe,
     .cfl = tris_cfl,
     .start = tris_start,
     .begin_step = NULL,
@@ -348,14 +356,23 @@ sim_body *sim_body_triangles_create(const ek_scene *scene, const ek_material *ma
   double mu = mat->mu, lam = mat->lambda, h = scene->thickness;
   b->p = (ek_cloth_params){(ek_membrane_model)ek_model_describe(mat->model)->membrane, mu * h,
                            2 * mu * lam / (lam + 2 * mu) * h, scene->bending_stiffness};
-  b->body = (sim_body){.ops = &sim_body_triangles,
-                       .data = b,
-                       .nv = ek_trimesh_nverts(tm),
-                       .ne = ek_trimesh_ntris(tm),
-                       .corners = 3,
-                       .elems = ek_cloth_tris(b->cloth),
-                       .X = ek_trimesh_rest_positions(tm),
-                       .lumped = ek_cloth_lumped_area(b->cloth),
-                       .mass_scale = scene->thickness};
+  b->body = (sim_body){
+      .ops = &sim_body_triangles,
+      .data = b,
+      .nv = ek_trimesh_nverts(tm),
+      .ne = ek_trimesh_ntris(tm),
+      .corners = 3,
+      .elems = ek_cloth_tris(b->cloth),
+      .X = ek_trimesh_rest_positions(tm),
+      .lumped = ek_cloth_lumped_area(b->cloth),
+      .mass_scale = scene->thickness,
+      .kind = "triangles",
+      .caller_elems = ek_trimesh_tris(tm),
+      .has_smax = 1,
+      .oriented = 0,
+      .nphases = 3,
+      .phase_names = {"membrane (F, P, corners)", "bending (hinges)", "gather (per vertex)"},
+      .phase_times = {offsetof(ek_sim_times, cloth_membrane), offsetof(ek_sim_times, cloth_bending),
+                      offsetof(ek_sim_times, cloth_gather)}};
   return &b->body;
 }

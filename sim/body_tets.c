@@ -11,6 +11,7 @@
 #include <ek/hessian.h>
 #include <ek/polar.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -624,8 +625,15 @@ static int tets_xpbd_profile(void *c, const float *x_base, const float *xf, cons
 
 static size_t tets_xpbd_count(const void *c) { return ek_xpbd_count(((const tets_xpbd *)c)->xp); }
 
+static void tets_describe(const ek_sim *s, char *buf, size_t len) {
+  const tets *b = tets_of(s);
+  snprintf(buf, len, "%zu tets, %d colours, model %s", ek_mesh_ntets(b->mesh),
+           ek_mesh_ncolors(b->mesh), s->scene.model_name);
+}
+
 const sim_body_ops sim_body_tets = {
     .destroy = tets_destroy,
+    .describe = tets_describe,
     .cfl = tets_cfl,
     .start = tets_start,
     .begin_step = tets_begin_step,
@@ -659,15 +667,25 @@ sim_body *sim_body_tets_create(const ek_scene *scene, const ek_material *mat, co
     return NULL;
   size_t nt = ek_mesh_ntets(mesh);
   b->mesh = mesh;
-  b->body = (sim_body){.ops = &sim_body_tets,
-                       .data = b,
-                       .nv = ek_mesh_nverts(mesh),
-                       .ne = nt,
-                       .corners = 4,
-                       .elems = ek_mesh_tets(mesh),
-                       .X = ek_mesh_rest_positions(mesh),
-                       .lumped = ek_mesh_lumped_volume(mesh),
-                       .mass_scale = 1.0};
+  b->body =
+      (sim_body){.ops = &sim_body_tets,
+                 .data = b,
+                 .nv = ek_mesh_nverts(mesh),
+                 .ne = nt,
+                 .corners = 4,
+                 .elems = ek_mesh_tets(mesh),
+                 .X = ek_mesh_rest_positions(mesh),
+                 .lumped = ek_mesh_lumped_volume(mesh),
+                 .mass_scale = 1.0,
+                 .kind = "tets",
+                 .caller_elems = ek_mesh_tets(mesh),
+                 .has_smax = 0,
+                 .oriented = 1,
+                 .nphases = 4,
+                 .phase_names = {"deformation gradient", "SVD/polar", "P(F)", "scatter"},
+                 .phase_times = {offsetof(ek_sim_times, deformation_gradient),
+                                 offsetof(ek_sim_times, svd_polar), offsetof(ek_sim_times, pk1),
+                                 offsetof(ek_sim_times, scatter)}};
   int ok = 1;
   if (ek_model_need(mat->model, 0) == EK_NEEDS_R_INPUT) {
     b->F = malloc(9 * nt * sizeof(double));

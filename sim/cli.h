@@ -6,12 +6,24 @@
 //   1  a check failed or the run could not be done (bad input file, failed
 //      step, unwritable output)
 //   2  usage: a bad option or value on the command line or in EK_ISA
+// ek-sim only (the state check, ek_sim_check; the scene's "allow" key,
+// include/ek/sim/scene.h, turns each off):
+//   3  the run finished but a frame holds NaN or inf, or the positions blew
+//      up (beyond EK_SIM_BLOWUP_EXTENT body sizes from the rest centre)
+//   4  the run finished with inverted elements (J <= 0) at its last frame
+// A run that fails both ways exits 3.
 #ifndef EK_SIM_CLI_H
 #define EK_SIM_CLI_H
 
 #include <stdio.h>
 
-enum { EK_EXIT_OK = 0, EK_EXIT_FAILED = 1, EK_EXIT_USAGE = 2 };
+enum {
+  EK_EXIT_OK = 0,
+  EK_EXIT_FAILED = 1,
+  EK_EXIT_USAGE = 2,
+  EK_EXIT_NONFINITE = 3,
+  EK_EXIT_INVERTED = 4
+};
 
 // --help / -h: print help(stdout) and the common footer, exit 0;
 // --version: print "<program> (ek <version>)", exit 0. Any other argument

@@ -6,7 +6,8 @@
 //
 // Prints a progress line, and at the end the time per step split by phase,
 // the median, 95th percentile and minimum of the steps' wall times, tets
-// per second and the energies at start and end. --explain prints the
+// per second, the energies at start and end, and the state check (inverted
+// elements, NaN/inf, extent) at the last and the worst frame. --explain prints the
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
 // --advise runs the scene's first S simulated seconds with each candidate
 // setting (sim/advise.h), prints the table it decided from and the
@@ -14,7 +15,9 @@
 // kernels that choice drops and its pipeline.
 // Exit status (sim/cli.h, the same in every ek program): 0 done, 1 the run
 // failed (a bad scene or mesh, an element inverted with a model undefined
-// there, unwritable output), 2 bad usage. SIGINT or SIGTERM stops the run
+// there, unwritable output), 2 bad usage; 3 a frame held NaN/inf or the
+// positions blew up, 4 the run ended with inverted elements (each unless
+// the scene's "allow" key says so). SIGINT or SIGTERM stops the run
 // at the next step: the frames are closed, their count printed, and ek-sim
 // dies of that signal.
 #include <ek/polar.h>
@@ -87,9 +90,15 @@ static void usage(FILE *out) {
           "                1e9 steps of it; default 0.5 or the scene's duration if shorter)\n"
           "  -h, --help    this text\n"
           "  --version     print the version\n"
+          "The state is checked at every frame time (with or without --out): the summary\n"
+          "gives the inverted elements (J <= 0) and NaN/inf values at the last and the worst\n"
+          "frame. Exit 3 when a frame holds NaN/inf or the positions blew up (beyond %g body\n"
+          "sizes), 4 when the run ends with inverted elements, unless the scene's \"allow\"\n"
+          "key says it studies that (include/ek/sim/scene.h).\n"
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
           "pinned, one per core); values the user set are kept. Meshes below a few\n"
-          "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n");
+          "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n",
+          EK_SIM_BLOWUP_EXTENT);
 }
 
 // The frames' name, or their XDMF's, that is an input of the run (the
@@ -232,6 +241,106 @@ static void print_sim_warning(ek_sim *sim, int tty) {
 }
 
 // The per-frame field buffers (any may be NULL).
+// The state check at every frame time (issue 25: no run turns a body
+// inside out or writes NaN without saying so): the last check, the worst
+// one (most non-finite values, then most inverted elements) and the
+// largest extent. Taken with or without frames; with frames, `nonfinite`
+// adds the frame fields' own count.
+typedef struct {
+  long checks, last_step;
+  ek_sim_health last, worst;
+  double t_last, t_worst, extent_max, t_extent;
+  int warned;       // the first frame with NaN / inf was said on stderr
+  const char *path; // the scene, for the messages
+} state_watch;
+
+static size_t frame_nonfinite(const ek_frame_fields *ff, size_t nv, size_t ne) {
+  return ek_count_nonfinite(ff->J, ne) + ek_count_nonfinite(ff->smin, ne) +
+         ek_count_nonfinite(ff->psi, ne) + ek_count_nonfinite(ff->smax, ne) +
+         ek_count_nonfinite(ff->D, 9 * ne) + ek_count_nonfinite(ff->W, 9 * ne) +
+         ek_count_nonfinite(ff->strain_rates, 3 * ne) + ek_count_nonfinite(ff->vertex_R, 9 * nv);
+}
+
+// Check the state now (ff: the frame's fields just written, or NULL).
+static int watch_state(state_watch *w, const ek_sim *sim, long step, const ek_frame_fields *ff,
+                       size_t nv, size_t ne, int tty) {
+  ek_sim_health h;
+  if (ek_sim_check(sim, &h) != 0)
+    return -1;
+  if (ff)
+    h.nonfinite += frame_nonfinite(ff, nv, ne);
+  const double t = ek_sim_time(sim);
+  if (h.nonfinite > 0 && !w->warned) {
+    w->warned = 1;
+    fprintf(stderr,
+            "%sek-sim: warning: %s: the frame at step %ld (t = %g s) holds %zu NaN/inf values\n",
+            tty ? "\n" : "", w->path, step, t, h.nonfinite);
+  }
+  if (w->checks == 0 || h.nonfinite > w->worst.nonfinite ||
+      (h.nonfinite == w->worst.nonfinite && h.inverted > w->worst.inverted))
+    w->worst = h, w->t_worst = t;
+  if (w->checks == 0 || !(h.extent <= w->extent_max))
+    w->extent_max = h.extent, w->t_extent = t;
+  w->last = h, w->t_last = t, w->last_step = step;
+  ++w->checks;
+  return 0;
+}
+
+// The summary's check lines and the verdict: 0, EK_EXIT_NONFINITE or
+// EK_EXIT_INVERTED (the scene's "allow" key turns each off).
+static int watch_report(const state_watch *w, const ek_scene *s, const ek_sim_elements *el) {
+  if (w->checks == 0)
+    return 0;
+  const char *elem = el->kind;
+  const ek_sim_health *l = &w->last, *b = &w->worst;
+  if (el->oriented)
+    printf("check      last frame (t = %g s): %zu of %zu %s inverted (J <= 0), %zu non-finite "
+           "values, extent %.3g body sizes\n",
+           w->t_last, l->inverted, l->elements, elem, l->nonfinite, l->extent);
+  else // no orientation: no inversion to count
+    printf("check      last frame (t = %g s): %zu %s (no orientation: none can invert), %zu "
+           "non-finite values, extent %.3g body sizes\n",
+           w->t_last, l->elements, elem, l->nonfinite, l->extent);
+  printf("           worst frame (t = %g s): %zu inverted, %zu non-finite; largest extent "
+         "%.3g (t = %g s), %ld checks\n",
+         w->t_worst, b->inverted, b->nonfinite, w->extent_max, w->t_extent, w->checks);
+  const int nonfinite = b->nonfinite > 0, blown = !(w->extent_max <= EK_SIM_BLOWUP_EXTENT);
+  int rc = 0;
+  if (nonfinite || blown) {
+    if (s->allow_nonfinite)
+      printf("           %s allowed by the scene (allow.nonfinite)\n",
+             nonfinite ? "NaN/inf in the frames" : "the blow-up");
+    else {
+      if (nonfinite)
+        fprintf(stderr,
+                "ek-sim: %s: FAILED: frames hold NaN/inf (%zu values at t = %g s, %zu at the "
+                "last frame)\n",
+                s->path, b->nonfinite, w->t_worst, l->nonfinite);
+      if (blown)
+        fprintf(stderr,
+                "ek-sim: %s: FAILED: the positions blew up: a vertex %.3g body sizes from the "
+                "rest centre at t = %g s (limit %g)\n",
+                s->path, w->extent_max, w->t_extent, EK_SIM_BLOWUP_EXTENT);
+      rc = EK_EXIT_NONFINITE;
+    }
+  }
+  if (l->inverted > 0) {
+    if (s->allow_inverted)
+      printf("           inverted elements allowed: the scene studies inversion "
+             "(allow.inverted)\n");
+    else {
+      fprintf(stderr,
+              "ek-sim: %s: FAILED: the run ends with %zu of %zu %s INVERTED (J <= 0; worst "
+              "frame %zu at t = %g s); a scene that studies inversion says so with \"allow\": "
+              "{\"inverted\": true}\n",
+              s->path, l->inverted, l->elements, elem, b->inverted, w->t_worst);
+      if (!rc)
+        rc = EK_EXIT_INVERTED;
+    }
+  }
+  return rc;
+}
+
 static void free_frame_fields(double *J, double *smin, double *psi, double *smax, double *D,
                               double *W, double *rates, double *vrot) {
   double *bufs[] = {J, smin, psi, smax, D, W, rates, vrot};
@@ -767,29 +876,18 @@ int main(int argc, char **argv) {
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();
-  // A tet scene has an ek_mesh, a cloth scene (triangles) an ek_trimesh.
-  const int cloth = scene.triangles;
-  const char *elem = cloth ? "triangles" : "tets";
-  ek_mesh *mesh = NULL;
-  ek_trimesh *trimesh = NULL;
-  if (cloth)
-    trimesh = ek_scene_trimesh(&scene);
-  else
-    mesh = ek_scene_mesh(&scene);
-  if (!mesh && !trimesh) {
-    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
-    return 1;
-  }
-  ek_sim *sim = cloth ? ek_sim_create_cloth(&scene, trimesh) : ek_sim_create(&scene, mesh);
+  // The sim builds the scene's mesh, whichever its element kind, and owns
+  // it; ek-sim reads the elements through ek_sim_elements.
+  ek_sim *sim = ek_sim_create_scene(&scene);
   if (!sim) {
     fprintf(stderr, "ek-sim: %s\n", ek_last_error());
-    ek_mesh_destroy(mesh);
-    ek_trimesh_destroy(trimesh);
     return 1;
   }
   print_sim_warning(sim, 0);
-  size_t nv = cloth ? ek_trimesh_nverts(trimesh) : ek_mesh_nverts(mesh);
-  size_t nt = cloth ? ek_trimesh_ntris(trimesh) : ek_mesh_ntets(mesh);
+  ek_sim_elements el;
+  ek_sim_elements_of(sim, &el);
+  const char *elem = el.kind;
+  size_t nv = el.nverts, nt = el.count;
   // Wall time of each step that ran the fused force kernel (one in ten runs
   // the phases as separate passes, for the split): their median and p95.
   double *step_s = malloc((size_t)(steps > 0 ? steps : 1) * sizeof(double));
@@ -801,8 +899,6 @@ int main(int argc, char **argv) {
     free(res);
     fprintf(stderr, "ek-sim: out of memory for %ld step times\n", steps);
     ek_sim_destroy(sim);
-    ek_mesh_destroy(mesh);
-    ek_trimesh_destroy(trimesh);
     return 1;
   }
   double *J = NULL, *smin = NULL, *psi = NULL, *smax = NULL, *Drate = NULL, *Wrate = NULL,
@@ -815,10 +911,7 @@ int main(int argc, char **argv) {
   if (xpbd)
     warn_long_xpbd_step(&scene, ek_sim_xpbd_constraints(sim), steps);
   if (out) {
-    frames = cloth ? ek_frames_create_ex(out, force, nv, ek_trimesh_rest_positions(trimesh), nt, 3,
-                                         ek_trimesh_tris(trimesh))
-                   : ek_frames_create(out, force, nv, ek_mesh_rest_positions(mesh), nt,
-                                      ek_mesh_tets(mesh));
+    frames = ek_frames_create_ex(out, force, nv, el.rest, nt, el.corners, el.incidence);
     J = malloc(nt * sizeof(double));
     smin = malloc(nt * sizeof(double));
     psi = malloc(nt * sizeof(double));
@@ -834,25 +927,17 @@ int main(int argc, char **argv) {
       free(step_s);
       free(res);
       ek_sim_destroy(sim);
-      ek_mesh_destroy(mesh);
-      ek_trimesh_destroy(trimesh);
       return 1;
     }
     if (describe_frames(frames, &scene, sim, err, sizeof err) != 0)
       fprintf(stderr, "ek-sim: warning: %s (the frames are written without them)\n", err);
   }
   t_setup = now() - t_setup;
-  if (cloth)
-    printf("ek-sim %s: %zu vertices, %zu triangles, %zu hinges, membrane %s, integrator %s, f%d, "
-           "%d threads, dt %g (CFL limit %g), %ld steps\n",
-           scene.path, nv, nt, ek_cloth_nhinges(ek_trimesh_cloth(trimesh)), scene.model_name,
-           ek_sim_integrator_name(sim), scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim),
-           steps);
-  else
-    printf("ek-sim %s: %zu vertices, %zu tets, %d colours, model %s, integrator %s, f%d, %d "
-           "threads, dt %g (CFL limit %g), %ld steps\n",
-           scene.path, nv, nt, ek_mesh_ncolors(mesh), scene.model_name, ek_sim_integrator_name(sim),
-           scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
+  char body[160];
+  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads, dt %g (CFL limit %g), %ld "
+         "steps\n",
+         scene.path, nv, ek_sim_describe(sim, body, sizeof body), ek_sim_integrator_name(sim),
+         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
@@ -861,6 +946,7 @@ int main(int argc, char **argv) {
   double t_start = now(), t_last_progress = t_start;
   eta_mean eta_steps;
   eta_init(&eta_steps, t_start);
+  state_watch watch = {.path = scene.path};
   long stopped_at = -1;   // the step a signal stopped the run before
   int stopped_inside = 0; // ... inside step stopped_at + 1 (not applied)
   for (long n = 0; n <= steps; ++n) {
@@ -868,11 +954,11 @@ int main(int argc, char **argv) {
       stopped_at = n;
       break;
     }
-    if (frames && (n % scene.output_every == 0 || n == steps)) {
+    const int frame_time = n % scene.output_every == 0 || n == steps;
+    const ek_frame_fields ff = {J, smin, psi, el.has_smax ? smax : NULL, Drate, Wrate, rates, vrot};
+    if (frames && frame_time) {
       double t0 = now();
-      const ek_frame_fields ff = {J, smin, psi, cloth ? smax : NULL, Drate, Wrate, rates, vrot};
-      if ((cloth ? ek_sim_cloth_fields(sim, J, smax, smin, psi)
-                 : ek_sim_tet_fields(sim, J, smin, psi)) != 0 ||
+      if (ek_sim_fields(sim, J, smin, psi, smax) != 0 ||
           ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
           ek_sim_vertex_rotations(sim, vrot) != 0 ||
           ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff) != 0) {
@@ -881,6 +967,11 @@ int main(int argc, char **argv) {
         break;
       }
       t_output += now() - t0;
+    }
+    if (frame_time && watch_state(&watch, sim, n, frames ? &ff : NULL, nv, nt, tty) != 0) {
+      fprintf(stderr, "\nek-sim: %s\n", ek_last_error());
+      rc = EK_EXIT_FAILED;
+      break;
     }
     if (n == steps)
       break;
@@ -975,22 +1066,18 @@ int main(int argc, char **argv) {
       printf(", R^n refresh %.4f ms", polar_ms);
     printf("\n");
     print_step_times(step_s, nstep_s, "fused-kernel steps");
-    double phase_sum = cloth ? tm->cloth_membrane + tm->cloth_bending + tm->cloth_gather
-                             : tm->deformation_gradient + tm->svd_polar + tm->pk1 + tm->scatter;
+    const char *names[EK_SIM_MAX_PHASES];
+    double vals[EK_SIM_MAX_PHASES];
+    const int nphases = ek_sim_force_phases(sim, names, vals, EK_SIM_MAX_PHASES);
+    double phase_sum = 0;
+    for (int i = 0; i < nphases; ++i)
+      phase_sum += vals[i];
     if (tm->phase_timed_steps > 0 && phase_sum > 0) {
       double p = (double)tm->phase_timed_steps;
       printf("force split (separate passes on %ld steps, %.4f ms per step; shares applied to "
              "the fused time):\n",
              tm->phase_timed_steps, 1e3 * phase_sum / p);
-      const char *tet_names[] = {"deformation gradient", "SVD/polar", "P(F)", "scatter"};
-      const char *cloth_names[] = {"membrane (F, P, corners)", "bending (hinges)",
-                                   "gather (per vertex)"};
-      const char **names = cloth ? cloth_names : tet_names;
-      double vals[4] = {tm->deformation_gradient, tm->svd_polar, tm->pk1, tm->scatter};
-      if (cloth) {
-        vals[0] = tm->cloth_membrane, vals[1] = tm->cloth_bending, vals[2] = tm->cloth_gather;
-      }
-      for (int i = 0; i < (cloth ? 3 : 4); ++i)
+      for (int i = 0; i < nphases; ++i)
         printf("  %-22s %5.1f%%  %.4f ms separate, ~%.4f ms fused\n", names[i],
                100.0 * vals[i] / phase_sum, 1e3 * vals[i] / p,
                fused > 0 ? force_ms * vals[i] / phase_sum : NAN);
@@ -1005,12 +1092,20 @@ int main(int argc, char **argv) {
          "(t = %g s)\n",
          e1.kinetic, e1.elastic, e1.potential, e1.kinetic + e1.elastic + e1.potential,
          ek_sim_time(sim));
+  // A run that ended between frame times (a failed step, a signal) is
+  // checked where it stopped too.
+  if (rc != EK_EXIT_FAILED && ek_sim_steps_done(sim) != watch.last_step &&
+      watch_state(&watch, sim, ek_sim_steps_done(sim), NULL, nv, nt, 0) != 0) {
+    fprintf(stderr, "ek-sim: %s\n", ek_last_error());
+    rc = EK_EXIT_FAILED;
+  }
+  const int verdict = watch_report(&watch, &scene, &el);
+  if (rc == 0)
+    rc = verdict;
   free_frame_fields(J, smin, psi, smax, Drate, Wrate, rates, vrot);
   free(step_s);
   free(res);
   ek_sim_destroy(sim);
-  ek_mesh_destroy(mesh);
-  ek_trimesh_destroy(trimesh);
   if (stopped_at >= 0) {
     // Die of the signal, as the caller asked, now that everything is
     // closed: a shell or a job runner sees the signal, not an exit code.

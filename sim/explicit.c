@@ -20,11 +20,9 @@
 #define EXPLICIT_PARALLEL_GRAIN 20000
 
 static int explicit_explain(const ek_scene *s, FILE *out, int number) {
-  (void)s; // nothing scene-specific beyond what ek-sim prints
   fprintf(out, "  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n",
           number);
-  fprintf(out, "       CFL check at start: dt vs 2 / omega_max (element eigenvalue bound; "
-               "cloth: h_min / c)\n");
+  fprintf(out, "       CFL check at start: dt vs %s\n", sim_cfl_rule(s));
   return number + 1;
 }
 

@@ -3,6 +3,7 @@
 // grow their arrays as data arrives (a header's count is checked against
 // the data, never trusted to size memory), then hand the arrays to one
 // builder, so a mesh never half-loads and every error names file:line.
+#include <ek/cloth.h>
 #include <ek/sim/trimesh.h>
 
 #include <errno.h>
@@ -147,11 +148,12 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
                q[2] + b);
       goto fail;
     }
-    // The degeneracy rule of ek_cloth_create, checked here to name the
-    // line, in scaled units: the edges times 2^-e (largest component in
-    // [0.5, 1), exact), so the test holds at any scale and decides as the
-    // unscaled one wherever that is in range (issue 28: a triangle of size
-    // 1e200 was "degenerate: twice the rest area inf <= inf").
+    // The degeneracy test is the element layer's (ek_tri_degenerate, the
+    // one ek_cloth_create applies), called here to name the line. The
+    // message and the range check below use the same scaled units: the
+    // edges times 2^-e (largest component in [0.5, 1), exact), so they
+    // hold at any scale (issue 28: a triangle of size 1e200 was
+    // "degenerate: twice the rest area inf <= inf").
     const double *a = X + 3 * (size_t)q[0], *b = X + 3 * (size_t)q[1], *c = X + 3 * (size_t)q[2];
     double e1[3], e2[3], e3[3], n[3], emax = 0;
     for (int k = 0; k < 3; ++k) {
@@ -180,10 +182,10 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
     char a2[48], lt[48];
     mesh_fmt_scaled(a2, sizeof a2, 2 * area, 2 * e);
     mesh_fmt_scaled(lt, sizeof lt, l2, 2 * e);
-    if (!(2 * area > EK_CLOTH_DEGENERATE_REL * l2)) {
+    if (ek_tri_degenerate(a, b, c, NULL, NULL)) {
       long bs = o ? o->base : 0;
       char rl[48];
-      mesh_fmt_scaled(rl, sizeof rl, EK_CLOTH_DEGENERATE_REL * l2, 2 * e);
+      mesh_fmt_scaled(rl, sizeof rl, EK_TRI_DEGENERATE_REL * l2, 2 * e);
       tm_error(err, errlen,
                "%s: triangle %zu (%ld %ld %ld): twice the rest area %s <= %s (longest "
                "edge^2 %s): degenerate (zero-area) triangle",

@@ -901,6 +901,21 @@ static int parse_loads(parse_ctx *c, const cJSON *root, ek_scene *s) {
   return 0;
 }
 
+// What the run may end in without failing (ek_scene: allow_inverted,
+// allow_nonfinite; ek-sim's exit status, sim/cli.h).
+static int parse_allow(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *allow = cJSON_GetObjectItemCaseSensitive(root, "allow");
+  if (!allow)
+    return 0;
+  int rc;
+  if ((rc = want_object(c, allow, "allow")) ||
+      (rc = check_keys(c, allow, "allow", (const char *const[]){"inverted", "nonfinite", NULL})) ||
+      (rc = get_bool(c, allow, "allow", "inverted", &s->allow_inverted)) ||
+      (rc = get_bool(c, allow, "allow", "nonfinite", &s->allow_nonfinite)))
+    return rc;
+  return 0;
+}
+
 // XPBD's keys (ek_scene_xpbd).
 static int parse_xpbd(parse_ctx *c, const cJSON *integ, ek_scene_xpbd *x) {
   const char *solver = NULL, *elements = NULL;
@@ -1061,10 +1076,11 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
     rc = check_duplicates(&c, text, root);
   if (!rc)
     rc = check_keys(&c, root, "",
-                    (const char *const[]){"description", "mesh", "initial", "material", "precision",
-                                          "isa", "scatter", "svd", "polar", "boundary", "gravity",
-                                          "ground", "damping", "dt", "steps", "integrator",
-                                          "output", "cloth", NULL});
+                    (const char *const[]){"description", "mesh",     "initial", "material",
+                                          "precision",   "isa",      "scatter", "svd",
+                                          "polar",       "boundary", "gravity", "ground",
+                                          "damping",     "dt",       "steps",   "integrator",
+                                          "output",      "cloth",    "allow",   NULL});
   if (!rc) {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (d && !cJSON_IsString(d))
@@ -1086,6 +1102,8 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
     rc = parse_loads(&c, root, &s);
   if (!rc)
     rc = parse_integrator(&c, root, &s);
+  if (!rc)
+    rc = parse_allow(&c, root, &s);
   cJSON_Delete(root);
   if (rc)
     return rc;

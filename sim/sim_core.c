@@ -131,6 +131,8 @@ void ek_sim_destroy(ek_sim *s) {
   free(s->ff);
   if (s->body)
     s->body->ops->destroy((sim_body *)s->body);
+  ek_mesh_destroy(s->own_mesh);
+  ek_trimesh_destroy(s->own_trimesh);
   free(s->x_next);
   free(s->v_next);
   free(s->bc_of);
@@ -211,6 +213,8 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                      (hi[2] - lo[2]) * (hi[2] - lo[2]));
   s->body_size = diag;
+  for (int k = 0; k < 3; ++k)
+    s->body_center[k] = 0.5 * (lo[k] + hi[k]);
   for (size_t i = 0; i < nv; ++i)
     for (int k = 0; k < 3; ++k) {
       double c = 0.5 * (lo[k] + hi[k]);
@@ -282,6 +286,11 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   return s;
 }
 
+const char *sim_cfl_rule(const ek_scene *scene) {
+  return scene->triangles ? "h_min / c (c the membrane's dilatational wave speed)"
+                          : "2 / omega_max (element eigenvalue bound)";
+}
+
 static sim_body *make_tets(const ek_scene *scene, const ek_material *mat, const void *mesh) {
   return sim_body_tets_create(scene, mat, mesh);
 }
@@ -299,11 +308,97 @@ ek_sim *ek_sim_create_cloth_errbuf(const ek_scene *scene, const ek_trimesh *mesh
   return sim_create(scene, mesh, scene && scene->triangles, make_triangles, err, errlen);
 }
 
+ek_sim *ek_sim_create_scene(const ek_scene *scene) {
+  if (!scene) {
+    ek_set_error("ek_sim_create_scene: no scene");
+    return NULL;
+  }
+  ek_sim *s = NULL;
+  if (scene->triangles) {
+    ek_trimesh *m = ek_scene_trimesh(scene);
+    if (m && !(s = ek_sim_create_cloth(scene, m)))
+      ek_trimesh_destroy(m);
+    if (s)
+      s->own_trimesh = m;
+  } else {
+    ek_mesh *m = ek_scene_mesh(scene);
+    if (m && !(s = ek_sim_create(scene, m)))
+      ek_mesh_destroy(m);
+    if (s)
+      s->own_mesh = m;
+  }
+  return s;
+}
+
+int ek_sim_elements_of(const ek_sim *s, ek_sim_elements *e) {
+  if (!s || !e) {
+    ek_set_error("ek_sim_elements_of: NULL argument");
+    return EK_EINVAL;
+  }
+  const sim_body *b = s->body;
+  *e = (ek_sim_elements){b->kind, b->ne, b->corners,  b->caller_elems,
+                         b->nv,   b->X,  b->has_smax, b->oriented};
+  return 0;
+}
+
+const char *ek_sim_describe(const ek_sim *s, char *buf, size_t len) {
+  if (buf && len)
+    s->body->ops->describe(s, buf, len);
+  return buf;
+}
+
+int ek_sim_force_phases(const ek_sim *s, const char **names, double *seconds, int max) {
+  const sim_body *b = s->body;
+  int n = b->nphases < max ? b->nphases : max;
+  for (int i = 0; i < n; ++i) {
+    if (names)
+      names[i] = b->phase_names[i];
+    if (seconds)
+      memcpy(&seconds[i], (const char *)&s->times + b->phase_times[i], sizeof(double));
+  }
+  return n;
+}
+
 int ek_sim_is_cloth(const ek_sim *s) { return s->body->ops == &sim_body_triangles; }
 
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
 size_t ek_sim_inverted_count(const ek_sim *s) { return s->body->ops->inverted_count(s); }
+
+int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
+  if (!s || !h) {
+    ek_set_error("ek_sim_check: NULL argument");
+    return EK_EINVAL;
+  }
+  *h = (ek_sim_health){0};
+  h->elements = s->body->ne;
+  h->inverted = s->body->ops->inverted_count(s);
+  h->allow_inverted = s->scene.allow_inverted;
+  h->allow_nonfinite = s->scene.allow_nonfinite;
+  // Relative to the rest bounding box (centre c, diagonal L): scale-free,
+  // so a millimetre body and a 100 m one blow up at the same ratio.
+  double r2 = 0;
+  for (size_t i = 0; i < s->nv; ++i) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double x = s->x[3 * i + k], v = s->v[3 * i + k];
+      h->nonfinite += !isfinite(x) + !isfinite(v);
+      d2 += (x - s->body_center[k]) * (x - s->body_center[k]);
+    }
+    if (d2 > r2) // NaN compares false: counted above instead
+      r2 = d2;
+  }
+  h->extent = s->body_size > 0 ? sqrt(r2) / s->body_size : (r2 > 0 ? INFINITY : 0);
+  h->blown_up = h->nonfinite > 0 || !(h->extent <= EK_SIM_BLOWUP_EXTENT);
+  return 0;
+}
+
+size_t ek_count_nonfinite(const double *a, size_t n) {
+  size_t c = 0;
+  for (size_t i = 0; a && i < n; ++i)
+    c += !isfinite(a[i]);
+  return c;
+}
 
 int sim_forces(ek_sim *s, const double *x) { return s->body->ops->forces(s, x); }
 
@@ -453,6 +548,10 @@ void ek_sim_momentum(const ek_sim *s, double p[3]) {
 }
 
 double ek_sim_volume(const ek_sim *s) { return s->body->ops->measure(s); }
+
+int ek_sim_fields(const ek_sim *s, double *J, double *smin, double *psi, double *smax) {
+  return s->body->ops->fields(s, J, s->body->has_smax ? smax : NULL, smin, psi);
+}
 
 int ek_sim_tet_fields(const ek_sim *s, double *J, double *smin, double *psi) {
   return s->body->ops->fields(s, J, NULL, smin, psi);

@@ -43,6 +43,11 @@ typedef struct {
   int (*step)(ek_sim *sim, void *data);
 } sim_integrator;
 
+// The scene's body's CFL rule in words (body.h cfl; for --explain, which
+// runs before any body exists): the one place beside the constructors
+// that names the kinds (sim_core.c).
+const char *sim_cfl_rule(const ek_scene *scene);
+
 extern const sim_integrator sim_integrator_explicit;
 extern const sim_integrator sim_integrator_implicit;
 extern const sim_integrator sim_integrator_xpbd;
@@ -54,6 +59,10 @@ struct ek_sim {
   // The elastic body: a tet mesh or a cloth's triangles behind one table of
   // operations (body.h); the core and the integrators call only those.
   const sim_body *body;
+  // The mesh ek_sim_create_scene built (freed with the sim), NULL when the
+  // caller owns it.
+  ek_mesh *own_mesh;
+  ek_trimesh *own_trimesh;
   // One-rings for the per-vertex Kabsch rotations (sim/rate_fields.c),
   // built at the first ek_sim_vertex_rotations: vertex v's set is itself
   // and its neighbours, ring[ring_off[v] .. ring_off[v+1]); ring_P their
@@ -74,8 +83,9 @@ struct ek_sim {
   double t;
   long n;
   double cfl_dt, h_min, wave_speed;
-  double body_size;    // the rest mesh's bounding-box diagonal
-  double elastic_rest; // E(X): not 0 for every model (stable neo-Hookean)
+  double body_size;      // the rest mesh's bounding-box diagonal
+  double body_center[3]; // ... and its centre (ek_sim_check)
+  double elastic_rest;   // E(X): not 0 for every model (stable neo-Hookean)
   ek_sim_times times;
   ek_sim_newton_trace newton; // filled by the implicit integrator
   const sim_integrator *integrator;

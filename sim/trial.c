@@ -284,6 +284,18 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     t->cost_min = step_s[0] * per_sim_s;
   }
   if (rc == 0 && !t->failed) {
+    if (ek_sim_check(sim, &t->health) != 0) {
+      snprintf(t->error, sizeof t->error, "trial: state check: %s", ek_last_error());
+      rc = -1;
+    } else if (t->health.blown_up && !s.allow_nonfinite) {
+      t->failed = 1;
+      snprintf(t->error, sizeof t->error,
+               "the positions blew up after step %ld (a vertex %.3g body sizes from the rest "
+               "centre, %zu non-finite values)",
+               t->steps, t->health.extent, t->health.nonfinite);
+    }
+  }
+  if (rc == 0 && !t->failed) {
     ek_sim_energy(sim, &e);
     t->energy_end = e.kinetic + e.elastic + e.potential;
     double scale = fmax(moving_start, e.kinetic + e.elastic);

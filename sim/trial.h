@@ -68,6 +68,12 @@ typedef struct {
   double energy_start, energy_end, energy_drift;
   size_t nverts;
   double *x; // nverts x 3, the final positions (NULL when failed)
+  // The state check at the end (ek_sim_check, as ek-sim's summary): the
+  // inverted elements and the extent. A blow-up (or NaN) fails the trial
+  // unless the scene's allow.nonfinite; inverted elements are reported
+  // here, and the advisor fails a candidate that ends with any unless the
+  // scene's allow.inverted.
+  ek_sim_health health;
   ek_trial_monitor monitor;
 } ek_trial;
 

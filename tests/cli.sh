@@ -144,6 +144,43 @@ printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \
 expect "ek-sim: state goes NaN" 1 "$bin/ek-sim" "$work/nan.json" --no-output
 grep -q "non-finite" "$err" || fail "ek-sim: state goes NaN: no 'non-finite' in: $(tail -1 "$err")"
 grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model"
+# The state check (issue 25, sim/cli.h): a run that ends inverted exits 4
+# and says so, unless the scene's allow.inverted; NaN/inf in a frame or a
+# blow-up exits 3 (even without frames for the blow-up), unless
+# allow.nonfinite. The summary counts both at the last and the worst frame.
+data=$(cd "$(dirname "$0")/data" && pwd)
+expect "ek-sim: run ends inverted" 4 "$bin/ek-sim" "$data/inverts.json" --out "$work/inv.h5"
+grep -q "24 of 24 tets INVERTED" "$err" || fail "ek-sim: run ends inverted: not said in: $(tail -1 "$err")"
+grep -q "^check .*last frame.*24 of 24 tets inverted (J <= 0), 0 non-finite" "$out" ||
+  fail "ek-sim: run ends inverted: no check line in the summary"
+grep -q "worst frame.*24 inverted, 0 non-finite" "$out" ||
+  fail "ek-sim: run ends inverted: no worst-frame line in the summary"
+expect "ek-sim: run ends inverted, no frames" 4 "$bin/ek-sim" "$data/inverts.json" --no-output
+sed 's/^{/{"allow": {"inverted": true},/' "$data/inverts.json" >"$work/inv_allowed.json"
+expect "ek-sim: inversion allowed" 0 "$bin/ek-sim" "$work/inv_allowed.json" --no-output
+grep -q "allowed: the scene studies inversion" "$out" ||
+  fail "ek-sim: inversion allowed: the summary does not say so"
+expect "ek-sim --advise on a scene that inverts" 0 "$bin/ek-sim" "$data/inverts.json" --advise --time 2
+grep -q "failed .*ends with 24 of 24 tets inverted" "$out" ||
+  fail "ek-sim --advise: the inverted reference is not flagged"
+grep -q "^pick .*none" "$out" || fail "ek-sim --advise: picked a setting that inverts"
+expect "ek-sim: frames hold NaN" 3 "$bin/ek-sim" "$data/flattens.json" --out "$work/flat.h5"
+grep -q "FAILED: frames hold NaN/inf" "$err" || fail "ek-sim: frames hold NaN: not said"
+grep -q "warning: .*holds [0-9]* NaN/inf values" "$err" ||
+  fail "ek-sim: frames hold NaN: no warning at the first such frame"
+sed 's/^{/{"allow": {"nonfinite": true, "inverted": true},/' "$data/flattens.json" >"$work/flat_ok.json"
+expect "ek-sim: NaN allowed" 0 "$bin/ek-sim" "$work/flat_ok.json" --out "$work/flat_ok.h5"
+grep -q "NaN/inf in the frames allowed" "$out" || fail "ek-sim: NaN allowed: the summary does not say so"
+printf '%s\n' '{"mesh": {"box": [1, 1, 1], "size": [1, 1, 1]}, "initial": {"velocity": [1e9, 0, 0]},' \
+  ' "material": {"model": "stvk", "E": 1e5, "nu": 0.3, "density": 1000}, "dt": 10, "steps": 2}' \
+  >"$work/blowup.json"
+expect "ek-sim: positions blow up" 3 "$bin/ek-sim" "$work/blowup.json" --no-output
+grep -q "FAILED: the positions blew up" "$err" || fail "ek-sim: positions blow up: not said"
+printf '%s\n' '{"mesh": {"box": [1, 1, 1], "size": [1, 1, 1]}, "allow": {"inverted": 1},' \
+  ' "material": {"model": "stvk", "E": 1e5, "nu": 0.3, "density": 1000}, "dt": 1, "steps": 1}' \
+  >"$work/badallow.json"
+expect "ek-sim: allow.inverted not a bool" 1 "$bin/ek-sim" "$work/badallow.json" --no-output &&
+  one_error "ek-sim: allow.inverted not a bool"
 # A box too large for any machine's memory: refused before allocating,
 # with the estimate (--explain still explains it).
 sed 's/"box": \[100, 1, 10\]/"box": [4096, 4096, 4096]/' "$scenes/cantilever.json" >"$work/huge.json"

@@ -23,7 +23,6 @@
 // Usage: test_cloth [--seed N]
 #include <ek/batch.h>
 #include <ek/cloth.h>
-#include <ek/sim/mesh.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -31,6 +30,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "check_box.h"
 #include "check_cloth.h"
 #include "cli.h"
 #include "cloth/cloth_ref.h"
@@ -332,15 +332,15 @@ static void tri_velgrad(uint64_t seed, ek_isa isa, int bits) {
 
 // Tets: a jittered box (caller order), velocities of each family.
 static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
-  ek_mesh *mesh = ek_mesh_box(6, 5, 4, 1.2, 1.0, 0.8);
-  if (!mesh) {
+  ek_check_box mesh;
+  if (ek_check_box_create(&mesh, 6, 5, 4, 1.2, 1.0, 0.8) != 0) {
     printf("FAIL tet velgrad: %s\n", ek_last_error());
     failures++;
     return;
   }
-  size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
-  const int32_t *tets = ek_mesh_tets(mesh);
-  const ek_tets *el = ek_mesh_elements(mesh);
+  size_t nv = mesh.nverts, nt = mesh.ntets;
+  const int32_t *tets = mesh.T;
+  const ek_tets *el = mesh.el;
   const char *fams[] = {"random", "rigid", "stretch"};
   ek_rng rng;
   ek_rng_seed(&rng, ek_check_stream_seed(seed, "tet_velgrad"));
@@ -350,7 +350,7 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
     double w[3], c[3], r[3];
     for (int i = 0; i < 3; i++)
       w[i] = ek_rng_gauss(&rng), c[i] = ek_rng_gauss(&rng), r[i] = ek_rng_gauss(&rng);
-    const double *X = ek_mesh_rest_positions(mesh);
+    const double *X = mesh.X;
     for (size_t i = 0; i < nv; i++) {
       double *p = x + 3 * i, *q = v + 3 * i;
       for (int k = 0; k < 3; k++)
@@ -400,23 +400,29 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
     report(label, worst, tol(bits));
   }
   free(x), free(v), free(L), free(D), free(W);
-  ek_mesh_destroy(mesh);
+  ek_check_box_destroy(&mesh);
 }
 
-// A collapsed tet (det Ds = 0) gives NaN; the contract form on an ek_mesh.
+// A collapsed tet (det Ds = 0) gives NaN (the contract form, L only, in
+// caller order).
 static void tet_collapsed(void) {
-  ek_mesh *mesh = ek_mesh_box(2, 1, 1, 1, 1, 1);
-  size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
-  const int32_t *tets = ek_mesh_tets(mesh);
+  ek_check_box mesh;
+  if (ek_check_box_create(&mesh, 2, 1, 1, 1, 1, 1) != 0) {
+    printf("FAIL tet collapsed: %s\n", ek_last_error());
+    failures++;
+    return;
+  }
+  size_t nv = mesh.nverts, nt = mesh.ntets;
+  const int32_t *tets = mesh.T;
   double *x = dalloc(3 * nv), *v = dalloc(3 * nv), *L = dalloc(9 * nt);
-  memcpy(x, ek_mesh_rest_positions(mesh), 3 * nv * sizeof(double));
+  memcpy(x, mesh.X, 3 * nv * sizeof(double));
   for (size_t i = 0; i < 3 * nv; i++)
     v[i] = 0.1 * (double)(i % 7);
   // Move tet 0's corner 3 onto its corner 0: every tet with both collapses.
   int32_t a = tets[0], b = tets[3];
   for (int i = 0; i < 3; i++)
     x[3 * b + i] = x[3 * a + i];
-  int rc = ek_mesh_velocity_gradient_f64(mesh, x, v, L, NULL, NULL);
+  int rc = ek_tet_velocity_gradient_f64(mesh.el, x, v, L, NULL, NULL, NULL);
   int ok = rc == EK_OK;
   size_t ncollapsed = 0;
   for (size_t t = 0; t < nt; t++) {
@@ -435,7 +441,7 @@ static void tet_collapsed(void) {
   check(ok, "ek_velocity_gradient_f64: tets with two corners moved onto each other give NaN, "
             "the untouched ones finite");
   free(x), free(v), free(L);
-  ek_mesh_destroy(mesh);
+  ek_check_box_destroy(&mesh);
 }
 
 // ---- f. Same bits: ISAs vs scalar, AoSoA vs AoS, 1 vs 2 threads -----------------

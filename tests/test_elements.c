@@ -10,7 +10,6 @@
 // on a randomly renumbered box built from plain arrays. Per-element state
 // round-trips through the Morton slots.
 #include <ek/elements.h>
-#include <ek/sim/mesh.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,6 +17,7 @@
 
 #include "../kernels/elements/tets.h"
 #include "check.h"
+#include "check_box.h"
 #include "cli.h"
 
 static int failures = 0;
@@ -156,21 +156,25 @@ static void check_layout(const char *label, const ek_tets *el) {
 static void check_box(int nx, int ny, int nz) {
   char label[64];
   snprintf(label, sizeof label, "box %dx%dx%d", nx, ny, nz);
-  ek_mesh *m = ek_mesh_box(nx, ny, nz, nx, ny, nz);
-  if (!m) {
+  ek_check_box m;
+  if (ek_check_box_create(&m, nx, ny, nz, nx, ny, nz) != 0) {
     printf("%s: %s\n", label, ek_last_error());
     verdict(label, "builds", 0);
     return;
   }
-  check_layout(label, ek_mesh_elements(m));
-  ek_mesh_destroy(m);
+  check_layout(label, m.el);
+  ek_check_box_destroy(&m);
 }
 
 // ek_tets_create on plain arrays: the box's tets with the vertices
 // renumbered at random (the Morton order must not depend on the numbering).
 static void check_renumbered(ek_rng *rng) {
-  ek_mesh *b = ek_mesh_box(12, 9, 7, 1.2, 0.9, 0.7);
-  size_t nv = ek_mesh_nverts(b), nt = ek_mesh_ntets(b);
+  ek_check_box b;
+  if (ek_check_box_create(&b, 12, 9, 7, 1.2, 0.9, 0.7) != 0) {
+    verdict("renumbered box", "box builds", 0);
+    return;
+  }
+  size_t nv = b.nverts, nt = b.ntets;
   double *X = malloc(nv * 3 * sizeof(double));
   int32_t *T = malloc(nt * 4 * sizeof(int32_t)), *perm = malloc(nv * sizeof(int32_t));
   for (size_t v = 0; v < nv; v++)
@@ -182,9 +186,9 @@ static void check_renumbered(ek_rng *rng) {
     perm[j] = tmp;
   }
   for (size_t v = 0; v < nv; v++)
-    memcpy(X + (size_t)perm[v] * 3, ek_mesh_rest_positions(b) + v * 3, 3 * sizeof(double));
+    memcpy(X + (size_t)perm[v] * 3, b.X + v * 3, 3 * sizeof(double));
   for (size_t i = 0; i < nt * 4; i++)
-    T[i] = perm[ek_mesh_tets(b)[i]];
+    T[i] = perm[b.T[i]];
   ek_tets *el = ek_tets_create(nv, X, nt, T);
   if (!el) {
     printf("renumbered box: %s\n", ek_last_error());
@@ -193,7 +197,7 @@ static void check_renumbered(ek_rng *rng) {
     check_layout("renumbered box (plain arrays)", el);
     ek_tets_destroy(el);
   }
-  ek_mesh_destroy(b);
+  ek_check_box_destroy(&b);
   free(X);
   free(T);
   free(perm);
@@ -235,8 +239,12 @@ static void check_refusals(void) {
 // Per-element state: set / get round trip through the Morton slots (f64
 // exact, f32 the float rounding), padding slots left at the identity.
 static void check_state(ek_rng *rng) {
-  ek_mesh *m = ek_mesh_box(5, 4, 3, 1, 1, 1);
-  const ek_tets *el = ek_mesh_elements(m);
+  ek_check_box m;
+  if (ek_check_box_create(&m, 5, 4, 3, 1, 1, 1) != 0) {
+    verdict("per-element state", "box builds", 0);
+    return;
+  }
+  const ek_tets *el = m.el;
   size_t nt = el->ntets;
   double *in = malloc(nt * 9 * sizeof(double)), *out = malloc(nt * 9 * sizeof(double));
   for (size_t i = 0; i < nt * 9; i++)
@@ -262,7 +270,7 @@ static void check_state(ek_rng *rng) {
   ek_tet_state_destroy(s32);
   free(in);
   free(out);
-  ek_mesh_destroy(m);
+  ek_check_box_destroy(&m);
 }
 
 int main(int argc, char **argv) {

@@ -18,6 +18,7 @@
 //      (ek_fvm_opts.R_state) gives the same bits as with the caller-order
 //      array, for every strategy, ISA and precision; a state of the wrong
 //      precision is refused.
+#include <ek/sim/mesh.h>
 #include <omp.h>
 
 #include "cli.h"

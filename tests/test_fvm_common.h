@@ -11,9 +11,9 @@
 #include <string.h>
 
 #include <ek/fvm.h>
-#include <ek/sim/mesh.h>
 
 #include "check.h"
+#include "check_box.h"
 #include "fvm/fvm_ref.h"
 
 typedef struct {
@@ -27,15 +27,16 @@ static inline void test_mesh_free(test_mesh *t) {
   free(t->T);
 }
 
-// Box of nx*ny*nz cells of size h (ek_mesh_box), interior vertices moved
-// by up to `jitter` cells, vertices renumbered at random.
+// Box of nx*ny*nz cells of size h (ek_check_box_create, ek_mesh_box's
+// mesh), interior vertices moved by up to `jitter` cells, vertices
+// renumbered at random.
 static inline test_mesh test_mesh_random(ek_rng *rng, int nx, int ny, int nz, double jitter) {
-  ek_mesh *b = ek_mesh_box(nx, ny, nz, nx * 0.1, ny * 0.1, nz * 0.1);
-  if (!b) {
-    printf("ek_mesh_box: %s\n", ek_last_error());
+  ek_check_box box;
+  if (ek_check_box_create(&box, nx, ny, nz, nx * 0.1, ny * 0.1, nz * 0.1) != 0) {
+    printf("ek_check_box_create: %s\n", ek_last_error());
     exit(1);
   }
-  test_mesh t = {ek_mesh_nverts(b), ek_mesh_ntets(b), NULL, NULL};
+  test_mesh t = {box.nverts, box.ntets, NULL, NULL};
   t.X = malloc(t.nverts * 3 * sizeof(double));
   t.T = malloc(t.ntets * 4 * sizeof(int32_t));
   int32_t *perm = malloc(t.nverts * sizeof(int32_t));
@@ -47,7 +48,7 @@ static inline test_mesh test_mesh_random(ek_rng *rng, int nx, int ny, int nz, do
     perm[v] = perm[j];
     perm[j] = tmp;
   }
-  const double *X = ek_mesh_rest_positions(b);
+  const double *X = box.X;
   double len[3] = {nx * 0.1, ny * 0.1, nz * 0.1};
   for (size_t v = 0; v < t.nverts; v++)
     for (int k = 0; k < 3; k++) {
@@ -56,9 +57,9 @@ static inline test_mesh test_mesh_random(ek_rng *rng, int nx, int ny, int nz, do
       t.X[perm[v] * 3 + k] = x + (interior ? jitter * 0.1 * (2 * ek_rng_uniform(rng) - 1) : 0);
     }
   for (size_t i = 0; i < t.ntets * 4; i++)
-    t.T[i] = perm[ek_mesh_tets(b)[i]];
+    t.T[i] = perm[box.T[i]];
   free(perm);
-  ek_mesh_destroy(b);
+  ek_check_box_destroy(&box);
   return t;
 }
 

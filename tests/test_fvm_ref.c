@@ -11,6 +11,8 @@
 //      R are not rotation-invariant and are exempt;
 //   4. f = 0 at the rest shape (corotated linear with R = I).
 // Also: ek_mesh_fvm_energy_f64 (the library) equals the reference energy.
+#include <ek/sim/mesh.h>
+
 #include "cli.h"
 #include "test_fvm_common.h"
 #include "test_tolerances.h"

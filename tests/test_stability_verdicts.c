@@ -14,9 +14,9 @@
 #include <string.h>
 
 #include <ek/ek.h>
-#include <ek/sim/sim.h>
 
 #include "check.h"
+#include "check_box.h"
 #include "check_stability.h"
 #include "cli.h"
 #include "test_tolerances.h"
@@ -37,14 +37,14 @@ int main(int argc, char **argv) {
   unsigned long long seed = ek_cli_test_args(argc, argv, 7, NULL);
   printf("test_stability_verdicts: seed %llu\n", seed);
   const double L = 0.2;
-  ek_mesh *m = ek_mesh_box(3, 3, 3, L, L, L);
-  if (!m) {
-    printf("FAIL ek_mesh_box: %s\n", ek_last_error());
+  ek_check_box m;
+  if (ek_check_box_create(&m, 3, 3, 3, L, L, L) != 0) {
+    printf("FAIL ek_check_box_create: %s\n", ek_last_error());
     return 1;
   }
-  size_t nv = ek_mesh_nverts(m), nt = ek_mesh_ntets(m);
-  const double *X = ek_mesh_rest_positions(m);
-  const int32_t *T = ek_mesh_tets(m);
+  size_t nv = m.nverts, nt = m.ntets;
+  const double *X = m.X;
+  const int32_t *T = m.T;
   double size = sqrt(3.0) * L, centre[3] = {L / 2, L / 2, L / 2};
   double *x = malloc(3 * nv * sizeof(double));
   double *w = malloc(nv * sizeof(double));
@@ -148,7 +148,7 @@ int main(int argc, char **argv) {
 
   free(x);
   free(w);
-  ek_mesh_destroy(m);
+  ek_check_box_destroy(&m);
   printf("test_stability_verdicts: %d failures\n", failures);
   return failures ? 1 : 0;
 }

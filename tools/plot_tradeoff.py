@@ -2,6 +2,7 @@
 """Plot the speed/accuracy map of `ek-bench --suite tradeoff`.
 
 usage: plot_tradeoff.py TRADEOFF.h5 OUTDIR [--bench BENCH.h5] [--threads N]
+       plot_tradeoff.py OUTDIR --bench BENCH.h5 [--threads N]   (rooflines only)
 
 One PNG per family of the map (OUTDIR/tradeoff_<family>.png, '/' in the
 family name as '_'): error vs time per point, log-log, the p99 error as the
@@ -10,12 +11,13 @@ as a line, the default and McAdams et al. 2011 settings labelled. Points are
 those of one thread count (--threads, default the most the file has).
 
 With --bench BENCH.h5 (a default-suite file of ek-bench), one roofline per
-kernel family as well (OUTDIR/roofline_<family>.png): left, each row's
+kernel as well (OUTDIR/roofline_<kernel>.png, the rows' first name part:
+svd3, fvm, hessian, xpbd, material, ...; axes fitted to the rows): left, each row's
 achieved GFLOP/s against its arithmetic intensity (declared flops / declared
 bytes) under the roofs of that run, the measured FMA peak per ISA and
 precision and the measured triad bandwidth (rows that declare flops); right,
-each row's achieved GB/s against the triad (rows that declare bytes); at the
-same thread count.
+each row's achieved GB/s against the triad (rows that declare bytes; the
+only panel when no row declares flops); at the same thread count.
 
 Needs h5py and matplotlib (installed into build/venv by ./quickstart.sh test,
 tests/requirements-venv.txt); the build never needs them.
@@ -174,6 +176,13 @@ def best_isa(points):
     return None
 
 
+def roofline_group(name):
+    """The figure a row goes to: the first part of its name (svd3, fvm,
+    hessian, xpbd, material, ...), so that one figure holds rows of one
+    kernel and their labels stay readable."""
+    return name.split("/", 1)[0]
+
+
 def roofline(plt, bench_path, outdir, threads_opt):
     f = open_h5(bench_path, "an ek-bench default-suite file", "benchmarks")
     attrs = {k: (text(v) if isinstance(v, (bytes, str)) else v) for k, v in f.attrs.items()}
@@ -193,22 +202,43 @@ def roofline(plt, bench_path, outdir, threads_opt):
     if not rows:
         fail(f"{bench_path}: no rows under /benchmarks")
     threads = threads_opt or max(r["threads"] for r in rows)
-    triad = attrs.get(f"triad_gbs.threads:{threads}", math.nan)
+    triad = float(attrs.get(f"triad_gbs.threads:{threads}", math.nan))
+    # ek-bench leaves the triad NaN when its probe was disturbed (a busy
+    # machine) and keeps the measured value beside it: drawn, and named so.
+    triad_note = ""
+    if not math.isfinite(triad):
+        triad = float(attrs.get(f"triad_measured_gbs.threads:{threads}", math.nan))
+        triad_note = " (disturbed probe)"
+    markers = {"scalar": "s", "avx2": "^", "avx512": "o"}
+    colors = {"f32": "tab:blue", "f64": "tab:orange"}
+    roof_style = {"scalar": ":", "avx2": "--", "avx512": "-"}
     outs = []
-    for family in sorted({r["family"] for r in rows}):
-        here = [r for r in rows if r["family"] == family and r["threads"] == threads]
-        sel = [r for r in here if r["flops"] > 0 and r["bytes"] > 0 and math.isfinite(r["gflops"])]
+    for group in sorted({roofline_group(r["name"]) for r in rows}):
+        here = [r for r in rows if roofline_group(r["name"]) == group and r["threads"] == threads]
+        sel = [r for r in here if r["flops"] > 0 and r["bytes"] > 0 and math.isfinite(r["gflops"])
+               and r["gflops"] > 0]
         bw = [r for r in here if r["bytes"] > 0 and math.isfinite(r["gbs"])]
         if not sel and not bw:
             continue
-        fig, (ax, axb) = plt.subplots(1, 2, figsize=(14, max(5, 0.16 * len(bw) + 1.5)),
-                                      gridspec_kw={"width_ratios": [3, 2]})
-        markers = {"scalar": "s", "avx2": "^", "avx512": "o"}
-        colors = {"f32": "tab:blue", "f64": "tab:orange"}
+        # Bar labels without the group and the thread count, at a size that
+        # prints: the figure grows with the rows instead of the font
+        # shrinking.
+        names = [r["name"].replace(f"/threads:{threads}", "").split("/", 1)[-1] for r in bw]
+        bar_h = max(4.0, 0.24 * len(bw) + 1.5)
+        if sel:
+            fig, (ax, axb) = plt.subplots(1, 2, figsize=(15, max(6.5, bar_h)),
+                                          gridspec_kw={"width_ratios": [1, 1]})
+        else:  # no row declares its flops: the bandwidth panel only
+            fig, axb = plt.subplots(1, 1, figsize=(9, bar_h))
+            ax = None
         if sel:
             ai = [r["flops"] / r["bytes"] for r in sel]
-            lo, hi = min(ai) / 4, max(ai) * 4
-            xs = [lo * (hi / lo) ** (i / 200) for i in range(201)]
+            # Axes from the data: intensity within a factor 2 of the rows,
+            # GFLOP/s from below the slowest row to above the highest roof
+            # drawn (only the roofs of ISAs and precisions with rows).
+            lo, hi = min(ai) / 2, max(ai) * 2
+            xs = [lo * (hi / lo) ** (k / 200) for k in range(201)]
+            ytop = max(r["gflops"] for r in sel)
             for isa in ("scalar", "avx2", "avx512"):
                 for prec in ("f32", "f64"):
                     peak = attrs.get(f"peak_gflops.{isa}.{prec}.threads:{threads}")
@@ -216,39 +246,66 @@ def roofline(plt, bench_path, outdir, threads_opt):
                             r["isa"] == isa and r["precision"] == prec for r in sel):
                         continue
                     peak = float(peak)
+                    ytop = max(ytop, peak)
                     ys = [min(peak, x * triad) if math.isfinite(triad) else peak for x in xs]
-                    ax.plot(xs, ys, lw=1, label=f"roof {isa} {prec}: FMA peak {peak:.0f} GFLOP/s")
+                    ax.plot(xs, ys, lw=1.2, ls=roof_style[isa], color=colors[prec],
+                            label=f"roof {isa} {prec}: FMA peak {peak:.0f} GFLOP/s")
             if math.isfinite(triad):
-                ax.plot(xs, [x * triad for x in xs], color="gray", ls="--", lw=0.8,
-                        label=f"triad {triad:.1f} GB/s x intensity")
+                ax.plot(xs, [x * triad for x in xs], color="gray", ls="-.", lw=0.8,
+                        label=f"triad{triad_note} {triad:.1f} GB/s x intensity")
             for r, x in zip(sel, ai):
                 ax.scatter([x], [r["gflops"]], marker=markers.get(r["isa"], "D"),
-                           color=colors.get(r["precision"], "gray"), s=16, alpha=0.8, zorder=3)
+                           color=colors.get(r["precision"], "gray"), s=28, alpha=0.85, zorder=3)
+            # What the markers and colours mean (the points carry no label).
+            for isa in ("scalar", "avx2", "avx512"):
+                if any(r["isa"] == isa for r in sel):
+                    ax.scatter([], [], marker=markers[isa], color="black", s=28,
+                               label=f"rows {isa}")
+            for prec in ("f32", "f64"):
+                if any(r["precision"] == prec for r in sel):
+                    ax.scatter([], [], marker="o", color=colors[prec], s=28, label=f"rows {prec}")
             ax.set_xscale("log")
             ax.set_yscale("log")
-            ax.legend(fontsize=7, loc="lower right")
-        else:
-            ax.text(0.5, 0.5, "no row of this family declares its flops", ha="center",
-                    transform=ax.transAxes)
-        ax.set_xlabel("arithmetic intensity (declared flops / declared bytes)")
-        ax.set_ylabel("achieved GFLOP/s (declared flops / median time)")
-        ax.grid(True, which="both", alpha=0.2)
+            # Plain numbers on the log axes (1, 2, 5, 10 rather than 2 x 10^0).
+            from matplotlib.ticker import FormatStrFormatter
+            for axis in (ax.xaxis, ax.yaxis):
+                axis.set_major_formatter(FormatStrFormatter("%g"))
+            # Minor labels only where the axis spans less than a decade and
+            # a half (else they crowd).
+            if hi / lo < 30:
+                ax.xaxis.set_minor_formatter(FormatStrFormatter("%g"))
+            ax.set_xlim(lo, hi)
+            ax.set_ylim(min(r["gflops"] for r in sel) / 2, ytop * 1.6)
+            ax.legend(fontsize=8, loc="lower right")
+            ax.set_xlabel("arithmetic intensity (declared flops / declared bytes)", fontsize=10)
+            ax.set_ylabel("achieved GFLOP/s (declared flops / median time)", fontsize=10)
+            ax.set_title(f"{len(sel)} rows that declare flops and bytes", fontsize=10)
+            ax.grid(True, which="both", alpha=0.25)
         # Achieved bandwidth per row against the triad.
-        names = [r["name"].replace(f"/threads:{threads}", "") for r in bw]
         axb.barh(range(len(bw)), [r["gbs"] for r in bw],
                  color=[colors.get(r["precision"], "gray") for r in bw])
-        axb.set_yticks(range(len(bw)), names, fontsize=5)
-        axb.invert_yaxis()
+        axb.set_yticks(range(len(bw)), names, fontsize=8)
+        axb.set_ylim(len(bw) - 0.5, -0.5)
+        xmax = max([r["gbs"] for r in bw] + ([triad] if math.isfinite(triad) else []))
+        axb.set_xlim(0, xmax * 1.12)
         if math.isfinite(triad):
-            axb.axvline(triad, color="black", ls="--", lw=0.8, label=f"triad {triad:.1f} GB/s")
-            axb.legend(fontsize=7)
-        axb.set_xlabel("achieved GB/s (declared bytes / median time)")
-        fig.suptitle(f"roofline: {family}, {threads} thread{'s' if threads > 1 else ''} "
+            axb.axvline(triad, color="black", ls="--", lw=0.8,
+                        label=f"triad{triad_note} {triad:.1f} GB/s")
+        from matplotlib.patches import Patch
+        handles, _ = axb.get_legend_handles_labels()
+        handles += [Patch(color=colors[prec], label=prec) for prec in ("f32", "f64")
+                    if any(r["precision"] == prec for r in bw)]
+        axb.legend(handles=handles, fontsize=8, loc="lower right")
+        axb.set_xlabel("achieved GB/s (declared bytes / median time)", fontsize=10)
+        axb.set_title(f"{group}/...: {len(bw)} rows" + ("" if sel else " (none declares flops)"),
+                      fontsize=10)
+        axb.grid(True, axis="x", alpha=0.25)
+        fig.suptitle(f"roofline: {group}, {threads} thread{'s' if threads > 1 else ''} "
                      f"({attrs.get('cpu_model', '?')}, git {str(attrs.get('git_revision', '?'))[:10]})",
-                     fontsize=9)
+                     fontsize=11)
         fig.tight_layout()
-        out = os.path.join(outdir, "roofline_" + family.replace("/", "_") + ".png")
-        fig.savefig(out, dpi=120)
+        out = os.path.join(outdir, "roofline_" + group.replace("/", "_") + ".png")
+        fig.savefig(out, dpi=110)
         plt.close(fig)
         outs.append(out)
     return outs
@@ -256,8 +313,9 @@ def roofline(plt, bench_path, outdir, threads_opt):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("tradeoff", help="HDF5 file of ek-bench --suite tradeoff")
-    ap.add_argument("outdir", help="folder for the PNG files (created)")
+    ap.add_argument("files", nargs="+", metavar="[TRADEOFF.h5] OUTDIR",
+                    help="HDF5 file of ek-bench --suite tradeoff (may be left out with "
+                    "--bench: rooflines only), and the folder for the PNG files (created)")
     ap.add_argument("--bench", help="HDF5 file of the default suite, for the rooflines")
     ap.add_argument("--threads", type=int, help="thread count to plot (default: the most)")
     args = ap.parse_args()
@@ -269,10 +327,16 @@ def main():
     except ImportError as e:
         fail(f"needs h5py and matplotlib ({e}); ./quickstart.sh test installs them into "
              "build/venv (build/venv/bin/python tools/plot_tradeoff.py ...)")
-    f = open_h5(args.tradeoff, "a tradeoff file (ek-bench --suite tradeoff)", "tradeoff")
-    meta = {k: text(v) for k, v in f.attrs.items()}
-    families = read_points(f, args.tradeoff)
-    f.close()
+    if len(args.files) > 2 or (len(args.files) == 1 and not args.bench):
+        ap.error("expected TRADEOFF.h5 OUTDIR, or OUTDIR with --bench")
+    args.tradeoff = args.files[0] if len(args.files) == 2 else None
+    args.outdir = args.files[-1]
+    families, meta = {}, {}
+    if args.tradeoff:
+        f = open_h5(args.tradeoff, "a tradeoff file (ek-bench --suite tradeoff)", "tradeoff")
+        meta = {k: text(v) for k, v in f.attrs.items()}
+        families = read_points(f, args.tradeoff)
+        f.close()
     os.makedirs(args.outdir, exist_ok=True)
     written = []
     for family, points in sorted(families.items()):

@@ -56,6 +56,15 @@
 //                 "clusters"} (ek_scene_xpbd)
 //   output        {"file": PATH.h5 (relative to the working directory),
 //                 "every": N (default 1)}
+//   allow         {"inverted": bool, "nonfinite": bool} (default false):
+//                 what the run may end in and still succeed. ek-sim checks
+//                 the state at every frame time (ek_sim_check) and fails
+//                 (sim/cli.h: exit 3) when a frame holds NaN or inf or the
+//                 positions blew up (EK_SIM_BLOWUP_EXTENT), and (exit 4)
+//                 when the last frame holds inverted elements (J <= 0).
+//                 "inverted": true declares a scene that studies inversion
+//                 (say so in its description); "nonfinite": true one that
+//                 studies a failure. Either way the summary reports it.
 #ifndef EK_SIM_SCENE_H
 #define EK_SIM_SCENE_H
 
@@ -229,6 +238,9 @@ typedef struct {
   // Output ("" = none): frames every output_every steps (and the first).
   char output_file[EK_SCENE_PATH_MAX];
   long output_every;
+  // "allow": the run may end with inverted elements (the scene studies
+  // inversion), frames may hold NaN / inf or blown-up positions.
+  int allow_inverted, allow_nonfinite;
 } ek_scene;
 
 // Parse a scene file. 0 on success; < 0 with ek_last_error naming the file, the key

@@ -125,6 +125,36 @@ ek_sim *ek_sim_create(const ek_scene *scene, const ek_mesh *mesh);
 // the cloth forces (cloth_force.h) in place of the FVM force.
 ek_sim *ek_sim_create_cloth(const ek_scene *scene, const ek_trimesh *mesh);
 int ek_sim_is_cloth(const ek_sim *sim);
+// The scene's simulation whichever element kind it has: builds the mesh
+// (ek_scene_mesh, or ek_scene_trimesh for a cloth) and the sim, which owns
+// the mesh (ek_sim_destroy frees it). NULL on failure (message in
+// ek_last_error: the mesh's or the sim's, as the calls above give it).
+ek_sim *ek_sim_create_scene(const ek_scene *scene);
+// The body's elements, for programs that write or print them without
+// knowing their kind (frames.h: ek_frames_create_ex takes corners and the
+// incidence): pointers valid while the sim lives.
+typedef struct {
+  const char *kind;         // "tets", "triangles"
+  size_t count;             // elements
+  int corners;              // vertices per element: 4, 3
+  const int32_t *incidence; // count x corners, the caller's (mesh's) order
+  size_t nverts;            // vertices
+  const double *rest;       // nverts x 3 rest positions
+  int has_smax;             // ek_sim_fields fills smax (triangles: s1)
+  int oriented;             // J <= 0 is inverted (tets); triangles in 3D have no
+                            // orientation: ek_sim_inverted_count is 0
+} ek_sim_elements;
+int ek_sim_elements_of(const ek_sim *sim, ek_sim_elements *e);
+// One line naming the body's counts and model, for a run's header:
+// "1296 tets, 8 colours, model stvk" or "800 triangles, 1160 hinges,
+// membrane arap". Returns buf.
+const char *ek_sim_describe(const ek_sim *sim, char *buf, size_t len);
+// The force's phase split of the phase-timed steps (ek_sim_time_phases):
+// up to max phases, each its name and its seconds summed so far (tets:
+// deformation gradient, SVD/polar, P(F), scatter; triangles: membrane,
+// bending, gather). Returns the count (<= EK_SIM_MAX_PHASES).
+#define EK_SIM_MAX_PHASES 4
+int ek_sim_force_phases(const ek_sim *sim, const char **names, double *seconds, int max);
 // A condition the run goes on with, for the caller to report (the library
 // prints nothing, core.h): an explicit dt above the CFL limit (set by
 // ek_sim_create), the first step whose Newton loop stopped above
@@ -151,6 +181,32 @@ void ek_sim_set_stop_flag(ek_sim *sim, const volatile sig_atomic_t *flag);
 const char *ek_sim_integrator_name(const ek_sim *sim);
 // Tets with J <= 0 in the current state.
 size_t ek_sim_inverted_count(const ek_sim *sim);
+// The state check every loop reports (issue 25: no run turns a body inside
+// out or writes NaN silently): ek-sim at every frame time, the advisor's
+// trials and ek-bench's sim rows at their end.
+//   elements   the body's elements
+//   inverted   of them with J <= 0 (ek_sim_inverted_count; 0 for
+//              triangles, which have no orientation in 3D)
+//   nonfinite  NaN / inf entries of the positions and velocities (0 after a
+//              successful ek_sim_step, which refuses a non-finite state;
+//              ek-sim adds the frame fields' own count, ek_count_nonfinite)
+//   extent     max_i |x_i - c| / L, c and L the rest bounding box's centre
+//              and diagonal: scale-free, 0.5 at rest, ~1-10 for a body that
+//              moved by its size
+//   blown_up   nonfinite > 0 or extent > EK_SIM_BLOWUP_EXTENT: a finite
+//              blow-up (positions of 1e10 m for a 1 m body) fails like NaN
+//   allow_inverted, allow_nonfinite  the scene's "allow" key (scene.h),
+//              copied for the caller's verdict
+#define EK_SIM_BLOWUP_EXTENT 1e6
+typedef struct {
+  size_t elements, inverted, nonfinite;
+  double extent;
+  int blown_up;
+  int allow_inverted, allow_nonfinite;
+} ek_sim_health;
+int ek_sim_check(const ek_sim *sim, ek_sim_health *h);
+// Entries of a[0..n) that are NaN or inf (a may be NULL: 0).
+size_t ek_count_nonfinite(const double *a, size_t n);
 // Ask for the per-phase split on the next steps (costs extra passes).
 void ek_sim_time_phases(ek_sim *sim, int on);
 const ek_sim_times *ek_sim_timings(const ek_sim *sim);
@@ -202,6 +258,11 @@ int ek_sim_tet_fields(const ek_sim *sim, double *J, double *smin, double *psi);
 // density per unit rest area (per unit area of the sheet, Psi h). On a
 // cloth, ek_sim_tet_fields gives (J, s2, psi) and ek_sim_volume the area.
 int ek_sim_cloth_fields(const ek_sim *sim, double *J, double *s1, double *s2, double *psi);
+// Per-element fields of the current state, whichever the kind (any may
+// be NULL): as ek_sim_tet_fields for tets (smax not written), as
+// ek_sim_cloth_fields for triangles (smin = s2, smax = s1);
+// ek_sim_elements' has_smax says which.
+int ek_sim_fields(const ek_sim *sim, double *J, double *smin, double *psi, double *smax);
 // The velocity gradient L = D + W of every element in the current state
 // (seed 003 eqs. 28-31, cloth.h): tets L = Fdot F^-1, triangles
 // L = Fdot F^+ (the surface gradient of v); D, W nelems x 9 row-major and
