@@ -98,7 +98,13 @@
 // the gradients resist inversion (C_H's pushes J back to a > 0). The
 // residual is the larger of the pair's |C + alpha~ lambda|; cmax is max
 // |C_H| (C_D is not 0 at rest). The stiff planes hold V (k = V mu h^2,
-// V lambda h^2); E is not used.
+// V lambda h^2); E is not used. Because C_D and C_H are not 0 at rest,
+// their multipliers are O(k) even for small strains (a pre-stress whose two
+// forces cancel), so the dropped primal residual below costs more than
+// with StVK: a bar hanging at rest lands 1.8e-2 off the implicit loop at 20
+// substeps (converged sweeps; StVK 8.5e-4), 1.5e-3 at 80 (it shrinks about
+// as h^2), and in f32 the cancelling terms round at ~C, not at the strain
+// (tests/test_sim_xpbd.c).
 //
 // Precision: the f32 functions iterate in float, the f64 ones in double;
 // with a base (ek_xpbd_iterate_*) the updates round to the displacements'
