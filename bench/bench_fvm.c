@@ -37,7 +37,9 @@
 //     threads:T; the speed-up column is the StVK force row of the same
 //     precision and threads divided by it (the issue's "one Gauss-Seidel
 //     iteration over all tets <= 2x one force evaluation" reads as a
-//     speed-up >= 0.5), and a note after the rows gives sweep / force for
+//     speed-up >= 0.5); the same rows with the stable neo-Hookean pair,
+//     xpbd_snh/..., against the snh force row; and a note after the rows
+//     gives sweep / force for
 //     tets Gauss-Seidel per precision and thread count.
 // Kept to these so the default suite's share stays small on 2 cores.
 //
@@ -167,6 +169,7 @@ static struct {
 } models[NMODELS];
 static int FIXED_COROT, NEO_HOOKEAN; // the headline row, the warm rows' baseline
 static int STVK;                     // the force rows the XPBD sweeps are compared with
+static int SNH;                      // the stable neo-Hookean XPBD rows' model and force rows
 
 static void models_init(void) {
   for (int m = 0; m < EK_MODEL_COUNT; m++) {
@@ -178,6 +181,7 @@ static void models_init(void) {
   ek_model_from_name("fixed_corot", &fc);
   ek_model_from_name("nh", &nh);
   FIXED_COROT = (int)fc, NEO_HOOKEAN = (int)nh, STVK = (int)EK_XPBD_MODEL;
+  SNH = (int)EK_MODEL_STABLE_NEO_HOOKEAN;
   for (int w = FIXED_COROT_WARM; w <= FIXED_COROT_WARM_IT1; w++) {
     models[w].mat = models[FIXED_COROT].mat;
     snprintf(models[w].name, sizeof models[w].name, "%s_warm%s", models[FIXED_COROT].name,
@@ -383,37 +387,46 @@ static size_t xpbd_at_rest(const ek_xpbd *xp) {
   return zero;
 }
 
-static void xpbd_name(char *name, size_t len, ek_xpbd_elements e, ek_xpbd_solver s, ek_isa isa,
-                      int f32, size_t ntets, int threads) {
-  snprintf(name, len, "xpbd/%s/%s/%s/%s/tets:%zu/threads:%d", ek_xpbd_elements_name(e),
-           ek_xpbd_solver_name(s), ek_isa_name(isa), f32 ? "f32" : "f64", ntets, threads);
+// StVK's constraint rows "xpbd/...", the stable neo-Hookean pair's
+// "xpbd_snh/..." (model SNH).
+static void xpbd_name(char *name, size_t len, int model, ek_xpbd_elements e, ek_xpbd_solver s,
+                      ek_isa isa, int f32, size_t ntets, int threads) {
+  snprintf(name, len, "%s/%s/%s/%s/%s/tets:%zu/threads:%d", model == SNH ? "xpbd_snh" : "xpbd",
+           ek_xpbd_elements_name(e), ek_xpbd_solver_name(s), ek_isa_name(isa), f32 ? "f32" : "f64",
+           ntets, threads);
 }
 
-static void stvk_force_name(char *name, size_t len, ek_isa isa, int f32, size_t ntets,
-                            int threads) {
-  snprintf(name, len, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[STVK].name,
+static void model_force_name(char *name, size_t len, int model, ek_isa isa, int f32, size_t ntets,
+                             int threads) {
+  snprintf(name, len, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
            ek_scatter_name(EK_SCATTER_THREAD_BUFFERS), ek_isa_name(isa), f32 ? "f32" : "f64", ntets,
            threads);
 }
 
+static void stvk_force_name(char *name, size_t len, ek_isa isa, int f32, size_t ntets,
+                            int threads) {
+  model_force_name(name, len, STVK, isa, f32, ntets, threads);
+}
+
 // One XPBD sweep row at ~1e5 tets. Setup as the XPBD loop would see the
-// force row's state: the StVK material of the force row with the E that
-// gives its mu and lambda, lumped masses at density 1000, w = 1 / m, one
+// force row's state: the StVK (or stable neo-Hookean: model) material of
+// the force row with the E that gives its mu and lambda; the baseline is
+// that model's force row, lumped masses at density 1000, w = 1 / m, one
 // ek_xpbd_begin, positions the force row's deformed ones. items = the
 // mesh's tets for clusters too (a cluster per vertex), so that the
 // speed-up column compares whole calls: one sweep against one force
 // evaluation of the same mesh.
-static int xpbd_row(ek_bench *b, ek_xpbd_elements e, ek_xpbd_solver s, ek_isa isa, int f32,
-                    int threads) {
+static int xpbd_row(ek_bench *b, int model, ek_xpbd_elements e, ek_xpbd_solver s, ek_isa isa,
+                    int f32, int threads) {
   fvm_mesh_case *mc = &sizes[1];
   size_t ntets = case_tets(mc);
   char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[192];
-  xpbd_name(name, sizeof name, e, s, isa, f32, ntets, threads);
-  stvk_force_name(base, sizeof base, isa, f32, ntets, threads);
+  xpbd_name(name, sizeof name, model, e, s, isa, f32, ntets, threads);
+  model_force_name(base, sizeof base, model, isa, f32, ntets, threads);
   if (!ek_bench_wants(b, name))
     return 0;
   xpbd_ctx *const c = &xpbd_row_ctx;
-  const ek_material *mat = &models[STVK].mat;
+  const ek_material *mat = &models[model].mat;
   const double mu = mat->mu, la = mat->lambda, young = mu * (3 * la + 2 * mu) / (la + mu);
   if (!ek_bench_listing(b)) {
     if (mesh_setup(b, mc))
@@ -493,7 +506,8 @@ static void xpbd_note(ek_bench *b, ek_isa isa, const int *counts, int nth) {
   size_t used = 0;
   for (int f32 = 1; f32 >= 0; f32--)
     for (int t = 0; t < nth; t++) {
-      xpbd_name(name, sizeof name, EK_XPBD_TETS, EK_XPBD_GAUSS_SEIDEL, isa, f32, ntets, counts[t]);
+      xpbd_name(name, sizeof name, STVK, EK_XPBD_TETS, EK_XPBD_GAUSS_SEIDEL, isa, f32, ntets,
+                counts[t]);
       stvk_force_name(base, sizeof base, isa, f32, ntets, counts[t]);
       double sweep = ek_bench_median_ns(b, name), force = ek_bench_median_ns(b, base);
       if (isnan(sweep) || isnan(force) || used >= sizeof text)
@@ -547,11 +561,13 @@ int bench_fvm(ek_bench *b) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
       }
-    // XPBD: one sweep per elements x solver x precision.
-    for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
-      for (int sv = 0; sv < EK_XPBD_SOLVER_COUNT; sv++)
-        for (int f32 = 1; f32 >= 0; f32--)
-          rc |= xpbd_row(b, (ek_xpbd_elements)e, (ek_xpbd_solver)sv, best, f32, counts[t]);
+    // XPBD: one sweep per constraint x elements x solver x precision.
+    for (int snh = 0; snh < 2; snh++)
+      for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
+        for (int sv = 0; sv < EK_XPBD_SOLVER_COUNT; sv++)
+          for (int f32 = 1; f32 >= 0; f32--)
+            rc |= xpbd_row(b, snh ? SNH : STVK, (ek_xpbd_elements)e, (ek_xpbd_solver)sv, best, f32,
+                           counts[t]);
   }
   xpbd_note(b, best, counts, nth);
   if (!ek_bench_listing(b)) {

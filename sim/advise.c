@@ -94,9 +94,9 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
     snprintf(base.model_name, sizeof base.model_name, "%s", ek_scene_model_name(m));
     return add_row(b, &base, excluded);
   }
-  // XPBD's constraint is StVK's energy (sim/xpbd.c): another model runs
-  // only in the other loops.
-  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || m == EK_XPBD_MODEL;
+  // XPBD has constraints for StVK and stable neo-Hookean only (xpbd.h):
+  // another model runs only in the other loops.
+  const int own_loop = scene->integrator != EK_INTEGRATOR_XPBD || ek_xpbd_supports(m);
   static const int precisions[] = {64, 32};
   for (int p = 0; p < 2 && own_loop; ++p) {
     ek_scene s = base;
@@ -143,7 +143,7 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
     return -1;
   const double frame_dt = fmax(scene->dt, fmin(1.0 / 60, sim_time / 5));
   for (int L = 0; L < EK_INTEGRATOR_COUNT; ++L) {
-    if (L == (int)scene->integrator || (L == EK_INTEGRATOR_XPBD && m != EK_XPBD_MODEL))
+    if (L == (int)scene->integrator || (L == EK_INTEGRATOR_XPBD && !ek_xpbd_supports(m)))
       continue;
     ek_scene v = base;
     v.integrator = (ek_integrator_type)L;

@@ -1,7 +1,7 @@
 // The tet body (body.h): the finite-volume force of Teran et al. 2003
 // (seed 004) through fvm.h, its energy, fields and CFL limit, the
 // projected element Hessians of hessian.h for the implicit integrator and
-// the Hookean constraints of xpbd.h for XPBD. Corotated linear takes
+// the constraints of xpbd.h (StVK or stable neo-Hookean) for XPBD. Corotated linear takes
 // R^n = polar(F^n) per tet at the start of each step (seed 000).
 #include "body.h"
 #include "errbuf.h"
@@ -554,7 +554,8 @@ static int tets_hessian_diagonal(void *h, double *blocks) {
   return ek_fvm_hessian_diagonal_f64(((tets_hessian *)h)->H, blocks);
 }
 
-// ---- XPBD integrator: seed 001's Hookean constraints (xpbd.h) ----
+// ---- XPBD integrator: seed 001's Hookean constraints or the stable
+// neo-Hookean pair (xpbd.h) ----
 
 typedef struct {
   ek_xpbd *xp;
@@ -570,10 +571,10 @@ static void tets_xpbd_destroy(void *c) {
 }
 
 static void *tets_xpbd_create(ek_sim *s, double young, int *f32) {
-  if (s->mat.model != EK_XPBD_MODEL) {
+  if (!ek_xpbd_supports(s->mat.model)) {
     sim_fail(s,
-             "material.model = %s: XPBD's constraint is seed 001's Hookean energy, the "
-             "stvk model; use \"model\": \"stvk\"",
+             "material.model = %s: XPBD has constraints for \"stvk\" (seed 001's Hookean "
+             "energy) and \"snh\" (stable neo-Hookean, Macklin & Mueller 2021; xpbd.h) only",
              s->scene.model_name);
     return NULL;
   }

@@ -1,6 +1,7 @@
 // The XPBD integrator (Macklin, Mueller, Chentanez 2016, alg. 1, in
 // substeps: Macklin et al. 2019) on the body's constraints (body.h): seed
-// 001's Hookean constraint on the tets or on one-ring clusters
+// 001's Hookean constraint or the stable neo-Hookean pair (scene model
+// "stvk" or "snh") on the tets or on one-ring clusters
 // (include/ek/xpbd.h), or a cloth's triangles and hinges (cloth_force.h);
 // the scene's knobs in ek_scene_xpbd (sim.h). Per substep of h = dt / K:
 //   x~ = x + h (v + h g) / (1 + c h),  w_i = 1 / (m_i (1 + c h))
@@ -85,16 +86,23 @@ static int xpbd_explain(const ek_scene *s, FILE *out, int number) {
           "  %d. XPBD (Macklin 2016), %ld substeps of h = dt / %ld: x~ = x + h (v + h g) / "
           "(1 + c h), lambda = 0\n",
           number, k->substeps, k->substeps);
-  fprintf(out,
-          "       %ld %s sweeps per substep over %s (seed 001: C = sqrt(2 W_StVK / E), alpha = "
-          "1 / (V E)),\n",
-          k->iterations,
+  const int snh = s->material.model == EK_MODEL_STABLE_NEO_HOOKEAN;
+  fprintf(out, "       %ld %s sweeps per substep over %s (%s),\n", k->iterations,
           k->solver == EK_XPBD_JACOBI ? "Jacobi (averaged)" : "coloured Gauss-Seidel",
-          k->elements == EK_XPBD_CLUSTERS ? "one-ring shape-matching clusters" : "the tets");
-  fprintf(out,
-          "       per block of %d constraints: gather members -> F -> W, P = F S -> grad C, "
-          "dlambda -> x += w grad C dlambda\n",
-          s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
+          k->elements == EK_XPBD_CLUSTERS ? "one-ring shape-matching clusters" : "the tets",
+          snh ? "Macklin & Mueller 2021: C_D = sqrt(I_C - log(1 + I_C)), alpha_D = 1 / (V mu); "
+                "C_H = J - a, alpha_H = 1 / (V lambda)"
+              : "seed 001: C = sqrt(2 W_StVK / E), alpha = 1 / (V E)");
+  if (snh)
+    fprintf(out,
+            "       per block of %d elements: gather members -> F -> C_D, C_H, their gradients "
+            "-> coupled 2x2 dlambda -> x += w (grad C_D dl_D + grad C_H dl_H)\n",
+            s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
+  else
+    fprintf(out,
+            "       per block of %d constraints: gather members -> F -> W, P = F S -> grad C, "
+            "dlambda -> x += w grad C dlambda\n",
+            s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
   fprintf(out,
           "  %d. v = (x - x_start) / h, ground; the force kernel above is not used by this "
           "loop (it gives the frames' fields)\n",

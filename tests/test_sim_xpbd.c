@@ -11,6 +11,8 @@
 //      displacement at the default settings against the implicit loop's,
 //      within EK_SIM_XPBD_STATIC_TOL;
 //   4. 1 and 2 threads give the same bits (a mesh above the parallel grain).
+// 1 and 3 also with the stable neo-Hookean constraints ("snh"), and 2 as
+// one row (K = 4) against the implicit loop with the snh model.
 #include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
@@ -27,6 +29,12 @@
 // 1e-8 .. 1e-7).
 #define MOMENTUM_TOL_F64 1e-12
 #define MOMENTUM_TOL_F32 1e-6
+// The stable neo-Hookean pair in f32: C_D and C_H are not 0 at rest
+// (xpbd.h), so each correction (dl_D dC_D/dF + dl_H cof F) b_k is the
+// difference of two terms ~k C |g| with C ~ 1, where StVK's is one term with
+// C ~ the strain (~0.1 here): the rounding of an update is ~1 / strain =
+// 10 times StVK's (measured 1e-8 .. 1.04e-6).
+#define MOMENTUM_TOL_SNH_F32 1e-5
 // 3: at the defaults (20 substeps of 5 sweeps) a soft bar (E = 1e5 Pa,
 // strain 2.5%) at rest; the g = 0 floor vanishes there (x = x_n: the
 // gradients do not move within a step), what is left is the unconverged
@@ -34,16 +42,16 @@
 #define EK_SIM_XPBD_STATIC_TOL 1e-2
 
 // 1.
-static void momentum_test(const char *elements, const char *solver, int prec) {
+static void momentum_test(const char *model, const char *elements, const char *solver, int prec) {
   char json[2048];
   snprintf(json, sizeof json,
            "{\"mesh\": {\"box\": [4, 4, 4], \"size\": [0.1, 0.1, 0.1]},"
            " \"initial\": {\"scale\": [1.15, 0.95, 1.05], \"velocity\": [0.3, -0.2, 0.1]},"
-           " \"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000},"
+           " \"material\": {\"model\": \"%s\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000},"
            " \"precision\": \"f%d\", \"dt\": 0.01, \"steps\": 1, \"integrator\": {\"type\": "
            "\"xpbd\", \"substeps\": 4, \"iterations\": 5, \"solver\": \"%s\", \"elements\": "
            "\"%s\"}}",
-           prec, solver, elements);
+           model, prec, solver, elements);
   run r;
   if (start(&r, json, 0))
     return;
@@ -63,23 +71,33 @@ static void momentum_test(const char *elements, const char *solver, int prec) {
                             scale);
   }
   char what[128], detail[256];
-  snprintf(what, sizeof what, "momentum kept: %s %s f%d", elements, solver, prec);
+  snprintf(what, sizeof what, "momentum kept: %s %s %s f%d", model, elements, solver, prec);
   snprintf(detail, sizeof detail, "50 steps of 4 substeps, largest |p - p0| / sum m|v0|%s%s",
            rc ? ": " : "", rc ? ek_last_error() : "");
-  report(what, rc ? INFINITY : worst, prec == 64 ? MOMENTUM_TOL_F64 : MOMENTUM_TOL_F32, detail);
+  const int snh = strcmp(model, "snh") == 0;
+  report(what, rc ? INFINITY : worst,
+         prec == 64 ? MOMENTUM_TOL_F64
+         : snh      ? MOMENTUM_TOL_SNH_F32
+                    : MOMENTUM_TOL_F32,
+         detail);
   finish(&r);
 }
 
-// A cantilever (0.5 x 0.05 x 0.05 m, clamped at x = 0, StVK E = 1e6 Pa):
-// tip z displacement per step.
-static void cantilever_json(char *json, size_t n, double dt, long steps, const char *integrator) {
+// A cantilever (0.5 x 0.05 x 0.05 m, clamped at x = 0, E = 1e6 Pa, StVK or
+// another model): tip z displacement per step.
+static void cantilever_json_model(char *json, size_t n, const char *model, double dt, long steps,
+                                  const char *integrator) {
   snprintf(json, n,
            "{\"mesh\": {\"box\": [40, 2, 4], \"size\": [0.5, 0.05, 0.05]},"
-           " \"material\": {\"model\": \"stvk\", \"E\": 1e6, \"nu\": 0.3, \"density\": 1000},"
+           " \"material\": {\"model\": \"%s\", \"E\": 1e6, \"nu\": 0.3, \"density\": 1000},"
            " \"precision\": \"f64\", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": "
            "[0, 0, 0], \"max\": [0, 0.05, 0.05]}}], \"gravity\": [0, 0, -9.81], \"damping\": 2,"
            " \"dt\": %.17g, \"steps\": %ld, \"integrator\": %s}",
-           dt, steps, integrator);
+           model, dt, steps, integrator);
+}
+
+static void cantilever_json(char *json, size_t n, double dt, long steps, const char *integrator) {
+  cantilever_json_model(json, n, "stvk", dt, steps, integrator);
 }
 
 // Tip z displacement after each of `steps` steps (tip[steps]); -1 on failure.
@@ -184,18 +202,27 @@ done:
 }
 
 // 3.
-static void hanging_bar_test(void) {
-  char json[2048];
+// snh runs 80 substeps (xpbd.h): its multipliers are not small at rest
+// (C_D, C_H are not 0 there), so the dropped primal residual leaves a bias
+// the gradients' motion within a substep (~h^2 g) times those multipliers,
+// which shrinks as h^2 but does not vanish at rest as StVK's does
+// (measured: 1.8e-2 at the default 20 x 5, unchanged at 20 x 20, 1.6e-3
+// at 80 x 5).
+static void hanging_bar_test(const char *model) {
+  char json[2048], xpbd[128];
   double tips[2];
-  const char *integ[2] = {"{\"type\": \"implicit\"}", "{\"type\": \"xpbd\"}"};
+  const int snh = strcmp(model, "snh") == 0;
+  snprintf(xpbd, sizeof xpbd,
+           snh ? "{\"type\": \"xpbd\", \"substeps\": 80}" : "{\"type\": \"xpbd\"}");
+  const char *integ[2] = {"{\"type\": \"implicit\"}", xpbd};
   for (int k = 0; k < 2; k++) {
     snprintf(json, sizeof json,
              "{\"mesh\": {\"box\": [3, 3, 15], \"size\": [0.1, 0.1, 0.5]},"
-             " \"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000},"
+             " \"material\": {\"model\": \"%s\", \"E\": 1e5, \"nu\": 0.3, \"density\": 1000},"
              " \"precision\": \"f64\", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": "
              "[0, 0, 0.5], \"max\": [0.1, 0.1, 0.5]}}], \"gravity\": [0, 0, -9.81], "
              "\"damping\": 20, \"dt\": 0.0333333333333333, \"steps\": 90, \"integrator\": %s}",
-             integ[k]);
+             model, integ[k]);
     // The bottom face (z = 0): its mean z displacement.
     run r;
     if (start(&r, json, 0))
@@ -216,11 +243,66 @@ static void hanging_bar_test(void) {
     finish(&r);
   }
   char detail[256];
-  snprintf(detail, sizeof detail,
-           "bottom displacement after 3 s: implicit %.6e m, XPBD (defaults) %.6e m", tips[0],
-           tips[1]);
-  report("hanging bar at rest: XPBD defaults vs implicit", fabs(tips[1] - tips[0]) / fabs(tips[0]),
-         EK_SIM_XPBD_STATIC_TOL, detail);
+  char what[128];
+  snprintf(detail, sizeof detail, "bottom displacement after 3 s: implicit %.6e m, XPBD %s %.6e m",
+           tips[0], snh ? "(80 substeps)" : "(defaults)", tips[1]);
+  snprintf(what, sizeof what, "hanging bar at rest: XPBD vs implicit, %s", model);
+  report(what, fabs(tips[1] - tips[0]) / fabs(tips[0]), EK_SIM_XPBD_STATIC_TOL, detail);
+}
+
+// 2b. The same comparison with the stable neo-Hookean constraints against
+// the implicit loop with the snh model (the same energy up to a constant,
+// xpbd.h): K = 4 and 16 substeps, N = 1, 4, 16 sweeps, reported only.
+// The bias of the dropped primal residual grows with the multipliers,
+// which are not small at rest with this pair (hanging_bar_test), so more
+// sweeps do not bring XPBD nearer at a fixed K, and the table is not
+// monotone (measured: K = 4: 0.21, 0.78, 0.96; K = 16: 0.97, 0.10, 0.16;
+// StVK's K = 4 row 1.73, 0.81, 0.50): no ordering is claimed.
+static void snh_vs_implicit(void) {
+  const double dt = 1.0 / 30, T = 0.5;
+  const long steps = (long)(T / dt + 0.5);
+  const int subs[2] = {4, 16}, sweeps[3] = {1, 4, 16};
+  double err[2][3] = {{0}}, *ref = malloc((size_t)steps * sizeof(double)),
+         *tip = malloc((size_t)steps * sizeof(double));
+  char json[2048], integ[256];
+  int ok = 1;
+  printf("XPBD snh vs implicit snh (at h = dt / K), the cantilever above:\n  K \\ N");
+  for (int j = 0; j < 3; j++)
+    printf(" %10d", sweeps[j]);
+  printf("\n");
+  for (int i = 0; i < 2; i++) {
+    const int K = subs[i];
+    double peak = 0;
+    cantilever_json_model(json, sizeof json, "snh", dt / K, steps * K,
+                          "{\"type\": \"implicit\", \"newton_tol\": 1e-8}");
+    if (tip_trajectory(json, steps * K, K, ref)) {
+      failures++;
+      goto done;
+    }
+    for (long n = 0; n < steps; n++)
+      peak = fmax(peak, fabs(ref[n]));
+    printf("  %2d    ", K);
+    for (int j = 0; j < 3; j++) {
+      snprintf(integ, sizeof integ, "{\"type\": \"xpbd\", \"substeps\": %d, \"iterations\": %d}", K,
+               sweeps[j]);
+      cantilever_json_model(json, sizeof json, "snh", dt, steps, integ);
+      if (tip_trajectory(json, steps, 1, tip)) {
+        failures++;
+        goto done;
+      }
+      for (long n = 0; n < steps; n++)
+        err[i][j] = fmax(err[i][j], fabs(tip[n] - ref[n]) / peak);
+      ok &= isfinite(err[i][j]);
+      printf(" %10.3e", err[i][j]);
+      fflush(stdout);
+    }
+    printf("\n");
+  }
+  check("XPBD snh vs implicit snh: every run finished, errors finite", ok,
+        "the table is reported only (see above)");
+done:
+  free(ref);
+  free(tip);
 }
 
 // 4.
@@ -250,12 +332,16 @@ int main(int argc, char **argv) {
   static const char *el[2] = {"tets", "clusters"}, *so[2] = {"gauss_seidel", "jacobi"};
   for (int e = 0; e < 2; e++)
     for (int s = 0; s < 2; s++) {
-      momentum_test(el[e], so[s], 64);
-      momentum_test(el[e], so[s], 32);
+      momentum_test("stvk", el[e], so[s], 64);
+      momentum_test("stvk", el[e], so[s], 32);
+      momentum_test("snh", el[e], so[s], 64);
+      momentum_test("snh", el[e], so[s], 32);
       threads_test(el[e], so[s]);
     }
-  hanging_bar_test();
+  hanging_bar_test("stvk");
+  hanging_bar_test("snh");
   convergence_table();
+  snh_vs_implicit();
   printf("%s\n", failures ? "FAILED" : "ALL PASSED");
   return failures ? 1 : 0;
 }

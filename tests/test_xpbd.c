@@ -77,7 +77,7 @@ static void fail_if(int bad, const char *what) {
   failures += bad != 0;
 }
 
-static const ek_xpbd_ref_material ref_mat = {MU, LAMBDA, YOUNG};
+static const ek_xpbd_ref_material ref_mat = {MU, LAMBDA, YOUNG, 0};
 static const ek_material lib_mat = {EK_MODEL_STVK, MU, LAMBDA, 0};
 
 static double cmin_of(int prec) { return prec == 32 ? EK_XPBD_C_MIN_F32 : EK_XPBD_C_MIN_F64; }

@@ -774,10 +774,9 @@ static void run_hessian(ek_isa isa, int prec32) {
       }
 }
 
-// XPBD (xpbd.h): every element kind x solver x precision; the constraint
-// structure, then sweeps from the mild state with and without a base.
-static void run_xpbd(ek_isa isa, int f64) {
-  ek_material m = {EK_XPBD_MODEL, 1.5e3, 4.0e3, 0};
+// One model's XPBD rows (run_xpbd below).
+static void run_xpbd_model(ek_isa isa, int f64, int snh) {
+  ek_material m = {snh ? EK_MODEL_STABLE_NEO_HOOKEAN : EK_XPBD_MODEL, 1.5e3, 4.0e3, 0};
   double young = m.mu * (3 * m.lambda + 2 * m.mu) / (m.lambda + m.mu);
   const double *lv = ek_mesh_lumped_volume(gmesh);
   size_t n3 = 3 * gnv;
@@ -790,8 +789,8 @@ static void run_xpbd(ek_isa isa, int f64) {
     for (int so = 0; so < EK_XPBD_SOLVER_COUNT; so++) {
       ek_xpbd_opts o = {(ek_xpbd_elements)e, (ek_xpbd_solver)so, isa, f64 ? 64 : 32};
       char base[128];
-      snprintf(base, sizeof base, "xpbd/%%s/%s/%s", ek_xpbd_elements_name(o.elements),
-               ek_xpbd_solver_name(o.solver));
+      snprintf(base, sizeof base, "%s/%%s/%s/%s", snh ? "xpbd_snh" : "xpbd",
+               ek_xpbd_elements_name(o.elements), ek_xpbd_solver_name(o.solver));
       ek_xpbd *xp = ek_xpbd_create(gel, &m, young, mass, &o);
       if (!xp) {
         out(EK_EINVAL, 0, base, "create");
@@ -842,6 +841,10 @@ static void run_xpbd(ek_isa isa, int f64) {
           if (rc >= 0)
             rc = ek_xpbd_lambda(xp, scratch(lam, nc * 8));
           hx = fnv(fnv(fnv(hx, x, xb), res, sizeof res), lam, nc * 8);
+          if (snh && rc >= 0) {
+            rc = ek_xpbd_lambda_h(xp, scratch(lam, nc * 8));
+            hx = fnv(hx, lam, nc * 8);
+          }
         }
         out(rc, hx, base, based ? "iterate_base" : "iterate");
       }
@@ -849,6 +852,15 @@ static void run_xpbd(ek_isa isa, int f64) {
       ek_xpbd_destroy(xp);
     }
   free(mass), free(w);
+}
+
+// XPBD (xpbd.h): every element kind x solver x precision; the constraint
+// structure, then sweeps from the mild state with and without a base. The
+// StVK constraint's rows ("xpbd/..."), then the stable neo-Hookean pair's
+// ("xpbd_snh/...", which also hash the hydrostatic multipliers).
+static void run_xpbd(ek_isa isa, int f64) {
+  for (int snh = 0; snh < 2; snh++)
+    run_xpbd_model(isa, f64, snh);
 }
 
 // ---- Cloth kernels (cloth.h) ----------------------------------------------

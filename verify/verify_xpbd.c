@@ -126,7 +126,7 @@ int verify_xpbd(ek_verify_ctx *ctx) {
   const double young = 1e5, nu = 0.3;
   const ek_material m = {EK_XPBD_MODEL, young / (2 * (1 + nu)),
                          young * nu / ((1 + nu) * (1 - 2 * nu)), 0};
-  const ek_xpbd_ref_material mr = {m.mu, m.lambda, young};
+  const ek_xpbd_ref_material mr = {m.mu, m.lambda, young, 0};
   const size_t n3 = 3 * c.nv;
   double *out = ek_check_malloc(n3 * sizeof(double)), *xr = ek_check_malloc(n3 * sizeof(double));
   // Constraints: at most one per tet or per vertex.

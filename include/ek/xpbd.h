@@ -1,6 +1,7 @@
 // XPBD with the Hookean constraint of seed 001 (Macklin, Mueller,
 // Chentanez 2016, "XPBD: position-based simulation of compliant
-// constrained dynamics"), vectorised over AoSoA constraint blocks.
+// constrained dynamics") or the stable neo-Hookean constraint pair
+// (Macklin & Mueller 2021, below), vectorised over AoSoA constraint blocks.
 //
 // The constraint (seed 001): per element j, with the StVK energy density
 // W(F) = mu e:e + lambda/2 tr(e)^2, e = (F^T F - I)/2 (the "Hookean" energy
@@ -71,6 +72,42 @@
 // setting tried, clamped multipliers included; so no such variant is
 // offered. tests/test_sim_xpbd.c measures the gap against the implicit loop.
 //
+// Stable neo-Hookean (mat->model EK_MODEL_STABLE_NEO_HOOKEAN): the
+// constraint-based stable neo-Hookean of Macklin & Mueller 2021 ("A
+// Constraint-based Formulation of Stable Neo-Hookean Materials", MIG '21):
+// per element a deviatoric constraint C_D with compliance alpha_D = 1 /
+// (V mu) and a hydrostatic one C_H = det F - gamma with alpha_H = 1 /
+// (V lambda), projected together by the paper's coupled 2x2 solve (its
+// remedy for the bias of solving them one after the other):
+//   [grad C_D W grad C_D^T + alpha~_D, grad C_D W grad C_H^T     ] dl_D
+//   [grad C_H W grad C_D^T,     grad C_H W grad C_H^T + alpha~_H ] dl_H
+//     = -[C_D + alpha~_D lambda_D; C_H + alpha~_H lambda_H],
+// x_i += w_i (grad_i C_D dl_D + grad_i C_H dl_H). The paper takes C_D =
+// sqrt(tr F^T F) and gamma = 1 + mu / lambda: the energy mu/2 I_C +
+// lambda/2 (J - gamma)^2, Smith et al. 2018's without its log term. ek's
+// stable neo-Hookean psi (kernels/material/snh.c) keeps the log term and
+// a = 1 + 3 mu / (4 lambda), so here, with the same mu and lambda as the
+// material (no re-parametrisation):
+//   C_D = sqrt(I_C - log(1 + I_C)),  dC_D/dF = I_C / ((1 + I_C) C_D) F,
+//   C_H = J - a,                     dC_H/dF = cof F,
+// and C_D^2 / (2 alpha_D) + C_H^2 / (2 alpha_H) = V (psi(F) + 3 mu / 2):
+// ek's psi up to a constant (tests/test_xpbd_snh.c checks it), so the
+// implicit loop with "snh" minimises the same energy. I_C - log(1 + I_C)
+// is >= 0 and 0 only at F = 0, where grad C_D is 0/0 and is dropped (C_D
+// <= EK_XPBD_C_MIN_*); C_H has no singularity, so no element is skipped.
+// Both constraints vanish nowhere near rest (C_D(I) = sqrt(3 - log 4)),
+// yet their forces do: P(I) = 0 (rest stability, Smith et al. 2018), and
+// the gradients resist inversion (C_H's pushes J back to a > 0). The
+// residual is the larger of the pair's |C + alpha~ lambda|; cmax is max
+// |C_H| (C_D is not 0 at rest). The stiff planes hold V (k = V mu h^2,
+// V lambda h^2); E is not used. Because C_D and C_H are not 0 at rest,
+// their multipliers are O(k) even for small strains (a pre-stress whose two
+// forces cancel), so the dropped primal residual below costs more than
+// with StVK: a bar hanging at rest lands 1.8e-2 off the implicit loop at 20
+// substeps (converged sweeps; StVK 8.5e-4), 1.5e-3 at 80 (it shrinks about
+// as h^2), and in f32 the cancelling terms round at ~C, not at the strain
+// (tests/test_sim_xpbd.c).
+//
 // Precision: the f32 functions iterate in float, the f64 ones in double;
 // with a base (ek_xpbd_iterate_*) the updates round to the displacements'
 // size, which is how the XPBD loop calls the f32 ones (sim/xpbd.c).
@@ -117,14 +154,18 @@ typedef struct {
 
 typedef struct ek_xpbd ek_xpbd;
 
-// The model whose energy the constraint is (seed 001's Hookean energy).
+// The default model, whose energy the Hookean constraint is (seed 001).
 #define EK_XPBD_MODEL EK_MODEL_STVK
 
-// Constraints over the element layer's mesh. mat: the StVK model
-// (EK_XPBD_MODEL; mu, lambda), young: E > 0 (the constraint's scale and
-// compliance). mass: nverts masses m_i >= 0, read for clusters (the shape
-// matching weights; may be NULL for tets). NULL with ek_last_error on a
-// bad argument, a singular cluster or no memory. Keeps a pointer to el.
+// 1 for the models XPBD has constraints for (EK_XPBD_MODEL and
+// EK_MODEL_STABLE_NEO_HOOKEAN), else 0.
+int ek_xpbd_supports(ek_model model);
+
+// Constraints over the element layer's mesh. mat: StVK (EK_XPBD_MODEL; mu,
+// lambda) or stable neo-Hookean (mu > 0, lambda > 0), young: E > 0 (StVK's
+// constraint's scale and compliance; unused by stable neo-Hookean). mass: nverts masses m_i >= 0,
+// read for clusters (the shape matching weights; may be NULL for tets). NULL with ek_last_error on
+// a bad argument, a singular cluster or no memory. Keeps a pointer to el.
 ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young, const double *mass,
                         const ek_xpbd_opts *opts);
 void ek_xpbd_destroy(ek_xpbd *xp);
@@ -163,8 +204,13 @@ int ek_xpbd_residual_f32(const ek_xpbd *xp, const float *x_base, const float *x,
                          double *cmax);
 int ek_xpbd_residual_f64(const ek_xpbd *xp, const double *x_base, const double *x, double *residual,
                          double *cmax);
-// The multipliers (ek_xpbd_count, constraint order) in double.
+// The multipliers (ek_xpbd_count, constraint order) in double: StVK's,
+// or stable neo-Hookean's deviatoric ones (lambda_D); ek_xpbd_lambda_h the
+// hydrostatic ones (lambda_H; 0 for StVK).
 int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda);
+int ek_xpbd_lambda_h(const ek_xpbd *xp, double *lambda);
+// The model of the constraints (mat->model at creation).
+ek_model ek_xpbd_model(const ek_xpbd *xp);
 
 // Phase split of one sweep at x (x and lambda untouched): seconds[0] the
 // elements' deformation gradients alone, seconds[1] the same plus the

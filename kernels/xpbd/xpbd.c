@@ -44,17 +44,20 @@ static int parallel_for(const ek_xpbd *xp) {
 static xpbd_args args_for(const ek_xpbd *xp, int op, const real *xb, real *x) {
   xpbd_args a = {.op = op,
                  .tets = xp->elements == EK_XPBD_TETS,
+                 .snh = xp->model == EK_MODEL_STABLE_NEO_HOOKEAN,
                  .nmem = xp->nmem,
                  .moff = xp->moff,
                  .idx = xp->idx,
                  .bv = xp->bv,
                  .stiff = xp->stiff,
                  .lambda = xp->lambda_planes,
+                 .lambda_h = xp->lambda_h_planes,
                  .mu = (real)xp->mu,
                  .lam = (real)xp->lambda,
                  .inv_young = (real)(1.0 / xp->young),
                  .h2 = (real)(xp->h * xp->h),
                  .c_min = (real)C_MIN,
+                 .rest_shift = (real)(1 + 0.75 * xp->mu / xp->lambda),
                  .x = x,
                  .xb = xb,
                  .w = xp->w,
@@ -188,7 +191,7 @@ int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x_base, const real *x, double se
     return EK_EINVAL;
   }
   const size_t nx = 3 * xp->nverts, nl = xp->nblocks * (size_t)xp->lanes;
-  real *copy = malloc((nx + nl) * sizeof(real));
+  real *copy = malloc((nx + 2 * nl) * sizeof(real));
   if (!copy) {
     ek_set_error("ek_xpbd_profile: out of memory");
     return EK_ENOMEM;
@@ -196,6 +199,7 @@ int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x_base, const real *x, double se
   real *saved = copy + nx;
   memcpy(copy, x, nx * sizeof(real));
   memcpy(saved, xp->lambda_planes, nl * sizeof(real));
+  memcpy(saved + nl, xp->lambda_h_planes, nl * sizeof(real));
   static const int ops[2] = {XPBD_F_ONLY, XPBD_EVAL};
   for (int k = 0; k < 2; k++) {
     xpbd_args a = args_for(xp, ops[k], x_base, copy);
@@ -208,6 +212,7 @@ int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x_base, const real *x, double se
   sweeps(xp, x_base, copy, 1);
   seconds[2] = now() - t0;
   memcpy(xp->lambda_planes, saved, nl * sizeof(real));
+  memcpy(xp->lambda_h_planes, saved + nl, nl * sizeof(real));
   free(copy);
   return EK_OK;
 }
@@ -234,6 +239,7 @@ void ek_xpbd_destroy(ek_xpbd *xp) {
   ek_free(xp->bv);
   ek_free(xp->stiff);
   ek_free(xp->lambda_planes);
+  ek_free(xp->lambda_h_planes);
   free(xp->w);
   free(xp->wd);
   ek_free(xp->corr);
@@ -300,7 +306,7 @@ static int build_tets(ek_xpbd *xp, double **stiff64) {
     const size_t b = s / L, l = s % L, m0 = xp->moff[b];
     xp->cid[s] = t;
     xp->con_slot[t] = (int32_t)s;
-    (*stiff64)[s] = el->V0[t] * xp->young;
+    (*stiff64)[s] = el->V0[t] * xp->stiff_scale;
     for (int k = 0; k < 4; k++)
       xp->idx[(m0 + (size_t)k) * L + l] = el->tets[4 * (size_t)t + (size_t)k];
     // F = Ds Dm^-1 = sum_k (x_k - x_0) (row k-1 of Dm^-1)^T.
@@ -565,7 +571,7 @@ static int build_clusters(ek_xpbd *xp, const double *mass, double **stiff64) {
       const int32_t v = keys[i].v;
       xp->cid[b * L + l] = v;
       xp->con_slot[v] = (int32_t)(b * L + l);
-      (*stiff64)[b * L + l] = vol[v] * xp->young;
+      (*stiff64)[b * L + l] = vol[v] * xp->stiff_scale;
       for (size_t e = rs[v]; e < rs[v + 1]; e++) {
         const size_t k = e - rs[v];
         xp->idx[(m0 + k) * L + l] = ring[e];
@@ -623,14 +629,21 @@ ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
                  (const void *)mat);
     return NULL;
   }
-  if (mat->model != EK_XPBD_MODEL) {
-    ek_set_error("%s: model %s: the Hookean constraint of seed 001 is StVK's energy: use "
-                 "the %s model (EK_XPBD_MODEL)",
-                 fn, ek_model_name(mat->model), ek_model_name(EK_XPBD_MODEL));
+  if (!ek_xpbd_supports(mat->model)) {
+    ek_set_error("%s: model %s: XPBD has constraints for %s (seed 001's Hookean) and %s "
+                 "(Macklin & Mueller 2021) only",
+                 fn, ek_model_name(mat->model), ek_model_name(EK_XPBD_MODEL),
+                 ek_model_name(EK_MODEL_STABLE_NEO_HOOKEAN));
     return NULL;
   }
   if (ek_material_check(mat) < 0)
     return NULL;
+  if (mat->model == EK_MODEL_STABLE_NEO_HOOKEAN && !(mat->mu > 0 && mat->lambda > 0)) {
+    ek_set_error("%s: stable neo-Hookean constraints need mu > 0 and lambda > 0 (compliances "
+                 "1 / mu, 1 / lambda; rest shift 1 + 3 mu / (4 lambda)): mu %g, lambda %g",
+                 fn, mat->mu, mat->lambda);
+    return NULL;
+  }
   if (!(young > 0) || !isfinite(young)) {
     ek_set_error("%s: Young's modulus %g: must be finite and > 0", fn, young);
     return NULL;
@@ -674,9 +687,13 @@ ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
   xp->kt = kt;
   xp->precision = o.precision ? o.precision : 64;
   xp->lanes = xp->precision == 32 ? EK_LANES_F32 : EK_LANES_F64;
+  xp->model = mat->model;
   xp->mu = mat->mu;
   xp->lambda = mat->lambda;
   xp->young = young;
+  // stiff planes: V E (StVK's k = V E h^2) or V (snh: k_D = V mu h^2,
+  // k_H = V lambda h^2 in the kernel).
+  xp->stiff_scale = mat->model == EK_MODEL_STABLE_NEO_HOOKEAN ? 1.0 : young;
   xp->nverts = el->nverts;
   double *stiff64 = NULL;
   int rc =
@@ -689,14 +706,18 @@ ek_xpbd *ek_xpbd_create(const ek_tets *el, const ek_material *mat, double young,
     xp->stiff = planes_of(stiff64, nl, xp->precision);
     const size_t rb = xp->precision == 32 ? sizeof(float) : sizeof(double);
     xp->lambda_planes = ek_alloc((nl ? nl : 1) * rb);
+    xp->lambda_h_planes = ek_alloc((nl ? nl : 1) * rb);
     xp->corr = ek_alloc((xp->nplanes * 3 * (size_t)xp->lanes + 1) * rb);
     xp->sink = ek_alloc((2 * nl + 1) * rb);
     xp->w = calloc(xp->nverts + 1, rb);
     xp->wd = calloc(xp->nverts + 1, rb);
-    if (!xp->bv || !xp->stiff || !xp->lambda_planes || !xp->corr || !xp->sink || !xp->w || !xp->wd)
+    if (!xp->bv || !xp->stiff || !xp->lambda_planes || !xp->lambda_h_planes || !xp->corr ||
+        !xp->sink || !xp->w || !xp->wd)
       rc = EK_ENOMEM;
-    else
+    else {
       memset(xp->lambda_planes, 0, nl * rb);
+      memset(xp->lambda_h_planes, 0, nl * rb);
+    }
   }
   free(stiff64);
   if (rc < 0) {
@@ -788,20 +809,35 @@ int ek_xpbd_begin(ek_xpbd *xp, double h) {
   xp->h = h;
   const size_t nl = xp->nblocks * (size_t)xp->lanes;
   memset(xp->lambda_planes, 0, nl * (xp->precision == 32 ? sizeof(float) : sizeof(double)));
+  memset(xp->lambda_h_planes, 0, nl * (xp->precision == 32 ? sizeof(float) : sizeof(double)));
   return EK_OK;
 }
 
-int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda) {
+static int lambda_of(const ek_xpbd *xp, const void *planes, double *lambda, const char *fn) {
   if (!xp || !lambda) {
-    ek_set_error("ek_xpbd_lambda: NULL argument");
+    ek_set_error("%s: NULL argument", fn);
     return EK_EINVAL;
   }
   for (size_t j = 0; j < xp->ncons; j++) {
     const int32_t s = xp->con_slot[j];
     lambda[j] = s < 0                 ? 0.0
-                : xp->precision == 32 ? ((const float *)xp->lambda_planes)[s]
-                                      : ((const double *)xp->lambda_planes)[s];
+                : xp->precision == 32 ? ((const float *)planes)[s]
+                                      : ((const double *)planes)[s];
   }
   return EK_OK;
 }
+
+int ek_xpbd_lambda(const ek_xpbd *xp, double *lambda) {
+  return lambda_of(xp, xp ? xp->lambda_planes : NULL, lambda, "ek_xpbd_lambda");
+}
+
+int ek_xpbd_lambda_h(const ek_xpbd *xp, double *lambda) {
+  return lambda_of(xp, xp ? xp->lambda_h_planes : NULL, lambda, "ek_xpbd_lambda_h");
+}
+
+int ek_xpbd_supports(ek_model model) {
+  return model == EK_XPBD_MODEL || model == EK_MODEL_STABLE_NEO_HOOKEAN;
+}
+
+ek_model ek_xpbd_model(const ek_xpbd *xp) { return xp ? xp->model : EK_XPBD_MODEL; }
 #endif

@@ -9,7 +9,8 @@
 // padding lane, k = 0, gives dlambda = -lambda = 0 with no infinity), and
 // the correction x_k += w_k g_k dlambda / C. The loop is instantiated per
 // operation and for tets (4 members, a compile-time constant) apart from
-// clusters (nmem[b] members).
+// clusters (nmem[b] members). The stable neo-Hookean pair (snh_blocks
+// below) is the same loop with two constraints per element.
 #include "../simd/simd.h"
 
 #include "../material/families.h"
@@ -158,9 +159,157 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
   }
 }
 
+// The stable neo-Hookean pair (include/ek/xpbd.h; Macklin & Mueller 2021)
+// per element, from the same F:
+//   C_D = sqrt(I_C - log(1 + I_C)), dC_D/dF = I_C / ((1 + I_C) C_D) F,
+//   C_H = J - a,                    dC_H/dF = cof F,
+// k_D = V mu h^2, k_H = V lambda h^2 (1 / alpha~), gD_k = dC_D/dF b_k,
+// gH_k = cof F b_k, A_XY = sum_k wd_k gX_k . gY_k (member 0's g = -sum),
+// and the coupled 2x2 solve (each row multiplied by its k, as above):
+//   [k_D A_DD + 1, k_D A_DH; k_H A_DH, k_H A_HH + 1] dl = -[k_D C_D +
+//   lambda_D; k_H C_H + lambda_H]
+// by Cramer's rule (the determinant is k_D k_H det(G W G^T + alpha~) > 0,
+// and 1 on a padding lane, whose k are 0), then x_k += w_k (dl_D dC_D/dF +
+// dl_H cof F) b_k. C_D <= c_min (F ~ 0: a body crushed to a point) drops
+// C_D's gradient (0/0); C_H has none to drop.
+EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_t b1) {
+  _Alignas(64) real hb[XPBD_MAX_MEMBERS * 3 * L];
+  _Alignas(64) real sl[L];
+  const vreal h2 = vset(a->h2), c_min = vset(a->c_min), shift = vset(a->rest_shift);
+  const vreal zero = vzero(), one = vset(1), mu = vset(a->mu), lam = vset(a->lam);
+  for (size_t b = b0; b < b1; b++) {
+    const int K = tets ? 4 : a->nmem[b];
+    const size_t m0 = tets ? 4 * b : a->moff[b];
+    const int32_t *idx = a->idx + m0 * L;
+    const real *bv = a->bv + m0 * 3 * L;
+    real *corr = a->corr ? a->corr + m0 * 3 * L : hb;
+    for (int o = 0; o < L; o += EK_W) {
+      vreal x0[3], F[9];
+      const vmask pad = gather_member(a, idx + o, x0);
+      for (int i = 0; i < 9; i++)
+        F[i] = zero;
+      for (int k = 1; k < K; k++) {
+        vreal xk[3], bk[3];
+        gather_member(a, idx + k * L + o, xk);
+        for (int j = 0; j < 3; j++)
+          bk[j] = vload(bv + (k * 3 + j) * L + o);
+        for (int i = 0; i < 3; i++) {
+          const vreal d = vsub(xk[i], x0[i]);
+          for (int j = 0; j < 3; j++)
+            F[3 * i + j] = vfma(d, bk[j], F[3 * i + j]);
+        }
+      }
+      if (op == XPBD_F_ONLY) {
+        vreal t = F[0];
+        for (int i = 1; i < 9; i++)
+          t = vadd(t, F[i]);
+        vstore(a->sink + b * L + o, t);
+        continue;
+      }
+      vreal cof[9];
+      vm3_cof(F, cof);
+      const vreal CH = vsub(vm3_det_cof(F, cof), shift);
+      const vreal Ic = vm3_ddot(F, F), Ic1 = vadd(Ic, one);
+      const vreal CD = vsqrt(vmax(vsub(Ic, vlog(Ic1)), zero));
+      const vmask live = vmand(vgt(CD, c_min), vmnot(pad));
+      const vreal sD = vsel(live, vdiv(Ic, vmul(Ic1, vsel(live, CD, one))), zero);
+      const vreal lD = vload(a->lambda + b * L + o), lH = vload(a->lambda_h + b * L + o);
+      const vreal V = vload(a->stiff + b * L + o);
+      const vreal kD = vmul(vmul(V, mu), h2), kH = vmul(vmul(V, lam), h2);
+      if (op == XPBD_RESIDUAL) {
+        const vmask act = vmnot(pad);
+        const vreal rD = vabs(vadd(CD, vdiv(lD, vsel(act, kD, one))));
+        const vreal rH = vabs(vadd(CH, vdiv(lH, vsel(act, kH, one))));
+        vstore(a->sink + (b * 2) * L + o, vsel(act, vmax(rD, rH), zero));
+        vstore(a->sink + (b * 2 + 1) * L + o, vsel(act, vabs(CH), zero));
+        continue;
+      }
+      vreal PD[9];
+      for (int i = 0; i < 9; i++)
+        PD[i] = vmul(sD, F[i]);
+      vreal gD0[3] = {zero, zero, zero}, gH0[3] = {zero, zero, zero};
+      vreal add = zero, ahh = zero, adh = zero;
+      for (int k = 1; k < K; k++) {
+        vreal bk[3];
+        for (int j = 0; j < 3; j++)
+          bk[j] = vload(bv + (k * 3 + j) * L + o);
+        vreal dd = zero, hh = zero, dh = zero;
+        for (int i = 0; i < 3; i++) {
+          vreal gd = vmul(PD[3 * i], bk[0]);
+          gd = vfma(PD[3 * i + 1], bk[1], gd);
+          gd = vfma(PD[3 * i + 2], bk[2], gd);
+          vreal gh = vmul(cof[3 * i], bk[0]);
+          gh = vfma(cof[3 * i + 1], bk[1], gh);
+          gh = vfma(cof[3 * i + 2], bk[2], gh);
+          gD0[i] = vsub(gD0[i], gd);
+          gH0[i] = vsub(gH0[i], gh);
+          dd = vfma(gd, gd, dd);
+          hh = vfma(gh, gh, hh);
+          dh = vfma(gd, gh, dh);
+        }
+        const vreal wk = vgather(a->wd, idx + k * L + o);
+        add = vfma(wk, dd, add);
+        ahh = vfma(wk, hh, ahh);
+        adh = vfma(wk, dh, adh);
+      }
+      {
+        vreal dd = zero, hh = zero, dh = zero;
+        for (int i = 0; i < 3; i++) {
+          dd = vfma(gD0[i], gD0[i], dd);
+          hh = vfma(gH0[i], gH0[i], hh);
+          dh = vfma(gD0[i], gH0[i], dh);
+        }
+        const vreal w0 = vgather(a->wd, idx + o);
+        add = vfma(w0, dd, add);
+        ahh = vfma(w0, hh, ahh);
+        adh = vfma(w0, dh, adh);
+      }
+      const vreal m11 = vfma(kD, add, one), m12 = vmul(kD, adh);
+      const vreal m21 = vmul(kH, adh), m22 = vfma(kH, ahh, one);
+      const vreal r1 = vneg(vfma(kD, CD, lD)), r2 = vneg(vfma(kH, CH, lH));
+      const vreal det = vsub(vmul(m11, m22), vmul(m12, m21));
+      const vmask act = vmnot(pad);
+      const vreal dlD = vsel(act, vdiv(vsub(vmul(r1, m22), vmul(m12, r2)), det), zero);
+      const vreal dlH = vsel(act, vdiv(vsub(vmul(m11, r2), vmul(m21, r1)), det), zero);
+      if (op == XPBD_EVAL) {
+        vstore(a->sink + b * L + o, vadd(dlD, dlH));
+        continue;
+      }
+      vstore(a->lambda + b * L + o, vadd(lD, dlD));
+      vstore(a->lambda_h + b * L + o, vadd(lH, dlH));
+      vstore(sl + o, vsel(act, one, zero));
+      // The correction before its w_k: (dl_D dC_D/dF + dl_H cof F) b_k.
+      vreal Pc[9], g0[3] = {zero, zero, zero};
+      for (int i = 0; i < 9; i++)
+        Pc[i] = vfma(dlH, cof[i], vmul(dlD, PD[i]));
+      for (int k = 1; k < K; k++) {
+        vreal bk[3];
+        for (int j = 0; j < 3; j++)
+          bk[j] = vload(bv + (k * 3 + j) * L + o);
+        for (int i = 0; i < 3; i++) {
+          vreal g = vmul(Pc[3 * i], bk[0]);
+          g = vfma(Pc[3 * i + 1], bk[1], g);
+          g = vfma(Pc[3 * i + 2], bk[2], g);
+          g0[i] = vsub(g0[i], g);
+          vstore(corr + (k * 3 + i) * L + o, g);
+        }
+      }
+      for (int i = 0; i < 3; i++)
+        vstore(corr + i * L + o, g0[i]);
+    }
+    if (op == XPBD_GS)
+      scatter_block(a, idx, K, hb, sl);
+  }
+}
+
 #define XPBD_CASE(OP)                                                                              \
   case OP:                                                                                         \
-    if (a->tets)                                                                                   \
+    if (a->snh) {                                                                                  \
+      if (a->tets)                                                                                 \
+        snh_blocks(1, OP, a, b0, b1);                                                              \
+      else                                                                                         \
+        snh_blocks(0, OP, a, b0, b1);                                                              \
+    } else if (a->tets)                                                                            \
       xpbd_blocks(1, OP, a, b0, b1);                                                               \
     else                                                                                           \
       xpbd_blocks(0, OP, a, b0, b1);                                                               \

@@ -7,8 +7,10 @@
 // start at plane moff[b]:
 //   idx[(moff[b] + k) * L + l]           member k's vertex (-1: none)
 //   bv[((moff[b] + k) * 3 + d) * L + l]  b_k (k >= 1; member 0's unused)
-//   stiff[b * L + l]                     V_j E (0: padding lane)
-//   lambda[b * L + l]                    the multiplier
+//   stiff[b * L + l]                     V_j E (StVK) or V_j (stable
+//                                        neo-Hookean); 0: padding lane
+//   lambda[b * L + l]                    the multiplier (snh: C_D's)
+//   lambda_h[b * L + l]                  snh: C_H's multiplier
 // A padding lane has every idx -1; a cluster smaller than nmem[b] has
 // idx -1 and b = 0 for its missing members.
 #ifndef EK_XPBD_KERNEL_H
@@ -27,7 +29,8 @@
 //                 updated, the position corrections w_k grad_k C dlambda
 //                 written to corr (member-plane layout, 3 per member);
 //   XPBD_RESIDUAL |C + lambda / (V E h^2)| and C to sink[(b*2 + 0/1)*L + l]
-//                 (0 for skipped constraints);
+//                 (0 for skipped constraints); snh: the larger of its two
+//                 constraints' |C + alpha~ lambda|, and |C_H|;
 //   XPBD_F_ONLY   the deformation gradients alone (a sum of F to sink);
 //   XPBD_EVAL     F, W, P, grad C and dlambda, dlambda to sink; nothing
 //                 else written.
@@ -41,19 +44,22 @@ enum { XPBD_GS = 0, XPBD_JACOBI, XPBD_RESIDUAL, XPBD_F_ONLY, XPBD_EVAL };
   struct NAME {                                                                                    \
     int op;                                                                                        \
     int tets; /* every block has 4 members: the compile-time path */                               \
+    int snh;  /* the stable neo-Hookean pair (xpbd.h); else StVK's one */                          \
     const int32_t *nmem;                                                                           \
     const size_t *moff;                                                                            \
     const int32_t *idx;                                                                            \
     const T *bv;                                                                                   \
     const T *stiff;                                                                                \
     T *lambda;                                                                                     \
+    T *lambda_h; /* snh: the hydrostatic multipliers (the deviatoric in lambda) */                 \
     T mu, lam, inv_young, h2, c_min;                                                               \
-    T *x;        /* positions, or displacements from xb */                                         \
-    const T *xb; /* base positions, or NULL */                                                     \
-    const T *w;  /* inverse masses (nverts) */                                                     \
-    const T *wd; /* the denominator's: w (Gauss-Seidel) or n w (Jacobi) */                         \
-    T *corr;     /* Jacobi */                                                                      \
-    T *sink;     /* residual, profile */                                                           \
+    T rest_shift; /* snh: a = 1 + 3 mu / (4 lambda) */                                             \
+    T *x;         /* positions, or displacements from xb */                                        \
+    const T *xb;  /* base positions, or NULL */                                                    \
+    const T *w;   /* inverse masses (nverts) */                                                    \
+    const T *wd;  /* the denominator's: w (Gauss-Seidel) or n w (Jacobi) */                        \
+    T *corr;      /* Jacobi */                                                                     \
+    T *sink;      /* residual, profile */                                                          \
   }
 EK_XPBD_ARGS(float, ek_xpbd_args_f32);
 EK_XPBD_ARGS(double, ek_xpbd_args_f64);
@@ -67,7 +73,8 @@ struct ek_xpbd {
   ek_isa isa;
   const ek_kernel_table *kt;
   int precision, lanes;
-  double mu, lambda, young, h;
+  ek_model model; // EK_MODEL_STVK or EK_MODEL_STABLE_NEO_HOOKEAN
+  double mu, lambda, young, h, stiff_scale;
   size_t nverts, ncons, nblocks, nplanes; // nplanes: member planes
   int ncolors, max_members;
   int32_t *nmem;
@@ -76,7 +83,7 @@ struct ek_xpbd {
   int32_t *cid;      // nblocks * L: constraint id per lane, -1 padding
   int32_t *con_slot; // ncons: block * L + lane of each constraint
   double *bv64;
-  void *bv, *stiff, *lambda_planes, *w, *wd, *corr, *sink;
+  void *bv, *stiff, *lambda_planes, *lambda_h_planes, *w, *wd, *corr, *sink;
   // Schedule: phase p runs tasks [phase_task[p], phase_task[p+1]) in
   // parallel; task t is blocks [task_block[t], task_block[t+1]) in order.
   size_t nphases, ntasks;

@@ -256,6 +256,83 @@ double ek_xpbd_ref_eval(const ek_xpbd_ref_material *m, int K, const int32_t *mem
   return C;
 }
 
+double ek_xpbd_ref_snh_eval(const ek_xpbd_ref_material *m, int K, const int32_t *members,
+                            const double *b, const double *x, double cmin, double *gD, double *gH,
+                            double *ch) {
+  double F[9], cof[9];
+  ek_xpbd_ref_F(K, members, b, x, F);
+  m3_cof(F, cof);
+  const double Ic = m3_ddot(F, F);
+  // Macklin & Mueller 2021's C_D = sqrt(I_C) with Smith et al. 2018's log
+  // term, and C_H = J - a with ek's a (xpbd.h): the energy is ek's psi.
+  const double cd = sqrt(fmax(Ic - log(1 + Ic), 0));
+  *ch = m3_det(F) - (1 + 0.75 * m->mu / m->lambda);
+  // d(I_C - log(1 + I_C))/dF = 2 F I_C / (1 + I_C), halved by the sqrt.
+  const double sD = cd > cmin ? Ic / ((1 + Ic) * cd) : 0;
+  for (int r = 0; r < 3; r++) {
+    if (gD)
+      gD[r] = 0;
+    if (gH)
+      gH[r] = 0;
+  }
+  for (int k = 1; k < K; k++) {
+    const double *bk = b + 3 * (k - 1);
+    for (int r = 0; r < 3; r++) {
+      const double fb = F[3 * r] * bk[0] + F[3 * r + 1] * bk[1] + F[3 * r + 2] * bk[2];
+      const double cb = cof[3 * r] * bk[0] + cof[3 * r + 1] * bk[1] + cof[3 * r + 2] * bk[2];
+      if (gD) {
+        gD[3 * k + r] = sD * fb;
+        gD[r] -= sD * fb;
+      }
+      if (gH) {
+        gH[3 * k + r] = cb;
+        gH[r] -= cb;
+      }
+    }
+  }
+  return cd;
+}
+
+double ek_xpbd_ref_snh_energy(const ek_xpbd_ref_material *m, const double F[9]) {
+  const double Ic = m3_ddot(F, F), ch = m3_det(F) - (1 + 0.75 * m->mu / m->lambda);
+  return 0.5 * m->mu * (Ic - log(1 + Ic)) + 0.5 * m->lambda * ch * ch;
+}
+
+void ek_xpbd_ref_snh_solve(double add, double adh, double ahh, double kD, double kH, double cd,
+                           double ch, double lD, double lH, double dl[2]) {
+  // Rows multiplied by k = 1 / alpha~ (as the StVK projection below).
+  const double m11 = kD * add + 1, m12 = kD * adh, m21 = kH * adh, m22 = kH * ahh + 1;
+  const double r1 = -(kD * cd + lD), r2 = -(kH * ch + lH);
+  const double det = m11 * m22 - m12 * m21;
+  dl[0] = (r1 * m22 - m12 * r2) / det;
+  dl[1] = (m11 * r2 - m21 * r1) / det;
+}
+
+// Project element j's stable neo-Hookean pair (weights w_i n_i, n NULL:
+// 1), multipliers lambda[2 j], lambda[2 j + 1], corrections added to out.
+static void project_snh(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
+                        const double *n, double h, size_t j, int K, const int32_t *mem,
+                        const double *gD, const double *gH, double cd, double ch, double *lambda,
+                        double *out) {
+  double add = 0, adh = 0, ahh = 0, dl[2];
+  for (int k = 0; k < K; k++) {
+    const double wk = (n ? n[mem[k]] : 1) * w[mem[k]];
+    for (int r = 0; r < 3; r++) {
+      add += wk * gD[3 * k + r] * gD[3 * k + r];
+      adh += wk * gD[3 * k + r] * gH[3 * k + r];
+      ahh += wk * gH[3 * k + r] * gH[3 * k + r];
+    }
+  }
+  const double V = s->V[j], h2 = h * h;
+  ek_xpbd_ref_snh_solve(add, adh, ahh, V * m->mu * h2, V * m->lambda * h2, cd, ch, lambda[2 * j],
+                        lambda[2 * j + 1], dl);
+  lambda[2 * j] += dl[0];
+  lambda[2 * j + 1] += dl[1];
+  for (int k = 0; k < K; k++)
+    for (int r = 0; r < 3; r++)
+      out[3 * mem[k] + r] += w[mem[k]] * (gD[3 * k + r] * dl[0] + gH[3 * k + r] * dl[1]);
+}
+
 static int max_members(const ek_xpbd_ref_set *s) {
   int K = 1;
   for (size_t j = 0; j < s->n; j++)
@@ -294,7 +371,7 @@ static void project(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, con
 void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
                               const double *w, double h, double cmin, size_t norder,
                               const int32_t *order, double *x, double *lambda) {
-  double *g = malloc((size_t)max_members(s) * 3 * sizeof(double));
+  double *g = malloc((size_t)max_members(s) * 6 * sizeof(double));
   if (!order)
     norder = s->n;
   for (size_t q = 0; q < norder; q++) {
@@ -302,6 +379,12 @@ void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_materi
     const int32_t *mem;
     const double *b;
     int K = element(s, j, &mem, &b);
+    if (m->snh) {
+      double *gH = g + 3 * (size_t)K, ch;
+      double cd = ek_xpbd_ref_snh_eval(m, K, mem, b, x, cmin, g, gH, &ch);
+      project_snh(s, m, w, NULL, h, j, K, mem, g, gH, cd, ch, lambda, x);
+      continue;
+    }
     double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, g);
     if (C > cmin) // else at the rounding level of F: grad C is 0/0 (xpbd.h)
       project(s, m, w, NULL, h, j, K, mem, g, C, lambda, x);
@@ -311,7 +394,7 @@ void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_materi
 
 void ek_xpbd_ref_jacobi(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m, const double *w,
                         double h, double cmin, double *x, double *lambda) {
-  double *g = malloc((size_t)max_members(s) * 3 * sizeof(double));
+  double *g = malloc((size_t)max_members(s) * 6 * sizeof(double));
   double *dx = calloc(3 * s->nverts, sizeof(double));
   double *cnt = calloc(s->nverts, sizeof(double));
   // n_i: every constraint on vertex i, skipped or not (a static count).
@@ -321,6 +404,12 @@ void ek_xpbd_ref_jacobi(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
     const int32_t *mem;
     const double *b;
     int K = element(s, j, &mem, &b);
+    if (m->snh) {
+      double *gH = g + 3 * (size_t)K, ch;
+      double cd = ek_xpbd_ref_snh_eval(m, K, mem, b, x, cmin, g, gH, &ch);
+      project_snh(s, m, w, cnt, h, j, K, mem, g, gH, cd, ch, lambda, dx);
+      continue;
+    }
     double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, g);
     // Consistent averaging (xpbd.h; Macklin et al. 2014): vertex i's
     // weight counts n_i times, so the fixed point is Gauss-Seidel's.
@@ -341,6 +430,19 @@ double ek_xpbd_ref_residual(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material
     const int32_t *mem;
     const double *b;
     int K = element(s, j, &mem, &b);
+    if (m->snh) {
+      // The larger of the pair's |C + alpha~ lambda|; cmax: max |C_H|.
+      double ch, cd = ek_xpbd_ref_snh_eval(m, K, mem, b, x, cmin, NULL, NULL, &ch);
+      const double V = s->V[j], h2 = h * h;
+      const double rD = fabs(cd + lambda[2 * j] / (V * m->mu * h2));
+      const double rH = fabs(ch + lambda[2 * j + 1] / (V * m->lambda * h2));
+      const double r = rD > rH ? rD : rH, ac = fabs(ch);
+      if (!(r <= res))
+        res = r;
+      if (!(ac <= cm))
+        cm = ac;
+      continue;
+    }
     double C = ek_xpbd_ref_eval(m, K, mem, b, x, cmin, NULL);
     // Maxima that keep a NaN (fmax would drop it).
     if (!(C <= cm))

@@ -15,9 +15,12 @@
 extern "C" {
 #endif
 
-// StVK's Lame parameters and Young's modulus E (the constraint's scale).
+// Lame parameters, Young's modulus E (StVK's constraint's scale) and the
+// constraint: snh 0 seed 001's Hookean (StVK) one, 1 the stable
+// neo-Hookean pair of Macklin & Mueller 2021 (include/ek/xpbd.h; E unused).
 typedef struct {
   double mu, lambda, young;
+  int snh;
 } ek_xpbd_ref_material;
 
 // A set of "linear-F elements": constraint j has K_j = start[j+1] -
@@ -61,9 +64,28 @@ double ek_xpbd_ref_stvk(const ek_xpbd_ref_material *m, const double F[9], double
 double ek_xpbd_ref_eval(const ek_xpbd_ref_material *m, int K, const int32_t *members,
                         const double *b, const double *x, double cmin, double *grad);
 
+// Stable neo-Hookean pair of one element (m->snh; xpbd.h):
+//   C_D = sqrt(I_C - log(1 + I_C)), C_H = det F - a, a = 1 + 3 mu / (4 lambda),
+// C_D returned, C_H in *ch. gD, gH (K x 3, may be NULL) receive grad_k C_D
+// = I_C / ((1 + I_C) C_D) F b_k and grad_k C_H = cof F b_k (member 0's
+// -sum); gD is 0 where C_D <= cmin (F ~ 0: 0/0).
+double ek_xpbd_ref_snh_eval(const ek_xpbd_ref_material *m, int K, const int32_t *members,
+                            const double *b, const double *x, double cmin, double *gD, double *gH,
+                            double *ch);
+// The pair's energy density C_D^2 mu / 2 + C_H^2 lambda / 2 at F (equals
+// ek's stable neo-Hookean psi + 3 mu / 2).
+double ek_xpbd_ref_snh_energy(const ek_xpbd_ref_material *m, const double F[9]);
+// The coupled 2x2 solve of one element (Macklin & Mueller 2021; xpbd.h):
+// A_XY = sum_k wk_k gX_k . gY_k, kD = V mu h^2, kH = V lambda h^2,
+//   [kD A_DD + 1, kD A_DH; kH A_DH, kH A_HH + 1] dl = -[kD C_D + lD; kH C_H + lH].
+void ek_xpbd_ref_snh_solve(double add, double adh, double ahh, double kD, double kH, double cd,
+                           double ch, double lD, double lH, double dl[2]);
+
 // One Gauss-Seidel sweep: constraints order[0 .. norder-1] (NULL: 0 ..
 // n-1) projected one at a time (Macklin 2016 eqs. 17, 18), x and lambda
 // updated in place; w: inverse masses (nverts, 0 = pinned); h the substep.
+// m->snh: lambda holds 2 n multipliers (lambda_D of constraint j at 2 j,
+// lambda_H at 2 j + 1), here and in the Jacobi sweep and the residual.
 void ek_xpbd_ref_gauss_seidel(const ek_xpbd_ref_set *s, const ek_xpbd_ref_material *m,
                               const double *w, double h, double cmin, size_t norder,
                               const int32_t *order, double *x, double *lambda);
