@@ -65,4 +65,43 @@ static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
     vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
 }
 
+// ---- Element Hessians (HESS_ELEMENT) ----
+// The 12x12 projected Hessian of a tet, H[(d, i), (c, k)] = V0 g_d^T
+// dP(e_k g_c^T) e_i (corner d, c; axes i, k; g_c as corner_dirs), from
+// the dP of the 9 unit columns dF = e_k g_c^T of corners 1..3: corner 0's
+// columns are minus the sum of the others' (a translation moves no F),
+// and the matrix is symmetrised, (H + H^T) / 2, so the assembled matrix is
+// symmetric to the bit (a Cholesky or CG reads one triangle's values).
+// Column `col` (3 c + k, c >= 1) from its dP: rows (d, i).
+EK_INLINE void elem_column(const vreal dP[9], const vreal g[4][3], vreal v0, int col,
+                           vreal H[144]) {
+  for (int i = 0; i < 3; i++) {
+    vreal s = vzero();
+    for (int d = 1; d < 4; d++) {
+      vreal t =
+          vmla(dP[3 * i], g[d][0], vmla(dP[3 * i + 1], g[d][1], vmul(dP[3 * i + 2], g[d][2])));
+      H[(3 * d + i) * 12 + col] = vmul(v0, t);
+      s = vadd(s, H[(3 * d + i) * 12 + col]);
+    }
+    H[i * 12 + col] = vneg(s);
+  }
+}
+
+// Corner 0's columns, the symmetrisation, and the 144 planes of the lanes
+// at offset o of a block: dst[(r * 12 + s) * LANES + o].
+EK_INLINE void elem_store(vreal H[144], int o, real *dst) {
+  const vreal half = vset((real)0.5);
+  for (int r = 0; r < 12; r++)
+    for (int k = 0; k < 3; k++)
+      H[r * 12 + k] = vneg(vadd(vadd(H[r * 12 + 3 + k], H[r * 12 + 6 + k]), H[r * 12 + 9 + k]));
+  for (int r = 0; r < 12; r++) {
+    vstore(dst + (r * 12 + r) * L + o, H[r * 12 + r]);
+    for (int s = r + 1; s < 12; s++) {
+      vreal v = vmul(half, vadd(H[r * 12 + s], H[s * 12 + r]));
+      vstore(dst + (r * 12 + s) * L + o, v);
+      vstore(dst + (s * 12 + r) * L + o, v);
+    }
+  }
+}
+
 #endif
