@@ -171,7 +171,7 @@ int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *p) {
 }
 
 // Block row v of the matrix from the element Hessians (E: float or double).
-#define GATHER_ROW(E, LANES)                                                                       \
+#define GATHER_ROW(E)                                                                              \
   do {                                                                                             \
     const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;                                       \
     for (int32_t j = 0; j < nb; j++) {                                                             \
@@ -179,11 +179,9 @@ int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *p) {
       for (int32_t k = h->cptr[b0 + j]; k < h->cptr[b0 + j + 1]; k++) {                            \
         const size_t code = (size_t)h->contrib[k], s = code >> 4;                                  \
         const int d = (int)(code >> 2 & 3), c = (int)(code & 3);                                   \
-        const size_t base = (s / (LANES)) * 144 * (LANES) + s % (LANES);                           \
-        for (int r = 0; r < 3; r++)                                                                \
-          for (int m = 0; m < 3; m++)                                                              \
-            acc[3 * r + m] +=                                                                      \
-                (double)(E)[base + (size_t)((3 * d + r) * 12 + 3 * c + m) * (LANES)];              \
+        const size_t base = s * 144 + (size_t)(d * 4 + c) * 9;                                     \
+        for (int q = 0; q < 9; q++)                                                                \
+          acc[q] += (double)(E)[base + (size_t)q];                                                 \
       }                                                                                            \
       for (int r = 0; r < 3; r++)                                                                  \
         for (int m = 0; m < 3; m++)                                                                \
@@ -217,12 +215,12 @@ int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
     const float *E = h->ebuf;
 #pragma omp parallel for schedule(static) if (parallel)
     for (long v = 0; v < nv; v++)
-      GATHER_ROW(E, EK_LANES_F32);
+      GATHER_ROW(E);
   } else {
     const double *E = h->ebuf;
 #pragma omp parallel for schedule(static) if (parallel)
     for (long v = 0; v < nv; v++)
-      GATHER_ROW(E, EK_LANES_F64);
+      GATHER_ROW(E);
   }
   return EK_OK;
 }

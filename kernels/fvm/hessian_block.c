@@ -79,7 +79,6 @@ static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
 static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L, *cb = cache_block(a, b);
-    real *dst = a->corner + b * 144 * L;
     for (int o = 0; o < L; o += EK_W) {
       vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o), zero = vzero();
       for (int k = 0; k < 9; k++)
@@ -95,7 +94,7 @@ static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
           mat_frame_apply(&fr, dF, dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
-      elem_store(H, o, dst);
+      elem_store(H, b * L + (size_t)o, a->corner);
     }
   }
 }

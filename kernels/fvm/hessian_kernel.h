@@ -15,7 +15,8 @@
 // then out (add, lane order) or corner (write) as in scatter.h;
 //   HESS_ELEMENT: the projected 12x12 element Hessian from the cache (rows
 //     and columns corner-major, 3 c + k), symmetrised, written to corner
-//     (144 planes per block: corner[(b * 144 + r * 12 + s) * LANES + l]);
+//     (per slot, 3x3 block by block: corner[slot * 144 + (d * 4 + c) * 9 +
+//     i * 3 + k], rows (d, i), columns (c, k));
 //     out is not used.
 //
 // Cache: `planes` planes per tet, plane k of block b at

@@ -92,7 +92,6 @@ EK_INLINE void element_blocks(const hess_args *a, size_t b0, size_t b1) {
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L,
                *cb = MODEL_CACHE_PLANES == 0 ? NULL : cache_block(a, b);
-    real *dst = a->corner + b * 144 * L;
     for (int o = 0; o < L; o += EK_W) {
       vreal Dmi[9], g[4][3], H[144], R[9], v0 = vload(a->v0 + b * L + o), zero = vzero();
       for (int k = 0; k < 9; k++)
@@ -108,7 +107,7 @@ EK_INLINE void element_blocks(const hess_args *a, size_t b0, size_t b1) {
           material_diff_direct(&mp, dF, R, dF, dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
-      elem_store(H, o, dst);
+      elem_store(H, b * L + (size_t)o, a->corner);
     }
   }
 }
