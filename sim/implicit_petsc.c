@@ -24,10 +24,10 @@
 implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern, const double *X,
                                       double rtol, long max_its, char *err, size_t errlen) {
   (void)pattern, (void)X, (void)rtol, (void)max_its;
+  (void)direct;
   snprintf(err, errlen,
-           "linear_solver \"%s\" needs PETSc, and this build has none (install petsc-dev, "
-           "e.g. apt-get install petsc-dev, and configure again; or use \"matrix_free\")",
-           direct ? "direct" : "amg");
+           "needs PETSc, and this build has none (install petsc-dev, e.g. apt-get install "
+           "petsc-dev, and configure again; or use \"matrix_free\")");
   return NULL;
 }
 void implicit_petsc_destroy(implicit_petsc *p) { (void)p; }
