@@ -29,7 +29,11 @@
 //     row of the same model, precision, size and threads divided by it:
 //     the "one product <= 1.2x one force evaluation" reads as a
 //     speed-up >= 0.83), and the caching gradient pass (hessian/<model>/
-//     gradient/..., double, cache in the row's precision) for the same.
+//     gradient/..., double, cache in the row's precision) for the same,
+//     and the assembly of the projected Hessian (hessian/<model>/assemble/
+//     ...: element Hessians in the row's precision + the gather into CSR,
+//     ek_fvm_hessian_assemble; the speed-up column is force / assembly, so
+//     the "assembly <= 3x one force evaluation" reads as >= 0.33).
 //   - XPBD (include/ek/xpbd.h), best ISA, ~1e5 tets (the mesh of the
 //     StVK force rows), tets and clusters x Gauss-Seidel and Jacobi x
 //     f32/f64: ONE sweep over every constraint (ek_xpbd_iterate_* with 1
@@ -249,7 +253,8 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
 typedef struct {
   fvm_mesh_case *mc;
   ek_fvm_hessian *h;
-  int f32, gradient;
+  int f32, gradient; // gradient: 0 product, 1 caching gradient, 2 assembly
+  double *values;    // the assembled K (assembly rows)
   ek_tet_state *R;
   ek_bench *b;
   int failed;
@@ -260,9 +265,10 @@ static hess_ctx hess_row_ctx;
 
 static void run_hessian(void *p) {
   hess_ctx *c = p;
-  int rc = c->gradient ? ek_fvm_hessian_gradient_f64(c->h, c->mc->x64, c->R, c->mc->f64, NULL, 1)
-           : c->f32    ? ek_fvm_hessian_apply_f32(c->h, c->mc->x32, c->mc->f32)
-                       : ek_fvm_hessian_apply_f64(c->h, c->mc->x64, c->mc->f64);
+  int rc = c->gradient == 2 ? ek_fvm_hessian_assemble(c->h, c->values)
+           : c->gradient ? ek_fvm_hessian_gradient_f64(c->h, c->mc->x64, c->R, c->mc->f64, NULL, 1)
+           : c->f32      ? ek_fvm_hessian_apply_f32(c->h, c->mc->x32, c->mc->f32)
+                         : ek_fvm_hessian_apply_f64(c->h, c->mc->x64, c->mc->f64);
   if (rc < 0 && !c->failed) {
     c->failed = 1;
     ek_bench_fail(c->b, "fvm: ek_fvm_hessian returned %d", rc);
@@ -272,12 +278,13 @@ static void run_hessian(void *p) {
 // One Hessian row (product or caching gradient pass) of a model at ~1e5
 // tets, thread buffers; its baseline is the force row of the same model.
 static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient, int threads) {
+  static const char *const op_name[3] = {"apply", "gradient", "assemble"};
   fvm_mesh_case *mc = &sizes[1];
   size_t ntets = case_tets(mc);
   char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
   const char *prec = f32 ? "f32" : "f64";
   snprintf(name, sizeof name, "hessian/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
-           gradient ? "gradient" : "apply", ek_isa_name(isa), prec, ntets, threads);
+           op_name[gradient], ek_isa_name(isa), prec, ntets, threads);
   snprintf(base, sizeof base, "fvm/%s/%s/%s/%s/tets:%zu/threads:%d", models[model].name,
            ek_scatter_name(EK_SCATTER_THREAD_BUFFERS), ek_isa_name(isa), prec, ntets, threads);
   if (!ek_bench_wants(b, name))
@@ -287,6 +294,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
     if (mesh_setup(b, mc))
       return -1;
     ek_fvm_hessian_destroy(c->h);
+    free(c->values);
     memset(c, 0, sizeof *c);
     ek_fvm_hessian_opts o = {
         .scatter = EK_SCATTER_THREAD_BUFFERS, .isa = isa, .precision = f32 ? 32 : 64};
@@ -301,9 +309,15 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
       ek_bench_fail(b, "fvm: ek_fvm_hessian: %s", ek_last_error());
       return -1;
     }
+    ek_csr_pattern pat;
+    if (gradient == 2 && (ek_fvm_hessian_pattern(c->h, &pat) < 0 ||
+                          !(c->values = malloc(pat.nnz * sizeof(double))))) {
+      ek_bench_fail(b, "fvm: ek_fvm_hessian_pattern: %s", ek_last_error());
+      return -1;
+    }
   }
   snprintf(knobs, sizeof knobs, "model=%s;op=%s;scatter=thread_buffers;tets=%zu;cache_planes=%d",
-           models[model].name, gradient ? "gradient" : "apply", ntets,
+           models[model].name, op_name[gradient], ntets,
            c->h ? ek_fvm_hessian_cache_planes(c->h) : 0);
   double r = f32 ? 4 : 8;
   double verts_per_tet = case_verts_per_tet(mc);
@@ -318,8 +332,12 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
                       .knobs = knobs,
                       .items = ntets,
                       .flops_per_item = 0,
-                      .bytes_per_item = 4 * 4 + 10 * (gradient ? 8 : r) + planes * r +
-                                        6 * (gradient ? 8 : r) * verts_per_tet,
+                      // assembly: + the element Hessians written and
+                      // read (2 x 144 values) and the map's 16 codes.
+                      .bytes_per_item = gradient == 2
+                                            ? 4 * 4 + 10 * r + planes * r + 288 * r + 16 * 4
+                                            : 4 * 4 + 10 * (gradient ? 8 : r) + planes * r +
+                                                  6 * (gradient ? 8 : r) * verts_per_tet,
                       .baseline = base,
                       .fn = run_hessian,
                       .ctx = c};
@@ -560,6 +578,7 @@ int bench_fvm(ek_bench *b) {
       for (int f32 = 1; f32 >= 0 && !IS_WARM(m); f32--) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
+        rc |= hessian_row(b, (int)m, best, f32, 2, counts[t]);
       }
     // XPBD: one sweep per constraint x elements x solver x precision.
     for (int snh = 0; snh < 2; snh++)
@@ -573,6 +592,8 @@ int bench_fvm(ek_bench *b) {
   if (!ek_bench_listing(b)) {
     ek_fvm_hessian_destroy(hess_row_ctx.h);
     hess_row_ctx.h = NULL;
+    free(hess_row_ctx.values);
+    hess_row_ctx.values = NULL;
     xpbd_ctx_free(&xpbd_row_ctx);
   }
   if (!ek_bench_listing(b))

@@ -14,6 +14,7 @@
 #ifndef EK_SIM_BODY_H
 #define EK_SIM_BODY_H
 
+#include <ek/hessian.h>
 #include <ek/sim/sim.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -114,6 +115,13 @@ struct sim_body_ops {
   // K's 3x3 diagonal blocks, 6 per vertex (xx, xy, xz, yy, yz, zz); < 0
   // as gradient.
   int (*hessian_diagonal)(void *h, double *blocks);
+  // The assembled K at the last caching gradient (hessian.h,
+  // ek_fvm_hessian_pattern / _assemble): its pattern (the body's, kept)
+  // and its values (pattern.nnz, same bits at any thread count); < 0 as
+  // gradient. NULL: the body has no assembled Hessian (the implicit loop's
+  // "amg" and "direct" linear solvers refuse it).
+  int (*hessian_pattern)(void *h, ek_csr_pattern *pattern);
+  int (*hessian_assemble)(void *h, double *values);
 
   // ---- XPBD integrator (xpbd.c) ----
   // The constraints for Young's modulus `young` and the scene's xpbd knobs

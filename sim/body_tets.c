@@ -550,6 +550,14 @@ static int tets_hessian_apply(void *h, const double *p, double *q, const float *
                  : ek_fvm_hessian_apply_f64(th->H, p, q);
 }
 
+static int tets_hessian_pattern(void *h, ek_csr_pattern *pattern) {
+  return ek_fvm_hessian_pattern(((tets_hessian *)h)->H, pattern);
+}
+
+static int tets_hessian_assemble(void *h, double *values) {
+  return ek_fvm_hessian_assemble(((tets_hessian *)h)->H, values);
+}
+
 static int tets_hessian_diagonal(void *h, double *blocks) {
   return ek_fvm_hessian_diagonal_f64(((tets_hessian *)h)->H, blocks);
 }
@@ -652,6 +660,8 @@ const sim_body_ops sim_body_tets = {
     .gradient = tets_gradient,
     .hessian_apply = tets_hessian_apply,
     .hessian_diagonal = tets_hessian_diagonal,
+    .hessian_pattern = tets_hessian_pattern,
+    .hessian_assemble = tets_hessian_assemble,
     .xpbd_create = tets_xpbd_create,
     .xpbd_destroy = tets_xpbd_destroy,
     .xpbd_begin = tets_xpbd_begin,

@@ -583,16 +583,19 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
 // and the cost per tet of a Hessian product next to a gradient pass.
 static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
   const double n = (double)done;
-  const double vals[] = {tm->gradient,   tm->matvec,      tm->preconditioner,
-                         tm->cg_vectors, tm->line_search, tm->integration + tm->polar_refresh};
-  const char *names[] = {"gradient+eigensystems", "Hessian products",
-                         "preconditioner",        "CG vectors",
-                         "line search",           "integration"};
+  const double vals[] = {tm->gradient,   tm->matvec,       tm->preconditioner,
+                         tm->cg_vectors, tm->line_search,  tm->integration + tm->polar_refresh,
+                         tm->assembly,   tm->solver_setup, tm->solver_solve};
+  const char *names[] = {
+      "gradient+eigensystems", "Hessian products", "preconditioner", "CG vectors", "line search",
+      "integration",           "assembly",         "setup",          "solve"};
+  // The assembled solvers' phases (linear_solver amg, direct) when they ran.
+  const int nph = tm->assembly > 0 ? 9 : 6;
   double total = 0;
-  for (int i = 0; i < 6; i++)
+  for (int i = 0; i < nph; i++)
     total += vals[i];
   printf("per step   %.4f ms:", 1e3 * total / n);
-  for (int i = 0; i < 6; i++)
+  for (int i = 0; i < nph; i++)
     printf("%s %s %.4f ms (%.0f%%)", i ? "," : "", names[i], 1e3 * vals[i] / n,
            100 * vals[i] / total);
   printf("\n");

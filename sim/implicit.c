@@ -33,6 +33,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "implicit_petsc.h"
 #include "sim_internal.h"
 
 // Vector work below this many degrees of freedom runs on one thread (about
@@ -56,6 +57,11 @@ typedef struct {
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
   double *pre; // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
+  // Assembled solvers (linear_solver "amg", "direct"): K's pattern and
+  // values, the system's values, PETSc's solver.
+  ek_csr_pattern pat;
+  double *kvals, *svals;
+  implicit_petsc *ps;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
@@ -69,6 +75,9 @@ static void data_free(implicit_data *d) {
     free(arrays[i]);
   free(d->p32);
   free(d->q32);
+  free(d->kvals);
+  free(d->svals);
+  implicit_petsc_destroy(d->ps);
   free(d);
 }
 
@@ -101,6 +110,35 @@ static int implicit_create(ek_sim *s, void **data) {
   if (!ok) {
     data_free(d);
     return sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3);
+  }
+  const ek_linear_solver ls = sc->implicit.linear_solver;
+  if (ls != EK_LINSOLVE_MATRIX_FREE) {
+    const sim_body_ops *ops = s->body->ops;
+    const char *name = ek_linear_solver_name(ls);
+    if (!ops->hessian_pattern || !ops->hessian_assemble) {
+      data_free(d);
+      return sim_fail(s,
+                      "integrator.linear_solver \"%s\": this body has no assembled Hessian (tets "
+                      "only); use \"matrix_free\"",
+                      name);
+    }
+    if (ops->hessian_pattern(d->H, &d->pat) < 0) {
+      data_free(d);
+      return sim_fail(s, "the Hessian's pattern: %s", ek_last_error());
+    }
+    d->kvals = malloc((d->pat.nnz + 1) * sizeof(double));
+    d->svals = malloc((d->pat.nnz + 1) * sizeof(double));
+    if (!d->kvals || !d->svals) {
+      data_free(d);
+      return sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz);
+    }
+    char err[512];
+    d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,
+                                  sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
+    if (!d->ps) {
+      data_free(d);
+      return sim_fail(s, "integrator.linear_solver \"%s\": %s", name, err);
+    }
   }
   *data = d;
   return 0;
@@ -336,6 +374,44 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
   return 0;
 }
 
+// The Newton system by an assembled solver (linear_solver "amg" or
+// "direct"): K assembled at the current eigensystems (hessian.h), the
+// system matrix M (1 + c dt) / dt^2 + K over the free dofs with held dofs
+// as identity rows and columns (their right-hand side is 0: dx stays 0
+// there), then PETSc. *iters: the solver's iterations (1 for a
+// factorisation), *rel: |r|_2 / |b|_2.
+static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel) {
+  double t0 = sim_now();
+  int rc = d->body->ops->hessian_assemble(d->H, d->kvals);
+  if (rc < 0)
+    return sim_fail(s, "Hessian assembly: %s", ek_last_error());
+  const int32_t *rp = d->pat.row_ptr, *col = d->pat.col;
+  const double *w = d->is_free, *md = d->mdiag, *kv = d->kvals;
+  double *sv = d->svals;
+  const long n3 = (long)d->n3;
+#pragma omp parallel for schedule(static) if (d->par)
+  for (long r = 0; r < n3; r++) {
+    const int fr = w[r] != 0;
+    for (int32_t k = rp[r]; k < rp[r + 1]; k++) {
+      const int32_t c = col[k];
+      double v = fr && w[c] != 0 ? kv[k] : 0;
+      if (c == r)
+        v = fr ? v + md[r] : 1;
+      sv[k] = v;
+    }
+  }
+  for (size_t i = 0; i < d->n3; i++)
+    d->r[i] = -d->g[i]; // 0 at held dofs (objective)
+  s->times.assembly += sim_now() - t0;
+  char err[512];
+  rc = implicit_petsc_solve(d->ps, d->svals, d->r, d->dx, iters, rel, &s->times.solver_setup,
+                            &s->times.solver_solve, err, sizeof err);
+  if (rc < 0)
+    return sim_fail(s, "step %ld: %s", s->n, err);
+  s->times.cg_iterations += *iters;
+  return 0;
+}
+
 static int implicit_step(ek_sim *s, void *data) {
   implicit_data *d = data;
   const ek_scene *sc = &s->scene;
@@ -399,14 +475,19 @@ static int implicit_step(ek_sim *s, void *data) {
   while (res > sc->implicit.newton_tol && it < sc->implicit.max_newton && free_mass > 0) {
     if ((rc = sim_stop_requested(s, "Newton iteration", it + 1, sc->implicit.max_newton)))
       return rc;
-    t0 = sim_now();
-    if ((rc = build_preconditioner(s, d, blocks)))
-      return rc;
-    s->times.preconditioner += sim_now() - t0;
     long cg_its;
     double cg_rel;
-    if ((rc = solve(s, d, blocks, &cg_its, &cg_rel)))
-      return rc;
+    if (d->ps) {
+      if ((rc = solve_assembled(s, d, &cg_its, &cg_rel)))
+        return rc;
+    } else {
+      t0 = sim_now();
+      if ((rc = build_preconditioner(s, d, blocks)))
+        return rc;
+      s->times.preconditioner += sim_now() - t0;
+      if ((rc = solve(s, d, blocks, &cg_its, &cg_rel)))
+        return rc;
+    }
     if (it < EK_SIM_NEWTON_TRACE) {
       s->newton.cg_iterations[it] = cg_its;
       s->newton.cg_relative[it] = cg_rel;
@@ -512,12 +593,22 @@ static int implicit_explain(const ek_scene *s, FILE *out, int number) {
           "  %d. backward Euler: minimise 1/(2 dt^2)|x - x~|_M^2 + E(x) - x.Mg + c/(2 dt)|x - "
           "x_n|_M^2 by Newton (newton_tol %g, max_newton %ld)\n",
           number, im->newton_tol, im->max_newton);
-  fprintf(out,
-          "       per Newton iteration: gradient + element eigensystems (one pass, double); "
-          "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
-          "projected element Hessians in %s; backtracking line search (Armijo)\n",
-          im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol,
-          im->max_cg, s->precision == 32 ? "f32" : "f64");
+  if (im->linear_solver == EK_LINSOLVE_MATRIX_FREE)
+    fprintf(out,
+            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
+            "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
+            "projected element Hessians in %s; backtracking line search (Armijo)\n",
+            im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol,
+            im->max_cg, s->precision == 32 ? "f32" : "f64");
+  else
+    fprintf(out,
+            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
+            "the projected element Hessians (%s) assembled into a CSR matrix, then %s; "
+            "backtracking line search (Armijo)\n",
+            s->precision == 32 ? "f32" : "f64",
+            im->linear_solver == EK_LINSOLVE_AMG
+                ? "PETSc CG + GAMG with the rigid-body near-null space (linear_solver amg)"
+                : "PETSc sparse Cholesky (linear_solver direct)");
   fprintf(out, "       v = (x_{n+1} - x_n) / dt; the ground after the solve\n");
   return number + 1;
 }

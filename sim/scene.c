@@ -981,7 +981,8 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
   const char *pc = NULL;
   if ((rc = check_keys(c, integ, "integrator",
                        (const char *const[]){"type", "newton_tol", "max_newton", "cg_tol", "max_cg",
-                                             "preconditioner", "projection", NULL})) ||
+                                             "preconditioner", "projection", "linear_solver",
+                                             NULL})) ||
       (rc = get_number(c, integ, "integrator", "newton_tol", 0, &im->newton_tol, &node)))
     return rc;
   if (!(im->newton_tol > 0))
@@ -1010,6 +1011,18 @@ static int parse_integrator(parse_ctx *c, const cJSON *root, ek_scene *s) {
     im->projection = EK_PROJECT_ABS;
   else if (pr)
     return bad(c, "integrator.projection", node, "unknown projection (known: clamp, abs)");
+  const char *ls = NULL;
+  if ((rc = get_string(c, integ, "integrator", "linear_solver", 0, &ls, &node)))
+    return rc;
+  int found_ls = -1;
+  for (int k = 0; ls && k < EK_LINSOLVE_COUNT; k++)
+    if (strcmp(ls, ek_linear_solver_name((ek_linear_solver)k)) == 0)
+      found_ls = k;
+  if (ls && found_ls < 0)
+    return bad(c, "integrator.linear_solver", node,
+               "unknown linear solver (known: matrix_free, amg, direct)");
+  if (ls)
+    im->linear_solver = (ek_linear_solver)found_ls;
   return 0;
 }
 
@@ -1200,4 +1213,9 @@ ek_trimesh *ek_scene_trimesh_errbuf(const ek_scene *s, char *err, size_t errlen)
     return ek_trimesh_load_errbuf(s->mesh_file, err, errlen);
   return ek_trimesh_grid_errbuf(s->grid_cells[0], s->grid_cells[1], s->grid_size[0],
                                 s->grid_size[1], s->grid_plane, err, errlen);
+}
+
+const char *ek_linear_solver_name(ek_linear_solver s) {
+  static const char *const names[EK_LINSOLVE_COUNT] = {"matrix_free", "amg", "direct"};
+  return (unsigned)s < EK_LINSOLVE_COUNT ? names[s] : "invalid";
 }

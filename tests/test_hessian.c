@@ -14,6 +14,9 @@
 //   5. gradient, energy, products and diagonal blocks have the same bits
 //      at 1 and 2 threads (every strategy but ATOMIC), on a mesh above the
 //      one-thread grains;
+//   7. the assembled K (check_assembly): entries = the plain assembly of
+//      the double reference, CSR K p = the product, symmetric to the bit,
+//      projected PSD (LAPACK eigenvalues); same bits at 1 and 2 threads;
 //   6. neo-Hookean with an inverted tet: energy +inf; bad arguments are
 //      refused (products before a caching gradient, wrong precision,
 //      corotated linear without R); ISAs the CPU lacks are reported as
@@ -282,6 +285,134 @@ static void check_diagonal(const test_model *tm, const test_mesh *t, const setup
   free(g);
 }
 
+// 7: the assembled matrix (ek_fvm_hessian_assemble), every ISA x precision x
+// strategy (auto, coloured: the two slot orders) x projection: entries equal
+// the plain dense assembly of the double reference (reference/fvm/
+// hessian_ref.c) within EK_HESSIAN_TOL_*, K p of the CSR equals the
+// matrix-free product of the same cache within the same budget, K is
+// symmetric to the bit, and projected (clamp, abs) its smallest eigenvalue
+// (LAPACK dsyev) is >= -tol times the largest.
+extern void dsyev_(const char *jobz, const char *uplo, const int *n, double *a, const int *lda,
+                   double *w, double *work, const int *lwork, int *info);
+
+static double min_eig_rel(int n, const double *K) {
+  double *a = malloc((size_t)n * n * sizeof(double)), *w = malloc((size_t)n * sizeof(double));
+  int lwork = 8 * n, info = 0;
+  double *work = malloc((size_t)lwork * sizeof(double));
+  memcpy(a, K, (size_t)n * n * sizeof(double));
+  dsyev_("N", "U", &n, a, &n, w, work, &lwork, &info);
+  double r = info == 0 ? w[0] / fmax(fabs(w[n - 1]), 1e-300) : -INFINITY;
+  free(a);
+  free(w);
+  free(work);
+  return r;
+}
+
+static void check_assembly(const test_model *tm, const test_mesh *t, const setup *s,
+                           const double *x, ek_rng *rng) {
+  const size_t nv = t->nverts, n3 = nv * 3;
+  ek_material_ref mref = test_ref_material(&tm->mat);
+  double *K = malloc(n3 * n3 * sizeof(double)), *Kref = malloc(n3 * n3 * sizeof(double));
+  double *Ks = malloc(n3 * n3 * sizeof(double)), *g = malloc(n3 * sizeof(double));
+  double *p = malloc(n3 * sizeof(double)), *y = malloc(n3 * sizeof(double));
+  double *yk = malloc(n3 * sizeof(double)), *ys = malloc(n3 * sizeof(double));
+  for (size_t i = 0; i < n3; i++)
+    p[i] = 0.1 * (2 * ek_rng_uniform(rng) - 1);
+  static const ek_scatter orders[2] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED};
+  static const ek_projection projs[3] = {EK_PROJECT_NONE, EK_PROJECT_CLAMP, EK_PROJECT_ABS};
+  double worst_ref[2] = {0}, worst_kp[2] = {0}, worst_eig = INFINITY;
+  int cases = 0, asym = 0;
+  for (int proj = 0; proj < 3; proj++) {
+    ek_fvm_hessian_assemble_ref(nv, t->X, t->ntets, t->T, &mref, s->R, x, proj, Kref, Ks);
+    double kscale = 0;
+    for (size_t i = 0; i < n3 * n3; i++)
+      kscale = fmax(kscale, Ks[i]);
+    for (int isa = EK_ISA_SCALAR; isa < EK_ISA_COUNT; isa++) {
+      if (!ek_isa_available((ek_isa)isa))
+        continue;
+      for (int oi = 0; oi < 2; oi++)
+        for (int prec = 32; prec <= 64; prec += 32) {
+          ek_fvm_hessian *h = make(s, &tm->mat, (ek_isa)isa, orders[oi], prec, projs[proj]);
+          if (!h)
+            continue;
+          ek_csr_pattern pat;
+          int rc = ek_fvm_hessian_gradient_f64(h, x, s->R_state, g, NULL, 1);
+          if (rc == 0)
+            rc = ek_fvm_hessian_pattern(h, &pat);
+          double *v = rc == 0 ? malloc(pat.nnz * sizeof(double)) : NULL;
+          if (rc == 0)
+            rc = ek_fvm_hessian_assemble(h, v);
+          if (rc == 0)
+            rc = apply(h, prec, n3, p, y);
+          char label[160];
+          snprintf(label, sizeof label, "%-17s %-6s f%d %s assembled, %s", tm->name,
+                   ek_isa_name((ek_isa)isa), prec, ek_scatter_name(orders[oi]),
+                   ek_projection_name(projs[proj]));
+          if (rc != 0 || pat.nrows != n3) {
+            printf("%s: rc %d (%s)\nFAIL\n", label, rc, ek_last_error());
+            failures++;
+            free(v);
+            ek_fvm_hessian_destroy(h);
+            continue;
+          }
+          memset(K, 0, n3 * n3 * sizeof(double));
+          for (size_t r = 0; r < n3; r++)
+            for (int32_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1]; k++)
+              K[r * n3 + (size_t)pat.col[k]] = v[k];
+          double eref = 0, ekp = 0, yscale = 0;
+          for (size_t r = 0; r < n3; r++) {
+            double acc = 0, sc = 0;
+            for (size_t c = 0; c < n3; c++) {
+              eref = fmax(eref, fabs(K[r * n3 + c] - Kref[r * n3 + c]));
+              asym += memcmp(&K[r * n3 + c], &K[c * n3 + r], sizeof(double)) != 0;
+              acc += K[r * n3 + c] * (prec == 32 ? (double)(float)p[c] : p[c]);
+              sc += fabs(K[r * n3 + c] * p[c]);
+            }
+            yk[r] = acc;
+            ys[r] = sc;
+            yscale = fmax(yscale, sc);
+          }
+          for (size_t r = 0; r < n3; r++)
+            ekp = fmax(ekp, fabs(yk[r] - y[r]));
+          eref /= kscale;
+          ekp /= yscale;
+          const double tol = prec == 32 ? EK_HESSIAN_TOL_F32 : EK_HESSIAN_TOL_F64;
+          if (!(eref <= tol) || !(ekp <= tol)) {
+            printf("%s: entries vs reference %.3g, K p vs product %.3g > %g\nFAIL\n", label, eref,
+                   ekp, tol);
+            failures++;
+          }
+          worst_ref[prec == 64] = fmax(worst_ref[prec == 64], eref);
+          worst_kp[prec == 64] = fmax(worst_kp[prec == 64], ekp);
+          if (projs[proj] != EK_PROJECT_NONE) {
+            double me = min_eig_rel((int)n3, K);
+            if (!(me >= -tol)) {
+              printf("%s: smallest eigenvalue / largest %.3g < -%g\nFAIL\n", label, me, tol);
+              failures++;
+            }
+            worst_eig = fmin(worst_eig, me);
+          }
+          cases++;
+          free(v);
+          ek_fvm_hessian_destroy(h);
+        }
+    }
+  }
+  printf("%-17s assembled K (%d cases): entries vs ref f32 %.3g f64 %.3g; CSR K p vs product f32 "
+         "%.3g f64 %.3g; asymmetric entries %d; projected min eig / max %.3g: %s\n",
+         tm->name, cases, worst_ref[0], worst_ref[1], worst_kp[0], worst_kp[1], asym, worst_eig,
+         asym ? "FAIL" : "PASS");
+  failures += asym != 0;
+  free(K);
+  free(Kref);
+  free(Ks);
+  free(g);
+  free(p);
+  free(y);
+  free(yk);
+  free(ys);
+}
+
 // 5: bits at 1 and 2 threads.
 static void check_threads(ek_rng *rng) {
   test_mesh t = test_mesh_random(rng, 12, 10, 8, 0.2); // 5760 tets: above the grains
@@ -330,6 +461,34 @@ static void check_threads(ek_rng *rng) {
       same &= memcmp(o32[0], o32[1], n3 * sizeof(float)) == 0;
       cases++;
     }
+  // The assembled matrix (f64 and f32 element kernels, both slot orders).
+  int asame = 1;
+  for (int oi = 0; oi < 2; oi++)
+    for (int prec = 32; prec <= 64; prec += 32) {
+      double *v[2] = {NULL, NULL};
+      size_t nnz = 0;
+      for (int r = 0; r < 2; r++) {
+        omp_set_num_threads(r + 1);
+        ek_fvm_hessian_opts o = {.scatter = oi ? EK_SCATTER_COLORED : EK_SCATTER_AUTO,
+                                 .precision = prec};
+        ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[0], &o);
+        ek_csr_pattern pat;
+        ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], NULL, 1);
+        if (ek_fvm_hessian_pattern(h, &pat) == 0) {
+          nnz = pat.nnz;
+          v[r] = malloc(nnz * sizeof(double));
+          if (ek_fvm_hessian_assemble(h, v[r]) != 0)
+            asame = 0;
+        }
+        ek_fvm_hessian_destroy(h);
+      }
+      asame &= v[0] && v[1] && memcmp(v[0], v[1], nnz * sizeof(double)) == 0;
+      free(v[0]);
+      free(v[1]);
+    }
+  printf("1 and 2 threads: same bits for the assembled K (f32, f64 elements; both orders): %s\n",
+         asame ? "PASS" : "FAIL");
+  failures += !asame;
   omp_set_num_threads(2);
   printf("1 and 2 threads: same bits for gradient, energy, K p (f64, f32), diagonal blocks, "
          "%zu tets, %d cases: %s\n",
@@ -405,6 +564,7 @@ int main(int argc, char **argv) {
     check_model(tm, &t, &s, x, &rng);
     check_fd_sym(tm, &t, &s, x, &rng);
     check_diagonal(tm, &t, &s, x);
+    check_assembly(tm, &t, &s, x, &rng);
   }
   check_threads(&rng);
   ek_tet_state_destroy(Rs);

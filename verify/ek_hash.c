@@ -755,6 +755,17 @@ static void hash_hessian(int s, const ek_material *m, ek_projection pr, ek_scatt
   double *B = (double *)scratch(o3, gnv * 6 * 8);
   rc = ek_fvm_hessian_diagonal_f64(h, B);
   out(rc, fnv(FNV_OFFSET, B, gnv * 6 * 8), base, "diagonal");
+  // The assembled K (ek_fvm_hessian_assemble): pattern and values.
+  ek_csr_pattern pat;
+  rc = ek_fvm_hessian_pattern(h, &pat);
+  double *K = rc == 0 ? malloc(pat.nnz * sizeof(double)) : NULL;
+  if (rc == 0)
+    rc = K ? ek_fvm_hessian_assemble(h, K) : EK_ENOMEM;
+  hh = rc == 0 ? fnv(fnv(fnv(FNV_OFFSET, pat.row_ptr, (pat.nrows + 1) * 4), pat.col, pat.nnz * 4),
+                     K, pat.nnz * 8)
+               : 0;
+  out(rc, hh, base, "assembled");
+  free(K);
   ek_fvm_hessian_destroy(h);
 }
 

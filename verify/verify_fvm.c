@@ -11,6 +11,10 @@
 //   hessian rows: the gradient (vs minus the reference force) and K p with
 //     each projection (none, clamp, abs; the reference projects the 9x9
 //     Hessian with LAPACK).
+//   hessian_assembly rows: the assembled K (ek_fvm_hessian_assemble) per
+//     projection against the plain dense assembly of the reference's
+//     element Hessians: max entry error / max entry scale (the sum of the
+//     contributions' absolute values).
 #include <ek/ek.h>
 #include <ek/sim/sim.h>
 #include <math.h>
@@ -138,6 +142,47 @@ static int hessian(fvm_case *c, const ek_material *m, ek_isa isa, int f32, ek_pr
   return rc;
 }
 
+// max |K - Kref| / max Kscale of the assembled K with projection pr.
+static double assembly_error(fvm_case *c, const ek_material *m, const ek_material_ref *mr,
+                             ek_isa isa, int f32, ek_projection pr, long *bad) {
+  const size_t n3 = 3 * c->nv;
+  ek_fvm_hessian_opts o = {.isa = isa, .precision = f32 ? 32 : 64, .projection = pr};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(ek_mesh_elements(c->mesh), m, &o);
+  double *K = ek_check_malloc(n3 * n3 * sizeof(double)),
+         *Ks = ek_check_malloc(n3 * n3 * sizeof(double));
+  double err = INFINITY;
+  ek_csr_pattern pat;
+  const ek_tet_state *R = ek_model_need(m->model, 0) == EK_NEEDS_R_INPUT ? c->R_state : NULL;
+  int rc = h ? ek_fvm_hessian_gradient_f64(h, c->x, R, c->out, NULL, 1) : -1;
+  if (rc == 0)
+    rc = ek_fvm_hessian_pattern(h, &pat);
+  double *v = rc == 0 ? ek_check_malloc(pat.nnz * sizeof(double)) : NULL;
+  if (rc == 0)
+    rc = ek_fvm_hessian_assemble(h, v);
+  if (rc == 0) {
+    ek_fvm_hessian_assemble_ref(c->nv, c->X, c->nt, c->T, mr, c->R, c->x,
+                                pr == EK_PROJECT_NONE    ? 0
+                                : pr == EK_PROJECT_CLAMP ? 1
+                                                         : 2,
+                                K, Ks);
+    double e = 0, s = 0;
+    for (size_t r = 0; r < n3; r++)
+      for (int32_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1]; k++)
+        K[r * n3 + (size_t)pat.col[k]] -= v[k];
+    for (size_t i = 0; i < n3 * n3; i++) {
+      e = fmax(e, fabs(K[i]));
+      s = fmax(s, Ks[i]);
+    }
+    err = s > 0 ? e / s : e;
+  }
+  *bad += rc != 0 || !isfinite(err);
+  free(v);
+  free(K);
+  free(Ks);
+  ek_fvm_hessian_destroy(h);
+  return err;
+}
+
 int verify_fvm(ek_verify_ctx *ctx) {
   fvm_case c;
   memset(&c, 0, sizeof c);
@@ -224,6 +269,22 @@ int verify_fvm(ek_verify_ctx *ctx) {
             hr.count = c.nt;
             hr.budget = tol;
             ek_verify_emit(ctx, &hr);
+          }
+          ek_verify_row ar = {.kernel = "hessian_assembly"};
+          snprintf(ar.variant, sizeof ar.variant, "%s", fr.variant);
+          snprintf(ar.inputs, sizeof ar.inputs, "mesh %zu tets", c.nt);
+          if (ek_verify_selected(ctx, ar.kernel, ar.variant, ar.inputs)) {
+            static const char *const kmetric[3] = {"K_none", "K_clamp", "K_abs"};
+            for (int k = 0; k < 3; k++) {
+              ar.metric[k] = kmetric[k];
+              ar.value[k] =
+                  assembly_error(&c, &m, &mr, (ek_isa)isa, f32, projections[k], &ar.nonfinite);
+              ar.worst = fmax(ar.worst, ar.value[k]);
+            }
+            ar.nmetrics = 3;
+            ar.count = c.nt;
+            ar.budget = f32 ? EK_HESSIAN_TOL_F32 : EK_HESSIAN_TOL_F64;
+            ek_verify_emit(ctx, &ar);
           }
           free(xr);
         }

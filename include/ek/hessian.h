@@ -25,6 +25,7 @@
 #define EK_HESSIAN_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "core.h"
 #include "elements.h"
@@ -107,6 +108,31 @@ int ek_fvm_hessian_apply_f64(const ek_fvm_hessian *h, const double *p, double *y
 // yz, zz), from the cache (in its precision, returned in double): the
 // Jacobi and block-Jacobi preconditioners of CG.
 int ek_fvm_hessian_diagonal_f64(const ek_fvm_hessian *h, double *blocks);
+
+// ---- The assembled Hessian ----
+// K as a CSR matrix of 3 nverts rows (dof 3 v + k: vertex v, axis k): per
+// vertex pair sharing a tet, and per vertex with itself (even one in no
+// tet, whose block is 0), a dense 3x3 block; each row's columns ascending.
+// row_ptr (nrows + 1) and col (nnz) belong to the Hessian (alive until
+// destroy). The pattern is built on the first call (from the element
+// incidence; about a sort of 16 entries per tet) and kept.
+typedef struct {
+  size_t nrows, nnz;
+  const int32_t *row_ptr, *col;
+} ek_csr_pattern;
+int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *pattern);
+
+// values (nnz, the pattern's order) = K at the x of the last caching
+// gradient pass: each tet's projected 12x12 Hessian (the product's, from
+// the same cache: K p = the product of ek_fvm_hessian_apply_* to the
+// precision's rounding) computed by the vector kernel of the cache's
+// precision and symmetrised ((H + H^T) / 2, so K is symmetric to the bit),
+// then summed per nonzero in double in the mesh's slot order: the same
+// bits for any thread count. Scratch: 144 values of the cache's precision
+// per tet, kept until destroy. Error budgets against the double reference
+// as EK_HESSIAN_TOL_* (entry-wise, scaled by the sum of the absolute
+// contributions).
+int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values);
 
 // The cache's size in bytes and planes per tet (20 for the isotropic
 // models' eigensystem, 9 for corotated linear's R, 0 for linear).

@@ -114,6 +114,31 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
+// The element Hessians of every block of the cache's slot order into ebuf
+// (nslots / LANES blocks of 144 planes: hessian_kernel.h, HESS_ELEMENT):
+// each block written by one thread, nothing summed, so any thread count
+// gives the same bits. About 9 products' arithmetic per tet: the product's
+// grain / 8.
+int EK_P(fvm_hessian_elements)(const ek_fvm_hessian *h, real *ebuf) {
+  int rc = check_cached(h, "ek_fvm_hessian_assemble", ebuf, ebuf);
+  if (rc < 0)
+    return rc;
+  hess_args a = args_for(h, HESS_ELEMENT);
+  a.cache = h->cache;
+  a.corner = ebuf;
+  const long nb = (long)(scatter_blocks(h->el, h->scatter)->nslots / EK_LANES);
+  const int iso = ek_models[h->mat.model]->isotropic;
+  const int parallel = h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS / 8;
+#pragma omp parallel for schedule(static) if (parallel)
+  for (long b = 0; b < nb; b++) {
+    if (iso)
+      h->kt->EK_FIELD(hessian_frame_block)(&a, (size_t)b, (size_t)b + 1);
+    else
+      h->kt->EK_FIELD(hessian_block)[a.mat->model](&a, (size_t)b, (size_t)b + 1);
+  }
+  return EK_OK;
+}
+
 #if defined(EK_REAL_F64)
 // Precision-free entry points and the gradient, built once (in the f64
 // instance).
@@ -187,6 +212,7 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
 void ek_fvm_hessian_destroy(ek_fvm_hessian *h) {
   if (!h)
     return;
+  ek_hessian_assembly_free(h);
   ek_free(h->cache);
   ek_free(h->energy);
   free(h);

@@ -72,10 +72,39 @@ static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
   }
 }
 
+// HESS_ELEMENT: the 12x12 element Hessians of blocks [b0, b1) into
+// a->corner (144 planes per block: hessian_vec.h, elem_store). The 9 unit
+// columns' U^T dF V are rank one, a b^T (a = U^T e_k, b = V^T g_c), but
+// mat_frame_apply on the full dF keeps this the product's arithmetic.
+static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L, *cb = cache_block(a, b);
+    for (int o = 0; o < L; o += EK_W) {
+      vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o), zero = vzero();
+      for (int k = 0; k < 9; k++)
+        Dmi[k] = vload(dmi + k * L + o);
+      corner_dirs(Dmi, g);
+      mat_frame fr;
+      load_frame(cb, o, &fr);
+      for (int c = 1; c < 4; c++)
+        for (int k = 0; k < 3; k++) {
+          vreal dF[9], dP[9];
+          for (int i = 0; i < 9; i++)
+            dF[i] = i / 3 == k ? g[c][i % 3] : zero;
+          mat_frame_apply(&fr, dF, dP);
+          elem_column(dP, g, v0, 3 * c + k, H);
+        }
+      elem_store(H, b * L + (size_t)o, a->corner);
+    }
+  }
+}
+
 void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
   if (a->op == HESS_APPLY)
     frame_apply_blocks(a, b0, b1);
+  else if (a->op == HESS_ELEMENT)
+    frame_element_blocks(a, b0, b1);
   else
     frame_diag_blocks(a, b0, b1);
 }

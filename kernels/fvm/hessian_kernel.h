@@ -12,7 +12,12 @@
 //   HESS_DIAG: per corner c the 3x3 block V0 G_c^T H G_c of the element
 //     Hessian H (G_c: dF of a unit move of corner c), 6 values per corner
 //     (xx, xy, xz, yy, yz, zz);
-// then out (add, lane order) or corner (write) as in scatter.h.
+// then out (add, lane order) or corner (write) as in scatter.h;
+//   HESS_ELEMENT: the projected 12x12 element Hessian from the cache (rows
+//     and columns corner-major, 3 c + k), symmetrised, written to corner
+//     (per slot, 3x3 block by block: corner[slot * 144 + (d * 4 + c) * 9 +
+//     i * 3 + k], rows (d, i), columns (c, k));
+//     out is not used.
 //
 // Cache: `planes` planes per tet, plane k of block b at
 // cache[(b * planes + k) * LANES + l] in the cache's precision (LANES 16
@@ -31,7 +36,7 @@
 
 #include "../kernels.h"
 
-enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG };
+enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
 #define HESS_FRAME_PLANES 20
 
 #define EK_HESS_ARGS(T, NAME)                                                                      \
@@ -74,10 +79,23 @@ struct ek_fvm_hessian {
   size_t cache_bytes;
   double *energy; // nslots
   int cached;     // a caching gradient pass ran
+  // Assembly (hessian_assemble.c), built on first use: K's pattern over
+  // vertex blocks (bptr nverts + 1, bcol: block rows, columns ascending),
+  // the scalar CSR (row_ptr, col) and per block the contributions, cptr
+  // (nblocks + 1) into contrib: slot * 16 + d * 4 + c (row corner d,
+  // column corner c), ascending; ebuf: the element Hessians.
+  int32_t *bptr, *bcol, *row_ptr, *col, *cptr, *contrib;
+  size_t nblocks;
+  void *ebuf;
 };
+
+void ek_hessian_assembly_free(ek_fvm_hessian *h);
 
 // The diagonal blocks in the cache's precision (hessian.c, per precision).
 int ek_fvm_hessian_diag_f32(const ek_fvm_hessian *h, float *blocks);
 int ek_fvm_hessian_diag_f64(const ek_fvm_hessian *h, double *blocks);
+// The element Hessians in the cache's precision (hessian.c, per precision).
+int ek_fvm_hessian_elements_f32(const ek_fvm_hessian *h, float *ebuf);
+int ek_fvm_hessian_elements_f64(const ek_fvm_hessian *h, double *ebuf);
 
 #endif

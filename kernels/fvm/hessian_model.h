@@ -85,6 +85,33 @@ EK_INLINE void diag_blocks(const hess_args *a, size_t b0, size_t b1) {
   }
 }
 
+// ---- Element Hessians (HESS_ELEMENT: hessian_vec.h, elem_store) ----
+EK_INLINE void element_blocks(const hess_args *a, size_t b0, size_t b1) {
+  const ek_material_lanes mp =
+      material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
+  for (size_t b = b0; b < b1; b++) {
+    const real *dmi = a->dm_inv + b * 9 * L,
+               *cb = MODEL_CACHE_PLANES == 0 ? NULL : cache_block(a, b);
+    for (int o = 0; o < L; o += EK_W) {
+      vreal Dmi[9], g[4][3], H[144], R[9], v0 = vload(a->v0 + b * L + o), zero = vzero();
+      for (int k = 0; k < 9; k++)
+        Dmi[k] = vload(dmi + k * L + o);
+      corner_dirs(Dmi, g);
+      for (int k = 0; k < 9; k++)
+        R[k] = MODEL_READS_R ? vload(cb + k * L + o) : zero;
+      for (int c = 1; c < 4; c++)
+        for (int k = 0; k < 3; k++) {
+          vreal dF[9], dP[9];
+          for (int i = 0; i < 9; i++)
+            dF[i] = i / 3 == k ? g[c][i % 3] : zero;
+          material_diff_direct(&mp, dF, R, dF, dP);
+          elem_column(dP, g, v0, 3 * c + k, H);
+        }
+      elem_store(H, b * L + (size_t)o, a->corner);
+    }
+  }
+}
+
 #endif
 
 #if defined(EK_REAL_F64)
@@ -256,11 +283,14 @@ EK_INLINE void hess_model_blocks(const hess_args *a, size_t b0, size_t b1) {
     break;
   case HESS_APPLY:
   case HESS_DIAG:
+  case HESS_ELEMENT:
 #if MODEL_ISOTROPIC
     // Not reached: the driver (hessian.c) runs the shared frame kernel.
 #else
     if (a->op == HESS_APPLY)
       apply_blocks(a, b0, b1);
+    else if (a->op == HESS_ELEMENT)
+      element_blocks(a, b0, b1);
     else
       diag_blocks(a, b0, b1);
 #endif

@@ -65,4 +65,49 @@ static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
     vstore(dst + (c * 6 + k) * L + o, B[e[k]]);
 }
 
+// ---- Element Hessians (HESS_ELEMENT) ----
+// The 12x12 projected Hessian of a tet, H[(d, i), (c, k)] = V0 g_d^T
+// dP(e_k g_c^T) e_i (corner d, c; axes i, k; g_c as corner_dirs), from
+// the dP of the 9 unit columns dF = e_k g_c^T of corners 1..3: corner 0's
+// columns are minus the sum of the others' (a translation moves no F),
+// and the matrix is symmetrised, (H + H^T) / 2, so the assembled matrix is
+// symmetric to the bit (a Cholesky or CG reads one triangle's values).
+// Column `col` (3 c + k, c >= 1) from its dP: rows (d, i).
+EK_INLINE void elem_column(const vreal dP[9], const vreal g[4][3], vreal v0, int col,
+                           vreal H[144]) {
+  for (int i = 0; i < 3; i++) {
+    vreal s = vzero();
+    for (int d = 1; d < 4; d++) {
+      vreal t =
+          vmla(dP[3 * i], g[d][0], vmla(dP[3 * i + 1], g[d][1], vmul(dP[3 * i + 2], g[d][2])));
+      H[(3 * d + i) * 12 + col] = vmul(v0, t);
+      s = vadd(s, H[(3 * d + i) * 12 + col]);
+    }
+    H[i * 12 + col] = vneg(s);
+  }
+}
+
+// Corner 0's columns, the symmetrisation, and the lanes' matrices written
+// per slot, 3x3 block by 3x3 block (what the assembly's gather reads: one
+// slot's 144 values contiguous, not 144 planes LANES apart):
+// dst[slot * 144 + (d * 4 + c) * 9 + i * 3 + k] for the EK_W slots from
+// slot0.
+EK_INLINE void elem_store(vreal H[144], size_t slot0, real *dst) {
+  const vreal half = vset((real)0.5);
+  for (int r = 0; r < 12; r++)
+    for (int k = 0; k < 3; k++)
+      H[r * 12 + k] = vneg(vadd(vadd(H[r * 12 + 3 + k], H[r * 12 + 6 + k]), H[r * 12 + 9 + k]));
+  _Alignas(64) real t[144 * EK_W];
+  for (int r = 0; r < 12; r++)
+    for (int s = r; s < 12; s++) {
+      vreal v = s == r ? H[r * 12 + r] : vmul(half, vadd(H[r * 12 + s], H[s * 12 + r]));
+      const int d = r / 3, i = r % 3, c = s / 3, k = s % 3;
+      vstore(t + ((d * 4 + c) * 9 + i * 3 + k) * EK_W, v);
+      vstore(t + ((c * 4 + d) * 9 + k * 3 + i) * EK_W, v);
+    }
+  for (int l = 0; l < EK_W; l++)
+    for (int p = 0; p < 144; p++)
+      dst[(slot0 + (size_t)l) * 144 + (size_t)p] = t[p * EK_W + l];
+}
+
 #endif

@@ -41,6 +41,14 @@ void ek_fvm_hessian_apply_ref(size_t nverts, const double *X, size_t ntets, cons
                               const ek_material_ref *m, const double *R, const double *x,
                               const double *p, int project, double *y, double *yscale);
 
+// The assembled Hessian K (dense, 3 nverts rows of 3 nverts, row-major),
+// each tet's 12x12 Hessian from the same H : dF, added plainly
+// (reference/fvm/hessian_ref.c); Kscale (may be NULL): per entry the sum
+// of the contributions' absolute values.
+void ek_fvm_hessian_assemble_ref(size_t nverts, const double *X, size_t ntets, const int32_t *tets,
+                                 const ek_material_ref *m, const double *R, const double *x,
+                                 int project, double *K, double *Kscale);
+
 #ifdef __cplusplus
 }
 #endif

@@ -49,7 +49,8 @@
 //   integrator    {"type": "explicit"} (default) or {"type": "implicit",
 //                 "newton_tol", "max_newton", "cg_tol", "max_cg",
 //                 "preconditioner": "jacobi" | "block_jacobi",
-//                 "projection": "clamp" | "abs"}
+//                 "projection": "clamp" | "abs",
+//                 "linear_solver": "matrix_free" | "amg" | "direct"}
 //                 (ek_scene_implicit: meanings and defaults) or
 //                 {"type": "xpbd", "iterations", "substeps", "solver":
 //                 "gauss_seidel" | "jacobi", "elements": "tets" |
@@ -104,6 +105,19 @@ typedef enum {
   EK_PRECOND_JACOBI,           // "jacobi": the inverse diagonal
 } ek_preconditioner;
 
+// The implicit loop's linear solver for each Newton system.
+typedef enum {
+  EK_LINSOLVE_MATRIX_FREE = 0, // "matrix_free": PCG on the Hessian products (no matrix)
+  EK_LINSOLVE_AMG,             // "amg": PETSc KSP CG + PCGAMG on the assembled matrix
+  EK_LINSOLVE_DIRECT,          // "direct": PETSc sparse Cholesky of the assembled matrix
+  EK_LINSOLVE_COUNT
+} ek_linear_solver;
+
+// "matrix_free", "amg", "direct"; "invalid" for others.
+const char *ek_linear_solver_name(ek_linear_solver s);
+// 1 if this build runs the solver (amg and direct: built with PETSc).
+int ek_linear_solver_available(ek_linear_solver s);
+
 // The implicit integrator's knobs, the scene's "integrator": {"type":
 // "implicit", ...} (defaults in brackets). Each step minimises
 //   Phi(x) = 1/(2 dt^2) |x - x~|_M^2 + E(x) - x.M g + c/(2 dt) |x - x_n|_M^2,
@@ -126,6 +140,21 @@ typedef enum {
 // projection ["clamp"]: how element Hessians are made PSD (hessian.h,
 //   ek_projection): "clamp" (negative eigenvalues to 0) or "abs" (to their
 //   absolute value, Chen et al. 2024).
+// linear_solver ["matrix_free"]: how each Newton system is solved:
+//   "matrix_free": the PCG above on the Hessian products (always built;
+//     what runs without PETSc);
+//   "amg": PETSc's CG (KSPCG) preconditioned by smoothed-aggregation
+//     algebraic multigrid (PCGAMG) on the assembled matrix M (1 + c dt) /
+//     dt^2 + K (hessian.h, ek_fvm_hessian_assemble; held dofs as identity
+//     rows and columns), with the six rigid-body modes of the current
+//     positions as the near-null space (MatNullSpaceCreateRigidBody);
+//     stops at |r|_2 <= cg_tol |b|_2 (unpreconditioned), max_cg;
+//   "direct": PETSc's sparse Cholesky (CHOLMOD, else MUMPS) of the same
+//     matrix, for small bodies: one factorisation per Newton iteration.
+//   Tets only; "amg" and "direct" need a build with PETSc (CMake found
+//   pkg-config's PETSc; the scene is refused otherwise). The default stays
+//   "matrix_free": the shipped scenes keep their bits (see sim/README.md
+//   for the measured iterations and times of each).
 // Line search: on Phi (Armijo) for every model without a clamp. A clamped
 // model's stress (Irving et al. 2004: P = U diag(g(sigma_hat)) V^T) is not
 // the gradient of an energy where sigma is clamped, so there Phi and its
@@ -139,6 +168,7 @@ typedef struct {
   long max_cg;
   ek_preconditioner preconditioner;
   ek_projection projection;
+  ek_linear_solver linear_solver;
 } ek_scene_implicit;
 
 // The XPBD integrator's knobs, the scene's "integrator": {"type": "xpbd",

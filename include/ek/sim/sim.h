@@ -86,6 +86,10 @@ typedef struct {
   long unconverged_steps; // stopped above newton_tol (max_newton or a stalled line search)
   double worst_residual;  // the largest final Newton residual of a step
   double last_residual;   // the last step's final residual
+  // Assembled linear solvers ("amg", "direct": ek_scene_implicit): the
+  // assembly of K and the system matrix, the solver's setup (AMG
+  // hierarchy or Cholesky factorisation) and its solve.
+  double assembly, solver_setup, solver_solve;
   // XPBD integrator (0 otherwise): `xpbd_solve` the solver sweeps; per sweep, measured once per
   // phase-timed step at the step's end (ek_xpbd_profile_*), summed over
   // xpbd_profiles: the deformation gradients (tet F or cluster F), the
