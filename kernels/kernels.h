@@ -140,6 +140,10 @@ typedef struct {
   ek_svd3_block_f64_fn *svd3_block_f64;
   ek_polar_warm_block_f32_fn *polar_warm_block_f32;
   ek_polar_warm_block_f64_fn *polar_warm_block_f64;
+  // The same on n AoS matrices (count = matrices, A and R 9 reals each),
+  // transposed in registers (polar_warm_block.c); the same bits per matrix.
+  ek_polar_warm_block_f32_fn *polar_warm_aos_f32;
+  ek_polar_warm_block_f64_fn *polar_warm_aos_f64;
   ek_fma_probe_fn *fma_probe_f32;
   ek_fma_probe_fn *fma_probe_f64;
   ek_material_block_f32_fn *material_block_f32[EK_MODEL_COUNT];
