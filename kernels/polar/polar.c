@@ -37,8 +37,7 @@ int EK_P(polar_warm_iterations_from)(const char *fn, int iterations, int *out) {
   return EK_OK;
 }
 
-// The table's AoSoA block kernel, or its AoS kernel (aos = 1); returns 1
-// with the block kernel when aos is asked and the row has none (scalar).
+// The table's AoSoA block kernel, or its AoS kernel (aos = 1).
 static int resolve(const char *fn, const ek_polar_warm_opts *o, int aos, int *iters,
                    polar_warm_block_fn **block) {
   static const ek_polar_warm_opts zero_opts;
@@ -50,9 +49,7 @@ static int resolve(const char *fn, const ek_polar_warm_opts *o, int aos, int *it
   const ek_kernel_table *t = ek_kernels_resolve(o->isa);
   if (!t)
     return EK_EISA;
-  *block = aos && AOS_FN(t) ? AOS_FN(t) : BLOCK_FN(t);
-  if (aos && !AOS_FN(t))
-    return 1;
+  *block = aos ? AOS_FN(t) : BLOCK_FN(t);
   return EK_OK;
 }
 
@@ -80,24 +77,6 @@ int EK_P(polar3_warm_aosoa)(size_t nblocks, const real *A, real *R,
   return EK_OK;
 }
 
-// AoS through staging (the scalar row, which has no AoS kernel): each
-// thread packs a chunk of A and R into its own staging blocks, runs the
-// block kernel there and unpacks R.
-typedef struct {
-  const real *A;
-  real *R;
-  polar_warm_block_fn *block;
-  int iters;
-} warm_aos;
-
-static void warm_aos_chunk(void *ctx, size_t i0, size_t m, real *const *bufs) {
-  const warm_aos *c = ctx;
-  EK_P(aosoa_pack)(m, 9, c->A + 9 * i0, bufs[0]);
-  EK_P(aosoa_pack)(m, 9, c->R + 9 * i0, bufs[1]);
-  c->block(EK_P(aosoa_blocks)(m), bufs[0], bufs[1], c->iters);
-  EK_P(aosoa_unpack)(m, 9, bufs[1], c->R + 9 * i0);
-}
-
 // AoS: the kernel reads and writes the AoS arrays itself, transposing in
 // registers (polar_warm_block.c, polar_warm_aos), as the SVD's AoS path
 // does: packing A and R into staging blocks and unpacking R cost more than
@@ -109,9 +88,8 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
   int iters;
   polar_warm_block_fn *aos;
   int rc = resolve(fn, opts, 1, &iters, &aos);
-  if (rc < 0)
+  if (rc)
     return rc;
-  int staged = rc == 1;
   if (n && (!A || !R)) {
     ek_set_error("%s: A and R must not be NULL (n = %zu)", fn, n);
     return EK_EINVAL;
@@ -119,10 +97,6 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
   if ((rc = ek_batch_check(fn, n, 9 * sizeof(real), _Alignof(real), 2, (const void *[]){A, R},
                            (const char *const[]){"A", "R"})))
     return rc;
-  if (staged) {
-    warm_aos c = {A, R, aos, iters};
-    return EK_P(staged_chunks)(fn, n, CHUNK_BLOCKS, 2, (const int[]){9, 9}, warm_aos_chunk, &c);
-  }
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (nchunks > 1)

@@ -98,8 +98,29 @@ EK_INLINE void polar_warm_aos(size_t n, const real *A, real *R, int iters) {
       R[9 * (m + l) + i] = r[9 * l + i];
 }
 
-#if !defined(EK_TARGET_SCALAR)
 void EK_SYM(polar_warm_aos)(size_t n, const real *A, real *R, int iters);
+#if defined(EK_TARGET_SCALAR)
+// The scalar target stages instead, one block at a time through its own
+// block kernel: its in-register AoS copy gave the same numbers but other
+// NaN payloads on ek-hash's extreme inputs (the compiler orders the
+// operands of the two inlined copies differently), and the default results
+// keep their bits. One vector is one matrix here, so staging is a copy.
+void EK_SYM(polar_warm_aos)(size_t n, const real *A, real *R, int iters) {
+  real a[9 * EK_LANES], r[9 * EK_LANES];
+  for (size_t m0 = 0; m0 < n; m0 += EK_LANES) {
+    size_t m = n - m0 < EK_LANES ? n - m0 : EK_LANES;
+    for (size_t l = 0; l < EK_LANES; l++)
+      for (int i = 0; i < 9; i++) {
+        a[(size_t)i * EK_LANES + l] = l < m ? A[9 * (m0 + l) + i] : (real)(i % 4 == 0);
+        r[(size_t)i * EK_LANES + l] = l < m ? R[9 * (m0 + l) + i] : (real)(i % 4 == 0);
+      }
+    EK_SYM(polar_warm_block)(1, a, r, iters);
+    for (size_t l = 0; l < m; l++)
+      for (int i = 0; i < 9; i++)
+        R[9 * (m0 + l) + i] = r[(size_t)i * EK_LANES + l];
+  }
+}
+#else
 void EK_SYM(polar_warm_aos)(size_t n, const real *A, real *R, int iters) {
   ek_fpmode mode = ek_fpmode_enter();
   switch (iters) {
@@ -124,12 +145,5 @@ void EK_SYM(polar_warm_aos)(size_t n, const real *A, real *R, int iters) {
 void EK_SYM(polar_warm_block_fill)(ek_kernel_table *t);
 void EK_SYM(polar_warm_block_fill)(ek_kernel_table *t) {
   t->EK_FIELD(polar_warm_block) = EK_SYM(polar_warm_block);
-  // The scalar target keeps the staged AoS path (polar.c): its AoS results
-  // are the same numbers, but ek-hash saw other bits there (NaN payloads
-  // of its extreme inputs, where the compiler orders the operands of the
-  // two inlined copies differently), and the default results keep their
-  // bits.
-#if !defined(EK_TARGET_SCALAR)
   t->EK_FIELD(polar_warm_aos) = EK_SYM(polar_warm_aos);
-#endif
 }
