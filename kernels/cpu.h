@@ -13,4 +13,9 @@
 // the answer per ISA.
 int ek_cpu_runs_isa(ek_isa isa);
 
+// The SVD block kernel's vectors in flight on this CPU for target isa
+// (2 or 4; kernels/svd3/svd3_block.c): a tuning, never a correctness
+// matter (every count gives the same bits).
+int ek_cpu_svd3_chains(ek_isa isa);
+
 #endif

@@ -33,3 +33,29 @@ int ek_cpu_runs_isa(ek_isa isa) {
     return 0;
   }
 }
+
+// CPUID leaf 1: the display family (base family, plus the extended family
+// when the base is 0xf: AMD's and Intel's documented rule) and the vendor.
+static int amd_family(void) {
+  unsigned a, b, c, d;
+  if (!__get_cpuid(0, &a, &b, &c, &d) || b != signature_AMD_ebx || d != signature_AMD_edx ||
+      c != signature_AMD_ecx || !__get_cpuid(1, &a, &b, &c, &d))
+    return 0;
+  unsigned base = (a >> 8) & 0xf, ext = (a >> 20) & 0xff;
+  return (int)(base == 0xf ? base + ext : base);
+}
+
+// Four vectors in flight where AVX-512 runs at full width with two 512-bit
+// FMA pipes, measured: AMD family 0x1a (Zen 5; a server EPYC here, FMA probe
+// 278 GFLOP/s f32 AVX-512 against 139 AVX2 at one thread), where the SVD's
+// dependency chains (Jacobi pair -> rsqrt -> rotation, ~40 dependent
+// operations a pair) leave the pipes idle with two chains: 4 chains took
+// 9.0-9.1 ns against 10.2-10.4 ns per matrix (docs/perf.md). Zen 4 (family
+// 0x19, 512-bit ops as two 256-bit halves) keeps the 2 it was tuned with;
+// so do Intel cores until a measurement there says otherwise
+// (EK_SVD3_CHAINS=4 tries it, dispatch.c).
+int ek_cpu_svd3_chains(ek_isa isa) {
+  if (isa == EK_ISA_AVX512 && amd_family() >= 0x1a)
+    return 4;
+  return 2;
+}

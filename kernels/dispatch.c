@@ -43,6 +43,20 @@ static const struct {
 static ek_kernel_table rows[EK_ISA_COUNT];
 static pthread_once_t rows_once = PTHREAD_ONCE_INIT;
 
+// Per-microarchitecture tuning of a row (kernels.h: svd3_chains): the CPU's
+// choice (cpu_x86.c), or EK_SVD3_CHAINS=2|4 to compare both on one machine
+// (any other value is reported on stderr and ignored: a tuning, the same
+// bits either way). Read once, with the rows.
+static int svd3_chains_for(ek_isa isa) {
+  const char *env = getenv("EK_SVD3_CHAINS");
+  if (env && *env) {
+    if (strcmp(env, "2") == 0 || strcmp(env, "4") == 0)
+      return env[0] - '0';
+    fprintf(stderr, "ek: EK_SVD3_CHAINS='%s' ignored: must be 2 or 4\n", env);
+  }
+  return ek_cpu_svd3_chains(isa);
+}
+
 static void make_rows(void) {
   for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++) {
     if (!targets[i].fills)
@@ -56,6 +70,7 @@ static void make_rows(void) {
     t->isa = (ek_isa)i;
     t->lanes_f32 = targets[i].lanes_f32;
     t->lanes_f64 = targets[i].lanes_f64;
+    t->svd3_chains = svd3_chains_for((ek_isa)i);
   }
 }
 

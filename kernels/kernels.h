@@ -17,6 +17,9 @@ typedef struct {
                    // Ssym = V S V^T into V (S untouched)
   int aos;         // 0: AoSoA blocks; 1: AoS matrices (svd3_block's count
                    // is then the number of matrices, U and V may be NULL)
+  int chains;      // vectors in flight in svd3_block: 4, or 2 otherwise (0,
+                   // what the defaults leave); the drivers pass their row's
+                   // svd3_chains. The same bits either way (svd3_block.c).
 } ek_svd3_knobs;
 
 // Defaults of the SVD knobs per precision (what opts zeroed means).
@@ -130,10 +133,17 @@ typedef void ek_cloth_block_f64_fn(size_t nblocks, const double *a, const double
 typedef struct {
   ek_isa isa;
   int lanes_f32, lanes_f64; // EK_W of the target
+  // Per-microarchitecture tuning, set when the row is made (dispatch.c):
+  // independent vectors svd3_block keeps in flight (ek_svd3_knobs.chains).
+  int svd3_chains;
   ek_svd3_block_f32_fn *svd3_block_f32;
   ek_svd3_block_f64_fn *svd3_block_f64;
   ek_polar_warm_block_f32_fn *polar_warm_block_f32;
   ek_polar_warm_block_f64_fn *polar_warm_block_f64;
+  // The same on n AoS matrices (count = matrices, A and R 9 reals each),
+  // transposed in registers (polar_warm_block.c); the same bits per matrix.
+  ek_polar_warm_block_f32_fn *polar_warm_aos_f32;
+  ek_polar_warm_block_f64_fn *polar_warm_aos_f64;
   ek_fma_probe_fn *fma_probe_f32;
   ek_fma_probe_fn *fma_probe_f64;
   ek_material_block_f32_fn *material_block_f32[EK_MODEL_COUNT];

@@ -14,7 +14,9 @@
 // (NULL) leave S's bits as they are, and so does a NULL Ssym for R;
 // ek_polar3_* gives a rotation R and a symmetric Ssym with R Ssym = A; an
 // invalid option returns rc < 0 and writes nothing; 1 and 2 threads give the
-// same bits. Non-default options (approximate rsqrt, other sweeps) are the
+// same bits; the block kernel gives the same bits with 2 and 4 vectors in
+// flight (ek_svd3_knobs.chains, the per-CPU tuning), AoS and AoSoA, SVD and
+// polar, approximate and exact rsqrt. Non-default options (approximate rsqrt, other sweeps) are the
 // speed/accuracy trade: their errors are printed, not judged, but they must
 // still give finite outputs for finite inputs.
 //
@@ -512,6 +514,59 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
   free(U1), free(S1), free(V1), free(U2), free(S2), free(V2);
 }
 
+// The chains knob (kernels.h, svd3_block.c) schedules independent vectors
+// side by side; every lane's operations stay the same, so 2 and 4 chains
+// must agree bit for bit. n is no multiple of 4 vectors, so the odd
+// vectors after the 4-wide loop are covered; the AoSoA pass reads the same
+// numbers as blocks (other matrices, as valid as any).
+static void chains(int bits, ek_isa isa, const ek_svd3_set *s) {
+  const ek_kernel_table *t = ek_kernels_for(isa);
+  size_t lanes = block_lanes(bits), n = s->n < 3 * 4 * lanes + 37 ? s->n : 3 * 4 * lanes + 37;
+  size_t nb = n / lanes, es = bits == 32 ? sizeof(float) : sizeof(double);
+  char *A = ek_check_malloc(9 * n * es), *out[2][3];
+  for (size_t i = 0; i < 9 * n; i++)
+    if (bits == 32)
+      ((float *)A)[i] = (float)s->A[i];
+    else
+      ((double *)A)[i] = s->A[i];
+  int ok = 1;
+  for (int c = 0; c < 2; c++)
+    for (int k = 0; k < 3; k++)
+      out[c][k] = ek_check_malloc((k == 1 ? 3 : 9) * n * es);
+  for (int variant = 0; variant < 8; variant++) {
+    int aos = variant & 1, polar = (variant >> 1) & 1, exact = (variant >> 2) & 1;
+    ek_svd3_knobs k = bits == 32 ? ek_svd3_default_knobs_f32() : ek_svd3_default_knobs_f64();
+    k.aos = aos, k.polar = polar, k.exact_rsqrt = exact;
+    size_t count = aos ? n : nb;
+    for (int c = 0; c < 2; c++) {
+      k.chains = c ? 4 : 2;
+      for (int j = 0; j < 3; j++)
+        memset(out[c][j], 0, (j == 1 ? 3 : 9) * n * es);
+      if (bits == 32)
+        t->svd3_block_f32(count, (const float *)A, (float *)out[c][0], (float *)out[c][1],
+                          (float *)out[c][2], &k);
+      else
+        t->svd3_block_f64(count, (const double *)A, (double *)out[c][0], (double *)out[c][1],
+                          (double *)out[c][2], &k);
+    }
+    for (int j = 0; j < 3; j++)
+      if (memcmp(out[0][j], out[1][j], (j == 1 ? 3 : 9) * n * es) != 0) {
+        printf("chains %s f%d: %s %s rsqrt %s: output %d differs between 2 and 4 chains\n",
+               ek_isa_name(isa), bits, aos ? "AoS" : "AoSoA", polar ? "polar" : "SVD",
+               exact ? "exact" : "approx", j);
+        ok = 0;
+      }
+  }
+  printf("chains %s f%d: 2 and 4 vectors in flight bit-identical (n=%zu; AoS, AoSoA, SVD, "
+         "polar, both rsqrt; this CPU's row takes %d): %s\n",
+         ek_isa_name(isa), bits, n, t->svd3_chains, ok ? "PASS" : "FAIL");
+  failures += !ok;
+  for (int c = 0; c < 2; c++)
+    for (int k = 0; k < 3; k++)
+      free(out[c][k]);
+  free(A);
+}
+
 int main(int argc, char **argv) {
   uint64_t seed = ek_cli_test_args(argc, argv, 1, NULL);
   printf("test_svd3: seed %llu; default sweeps f32 %d, f64 %d\n", (unsigned long long)seed,
@@ -584,6 +639,7 @@ int main(int argc, char **argv) {
       tails(bits, (ek_isa)isa, &sets[0]);
       nan_isolation(bits, (ek_isa)isa, &sets[0]);
       threads(bits, (ek_isa)isa, &sets[0]);
+      chains(bits, (ek_isa)isa, &sets[0]);
     }
     for (int k = 0; k < nsets; k++)
       ek_svd3_set_free(&sets[k]), free(S_scalar[k]);

@@ -85,12 +85,27 @@ static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_kno
   if (!t)
     return EK_EISA;
   *block = BLOCK_FN(t);
+  k->chains = t->svd3_chains;
   return EK_OK;
 }
 
+// The row's chains (svd3_block.c) on a batch whose arrays fit the caches,
+// 2 beyond: measured on Zen 5, 4 chains took 9.0-9.3 ns per matrix against
+// 10.2 on a 4096-matrix batch (0.5 MB) but 31-39 ns against 22-27 on 2^20
+// matrices (120 MB, AoSoA and AoS alike; docs/perf.md). The bound lies
+// between the two measured sizes; 4 MiB (a few L2s, well inside L3) is a
+// choice, not a measurement. Same bits either way.
+#define WIDE_MAX_BYTES ((size_t)4 << 20)
+static int chains_for(const ek_svd3_knobs *k, size_t matrices) {
+  return matrices * 30 * sizeof(real) <= WIDE_MAX_BYTES ? k->chains : 2;
+}
+
 static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real *U, real *S,
-                       real *V, const ek_svd3_knobs *k) {
+                       real *V, const ek_svd3_knobs *kin) {
   size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+  ek_svd3_knobs kb = *kin;
+  kb.chains = chains_for(kin, nblocks * EK_LANES);
+  const ek_svd3_knobs *k = &kb;
 #pragma omp parallel for schedule(static) if (nchunks > 1)
   for (size_t c = 0; c < nchunks; c++) {
     size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
@@ -109,6 +124,7 @@ static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real 
   size_t nchunks = (n + chunk - 1) / chunk;
   ek_svd3_knobs ka = *k;
   ka.aos = 1;
+  ka.chains = chains_for(k, n);
 #pragma omp parallel for schedule(static) if (nchunks > 1)
   for (size_t c = 0; c < nchunks; c++) {
     size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;

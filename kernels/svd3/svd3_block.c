@@ -1,15 +1,27 @@
 // SVD / polar decomposition of whole AoSoA blocks (layout in
 // include/ek/batch.h), or of AoS matrices (k->aos). The blocks are a
-// sequence of vectors of EK_W lanes (EK_VPB per block); SVD3_IL vectors go
+// sequence of vectors of EK_W lanes (EK_VPB per block); `il` vectors go
 // through the SVD side by side. A lane's result depends on its matrix only,
-// so both layouts give the same bits.
+// so both layouts, and every il, give the same bits.
 #include "simd/simd.h"
 #include "svd3/svd3_core.h"
 
-// Independent vectors in flight (see svd3_core_n).
-#ifndef SVD3_IL
+// Independent vectors in flight (see svd3_core_n): 2, or 4 where the row's
+// svd3_chains says so (k->chains; the CPU's choice, kernels/cpu_x86.c).
+// Each SVD is a chain of dependent operations (a Jacobi pair's angle, its
+// rsqrt, the rotation that the next pair reads), so the core overlaps
+// independent vectors only. Two fill a core whose 512-bit FMAs run as two
+// 256-bit halves (Zen 4, where this was tuned); a core with two full-width
+// FMA pipes (Zen 5) has twice the throughput to fill and takes 4, even at
+// the cost of spills (4 states do not fit 32 zmm registers; the stack
+// traffic goes to the load/store pipes, not the FMA pipes). Measured on
+// Zen 5 (EPYC, AVX-512 float, default knobs, 1 thread): 1 vector 15.5 ns,
+// 2: 10.3, 3: 10.0, 4: 9.0-9.3 ns per matrix; but on a batch far bigger
+// than the caches 4 took 31-39 ns against 22-27 (the drivers keep 2 there,
+// svd3.c), and on an Intel Xeon (Emerald Rapids, full width) 4 gained
+// nothing cache-resident (docs/perf.md).
 #define SVD3_IL 2
-#endif
+#define SVD3_IL_WIDE 4
 
 // Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
 static inline size_t vec_offset(size_t j, int planes) {
@@ -79,11 +91,11 @@ EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, r
   }
 }
 
-EK_INLINE void svd3_blocks(size_t nblocks, const real *A, real *U, real *S, real *V, int sweeps,
-                           int refine, int exact, int polar) {
+EK_INLINE void svd3_blocks(int il, size_t nblocks, const real *A, real *U, real *S, real *V,
+                           int sweeps, int refine, int exact, int polar) {
   size_t nvec = nblocks * EK_VPB, j = 0;
-  for (; j + SVD3_IL <= nvec; j += SVD3_IL)
-    svd3_vectors(SVD3_IL, j, A, U, S, V, sweeps, refine, exact, polar);
+  for (; j + (size_t)il <= nvec; j += (size_t)il)
+    svd3_vectors(il, j, A, U, S, V, sweeps, refine, exact, polar);
   for (; j < nvec; j++)
     svd3_vectors(1, j, A, U, S, V, sweeps, refine, exact, polar);
 }
@@ -110,11 +122,11 @@ EK_INLINE void svd3_aos_vectors(int n, size_t m0, const real *A, real *U, real *
 
 // AoS: n matrices; a last partial vector goes through a local copy padded
 // with the identity (so no lane reads or writes past the arrays).
-EK_INLINE void svd3_aos(size_t n, const real *A, real *U, real *S, real *V, int sweeps, int refine,
-                        int exact, int polar) {
-  size_t m = 0;
-  for (; m + SVD3_IL * EK_W <= n; m += SVD3_IL * EK_W)
-    svd3_aos_vectors(SVD3_IL, m, A, U, S, V, sweeps, refine, exact, polar);
+EK_INLINE void svd3_aos(int il, size_t n, const real *A, real *U, real *S, real *V, int sweeps,
+                        int refine, int exact, int polar) {
+  size_t m = 0, step = (size_t)il * EK_W;
+  for (; m + step <= n; m += step)
+    svd3_aos_vectors(il, m, A, U, S, V, sweeps, refine, exact, polar);
   for (; m + EK_W <= n; m += EK_W)
     svd3_aos_vectors(1, m, A, U, S, V, sweeps, refine, exact, polar);
   if (m == n)
@@ -138,27 +150,35 @@ EK_INLINE void svd3_aos(size_t n, const real *A, real *U, real *S, real *V, int 
   }
 }
 
-EK_INLINE void svd3_any(size_t count, const real *A, real *U, real *S, real *V, int sweeps,
+EK_INLINE void svd3_any(int il, size_t count, const real *A, real *U, real *S, real *V, int sweeps,
                         int refine, int exact, int polar, int aos) {
   if (aos)
-    svd3_aos(count, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_aos(il, count, A, U, S, V, sweeps, refine, exact, polar);
   else
-    svd3_blocks(count, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_blocks(il, count, A, U, S, V, sweeps, refine, exact, polar);
 }
 
 void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
                         const ek_svd3_knobs *k) {
   ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
-  if (k->polar) {
-    if (k->exact_rsqrt)
-      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos);
+  // The wide copy exists for the approximate rsqrt only (the default of
+  // both precisions): each copy inlines whole SVDs, and the exact one is an
+  // accuracy knob whose time matters less.
+  if (k->chains == SVD3_IL_WIDE && !k->exact_rsqrt) {
+    if (k->polar)
+      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
     else
-      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
+      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
+  } else if (k->polar) {
+    if (k->exact_rsqrt)
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos);
+    else
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
   } else {
     if (k->exact_rsqrt)
-      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 1, 0, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 0, k->aos);
     else
-      svd3_any(count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
   }
   ek_fpmode_leave(mode);
 }
