@@ -22,6 +22,7 @@
 #include "cli.h"
 #include "test_fvm_common.h"
 #include "test_tolerances.h"
+#include "test_xpbd_scene.h"
 #include "xpbd/xpbd_ref.h"
 
 // Material and substep of every scene: a stiff rubber, E = 10 MPa,
@@ -82,60 +83,6 @@ static const ek_material lib_mat = {EK_MODEL_STVK, MU, LAMBDA, 0};
 
 static double cmin_of(int prec) { return prec == 32 ? EK_XPBD_C_MIN_F32 : EK_XPBD_C_MIN_F64; }
 static double tol_of(int prec) { return prec == 32 ? EK_XPBD_TOL_F32 : EK_XPBD_TOL_F64; }
-
-// A scene: the mesh, lumped masses m_i = density * sum of V_t / 4 over
-// vertex i's tets, inverse masses (some pinned), the bounding-box
-// diagonal, and the reference's tet and cluster sets.
-typedef struct {
-  test_mesh t;
-  double *mass, *w, diag;
-  ek_xpbd_ref_set set[EK_XPBD_ELEMENTS_COUNT];
-  ek_tets *el;
-} scene;
-
-static void scene_init(scene *sc, ek_rng *rng, int nx, int ny, int nz, double pinned) {
-  sc->t = test_mesh_random(rng, nx, ny, nz, 0.2);
-  size_t nv = sc->t.nverts;
-  if (ek_xpbd_ref_tets(nv, sc->t.X, sc->t.ntets, sc->t.T, &sc->set[EK_XPBD_TETS])) {
-    printf("ek_xpbd_ref_tets failed\nFAIL\n");
-    exit(1);
-  }
-  sc->mass = calloc(nv, sizeof(double));
-  sc->w = malloc(nv * sizeof(double));
-  for (size_t e = 0; e < sc->t.ntets; e++)
-    for (int k = 0; k < 4; k++)
-      sc->mass[sc->t.T[4 * e + k]] += DENSITY * sc->set[EK_XPBD_TETS].V[e] / 4;
-  for (size_t v = 0; v < nv; v++)
-    sc->w[v] = ek_rng_uniform(rng) < pinned ? 0 : 1 / sc->mass[v];
-  size_t bad = 0;
-  if (ek_xpbd_ref_clusters(nv, sc->t.X, sc->t.ntets, sc->t.T, sc->mass, &sc->set[EK_XPBD_CLUSTERS],
-                           &bad)) {
-    printf("ek_xpbd_ref_clusters failed at vertex %zu\nFAIL\n", bad);
-    exit(1);
-  }
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t v = 0; v < nv; v++)
-    for (int r = 0; r < 3; r++) {
-      lo[r] = fmin(lo[r], sc->t.X[3 * v + r]);
-      hi[r] = fmax(hi[r], sc->t.X[3 * v + r]);
-    }
-  sc->diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
-  sc->el = ek_tets_create(nv, sc->t.X, sc->t.ntets, sc->t.T);
-  if (!sc->el) {
-    printf("ek_tets_create: %s\nFAIL\n", ek_last_error());
-    exit(1);
-  }
-}
-
-static void scene_free(scene *sc) {
-  for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
-    ek_xpbd_ref_free(&sc->set[e]);
-  free(sc->mass);
-  free(sc->w);
-  ek_tets_destroy(sc->el);
-  test_mesh_free(&sc->t);
-}
 
 // x = Q (I + strain G) X + noise (test_deform) without the random
 // translation, so |x| stays ~0.3 m and the rounding of x is that of the
@@ -667,8 +614,8 @@ static void check_threads(ek_rng *rng) {
   // Tets: 12^3 cells, 10368 tets; clusters are per vertex: 20^3 cells,
   // 9261 vertices. Both above the ~4096 constraints of the parallel path.
   scene big[EK_XPBD_ELEMENTS_COUNT];
-  scene_init(&big[EK_XPBD_TETS], rng, 12, 12, 12, 0.05);
-  scene_init(&big[EK_XPBD_CLUSTERS], rng, 20, 20, 20, 0.05);
+  scene_init(&big[EK_XPBD_TETS], rng, 12, 12, 12, 0.05, DENSITY);
+  scene_init(&big[EK_XPBD_CLUSTERS], rng, 20, 20, 20, 0.05, DENSITY);
   for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++) {
     const scene *sc = &big[e];
     size_t n3 = sc->t.nverts * 3, n = sc->set[e].n;
@@ -914,7 +861,7 @@ int main(int argc, char **argv) {
   // 4 x 3 x 3 cells: 216 tets (not a multiple of 16), 80 vertices, 10%
   // of them pinned.
   scene sc;
-  scene_init(&sc, &rng, 4, 3, 3, 0.1);
+  scene_init(&sc, &rng, 4, 3, 3, 0.1, DENSITY);
   check_fd(&sc, &rng);
   check_sf(&sc, &rng);
   check_dlambda(&sc, &rng);

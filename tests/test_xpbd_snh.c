@@ -26,6 +26,7 @@
 #include "material/model_ref.h"
 #include "test_fvm_common.h"
 #include "test_tolerances.h"
+#include "test_xpbd_scene.h"
 #include "xpbd/xpbd_ref.h"
 
 // test_xpbd.c's material and substep (a stiff rubber, cells of 0.1 m).
@@ -66,50 +67,6 @@ static const ek_xpbd_ref_material ref_mat = {MU, LAMBDA, YOUNG, 1};
 static const ek_material lib_mat = {EK_MODEL_STABLE_NEO_HOOKEAN, MU, LAMBDA, 0};
 
 static double cmin_of(int prec) { return prec == 32 ? EK_XPBD_C_MIN_F32 : EK_XPBD_C_MIN_F64; }
-
-typedef struct {
-  test_mesh t;
-  double *mass, *w, diag;
-  ek_xpbd_ref_set set[EK_XPBD_ELEMENTS_COUNT];
-  ek_tets *el;
-} scene;
-
-static void scene_init(scene *sc, ek_rng *rng, int nx, int ny, int nz, double pinned) {
-  sc->t = test_mesh_random(rng, nx, ny, nz, 0.2);
-  size_t nv = sc->t.nverts;
-  if (ek_xpbd_ref_tets(nv, sc->t.X, sc->t.ntets, sc->t.T, &sc->set[EK_XPBD_TETS])) {
-    printf("ek_xpbd_ref_tets failed\nFAIL\n");
-    exit(1);
-  }
-  sc->mass = calloc(nv, sizeof(double));
-  sc->w = malloc(nv * sizeof(double));
-  for (size_t e = 0; e < sc->t.ntets; e++)
-    for (int k = 0; k < 4; k++)
-      sc->mass[sc->t.T[4 * e + k]] += DENSITY * sc->set[EK_XPBD_TETS].V[e] / 4;
-  for (size_t v = 0; v < nv; v++)
-    sc->w[v] = ek_rng_uniform(rng) < pinned ? 0 : 1 / sc->mass[v];
-  size_t bad = 0;
-  if (ek_xpbd_ref_clusters(nv, sc->t.X, sc->t.ntets, sc->t.T, sc->mass, &sc->set[EK_XPBD_CLUSTERS],
-                           &bad)) {
-    printf("ek_xpbd_ref_clusters failed at vertex %zu\nFAIL\n", bad);
-    exit(1);
-  }
-  sc->diag = sqrt(nx * nx + ny * ny + nz * nz) * CELL;
-  sc->el = ek_tets_create(nv, sc->t.X, sc->t.ntets, sc->t.T);
-  if (!sc->el) {
-    printf("ek_tets_create: %s\nFAIL\n", ek_last_error());
-    exit(1);
-  }
-}
-
-static void scene_free(scene *sc) {
-  for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
-    ek_xpbd_ref_free(&sc->set[e]);
-  free(sc->mass);
-  free(sc->w);
-  ek_tets_destroy(sc->el);
-  test_mesh_free(&sc->t);
-}
 
 // Deformed (test_xpbd.c's: rotation, 10% strain, noise, centred), or
 // inverted: the deformed box mirrored through the plane x = 0 for the
@@ -431,8 +388,8 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int inverted) {
 // ---- e: 1 and 2 threads ----
 static void check_threads(ek_rng *rng) {
   scene big[EK_XPBD_ELEMENTS_COUNT];
-  scene_init(&big[EK_XPBD_TETS], rng, 12, 12, 12, 0.05);
-  scene_init(&big[EK_XPBD_CLUSTERS], rng, 20, 20, 20, 0.05);
+  scene_init(&big[EK_XPBD_TETS], rng, 12, 12, 12, 0.05, DENSITY);
+  scene_init(&big[EK_XPBD_CLUSTERS], rng, 20, 20, 20, 0.05, DENSITY);
   for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++) {
     const scene *sc = &big[e];
     size_t n3 = sc->t.nverts * 3, n = sc->set[e].n;
@@ -613,7 +570,7 @@ static double crushed(const scene *sc, ek_rng *rng, const ek_material *mat, int 
 
 static void check_crush(ek_rng *rng) {
   scene sc;
-  scene_init(&sc, rng, 4, 4, 4, 0);
+  scene_init(&sc, rng, 4, 4, 4, 0, DENSITY);
   const ek_material stvk = {EK_MODEL_STVK, MU, LAMBDA, 0};
   for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
     for (int prec = 32; prec <= 64; prec += 32) {
@@ -656,7 +613,7 @@ int main(int argc, char **argv) {
   ek_rng rng;
   ek_rng_seed(&rng, seed);
   scene sc;
-  scene_init(&sc, &rng, 3, 4, 5, 0.1);
+  scene_init(&sc, &rng, 3, 4, 5, 0.1, DENSITY);
   check_fd(&sc, &rng, 0);
   check_fd(&sc, &rng, 1);
   check_energy(&rng);

@@ -1,0 +1,69 @@
+// The XPBD tests' scene (test_xpbd.c, test_xpbd_snh.c): a random box mesh
+// (test_fvm_common.h), lumped masses m_i = density * sum of V_t / 4 over
+// vertex i's tets, inverse masses (a fraction `pinned` of the vertices
+// held), the bounding-box diagonal, the reference's tet and cluster sets
+// (reference/xpbd) and the element layer.
+#ifndef EK_TEST_XPBD_SCENE_H
+#define EK_TEST_XPBD_SCENE_H
+
+#include <ek/elements.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "test_fvm_common.h"
+#include "xpbd/xpbd_ref.h"
+
+typedef struct {
+  test_mesh t;
+  double *mass, *w, diag;
+  ek_xpbd_ref_set set[EK_XPBD_ELEMENTS_COUNT];
+  ek_tets *el;
+} scene;
+
+static inline void scene_init(scene *sc, ek_rng *rng, int nx, int ny, int nz, double pinned,
+                              double density) {
+  sc->t = test_mesh_random(rng, nx, ny, nz, 0.2);
+  size_t nv = sc->t.nverts;
+  if (ek_xpbd_ref_tets(nv, sc->t.X, sc->t.ntets, sc->t.T, &sc->set[EK_XPBD_TETS])) {
+    printf("ek_xpbd_ref_tets failed\nFAIL\n");
+    exit(1);
+  }
+  sc->mass = calloc(nv, sizeof(double));
+  sc->w = malloc(nv * sizeof(double));
+  for (size_t e = 0; e < sc->t.ntets; e++)
+    for (int k = 0; k < 4; k++)
+      sc->mass[sc->t.T[4 * e + k]] += density * sc->set[EK_XPBD_TETS].V[e] / 4;
+  for (size_t v = 0; v < nv; v++)
+    sc->w[v] = ek_rng_uniform(rng) < pinned ? 0 : 1 / sc->mass[v];
+  size_t bad = 0;
+  if (ek_xpbd_ref_clusters(nv, sc->t.X, sc->t.ntets, sc->t.T, sc->mass, &sc->set[EK_XPBD_CLUSTERS],
+                           &bad)) {
+    printf("ek_xpbd_ref_clusters failed at vertex %zu\nFAIL\n", bad);
+    exit(1);
+  }
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t v = 0; v < nv; v++)
+    for (int r = 0; r < 3; r++) {
+      lo[r] = fmin(lo[r], sc->t.X[3 * v + r]);
+      hi[r] = fmax(hi[r], sc->t.X[3 * v + r]);
+    }
+  sc->diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                  (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  sc->el = ek_tets_create(nv, sc->t.X, sc->t.ntets, sc->t.T);
+  if (!sc->el) {
+    printf("ek_tets_create: %s\nFAIL\n", ek_last_error());
+    exit(1);
+  }
+}
+
+static inline void scene_free(scene *sc) {
+  for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++)
+    ek_xpbd_ref_free(&sc->set[e]);
+  free(sc->mass);
+  free(sc->w);
+  ek_tets_destroy(sc->el);
+  test_mesh_free(&sc->t);
+}
+
+#endif
