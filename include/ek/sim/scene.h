@@ -95,7 +95,7 @@ extern "C" {
 typedef enum {
   EK_INTEGRATOR_EXPLICIT = 0, // "explicit": symplectic Euler (sim/explicit.c)
   EK_INTEGRATOR_IMPLICIT,     // "implicit": backward Euler by Newton + PCG (sim/implicit.c)
-  EK_INTEGRATOR_XPBD,         // "xpbd": XPBD, seed 001's constraint (sim/xpbd.c)
+  EK_INTEGRATOR_XPBD,         // "xpbd": XPBD, material stvk or snh (sim/xpbd.c, xpbd.h)
   EK_INTEGRATOR_COUNT
 } ek_integrator_type;
 
