@@ -830,8 +830,9 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
   if (!ok) {
     fr->failed = 1;
     if (err && errlen)
-      snprintf(err, errlen, "%s: cannot %s frame %ld (%s); the file keeps frames 0..%ld",
-               fr->h5path, what, k, errno ? strerror(errno) : "HDF5 error", k - 1);
+      snprintf(err, errlen, "%s: cannot %s frame %ld (%s); %s", fr->h5path, what, k,
+               errno ? strerror(errno) : "HDF5 error",
+               k > 0 ? "the file keeps the frames before it" : "the file holds the mesh, no frame");
     for (int i = 0; i < NFIELDS; ++i)
       free(fields[i]);
     free(grid);
