@@ -192,10 +192,12 @@ expect "ek-sim --explain on a 4096^3 box" 0 "$bin/ek-sim" "$work/huge.json" --ex
 sed 's/^{/{"isa": "scalar",/' "$scenes/cantilever.json" >"$work/isa.json"
 expect "scene isa scalar under EK_ISA=avx2" 2 env EK_ISA=avx2 "$bin/ek-sim" "$work/isa.json" \
   --no-output --steps 1 && one_error "scene isa scalar under EK_ISA=avx2"
-# A full disk (a file size limit: writes fail with EFBIG): a message and
-# exit 1, no crash at exit (rc 139 was HDF5's atexit close).
+# A full disk (a file size limit: writes fail with EFBIG) after some frames
+# (a cantilever frame with every field is about 1.4 MB; 5 MB hold 3): a
+# message and exit 1, no crash at exit (rc 139 was HDF5's atexit close), the
+# frames written before it kept and named partial.
 (
-  ulimit -f 1500
+  ulimit -f 5000
   trap '' XFSZ
   exec "$bin/ek-sim" "$scenes/cantilever.json" --steps 3000 --out "$work/full.h5"
 ) >"$out" 2>"$err" </dev/null
@@ -205,6 +207,8 @@ if [ "$rc" -ne 1 ]; then
   sed 's/^/  | /' "$err" | head -5
 fi
 grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not named partial"
+grep -Eq "^frames +[1-9][0-9]* written" "$out" ||
+  fail "ek-sim on a full disk: no frame kept before the disk filled: $(grep frames "$out")"
 
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]
