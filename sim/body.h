@@ -79,9 +79,13 @@ struct sim_body_ops {
   // ek_sim_set_state replaced sim->x, sim->v: restart what start built from
   // the old state.
   int (*set_state)(ek_sim *sim);
-  // sim->f = f(x) in the scene's precision (f32 converts x to float and f
-  // back), timed into sim->times (phase split when sim->time_phases).
-  int (*forces)(ek_sim *sim, const double *x);
+  // The force kernel in the scene's precision: f64 = f(x64) when x32 is
+  // NULL, else f32 = f(x32). The core (sim_forces) converts, times the
+  // call and names a failure; with sim->time_phases the body adds its
+  // kernel's phase split to sim->times. 0, or the kernel's code with the
+  // message in ek_last_error.
+  int (*forces)(ek_sim *sim, const double *x64, const float *x32, double *f64, float *f32);
+  const char *force_kernel; // the kernel in messages: "FVM", "cloth"
   // The force at `vertex` is not finite though x is: the message naming
   // the cause (inverted elements, overflow); hint ends it. Returns
   // EK_SIM_EINVERTED or EK_EINVAL.

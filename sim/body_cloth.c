@@ -70,34 +70,18 @@ static int tris_set_state(ek_sim *s) {
   return 0;
 }
 
-static int tris_forces(ek_sim *s, const double *x) {
+static int tris_forces(ek_sim *s, const double *x64, const float *x32, double *f64, float *f32) {
   const triangles *b = tris_of(s);
   ek_cloth_phase_times pt = {0, 0, 0};
   ek_cloth_force_opts o = {.isa = s->scene.svd.isa, .phase_times = s->time_phases ? &pt : NULL};
-  size_t n3 = 3 * s->nv;
-  double t0 = sim_now();
-  int rc;
-  if (s->scene.precision == 32) {
-    for (size_t i = 0; i < n3; ++i)
-      s->xf[i] = (float)x[i];
-    rc = ek_cloth_forces_f32(b->cloth, &b->p, s->xf, s->ff, &o);
-    for (size_t i = 0; rc == 0 && i < n3; ++i)
-      s->f[i] = (double)s->ff[i];
-  } else {
-    rc = ek_cloth_forces_f64(b->cloth, &b->p, x, s->f, &o);
-  }
-  double t1 = sim_now();
+  int rc = x32 ? ek_cloth_forces_f32(b->cloth, &b->p, x32, f32, &o)
+               : ek_cloth_forces_f64(b->cloth, &b->p, x64, f64, &o);
   if (s->time_phases) {
     s->times.cloth_membrane += pt.membrane;
     s->times.cloth_bending += pt.bending;
     s->times.cloth_gather += pt.gather;
-    s->times.phase_timed_steps++;
-  } else {
-    s->times.forces += t1 - t0;
   }
-  if (rc)
-    return sim_fail(s, "cloth force kernel failed (rc %d): %s", rc, ek_last_error());
-  return 0;
+  return rc;
 }
 
 static int tris_bad_force(ek_sim *s, const double *x, size_t bad_vertex, const char *hint) {
@@ -322,6 +306,7 @@ const sim_body_ops sim_body_triangles = {
     .begin_step = NULL,
     .set_state = tris_set_state,
     .forces = tris_forces,
+    .force_kernel = "cloth",
     .bad_force = tris_bad_force,
     .inverted_count = tris_inverted_count,
     .energy = tris_energy,

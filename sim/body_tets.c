@@ -339,37 +339,21 @@ static int tets_set_state(ek_sim *s) {
   return 0;
 }
 
-static int tets_forces(ek_sim *s, const double *x) {
+static int tets_forces(ek_sim *s, const double *x64, const float *x32, double *f64, float *f32) {
   tets *b = tets_of(s);
   ek_fvm_opts o = b->fvm;
   ek_fvm_phase_times pt = {0, 0, 0, 0};
   if (s->time_phases)
     o.phase_times = &pt;
-  size_t n3 = 3 * s->nv;
-  double t0 = sim_now();
-  int rc;
-  if (s->scene.precision == 32) {
-    for (size_t i = 0; i < n3; ++i)
-      s->xf[i] = (float)x[i];
-    rc = ek_mesh_fvm_forces_ex_f32(b->mesh, &s->mat, s->xf, s->ff, &o);
-    for (size_t i = 0; rc == 0 && i < n3; ++i)
-      s->f[i] = (double)s->ff[i];
-  } else {
-    rc = ek_mesh_fvm_forces_ex_f64(b->mesh, &s->mat, x, s->f, &o);
-  }
-  double t1 = sim_now();
+  int rc = x32 ? ek_mesh_fvm_forces_ex_f32(b->mesh, &s->mat, x32, f32, &o)
+               : ek_mesh_fvm_forces_ex_f64(b->mesh, &s->mat, x64, f64, &o);
   if (s->time_phases) {
     s->times.deformation_gradient += pt.deformation_gradient;
     s->times.svd_polar += pt.svd;
     s->times.pk1 += pt.pk1;
     s->times.scatter += pt.scatter;
-    s->times.phase_timed_steps++;
-  } else {
-    s->times.forces += t1 - t0;
   }
-  if (rc)
-    return sim_fail(s, "FVM force kernel failed (rc %d): %s", rc, ek_last_error());
-  return 0;
+  return rc;
 }
 
 // Elements outside the model's domain (neo-Hookean without clamp, J <= 0:
@@ -648,6 +632,7 @@ const sim_body_ops sim_body_tets = {
     .begin_step = tets_begin_step,
     .set_state = tets_set_state,
     .forces = tets_forces,
+    .force_kernel = "FVM",
     .bad_force = tets_bad_force,
     .inverted_count = tets_inverted_count,
     .energy = tets_energy,

@@ -400,7 +400,30 @@ size_t ek_count_nonfinite(const double *a, size_t n) {
   return c;
 }
 
-int sim_forces(ek_sim *s, const double *x) { return s->body->ops->forces(s, x); }
+int sim_forces(ek_sim *s, const double *x) {
+  const sim_body_ops *ops = s->body->ops;
+  size_t n3 = 3 * s->nv;
+  double t0 = sim_now();
+  int rc;
+  if (s->scene.precision == 32) {
+    for (size_t i = 0; i < n3; ++i)
+      s->xf[i] = (float)x[i];
+    rc = ops->forces(s, NULL, s->xf, NULL, s->ff);
+    for (size_t i = 0; rc == 0 && i < n3; ++i)
+      s->f[i] = (double)s->ff[i];
+  } else {
+    rc = ops->forces(s, x, NULL, s->f, NULL);
+  }
+  double t1 = sim_now();
+  if (s->time_phases)
+    s->times.phase_timed_steps++;
+  else
+    s->times.forces += t1 - t0;
+  if (rc)
+    return sim_fail(s, "%s force kernel failed (rc %d): %s", ops->force_kernel, rc,
+                    ek_last_error());
+  return 0;
+}
 
 // ", dt D is above the CFL limit C" for an explicit scene stepped above its
 // limit, else "": the likely cause of a blow-up, said where it is reported.
