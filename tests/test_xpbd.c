@@ -667,22 +667,9 @@ static void check_threads(ek_rng *rng) {
 }
 
 // ---- f: momentum of a free body ----
-// Returns |sum m (v - v0)|_max / sum m |v0|, v0 = (x~ - x_start) / h and
-// v = (x - x_start) / h after the sweeps (x~ as rounded to the precision).
-static double momentum_error(const scene *sc, const double *w, const double *xs, const double *pred,
-                             const double *x) {
-  double dp[3] = {0, 0, 0}, p = 0;
-  for (size_t v = 0; v < sc->t.nverts; v++) {
-    double m = 1 / w[v], v0 = 0;
-    for (int r = 0; r < 3; r++) {
-      dp[r] += m * (x[3 * v + r] - pred[3 * v + r]) / SUBSTEP;
-      double vr = (pred[3 * v + r] - xs[3 * v + r]) / SUBSTEP;
-      v0 += vr * vr;
-    }
-    p += m * sqrt(v0);
-  }
-  return fmax(fabs(dp[0]), fmax(fabs(dp[1]), fabs(dp[2]))) / p;
-}
+// scene_momentum_error (test_xpbd_scene.h): |sum m (v - v0)|_max / sum m |v0|,
+// v0 = (x~ - x_start) / h, v = (x - x_start) / h after the sweeps (x~ as
+// rounded to the precision).
 
 static void check_momentum(const scene *sc, ek_rng *rng) {
   size_t nv = sc->t.nverts, n3 = nv * 3;
@@ -709,8 +696,8 @@ static void check_momentum(const scene *sc, ek_rng *rng) {
       snprintf(label, sizeof label, "f. momentum, reference %s %s",
                ek_xpbd_elements_name((ek_xpbd_elements)e),
                ek_xpbd_solver_name((ek_xpbd_solver)solver));
-      failures +=
-          ek_check_report(label, momentum_error(sc, w, xs, pred, x), EK_XPBD_MOMENTUM_TOL_F64);
+      failures += ek_check_report(label, scene_momentum_error(sc, SUBSTEP, w, xs, pred, x),
+                                  EK_XPBD_MOMENTUM_TOL_F64);
       free(lr);
       for (int prec = 32; prec <= 64; prec += 32) {
         ek_xpbd_opts o = {
@@ -726,7 +713,7 @@ static void check_momentum(const scene *sc, ek_rng *rng) {
         rc = rc ? rc : ek_xpbd_set_weights(xp, w);
         rc = rc ? rc : ek_xpbd_begin(xp, SUBSTEP);
         rc = rc ? rc : lib_iterate(xp, prec, n3, x, SWEEPS);
-        double err = rc == 0 ? momentum_error(sc, w, xs_p, pr, x) : NAN;
+        double err = rc == 0 ? scene_momentum_error(sc, SUBSTEP, w, xs_p, pr, x) : NAN;
         double moved = max_abs_diff(n3, x, pr) / (SUBSTEP * 1.0);
         snprintf(label, sizeof label, "f. momentum, library %s %s f%d (max |dv| %.2g m/s)",
                  ek_xpbd_elements_name((ek_xpbd_elements)e),

@@ -66,4 +66,22 @@ static inline void scene_free(scene *sc) {
   test_mesh_free(&sc->t);
 }
 
+// Momentum change of one substep h as the tests measure it,
+// |sum_i m_i (x_i - pred_i)| / h relative to sum_i m_i |v0_i|, with
+// v0 = (pred - xs) / h and m_i = 1 / w_i (every vertex free).
+static inline double scene_momentum_error(const scene *sc, double h, const double *w,
+                                          const double *xs, const double *pred, const double *x) {
+  double dp[3] = {0, 0, 0}, p = 0;
+  for (size_t v = 0; v < sc->t.nverts; v++) {
+    double m = 1 / w[v], v0 = 0;
+    for (int r = 0; r < 3; r++) {
+      dp[r] += m * (x[3 * v + r] - pred[3 * v + r]) / h;
+      double vr = (pred[3 * v + r] - xs[3 * v + r]) / h;
+      v0 += vr * vr;
+    }
+    p += m * sqrt(v0);
+  }
+  return fmax(fabs(dp[0]), fmax(fabs(dp[1]), fabs(dp[2]))) / p;
+}
+
 #endif
