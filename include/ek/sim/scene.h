@@ -130,9 +130,15 @@ int ek_linear_solver_available(ek_linear_solver s);
 //   the mass-weighted RMS of dt^2 M^-1 grad Phi relative to the body's
 //   size; as the Hessian is at least M / dt^2, it bounds the mass-weighted
 //   RMS of the remaining Newton step (the position error) from above.
+//   The start point is accepted with no iteration only when grad Phi is
+//   exactly 0 there; otherwise at least one iteration runs before the test
+//   (r bounds an absolute error: a body moving less than newton_tol L per
+//   step would otherwise never feel its forces; sim/implicit.c).
 // max_newton [50]: iterations per step; a step that stops above
 //   newton_tol is counted and reported (ek_sim_times.unconverged_steps,
-//   worst_residual), not hidden; its state is still used.
+//   worst_residual), not hidden; its state is still used, unless it
+//   turns the body inside out (signed volume > 0 before, <= 0 after): that
+//   step fails with EK_SIM_EUNCONVERGED (sim.h) and is not applied.
 // cg_tol [1e-4]: CG stops when |r_k|_{M^-1} <= cg_tol |grad Phi|_{M^-1}.
 // max_cg [1000]: CG iterations per Newton iteration (the last iterate is
 //   used: with x_0 = 0 every PCG iterate is a descent direction).
