@@ -720,7 +720,7 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
          scene->path, ek_mesh_nverts(mesh), ek_mesh_ntets(mesh), scene->model_name,
          ek_scene_integrator_name(scene->integrator), scene->precision, scene->dt);
   fflush(stdout);
-  ek_advise_opts o = {tol, sim_time, stderr};
+  ek_advise_opts o = {.tol = tol, .sim_time = sim_time, .progress = stderr};
   ek_advice a;
   if (ek_advise(scene, mesh, &o, &a, err, sizeof err) != 0) {
     fprintf(stderr, "ek-sim: %s\n", err);

@@ -32,7 +32,7 @@ int main(int argc, char **argv) {
     return 1;
   }
   const double tol = EK_ADVISE_TOL_DEFAULT;
-  ek_advise_opts o = {tol, 0.1, stderr};
+  ek_advise_opts o = {.tol = tol, .sim_time = 0.1, .progress = stderr};
   ek_advice a;
   if (ek_advise(&scene, mesh, &o, &a, err, sizeof err) != 0) {
     printf("FAIL ek_advise: %s\n", err);
