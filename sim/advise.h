@@ -16,7 +16,9 @@
 // same motion as dt -> 0 (explicit: symplectic Euler; implicit: backward
 // Euler, O(dt) damping; XPBD: Macklin et al. 2019, substeps -> implicit),
 // so the explicit loop's limit is the scene's answer; the table prints the
-// successive changes and whether the last one met tol / 10.
+// successive changes and whether the last one met tol / 10. A scene may
+// state a trusted reference instead ("advise": {"reference_dt": s},
+// scene.h): one explicit f64 run at that step, not refined.
 //
 // The deviation of a candidate: over the nframes common frames (equal
 // simulated times, trial.h's ek_trial_run_frames), the worst frame's

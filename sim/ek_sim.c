@@ -779,6 +779,15 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
   if (scene->integrator == EK_INTEGRATOR_EXPLICIT && pick->integrator != EK_INTEGRATOR_EXPLICIT)
     n += printf("\n             the %g s explicit steps (%.0f per simulated s -> %.0f)", scene->dt,
                 1 / scene->dt, 1 / pick->dt) > 0;
+  if (scene->integrator == pick->integrator && scene->dt != pick->dt)
+    n += printf("\n             the step: dt %g -> %g (%.3g x the steps per simulated s)",
+                scene->dt, pick->dt, scene->dt / pick->dt) > 0;
+  if (scene->integrator == EK_INTEGRATOR_XPBD && pick->integrator == EK_INTEGRATOR_XPBD &&
+      (scene->xpbd.substeps != pick->xpbd.substeps ||
+       scene->xpbd.iterations != pick->xpbd.iterations))
+    n += printf("\n             XPBD sweeps: %ld substeps x %ld iterations -> %ld x %ld",
+                scene->xpbd.substeps, scene->xpbd.iterations, pick->xpbd.substeps,
+                pick->xpbd.iterations) > 0;
   if (scene->precision == 64 && pick->precision == 32)
     n += printf("\n             the f64 kernels (f32 variants instead)") > 0;
   if (scene->precision == 32 && pick->precision == 64)
