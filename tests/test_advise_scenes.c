@@ -3,7 +3,7 @@
 // the advisor's converged reference (re-run too), passes every check, and
 // the reference's refinement converged (its last change <= tol / 10). Each
 // scene runs a short time to keep ctest's time (label "slow": about 2 to 3
-// minutes on 2 cores): 400 steps of the scene's dt when explicit (fewer: a free fall's
+// minutes on 2 cores): 200 steps of the scene's dt when explicit (fewer: a free fall's
 // explicit error is 1 / steps of its motion), one step
 // of it otherwise (a thirtieth or sixtieth of a second), at most the
 // scene's duration; scenes of more than EK_ADVISE_TEST_MAX_TETS tets only
@@ -48,7 +48,7 @@ static void advise_scene(const char *name, int named) {
   }
   const double tol = 1e-2;
   const double T = fmin(scene.dt * (double)scene.steps,
-                        scene.integrator == EK_INTEGRATOR_EXPLICIT ? 400 * scene.dt : scene.dt);
+                        scene.integrator == EK_INTEGRATOR_EXPLICIT ? 200 * scene.dt : scene.dt);
   ek_advise_opts o = {.tol = tol, .sim_time = T, .rounds = 1, .progress = NULL};
   ek_advice a;
   struct timespec t0, t1;
