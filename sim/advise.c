@@ -311,7 +311,8 @@ long ek_advice_pick(const ek_advice *a, double tol) {
   long cheapest = -1;
   for (size_t i = 0; i < a->n; ++i) {
     const ek_advise_row *r = &a->rows[i];
-    if (r->skipped || r->failed || !(r->deviation <= tol))
+    if (r->skipped || r->failed || !(r->deviation <= tol) ||
+        (i == a->reference && a->refine.extrapolated))
       continue;
     if (cheapest < 0 || r->cost < a->rows[cheapest].cost)
       cheapest = (long)i;
@@ -323,7 +324,8 @@ long ek_advice_pick(const ek_advice *a, double tol) {
   long best = cheapest;
   for (size_t i = 0; i < a->n; ++i) {
     const ek_advise_row *r = &a->rows[i], *b = &a->rows[best];
-    if (r->skipped || r->failed || !(r->deviation <= tol) || !(r->cost_lo <= c->cost_hi))
+    if (r->skipped || r->failed || !(r->deviation <= tol) || !(r->cost_lo <= c->cost_hi) ||
+        (i == a->reference && a->refine.extrapolated))
       continue;
     if (r->deviation < b->deviation || (r->deviation == b->deviation && r->cost < b->cost))
       best = (long)i;
@@ -352,11 +354,44 @@ static int frame_count(const ek_advice *a, double sim_time) {
   return (int)(2 * K < cap ? cap : K);
 }
 
-// The converged reference (advise.h): *ref the last run; 0, or < 0 (err).
+// Richardson's extrapolation of two runs at dt and dt / 2 of a first-order
+// method (symplectic Euler: the error is c dt + O(dt^2)): 2 x_fine -
+// x_coarse, per frame, for the positions and the energies; J and the
+// rest from the fine run. 0, or -1 (out of memory).
+static int extrapolate(const ek_trial *fine, const ek_trial *coarse, size_t nv, ek_trial *e) {
+  *e = *fine;
+  e->x = NULL;
+  const size_t K = (size_t)fine->nframes, n = K * 3 * nv;
+  e->frames = malloc(n * sizeof(double));
+  e->frame_t = malloc(K * sizeof(double));
+  e->frame_kinel = malloc(K * sizeof(double));
+  e->frame_pot = malloc(K * sizeof(double));
+  e->frame_min_J = malloc(K * sizeof(double));
+  if (!e->frames || !e->frame_t || !e->frame_kinel || !e->frame_pot || !e->frame_min_J) {
+    ek_trial_free(e);
+    return -1;
+  }
+  for (size_t i = 0; i < n; ++i)
+    e->frames[i] = 2 * fine->frames[i] - coarse->frames[i];
+  for (size_t k = 0; k < K; ++k) {
+    e->frame_t[k] = fine->frame_t[k];
+    e->frame_kinel[k] = 2 * fine->frame_kinel[k] - coarse->frame_kinel[k];
+    e->frame_pot[k] = 2 * fine->frame_pot[k] - coarse->frame_pot[k];
+    e->frame_min_J[k] = fine->frame_min_J[k];
+  }
+  e->cost_median = fine->cost_median + coarse->cost_median;
+  e->cost_min = fine->cost_min + coarse->cost_min;
+  return 0;
+}
+
+// The converged reference (advise.h): runs[0 .. f->runs) the refinement's
+// runs (kept for the table's ladder rows), *ref the reference (the last
+// run, or the extrapolation of the last two). 0, or < 0 (err; runs freed).
 static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *o,
-                            double budget, ek_advice *a, ek_scene *rs, ek_trial *ref, char *err,
-                            size_t errlen) {
+                            double budget, ek_advice *a, ek_scene *rs, ek_trial *runs,
+                            ek_trial *ref, char *err, size_t errlen) {
   ek_advise_refinement *f = &a->refine;
+  const size_t nv = ek_mesh_nverts(mesh);
   ek_scene s = *scene;
   s.integrator = EK_INTEGRATOR_EXPLICIT;
   s.precision = 64;
@@ -374,39 +409,43 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
   const int trusted = scene->advise_reference_dt > 0;
   if (trusted)
     dt = scene->advise_reference_dt;
-  ek_trial prev;
-  memset(&prev, 0, sizeof prev);
+  ek_trial ext[EK_ADVISE_MAX_REFINE + 1];
+  memset(ext, 0, sizeof ext);
+  memset(ref, 0, sizeof *ref);
   double spent = 0;
   const double target = a->tol / 10;
-  for (int k = 0; k <= EK_ADVISE_MAX_REFINE; ++k) {
+  int best = -1, best_ext = 0, k = 0;
+  for (k = 0; k <= EK_ADVISE_MAX_REFINE; ++k) {
     s.dt = dt;
     if (o->progress)
       fprintf(o->progress, "advise: reference run %d, explicit f64 at dt %.4g\n", k + 1, dt);
-    ek_trial t;
-    if (ek_trial_run_frames(&s, mesh, a->sim_time, 1, a->nframes, &t) != 0) {
-      snprintf(err, errlen, "advise: reference: %s", t.error);
-      ek_trial_free(&t);
-      ek_trial_free(&prev);
-      return EK_ENOMEM;
-    }
+    ek_trial *t = &runs[k];
     f->runs = k + 1;
-    f->dt[k] = t.dt;
-    f->wall[k] = t.wall;
-    f->change[k] = NAN;
-    spent += t.wall;
-    if (!t.failed && prev.frames && !prev.failed) {
-      ek_advise_measure m;
-      ek_advise_measure_trial(mesh, &prev, &t, 1, &m);
-      f->change[k] = m.deviation;
+    if (ek_trial_run_frames(&s, mesh, a->sim_time, 1, a->nframes, t) != 0) {
+      snprintf(err, errlen, "advise: reference: %s", t->error);
+      goto fail;
     }
-    const int ok = !t.failed;
-    if (ok || !prev.frames || prev.failed) {
-      ek_trial_free(&prev);
-      prev = t;
-      *rs = s;
-      rs->dt = t.dt;
-    } else {
-      ek_trial_free(&t); // keep the last good run
+    f->dt[k] = t->dt;
+    f->wall[k] = t->wall;
+    f->change[k] = f->ext_change[k] = NAN;
+    spent += t->wall;
+    const int ok = !t->failed && t->nframes == a->nframes;
+    if (ok) {
+      best = k;
+      best_ext = 0;
+    }
+    if (ok && k > 0 && !runs[k - 1].failed && runs[k - 1].nframes == a->nframes) {
+      ek_advise_measure m;
+      ek_advise_measure_trial(mesh, &runs[k - 1], t, 1, &m);
+      f->change[k] = m.deviation;
+      if (extrapolate(t, &runs[k - 1], nv, &ext[k]) != 0) {
+        snprintf(err, errlen, "advise: out of memory");
+        goto fail;
+      }
+      if (k > 1 && ext[k - 1].frames) {
+        ek_advise_measure_trial(mesh, &ext[k - 1], &ext[k], 1, &m);
+        f->ext_change[k] = m.deviation;
+      }
     }
     if (trusted) {
       f->converged = ok;
@@ -420,12 +459,21 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
                target);
       break;
     }
+    if (ok && f->ext_change[k] <= target) {
+      f->converged = 1;
+      best_ext = 1;
+      snprintf(f->stop, sizeof f->stop,
+               "converged: the extrapolations 2 x_k - x_(k-1) of runs %d and %d change by %.3g "
+               "<= tol / 10 = %.3g; the reference is the last extrapolation",
+               k, k + 1, f->ext_change[k], target);
+      break;
+    }
     if (k == EK_ADVISE_MAX_REFINE) {
       snprintf(f->stop, sizeof f->stop, "NOT converged: %d halvings (the cap)",
                EK_ADVISE_MAX_REFINE);
       break;
     }
-    if (spent + 2.2 * t.wall > budget && k > 0) {
+    if (spent + 2.2 * t->wall > budget && k > 0) {
       snprintf(f->stop, sizeof f->stop,
                "NOT converged: the next run (~%.3g s) would pass the %g s budget", 2 * f->wall[k],
                budget);
@@ -433,14 +481,36 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
     }
     dt /= 2;
   }
-  if (prev.failed || !prev.frames) {
+  if (best < 0) {
     snprintf(err, errlen, "%s: the reference (explicit f64, dt %g) failed: %s", scene->path,
-             f->dt[f->runs - 1], prev.error);
-    ek_trial_free(&prev);
-    return EK_EINVAL;
+             f->dt[f->runs - 1], runs[f->runs - 1].error);
+    goto fail;
   }
-  *ref = prev;
+  f->extrapolated = best_ext;
+  *rs = s;
+  rs->dt = f->dt[best];
+  if (best_ext) {
+    *ref = ext[best];
+    ext[best].frames = NULL; // moved
+    memset(&ext[best], 0, sizeof ext[best]);
+  } else {
+    // A copy of the run's frames (the run stays a ladder row).
+    if (extrapolate(&runs[best], &runs[best], nv, ref) != 0) {
+      snprintf(err, errlen, "advise: out of memory");
+      goto fail;
+    }
+    ref->cost_median = runs[best].cost_median;
+    ref->cost_min = runs[best].cost_min;
+  }
+  for (int j = 0; j <= EK_ADVISE_MAX_REFINE; ++j)
+    ek_trial_free(&ext[j]);
   return 0;
+fail:
+  for (int j = 0; j <= EK_ADVISE_MAX_REFINE; ++j) {
+    ek_trial_free(&ext[j]);
+    ek_trial_free(&runs[j]);
+  }
+  return err[0] && strstr(err, "memory") ? EK_ENOMEM : EK_EINVAL;
 }
 
 int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *o, ek_advice *a,
@@ -487,8 +557,9 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
   rs.dt = 0; // a placeholder text, unlike every candidate's
   if (add_row(&b, &rs, NULL) != 0)
     goto oom;
-  ek_trial rt;
+  ek_trial rt, runs[EK_ADVISE_MAX_REFINE + 1];
   memset(&rt, 0, sizeof rt);
+  memset(runs, 0, sizeof runs);
   {
     // A monitor run of the scene's own setting for the models' validity.
     if (o->progress)
@@ -515,7 +586,7 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
       goto oom;
   a->nframes = frame_count(a, o->sim_time);
   {
-    int rc = refine_reference(scene, mesh, o, budget, a, &rs, &rt, err, errlen);
+    int rc = refine_reference(scene, mesh, o, budget, a, &rs, runs, &rt, err, errlen);
     if (rc != 0) {
       ek_advice_free(a);
       return rc;
@@ -558,21 +629,83 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
   }
   // A candidate with the reference's own setting text is the reference.
   for (size_t i = 1; i < a->n; ++i)
-    if (strcmp(a->rows[i].text, a->rows[0].text) == 0) {
+    if (!a->refine.extrapolated && strcmp(a->rows[i].text, a->rows[0].text) == 0) {
       a->rows[i].skipped = 1;
       snprintf(a->rows[i].reason, sizeof a->rows[i].reason, "the reference (#1)");
     }
+  if (a->refine.extrapolated) {
+    char text[sizeof a->rows[0].text];
+    snprintf(text, sizeof text, "Richardson 2 x(dt) - x(2 dt) of %.300s", a->rows[0].text);
+    snprintf(a->rows[0].text, sizeof a->rows[0].text, "%s", text);
+  }
+  // The refinement's runs (advise.h), measured already.
+  for (int j = 0; j < a->refine.runs; ++j) {
+    ek_scene v = rs;
+    v.dt = a->refine.dt[j];
+    if ((!a->refine.extrapolated && v.dt == rs.dt) || !runs[j].frames)
+      continue; // row 1 itself, or a run that failed before its frames
+    if (add_row(&b, &v, NULL) != 0) {
+      for (int q = 0; q <= EK_ADVISE_MAX_REFINE; ++q)
+        ek_trial_free(&runs[q]);
+      goto oom_rt;
+    }
+    ek_advise_row *r = &a->rows[row_of(a, &v)];
+    ek_advise_measure m;
+    ek_advise_measure_trial(mesh, &runs[j], &rt, scene->allow_inverted, &m);
+    r->skipped = 0;
+    r->ladder = 1;
+    r->failed = m.failed;
+    snprintf(r->reason, sizeof r->reason, "%s", m.failed ? m.reason : "");
+    r->deviation = m.deviation;
+    r->worst_t = m.worst_t;
+    r->energy_dev = m.energy_dev;
+    r->min_J = m.min_J;
+    r->cost = r->cost_lo = r->cost_hi = runs[j].cost_median;
+    r->cost_min = runs[j].cost_min;
+    r->rounds = 1;
+    r->steps = runs[j].steps;
+  }
+  // The step the tolerance needs: the explicit error is first order, so
+  // the finest run's deviation e at dt predicts dt tol / e; candidates at
+  // 0.7 of that, in f64 and f32, when the finest run misses tol (at most
+  // 64 x its steps).
+  {
+    const int last = a->refine.runs - 1;
+    ek_advise_measure m;
+    memset(&m, 0, sizeof m);
+    m.deviation = NAN;
+    if (runs[last].frames)
+      ek_advise_measure_trial(mesh, &runs[last], &rt, 1, &m);
+    const double dt_last = a->refine.dt[last],
+                 dt_need = m.deviation > 0 ? 0.7 * dt_last * a->tol / m.deviation : NAN;
+    if (m.deviation > a->tol && dt_need >= dt_last / 64) {
+      for (int p = 0; p < 2; ++p) {
+        ek_scene v = rs;
+        v.precision = p ? 32 : 64;
+        v.dt = dt_need;
+        if (add_row(&b, &v, NULL) != 0) {
+          for (int q = 0; q <= EK_ADVISE_MAX_REFINE; ++q)
+            ek_trial_free(&runs[q]);
+          goto oom_rt;
+        }
+      }
+    }
+  }
+  for (int q = 0; q <= EK_ADVISE_MAX_REFINE; ++q)
+    ek_trial_free(&runs[q]);
   a->scene_row = row_of(a, scene);
 
   size_t nrun = 0, k = 0;
   for (size_t i = 1; i < a->n; ++i)
-    nrun += !a->rows[i].skipped;
+    nrun += !a->rows[i].skipped && !a->rows[i].ladder;
   double *costs = malloc((size_t)rounds * a->n * sizeof(double));
   if (!costs)
     goto oom_rt;
   for (size_t i = 1; i < a->n; ++i) {
     ek_advise_row *r = &a->rows[i];
-    if (r->skipped)
+    if (r->ladder)
+      costs[i * (size_t)rounds] = r->cost;
+    if (r->skipped || r->ladder)
       continue;
     if (o->progress)
       fprintf(o->progress, "advise: candidate %zu of %zu: %s\n", ++k, nrun, r->text);
@@ -612,7 +745,8 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
     for (size_t j = 0; j < a->n; ++j) {
       const size_t i = q % 2 ? a->n - 1 - j : j;
       ek_advise_row *r = &a->rows[i];
-      if (r->skipped || r->failed || !(r->deviation <= a->tol))
+      if (r->skipped || r->failed || !(r->deviation <= a->tol) ||
+          (i == a->reference && a->refine.extrapolated))
         continue;
       if (o->progress)
         fprintf(o->progress, "advise: timing round %d of %d: #%zu\n", q + 1, rounds, i + 1);
@@ -642,7 +776,7 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
     r->cost_hi = c[n - 1];
   }
   free(costs);
-  ek_trial_free(&rt);
+  a->ref = rt; // ek_advice_free frees it
   a->pick = ek_advice_pick(a, o->tol);
   return 0;
 oom_rt:
@@ -672,6 +806,8 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
     fprintf(out, "             run %d: dt %.4g, %.3g s wall", k + 1, f->dt[k], f->wall[k]);
     if (!isnan(f->change[k]))
       fprintf(out, ", change from run %d: %.3e", k, f->change[k]);
+    if (!isnan(f->ext_change[k]))
+      fprintf(out, ", extrapolation 2 x_%d - x_%d changes by %.3e", k + 1, k, f->ext_change[k]);
     fprintf(out, "\n");
   }
   fprintf(out, "             %s\n", f->stop);
@@ -691,6 +827,7 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
     for (size_t i = 0; i < a->n; ++i) {
       const ek_advise_row *r = &a->rows[i];
       if (!r->skipped && !r->failed && r->deviation <= a->tol &&
+          !(i == a->reference && a->refine.extrapolated) &&
           (cheapest < 0 || r->cost < a->rows[cheapest].cost))
         cheapest = (long)i;
     }
@@ -752,4 +889,5 @@ void ek_advice_free(ek_advice *a) {
   free(a->rows);
   a->rows = NULL;
   a->n = 0;
+  ek_trial_free(&a->ref);
 }

@@ -16,7 +16,16 @@
 // same motion as dt -> 0 (explicit: symplectic Euler; implicit: backward
 // Euler, O(dt) damping; XPBD: Macklin et al. 2019, substeps -> implicit),
 // so the explicit loop's limit is the scene's answer; the table prints the
-// successive changes and whether the last one met tol / 10. A scene may
+// successive changes and whether the last one met tol / 10. The explicit
+// loop's error being first order in dt, Richardson's extrapolation 2 x_k -
+// x_(k-1) of two successive runs removes its leading term (Hairer, Norsett
+// and Wanner, Solving ODEs I, sec. II.9); when two successive
+// extrapolations differ by at most tol / 10 (and the runs themselves do
+// not), the last extrapolation is the reference (row 1, not a setting one
+// can run: never the pick). Every refinement run is a row of the table (a
+// user's "smaller explicit step"), measured against the reference; when
+// the finest run still misses tol by e, explicit candidates at 0.7 dt tol /
+// e (the first-order prediction; f64 and f32) are added. A scene may
 // state a trusted reference instead ("advise": {"reference_dt": s},
 // scene.h): one explicit f64 run at that step, not refined.
 //
@@ -142,18 +151,22 @@ typedef struct {
   double cost;             // s per simulated s: median over the rounds (NaN: not run)
   double cost_lo, cost_hi; // min and max over the rounds
   int rounds;              // timing rounds run
+  int ladder;              // a run of the reference's refinement (measured there)
   double cost_min;         // s per simulated s (the fastest step of the first run)
   long steps;
 } ek_advise_row;
 
 // The reference's refinement: run k at dt[k], wall[k] seconds; change[k]
 // its deviation from run k - 1 (NaN for k = 0 or when run k failed).
+// ext_change[k] the deviation between the extrapolations of runs (k-1, k)
+// and (k-2, k-1) (NaN for k < 2).
 typedef struct {
   int runs;
   double dt[EK_ADVISE_MAX_REFINE + 1], wall[EK_ADVISE_MAX_REFINE + 1],
-      change[EK_ADVISE_MAX_REFINE + 1];
-  int converged;  // the last change <= tol / 10
-  char stop[256]; // why the refinement stopped
+      change[EK_ADVISE_MAX_REFINE + 1], ext_change[EK_ADVISE_MAX_REFINE + 1];
+  int converged;    // the last change (or extrapolation change) <= tol / 10
+  int extrapolated; // the reference is 2 x_k - x_(k-1), not one run's
+  char stop[384];   // why the refinement stopped
 } ek_advise_refinement;
 
 typedef struct {
@@ -169,6 +182,7 @@ typedef struct {
   int threads;
   ek_advise_refinement refine;
   ek_trial_monitor reach; // what the reference run reached
+  ek_trial ref;           // the reference's frames (ek_advise_measure_trial's ref)
   // Tets inverted at the end of the reference run (ek_sim_check), 0 when
   // the scene allows it: the reference row then fails too.
   size_t reference_inverted;
