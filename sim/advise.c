@@ -801,7 +801,10 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
           "reference's by > %g of its scale at a frame\n",
           a->sim_time, a->nframes, a->tol, a->threads, a->scale, a->body_size, a->motion,
           EK_ADVISE_FLAT_J, EK_ADVISE_RUNAWAY, EK_ADVISE_ENERGY_MAX);
-  fprintf(out, "reference  %s, dt halved until two runs differ by <= tol / 10:\n", a->rows[0].text);
+  fprintf(out,
+          "reference  %s, dt halved until two runs (or their extrapolations 2 x_k - x_(k-1)) "
+          "differ by <= tol / 10:\n",
+          a->rows[0].text);
   for (int k = 0; k < f->runs; ++k) {
     fprintf(out, "             run %d: dt %.4g, %.3g s wall", k + 1, f->dt[k], f->wall[k]);
     if (!isnan(f->change[k]))
