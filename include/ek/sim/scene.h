@@ -66,6 +66,11 @@
 //                 "inverted": true declares a scene that studies inversion
 //                 (say so in its description); "nonfinite": true one that
 //                 studies a failure. Either way the summary reports it.
+//   advise        {"reference_dt": s} (default none): ek-sim --advise takes
+//                 the scene's model in the explicit loop in f64 at this
+//                 step as its reference, trusted as converged (no
+//                 refinement; sim/advise.h), e.g. a step the scene's author
+//                 checked by halving. Without it the advisor refines one.
 #ifndef EK_SIM_SCENE_H
 #define EK_SIM_SCENE_H
 
@@ -277,6 +282,9 @@ typedef struct {
   // "allow": the run may end with inverted elements (the scene studies
   // inversion), frames may hold NaN / inf or blown-up positions.
   int allow_inverted, allow_nonfinite;
+  // "advise": {"reference_dt": s}: ek-sim --advise's trusted reference
+  // step (0: none, the advisor refines its own).
+  double advise_reference_dt;
 } ek_scene;
 
 // Parse a scene file. 0 on success; < 0 with ek_last_error naming the file, the key
