@@ -506,6 +506,8 @@ static void explain_tail(const ek_scene *s, long steps, const char *out) {
   if (s->has_ground)
     printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
            s->ground_height);
+  printf("passes     what each pass of the step takes:\n");
+  print_passes(s, "             ");
   if (out && out[0])
     printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
            "energy density from the rest shape (one extra double pass per frame)\n",
@@ -540,8 +542,6 @@ static void explain_cloth(const ek_scene *s, long steps, const char *out, int th
          "       gather: each vertex sums its corners in element order (deterministic)\n",
          s->precision, s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
   ek_scene_integrator_explain(s, stdout, 2);
-  printf("passes     what each pass of the step takes:\n");
-  print_passes(s, "             ");
   explain_tail(s, steps, out);
 }
 
@@ -605,8 +605,6 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   if (s->integrator == EK_INTEGRATOR_XPBD) {
     // XPBD runs its own constraint kernel (xpbd.h), not the force.
     ek_scene_integrator_explain(s, stdout, k);
-    printf("passes     what each pass of the step takes:\n");
-    print_passes(s, "             ");
     explain_tail(s, steps, out);
     return;
   }
@@ -662,8 +660,6 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   printf("       scatter %s%s: %s\n", ek_scatter_name(sc),
          s->scatter == EK_SCATTER_AUTO ? " (auto)" : "", why[sc]);
   ek_scene_integrator_explain(s, stdout, k);
-  printf("passes     what each pass of the step takes:\n");
-  print_passes(s, "             ");
   explain_tail(s, steps, out);
 }
 

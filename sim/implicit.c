@@ -651,21 +651,25 @@ static int implicit_explain(const ek_scene *s, FILE *out, int number) {
           "x_n|_M^2 by Newton (newton_tol %g, max_newton %ld)\n",
           number, im->newton_tol, im->max_newton);
   if (im->linear_solver == EK_LINSOLVE_MATRIX_FREE)
-    fprintf(out,
-            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
-            "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
-            "projected element Hessians in %s; backtracking line search (Armijo)\n",
-            im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol,
-            im->max_cg, s->precision == 32 ? "f32" : "f64");
+    fprintf(
+        out,
+        "       per Newton iteration: gradient + the element data the Hessian reuses (one pass, "
+        "double; what it takes per element: passes above); "
+        "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
+        "projected element Hessians in %s; backtracking line search (Armijo)\n",
+        im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol, im->max_cg,
+        s->precision == 32 ? "f32" : "f64");
   else
-    fprintf(out,
-            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
-            "the projected element Hessians (%s) assembled into a CSR matrix, then %s; "
-            "backtracking line search (Armijo)\n",
-            s->precision == 32 ? "f32" : "f64",
-            im->linear_solver == EK_LINSOLVE_AMG
-                ? "PETSc CG + GAMG with the rigid-body near-null space (linear_solver amg)"
-                : "PETSc sparse Cholesky (linear_solver direct)");
+    fprintf(
+        out,
+        "       per Newton iteration: gradient + the element data the Hessian reuses (one pass, "
+        "double; what it takes per element: passes above); "
+        "the projected element Hessians (%s) assembled into a CSR matrix, then %s; "
+        "backtracking line search (Armijo)\n",
+        s->precision == 32 ? "f32" : "f64",
+        im->linear_solver == EK_LINSOLVE_AMG
+            ? "PETSc CG + GAMG with the rigid-body near-null space (linear_solver amg)"
+            : "PETSc sparse Cholesky (linear_solver direct)");
   fprintf(out, "       v = (x_{n+1} - x_n) / dt; the ground after the solve\n");
   return number + 1;
 }
