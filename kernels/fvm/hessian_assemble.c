@@ -27,6 +27,8 @@ static const ek_tet_blocks *cache_blocks(const ek_fvm_hessian *h) {
 
 static void plan_free(ek_fvm_hessian *h) {
   free(h->slot_own);
+  free(h->row_own);
+  h->row_own = NULL;
   free(h->tptr);
   free(h->tblk);
   h->slot_own = NULL;
@@ -43,9 +45,11 @@ void ek_hessian_assembly_free(ek_fvm_hessian *h) {
   free(h->slot_p);
   free(h->slot_rs);
   free(h->slot_first);
+  free(h->slot_lower);
+  free(h->mirror);
   free(h->isolated);
-  h->bptr = h->bcol = h->row_ptr = h->col = h->slot_p = h->slot_rs = h->isolated = NULL;
-  h->slot_first = NULL;
+  h->bptr = h->bcol = h->row_ptr = h->col = h->slot_p = h->slot_rs = h->mirror = h->isolated = NULL;
+  h->slot_first = h->slot_lower = NULL;
 }
 
 typedef struct {
@@ -124,10 +128,12 @@ static int build_pattern(ek_fvm_hessian *h) {
   h->slot_p = calloc(ns * 16, sizeof(int32_t));
   h->slot_rs = calloc(ns * 4, sizeof(int32_t));
   h->slot_first = calloc(ns, sizeof(uint16_t));
+  h->slot_lower = calloc(ns, sizeof(uint16_t));
+  h->mirror = malloc((nblocks + 1) * sizeof(int32_t));
   h->row_ptr = malloc((3 * nv + 1) * sizeof(int32_t));
   h->col = malloc((9 * nblocks + 1) * sizeof(int32_t));
-  if (!h->bptr || !h->bcol || !h->slot_p || !h->slot_rs || !h->slot_first || !h->row_ptr ||
-      !h->col) {
+  if (!h->bptr || !h->bcol || !h->slot_p || !h->slot_rs || !h->slot_first || !h->slot_lower ||
+      !h->mirror || !h->row_ptr || !h->col) {
     ek_hessian_assembly_free(h);
     goto oom;
   }
@@ -165,8 +171,25 @@ static int build_pattern(ek_fvm_hessian *h) {
       h->slot_rs[4 * s + (dc >> 2)] = 3 * nb;
       if (fresh || e[k - 1].code < 0)
         h->slot_first[s] |= (uint16_t)(1u << dc);
+      if (e[k].col < (int32_t)v)
+        h->slot_lower[s] |= (uint16_t)(1u << dc);
     }
   }
+  // Block (v, w)'s mirror (w, v): the pattern is symmetric (a tet couples
+  // both ways), found by bisection in row w's ascending columns.
+  for (size_t v = 0; v < nv; v++)
+    for (int32_t q = h->bptr[v]; q < h->bptr[v + 1]; q++) {
+      const int32_t w = h->bcol[q];
+      int32_t lo = h->bptr[w], hi = h->bptr[w + 1] - 1;
+      while (lo < hi) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        if (h->bcol[mid] < (int32_t)v)
+          lo = mid + 1;
+        else
+          hi = mid;
+      }
+      h->mirror[q] = lo;
+    }
   // Scalar CSR: row 3 v + k holds, per block (v, w) in column order, the
   // columns 3 w .. 3 w + 2.
   for (size_t v = 0; v < nv; v++) {
@@ -219,12 +242,11 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
   const size_t nv = el->nverts, ns = bl->nslots;
   const size_t lanes = h->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, nb = ns / lanes;
   plan_free(h);
-  uint8_t *vown = malloc(nv ? nv : 1);
+  uint8_t *vown = h->row_own = malloc(nv ? nv : 1);
   int32_t *seen = malloc((size_t)nt * sizeof(int32_t));
   h->slot_own = malloc(ns * 4);
   h->tptr = calloc((size_t)nt + 1, sizeof(int32_t));
   if (!vown || !seen || !h->slot_own || !h->tptr) {
-    free(vown);
     free(seen);
     plan_free(h);
     ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
@@ -259,7 +281,6 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
     h->tptr[t + 1] += h->tptr[t];
   h->tblk = malloc(((size_t)h->tptr[nt] + 1) * sizeof(int32_t));
   if (!h->tblk) {
-    free(vown);
     free(seen);
     plan_free(h);
     ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
@@ -276,7 +297,6 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
           h->tblk[fill[o]++] = (int32_t)b;
       }
   }
-  free(vown);
   free(seen);
   h->plan_threads = nt;
   return EK_OK;

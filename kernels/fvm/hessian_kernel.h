@@ -86,16 +86,19 @@ struct ek_fvm_hessian {
   // the values of entry (0, 0) of block (row corner d, column corner c)),
   // slot_rs (4 per slot: the row stride 3 nb of corner d's block row),
   // slot_first (bit d * 4 + c: this slot is the block's first, lowest,
-  // contribution); isolated: vertices in no tet (diagonal block 0).
-  int32_t *bptr, *bcol, *row_ptr, *col, *slot_p, *slot_rs, *isolated;
-  uint16_t *slot_first;
+  // contribution), slot_lower (bit d * 4 + c: the block lies below the
+  // block diagonal, column vertex < row vertex: not summed, copied from its
+  // mirror); mirror (per block (v, w): the index of block (w, v));
+  // isolated: vertices in no tet (diagonal block 0).
+  int32_t *bptr, *bcol, *row_ptr, *col, *slot_p, *slot_rs, *mirror, *isolated;
+  uint16_t *slot_first, *slot_lower;
   size_t nblocks, nisolated;
   // The threads' plan for plan_threads threads: vertex rows owned per
   // thread (slot_own, 4 per slot: the owner of corner d's row, 0xff
   // padding), and per thread t the slot blocks touching its rows,
   // ascending: tblk[tptr[t] .. tptr[t + 1]).
   int plan_threads;
-  uint8_t *slot_own;
+  uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
   int32_t *tptr, *tblk;
 };
 
