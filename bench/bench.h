@@ -86,6 +86,9 @@ typedef struct {
 int ek_bench_listing(const ek_bench *b);
 // 1 if the --filter regex matches `name` (and the run is not stopping).
 int ek_bench_wants(const ek_bench *b, const char *name);
+// 1 if the run has a --filter: rows too slow for the default suite (the
+// bracket's solver rows) run only when a filter names them.
+int ek_bench_filtered(const ek_bench *b);
 // Time one row (or, in a listing pass, just count/print it) and record the
 // result. 0 on success (also when filtered out), < 0 on error.
 int ek_bench_run(ek_bench *b, const ek_bench_row *row);

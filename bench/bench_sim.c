@@ -27,9 +27,20 @@
 // tests/test_sim_xpbd.c), followed, per thread count, by the same note
 // from XPBD_PHASE_STEPS phase-timed steps of the last such row's run.
 //
+// sim/<scene>/solver:<s>/<isa>/<prec>/tets:<N>/threads:<T>: an implicit
+// scene with integrator.linear_solver set to each solver this build has
+// (matrix_free; amg and direct with PETSc), one step per call from the
+// scene's start, at the largest thread count only; after each row a note
+// with Newton iterations per step, CG iterations per Newton iteration and
+// ms per step by phase. cantilever_implicit is in the default suite (~0.1
+// to 1 s per step); the bracket (scenes/bracket.json, 120 273 tets: ~10 s
+// per matrix-free step) only when --filter names its rows (e.g. --filter
+// 'bracket/solver').
+//
 // sim/cantilever_1s/...: not a timed row but one run of each loop over 1 s
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
-// dt, implicit at 1/30 s), printed side by side as a note with the final
+// dt, implicit at 1/30 s with the scene's solver, matrix_free, and with
+// amg when PETSc is built), printed side by side as a note with the final
 // tip positions' difference (one run each: a cost, not a median).
 #include <ek/cloth.h>
 #include <ek/sim/sim.h>
@@ -303,7 +314,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
 
 // 1 s of the cantilever, explicit vs implicit (see the top comment).
 static int cantilever_1s(ek_bench *b, int threads) {
-  static const char *names[2] = {"cantilever", "cantilever_implicit"};
+  static const char *names[3] = {"cantilever", "cantilever_implicit", "cantilever_implicit"};
   char name[EK_BENCH_NAME_MAX];
   snprintf(name, sizeof name, "sim/cantilever_1s/explicit_vs_implicit/threads:%d", threads);
   if (!ek_bench_wants(b, name))
@@ -314,16 +325,20 @@ static int cantilever_1s(ek_bench *b, int threads) {
         name);
     return 0;
   }
-  double seconds[2] = {NAN, NAN}, tips[2] = {NAN, NAN}, dts[2] = {NAN, NAN};
-  long steps[2] = {0, 0};
+  double seconds[3] = {NAN, NAN, NAN}, tips[3] = {NAN, NAN, NAN}, dts[3] = {NAN, NAN, NAN};
+  long steps[3] = {0, 0, 0};
+  // The third run: the implicit scene with the AMG solver (PETSc builds).
+  const int runs = ek_linear_solver_available(EK_LINSOLVE_AMG) ? 3 : 2;
   omp_set_num_threads(threads);
-  for (int k = 0; k < 2; k++) {
+  for (int k = 0; k < runs; k++) {
     char err[1024] = "";
     ek_scene scene;
     ek_mesh *mesh = NULL;
     ek_sim *sim = NULL;
-    if (load_shipped(names[k], &scene, err, sizeof err) != 0 || !(mesh = ek_scene_mesh(&scene)) ||
-        !(sim = ek_sim_create(&scene, mesh))) {
+    int loaded = load_shipped(names[k], &scene, err, sizeof err) == 0;
+    if (loaded && k == 2)
+      scene.implicit.linear_solver = EK_LINSOLVE_AMG;
+    if (!loaded || !(mesh = ek_scene_mesh(&scene)) || !(sim = ek_sim_create(&scene, mesh))) {
       ek_bench_fail(b, "sim: %s: %s", names[k], err[0] ? err : ek_last_error());
       ek_mesh_destroy(mesh);
       return -1;
@@ -343,13 +358,119 @@ static int cantilever_1s(ek_bench *b, int threads) {
     if (rc)
       return -1;
   }
+  char amg[512] = "; implicit with linear_solver amg: no PETSc in this build";
+  if (runs == 3)
+    snprintf(amg, sizeof amg,
+             "; implicit with linear_solver amg %.3f s, explicit / implicit amg %.2fx, tip z "
+             "%.6e m, difference %.3g of the explicit one",
+             seconds[2], seconds[0] / seconds[2], tips[2], fabs(tips[2] - tips[0]) / fabs(tips[0]));
   ek_bench_note(b,
                 "%s: 1 s of simulated time: explicit dt %.3g (%ld steps) %.3f s, implicit dt %.4g "
                 "(%ld steps) %.3f s, explicit / implicit %.2fx; tip z displacement explicit "
-                "%.6e m, implicit %.6e m, difference %.3g of the explicit one",
+                "%.6e m, implicit %.6e m, difference %.3g of the explicit one%s",
                 name, dts[0], steps[0], seconds[0], dts[1], steps[1], seconds[1],
-                seconds[0] / seconds[1], tips[0], tips[1], fabs(tips[1] - tips[0]) / fabs(tips[0]));
+                seconds[0] / seconds[1], tips[0], tips[1], fabs(tips[1] - tips[0]) / fabs(tips[0]),
+                amg);
   return 0;
+}
+
+// sim/<scene>/solver:<s>/... (see the top comment): per implicit scene and
+// linear solver, the step time (one step per call) and a note with the
+// iterations and the phases.
+static int solver_rows(ek_bench *b, const int *counts, int ncounts) {
+  static const struct {
+    const char *scene;
+    int opt_in; // only under a --filter that names the rows
+  } cases[] = {{"cantilever_implicit", 0}, {"bracket", 1}};
+  const int threads = counts[ncounts - 1];
+  int rc = 0;
+  for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+    if (cases[k].opt_in && !ek_bench_filtered(b))
+      continue;
+    char err[1024];
+    static ek_scene scene;
+    if (load_shipped(cases[k].scene, &scene, err, sizeof err) != 0) {
+      ek_bench_fail(b, "sim: %s", err);
+      rc = -1;
+      continue;
+    }
+    scene.output_file[0] = '\0';
+    ek_isa isa = EK_ISA_AUTO;
+    if (ek_isa_resolve(scene.svd.isa, &isa) != EK_OK)
+      continue;
+    // The tet count names the row: a box's from its cells, a file mesh's
+    // from the mesh (loaded here: the bracket's rows are opt-in).
+    ek_mesh *mesh = scene.mesh_file[0] ? ek_scene_mesh(&scene) : NULL;
+    if (scene.mesh_file[0] && !mesh) {
+      ek_bench_fail(b, "sim: %s: %s", cases[k].scene, ek_last_error());
+      rc = -1;
+      continue;
+    }
+    long tets = mesh ? (long)ek_mesh_ntets(mesh)
+                     : 6L * scene.box_cells[0] * scene.box_cells[1] * scene.box_cells[2];
+    const char *prec = scene.precision == 32 ? "f32" : "f64";
+    for (int ls = 0; ls < EK_LINSOLVE_COUNT; ls++) {
+      char name[EK_BENCH_NAME_MAX], knobs[256];
+      snprintf(name, sizeof name, "sim/%s/solver:%s/%s/%s/tets:%ld/threads:%d", cases[k].scene,
+               ek_linear_solver_name((ek_linear_solver)ls), ek_isa_name(isa), prec, tets, threads);
+      if (!ek_bench_wants(b, name))
+        continue;
+      if (!ek_linear_solver_available((ek_linear_solver)ls)) {
+        ek_bench_note(b, "%s: skipped: linear_solver %s needs PETSc, and this build has none", name,
+                      ek_linear_solver_name((ek_linear_solver)ls));
+        continue;
+      }
+      scene.implicit.linear_solver = (ek_linear_solver)ls;
+      sim_ctx ctx = {NULL, b, 0, 1};
+      if (!ek_bench_listing(b)) {
+        if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
+          ek_bench_fail(b, "sim: %s: %s", cases[k].scene, ek_last_error());
+          rc = -1;
+          break;
+        }
+        omp_set_num_threads(threads);
+        if (!(ctx.sim = ek_sim_create(&scene, mesh))) {
+          ek_bench_fail(b, "sim: %s: %s", name, ek_last_error());
+          rc = -1;
+          continue;
+        }
+      }
+      snprintf(knobs, sizeof knobs,
+               "scene=%s;model=%s;integrator=implicit;linear_solver=%s;steps_per_call=1;dt=%g",
+               cases[k].scene, scene.model_name, ek_linear_solver_name((ek_linear_solver)ls),
+               scene.dt);
+      ek_bench_row row = {.name = name,
+                          .family = "sim",
+                          .isa = isa,
+                          .precision = prec,
+                          .threads = threads,
+                          .knobs = knobs,
+                          .items = 1,
+                          .fn = run_steps,
+                          .ctx = &ctx};
+      if (ek_bench_run(b, &row) != 0)
+        rc = -1;
+      note_sim_warning(b, name, ctx.sim);
+      const ek_sim_times *t = ctx.sim && !ctx.failed ? ek_sim_timings(ctx.sim) : NULL;
+      if (t && t->steps > 0) {
+        const double n = (double)t->steps;
+        ek_bench_note(
+            b,
+            "%s: %.2f Newton iterations per step, %.1f CG iterations per Newton "
+            "iteration (%s); ms per step: gradient+eigensystems %.3f, Hessian "
+            "products %.3f, preconditioner %.3f, assembly %.3f, solver setup %.3f, "
+            "solve %.3f; %ld steps",
+            name, (double)t->newton_iterations / n,
+            t->newton_iterations ? (double)t->cg_iterations / (double)t->newton_iterations : 0,
+            ls == EK_LINSOLVE_DIRECT ? "a factorisation counts 1" : "CG", 1e3 * t->gradient / n,
+            1e3 * t->matvec / n, 1e3 * t->preconditioner / n, 1e3 * t->assembly / n,
+            1e3 * t->solver_setup / n, 1e3 * t->solver_solve / n, t->steps);
+      }
+      ek_sim_destroy(ctx.sim);
+    }
+    ek_mesh_destroy(mesh);
+  }
+  return rc;
 }
 
 // PHASE_STEPS more steps of a row's run with the phases timed (same
@@ -643,6 +764,8 @@ int bench_sim(ek_bench *b) {
   if (cloth_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (rotation_rows(b, counts, ncounts) < 0)
+    rc = -1;
+  if (solver_rows(b, counts, ncounts) < 0)
     rc = -1;
   if (cantilever_1s(b, counts[ncounts - 1]) < 0)
     rc = -1;

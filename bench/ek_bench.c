@@ -93,6 +93,8 @@ int ek_bench_wants(const ek_bench *b, const char *name) {
   return !b->has_filter || regexec(&b->filter, name, 0, NULL, 0) == 0;
 }
 
+int ek_bench_filtered(const ek_bench *b) { return b->has_filter; }
+
 int ek_bench_thread_counts(const ek_bench *b, int *counts) {
   for (int i = 0; i < b->nthread_counts; i++)
     counts[i] = b->thread_counts[i];

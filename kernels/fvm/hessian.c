@@ -114,27 +114,113 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
-// The element Hessians of every block of the cache's slot order into ebuf
-// (nslots / LANES blocks of 144 planes: hessian_kernel.h, HESS_ELEMENT):
-// each block written by one thread, nothing summed, so any thread count
-// gives the same bits. About 9 products' arithmetic per tet: the product's
-// grain / 8.
-int EK_P(fvm_hessian_elements)(const ek_fvm_hessian *h, real *ebuf) {
-  int rc = check_cached(h, "ek_fvm_hessian_assemble", ebuf, ebuf);
+// a + b, and where both are NaN, a's NaN (quieted) as x86's add returns
+// it for its first operand: the sum's NaN is its first NaN contribution's
+// whichever way the compiler orders the operands of the add.
+static inline double nan_first(double a, double b) { return a != a ? a + 0.0 : a + b; }
+
+// K's values (ek_fvm_hessian_assemble): per thread t of the plan
+// (hessian_kernel.h), the slot blocks touching its rows in ascending order;
+// per block, the element Hessians of its lanes (HESS_ELEMENT) into a
+// buffer that stays in L1 (144 planes), then each element block on or above
+// the block diagonal whose row t owns added into the values through the map
+// (the block's first contribution written as 0 + e: the sum from 0 in
+// ascending slot order, as a plain assembly); then, after a barrier, the
+// blocks below the diagonal copied from their mirrors. Each nonzero is
+// summed by one thread in ascending slot order, so any thread count gives
+// the same bits; a block touching rows of two threads is computed by both
+// (the Morton order keeps those few). Why this order (docs/perf.md,
+// "Hessian assembly"): the old gather per nonzero read a 58 MB element
+// buffer at random, ~70% of its time.
+int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
+  int rc = check_cached(h, "ek_fvm_hessian_assemble", values, values);
   if (rc < 0)
     return rc;
   hess_args a = args_for(h, HESS_ELEMENT);
   a.cache = h->cache;
-  a.corner = ebuf;
-  const long nb = (long)(scatter_blocks(h->el, h->scatter)->nslots / EK_LANES);
-  const int iso = ek_models[h->mat.model]->isotropic;
-  const int parallel = h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS / 8;
-#pragma omp parallel for schedule(static) if (parallel)
-  for (long b = 0; b < nb; b++) {
-    if (iso)
-      h->kt->EK_FIELD(hessian_frame_block)(&a, (size_t)b, (size_t)b + 1);
-    else
-      h->kt->EK_FIELD(hessian_block)[a.mat->model](&a, (size_t)b, (size_t)b + 1);
+  const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
+  const int32_t *slot_tet = a.slot_tet;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    _Alignas(64) real buf[EK_LANES * 144];
+    hess_args la = a;
+    la.corner = buf;
+    const int team = omp_get_num_threads();
+    for (int t = omp_get_thread_num(); t < nt; t += team)
+      for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
+        const size_t b = (size_t)h->tblk[k];
+        // The block's destinations into the cache while its element
+        // Hessians are computed (~16 x 25 ns: long enough to hide the
+        // misses of the values' scattered rows).
+        for (size_t s = b * EK_LANES; s < (b + 1) * EK_LANES; s++)
+          for (int d = 0; d < 4; d++) {
+            const size_t rs = (size_t)h->slot_rs[4 * s + (size_t)d];
+            for (int c = 0; c < 4; c++) {
+              if (h->slot_lower[s] >> (d * 4 + c) & 1)
+                continue;
+              const double *o = values + h->slot_p[16 * s + (size_t)(d * 4 + c)];
+              __builtin_prefetch(o, 1, 3);
+              __builtin_prefetch(o + rs, 1, 3);
+              __builtin_prefetch(o + 2 * rs, 1, 3);
+            }
+          }
+        if (iso)
+          h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
+        else
+          h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
+        for (int l = 0; l < EK_LANES; l++) {
+          const size_t s = b * EK_LANES + (size_t)l;
+          if (slot_tet[s] < 0)
+            continue;
+          const real *E = buf + l; // plane p at E[p * EK_LANES]
+          const unsigned first = h->slot_first[s], lower = h->slot_lower[s];
+          for (int d = 0; d < 4; d++) {
+            if (h->slot_own[4 * s + (size_t)d] != t)
+              continue;
+            const size_t rs = (size_t)h->slot_rs[4 * s + (size_t)d];
+            for (int c = 0; c < 4; c++) {
+              if (lower >> (d * 4 + c) & 1)
+                continue;
+              const real *e = E + (d * 4 + c) * 9 * EK_LANES;
+              double *o = values + h->slot_p[16 * s + (size_t)(d * 4 + c)];
+              // acc as the plain gather's: 0 (a first contribution) or
+              // the partial sum, plus the element's value.
+              double acc[9] = {0};
+              if (!(first >> (d * 4 + c) & 1))
+                for (int i = 0; i < 3; i++)
+                  for (int m = 0; m < 3; m++)
+                    acc[3 * i + m] = o[(size_t)i * rs + (size_t)m];
+              for (int q = 0; q < 9; q++)
+                acc[q] = nan_first(acc[q], (double)e[q * EK_LANES]);
+              for (int i = 0; i < 3; i++)
+                for (int m = 0; m < 3; m++)
+                  o[(size_t)i * rs + (size_t)m] = acc[3 * i + m];
+            }
+          }
+        }
+      }
+      // The blocks below the diagonal, (v, w) with w < v: the transpose of
+      // (w, v), whose sum has the same contributions (each element block
+      // (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
+      // slot order, so the copy has the bits that summing would give.
+#pragma omp barrier
+    const ek_tets *el = h->el;
+    for (int t = omp_get_thread_num(); t < nt; t += team)
+      for (size_t v = 0; v < el->nverts; v++) {
+        if (h->row_own[v] != t)
+          continue;
+        const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+        double *row = values + 9 * (size_t)b0;
+        for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
+          const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
+          const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
+          double *dst = row + 3 * (size_t)(q - b0);
+          for (int i = 0; i < 3; i++)
+            for (int m = 0; m < 3; m++)
+              dst[(size_t)i * 3 * (size_t)nb + (size_t)m] =
+                  src[(size_t)m * 3 * (size_t)nw + (size_t)i];
+        }
+      }
   }
   return EK_OK;
 }

@@ -1,12 +1,14 @@
 // Assembly of the projected Hessian K (include/ek/hessian.h:
-// ek_fvm_hessian_pattern, ek_fvm_hessian_assemble): the element Hessians
-// of the cache's precision (hessian.c, HESS_ELEMENT kernels), then per
-// nonzero 3x3 block a gather of its contributions through a map built
-// once from the element incidence. Each block sums its contributions in
-// ascending slot order on one thread: the assembled matrix has the same
-// bits for any thread count (no colouring, no atomics), as the GATHER
-// scatter of the forces (scatter.h). Built once, at baseline ISA: the
-// gather is index work; the arithmetic is in the element kernels.
+// ek_fvm_hessian_pattern, ek_fvm_hessian_assemble): the pattern and an
+// element-to-nonzero map built once from the element incidence, and per
+// call the element Hessians of the cache's precision (HESS_ELEMENT
+// kernels) added straight into the values through the map, block of
+// lanes by block of lanes (hessian.c, ek_fvm_hessian_assemble_f32/f64).
+// Each nonzero is summed on one thread, the thread that owns its row, in
+// ascending slot order from 0: the assembled matrix has the same bits for
+// any thread count (no colouring, no atomics) and the same bits as a
+// gather of each block's contributions in slot order. Built once, at
+// baseline ISA: the map is index work; the arithmetic is in the kernels.
 #include <omp.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -23,16 +25,31 @@ static const ek_tet_blocks *cache_blocks(const ek_fvm_hessian *h) {
   return h->scatter == EK_SCATTER_COLORED ? &h->el->colored : &h->el->morton;
 }
 
+static void plan_free(ek_fvm_hessian *h) {
+  free(h->slot_own);
+  free(h->row_own);
+  h->row_own = NULL;
+  free(h->tptr);
+  free(h->tblk);
+  h->slot_own = NULL;
+  h->tptr = h->tblk = NULL;
+  h->plan_threads = 0;
+}
+
 void ek_hessian_assembly_free(ek_fvm_hessian *h) {
+  plan_free(h);
   free(h->bptr);
   free(h->bcol);
   free(h->row_ptr);
   free(h->col);
-  free(h->cptr);
-  free(h->contrib);
-  ek_free(h->ebuf);
-  h->bptr = h->bcol = h->row_ptr = h->col = h->cptr = h->contrib = NULL;
-  h->ebuf = NULL;
+  free(h->slot_p);
+  free(h->slot_rs);
+  free(h->slot_first);
+  free(h->slot_lower);
+  free(h->mirror);
+  free(h->isolated);
+  h->bptr = h->bcol = h->row_ptr = h->col = h->slot_p = h->slot_rs = h->mirror = h->isolated = NULL;
+  h->slot_first = h->slot_lower = NULL;
 }
 
 typedef struct {
@@ -108,28 +125,71 @@ static int build_pattern(ek_fvm_hessian *h) {
   h->nblocks = nblocks;
   h->bptr = malloc((nv + 1) * sizeof(int32_t));
   h->bcol = malloc(nblocks * sizeof(int32_t));
-  h->cptr = malloc((nblocks + 1) * sizeof(int32_t));
-  h->contrib = malloc((ne - nv + 1) * sizeof(int32_t));
+  h->slot_p = calloc(ns * 16, sizeof(int32_t));
+  h->slot_rs = calloc(ns * 4, sizeof(int32_t));
+  h->slot_first = calloc(ns, sizeof(uint16_t));
+  h->slot_lower = calloc(ns, sizeof(uint16_t));
+  h->mirror = malloc((nblocks + 1) * sizeof(int32_t));
   h->row_ptr = malloc((3 * nv + 1) * sizeof(int32_t));
   h->col = malloc((9 * nblocks + 1) * sizeof(int32_t));
-  if (!h->bptr || !h->bcol || !h->cptr || !h->contrib || !h->row_ptr || !h->col) {
+  if (!h->bptr || !h->bcol || !h->slot_p || !h->slot_rs || !h->slot_first || !h->slot_lower ||
+      !h->mirror || !h->row_ptr || !h->col) {
     ek_hessian_assembly_free(h);
     goto oom;
   }
-  size_t q = 0, nc = 0;
+  // Per row v: block j (column order) at value offset 9 bptr[v] + 3 j,
+  // rows 3 nb apart; its first slot (the lowest code after the
+  // diagonal's placeholder) writes, the later ones add.
+  size_t q = 0, niso = 0;
   for (size_t v = 0; v < nv; v++) {
     h->bptr[v] = (int32_t)q;
-    for (int32_t k = rstart[v]; k < rstart[v + 1]; k++) {
-      if (k == rstart[v] || e[k].col != e[k - 1].col) {
-        h->bcol[q] = e[k].col;
-        h->cptr[q++] = (int32_t)nc;
-      }
-      if (e[k].code >= 0)
-        h->contrib[nc++] = e[k].code;
-    }
+    for (int32_t k = rstart[v]; k < rstart[v + 1]; k++)
+      if (k == rstart[v] || e[k].col != e[k - 1].col)
+        h->bcol[q++] = e[k].col;
+    niso += rstart[v + 1] - rstart[v] == 1;
   }
   h->bptr[nv] = (int32_t)q;
-  h->cptr[q] = (int32_t)nc;
+  h->nisolated = niso;
+  h->isolated = malloc((niso + 1) * sizeof(int32_t));
+  if (!h->isolated) {
+    ek_hessian_assembly_free(h);
+    goto oom;
+  }
+  niso = 0;
+  for (size_t v = 0; v < nv; v++) {
+    const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+    if (rstart[v + 1] - rstart[v] == 1)
+      h->isolated[niso++] = (int32_t)v;
+    int32_t j = -1;
+    for (int32_t k = rstart[v]; k < rstart[v + 1]; k++) {
+      const int fresh = k == rstart[v] || e[k].col != e[k - 1].col;
+      j += fresh;
+      if (e[k].code < 0)
+        continue;
+      const size_t s = (size_t)e[k].code >> 4, dc = (size_t)e[k].code & 15;
+      h->slot_p[16 * s + dc] = 9 * b0 + 3 * j;
+      h->slot_rs[4 * s + (dc >> 2)] = 3 * nb;
+      if (fresh || e[k - 1].code < 0)
+        h->slot_first[s] |= (uint16_t)(1u << dc);
+      if (e[k].col < (int32_t)v)
+        h->slot_lower[s] |= (uint16_t)(1u << dc);
+    }
+  }
+  // Block (v, w)'s mirror (w, v): the pattern is symmetric (a tet couples
+  // both ways), found by bisection in row w's ascending columns.
+  for (size_t v = 0; v < nv; v++)
+    for (int32_t q = h->bptr[v]; q < h->bptr[v + 1]; q++) {
+      const int32_t w = h->bcol[q];
+      int32_t lo = h->bptr[w], hi = h->bptr[w + 1] - 1;
+      while (lo < hi) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        if (h->bcol[mid] < (int32_t)v)
+          lo = mid + 1;
+        else
+          hi = mid;
+      }
+      h->mirror[q] = lo;
+    }
   // Scalar CSR: row 3 v + k holds, per block (v, w) in column order, the
   // columns 3 w .. 3 w + 2.
   for (size_t v = 0; v < nv; v++) {
@@ -170,24 +230,77 @@ int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *p) {
   return EK_OK;
 }
 
-// Block row v of the matrix from the element Hessians (E: float or double).
-#define GATHER_ROW(E)                                                                              \
-  do {                                                                                             \
-    const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;                                       \
-    for (int32_t j = 0; j < nb; j++) {                                                             \
-      double acc[9] = {0};                                                                         \
-      for (int32_t k = h->cptr[b0 + j]; k < h->cptr[b0 + j + 1]; k++) {                            \
-        const size_t code = (size_t)h->contrib[k], s = code >> 4;                                  \
-        const int d = (int)(code >> 2 & 3), c = (int)(code & 3);                                   \
-        const size_t base = s * 144 + (size_t)(d * 4 + c) * 9;                                     \
-        for (int q = 0; q < 9; q++)                                                                \
-          acc[q] += (double)(E)[base + (size_t)q];                                                 \
-      }                                                                                            \
-      for (int r = 0; r < 3; r++)                                                                  \
-        for (int m = 0; m < 3; m++)                                                                \
-          values[9 * b0 + r * 3 * nb + 3 * j + m] = acc[3 * r + m];                                \
-    }                                                                                              \
-  } while (0)
+// The threads' plan for nt threads (hessian_kernel.h): the slot blocks cut
+// into nt equal runs; a vertex row belongs to the thread whose run holds
+// the first block touching it; thread t computes, in ascending order, every
+// block touching one of its rows (its run's, and the few later ones across
+// the Morton cut). Which thread sums a nonzero changes with nt, the order
+// of its sum does not.
+static int build_plan(ek_fvm_hessian *h, int nt) {
+  const ek_tets *el = h->el;
+  const ek_tet_blocks *bl = cache_blocks(h);
+  const size_t nv = el->nverts, ns = bl->nslots;
+  const size_t lanes = h->precision == 32 ? EK_LANES_F32 : EK_LANES_F64, nb = ns / lanes;
+  plan_free(h);
+  uint8_t *vown = h->row_own = malloc(nv ? nv : 1);
+  int32_t *seen = malloc((size_t)nt * sizeof(int32_t));
+  h->slot_own = malloc(ns * 4);
+  h->tptr = calloc((size_t)nt + 1, sizeof(int32_t));
+  if (!vown || !seen || !h->slot_own || !h->tptr) {
+    free(seen);
+    plan_free(h);
+    ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
+    return EK_ENOMEM;
+  }
+  memset(vown, 0xff, nv);
+  for (size_t b = 0, t = 0; b < nb; b++) {
+    while ((t + 1) * nb / (size_t)nt <= b)
+      t++;
+    for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+      if (bl->slot_tet[s] >= 0)
+        for (int d = 0; d < 4; d++) {
+          const int32_t v = el->tets[4 * (size_t)bl->slot_tet[s] + d];
+          if (vown[v] == 0xff)
+            vown[v] = (uint8_t)t;
+        }
+  }
+  for (int t = 0; t < nt; t++)
+    seen[t] = -1;
+  for (size_t b = 0; b < nb; b++)
+    for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+      for (int d = 0; d < 4; d++) {
+        const uint8_t o =
+            bl->slot_tet[s] < 0 ? 0xff : vown[el->tets[4 * (size_t)bl->slot_tet[s] + d]];
+        h->slot_own[4 * s + (size_t)d] = o;
+        if (o != 0xff && seen[o] != (int32_t)b) {
+          seen[o] = (int32_t)b;
+          h->tptr[o + 1]++;
+        }
+      }
+  for (int t = 0; t < nt; t++)
+    h->tptr[t + 1] += h->tptr[t];
+  h->tblk = malloc(((size_t)h->tptr[nt] + 1) * sizeof(int32_t));
+  if (!h->tblk) {
+    free(seen);
+    plan_free(h);
+    ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
+    return EK_ENOMEM;
+  }
+  int32_t *fill = seen; // reused: the next free entry per thread
+  for (int t = 0; t < nt; t++)
+    fill[t] = h->tptr[t];
+  for (size_t b = 0; b < nb; b++) {
+    for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+      for (int d = 0; d < 4; d++) {
+        const uint8_t o = h->slot_own[4 * s + (size_t)d];
+        if (o != 0xff && (fill[o] == h->tptr[o] || h->tblk[fill[o] - 1] != (int32_t)b))
+          h->tblk[fill[o]++] = (int32_t)b;
+      }
+  }
+  free(seen);
+  h->plan_threads = nt;
+  return EK_OK;
+}
 
 int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
   static const char *fn = "ek_fvm_hessian_assemble";
@@ -200,27 +313,26 @@ int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
     if (rc < 0)
       return rc;
   }
-  const int f32 = h->precision == 32;
-  const size_t ns = cache_blocks(h)->nslots;
-  if (!h->ebuf && !(h->ebuf = ek_alloc(ns * 144 * (f32 ? sizeof(float) : sizeof(double))))) {
-    ek_set_error("%s: out of memory for the element Hessians (%zu tets)", fn, h->el->ntets);
-    return EK_ENOMEM;
+  // The threads a parallel region would get (at most 255: the plan's owner
+  // bytes); one below the parallel grain (an element Hessian is about 9
+  // products' arithmetic: the product's grain / 8).
+  int nt = h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS / 8 ? omp_get_max_threads() : 1;
+  nt = nt < 1 ? 1 : nt > 255 ? 255 : nt;
+  if (h->plan_threads != nt) {
+    int rc = build_plan(h, nt);
+    if (rc < 0)
+      return rc;
   }
-  int rc = f32 ? ek_fvm_hessian_elements_f32(h, h->ebuf) : ek_fvm_hessian_elements_f64(h, h->ebuf);
+  int rc = h->precision == 32 ? ek_fvm_hessian_assemble_f32(h, values)
+                              : ek_fvm_hessian_assemble_f64(h, values);
   if (rc < 0)
     return rc;
-  const long nv = (long)h->el->nverts;
-  const int parallel = h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS / 8;
-  if (f32) {
-    const float *E = h->ebuf;
-#pragma omp parallel for schedule(static) if (parallel)
-    for (long v = 0; v < nv; v++)
-      GATHER_ROW(E);
-  } else {
-    const double *E = h->ebuf;
-#pragma omp parallel for schedule(static) if (parallel)
-    for (long v = 0; v < nv; v++)
-      GATHER_ROW(E);
+  // A vertex in no tet: its diagonal block (the pattern holds it) is 0.
+  for (size_t i = 0; i < h->nisolated; i++) {
+    const int32_t v = h->isolated[i], nb = h->bptr[v + 1] - h->bptr[v];
+    for (int r = 0; r < 3; r++)
+      for (int m = 0; m < 3; m++)
+        values[9 * h->bptr[v] + r * 3 * nb + m] = 0;
   }
   return EK_OK;
 }

@@ -73,7 +73,7 @@ static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
 }
 
 // HESS_ELEMENT: the 12x12 element Hessians of blocks [b0, b1) into
-// a->corner (144 planes per block: hessian_vec.h, elem_store). The 9 unit
+// a->corner (144 planes per block from b0: hessian_vec.h, elem_store). The 9 unit
 // columns' U^T dF V are rank one, a b^T (a = U^T e_k, b = V^T g_c), but
 // mat_frame_apply on the full dF keeps this the product's arithmetic.
 static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
@@ -94,7 +94,7 @@ static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
           mat_frame_apply(&fr, dF, dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
-      elem_store(H, b * L + (size_t)o, a->corner);
+      elem_store(H, (size_t)o, a->corner + (b - b0) * 144 * L);
     }
   }
 }

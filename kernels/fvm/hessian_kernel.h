@@ -15,9 +15,9 @@
 // then out (add, lane order) or corner (write) as in scatter.h;
 //   HESS_ELEMENT: the projected 12x12 element Hessian from the cache (rows
 //     and columns corner-major, 3 c + k), symmetrised, written to corner
-//     (per slot, 3x3 block by block: corner[slot * 144 + (d * 4 + c) * 9 +
-//     i * 3 + k], rows (d, i), columns (c, k));
-//     out is not used.
+//     as 144 planes per block from b0: corner[((b - b0) * 144 + (d * 4 +
+//     c) * 9 + i * 3 + k) * LANES + l], rows (d, i), columns (c, k); out is
+//     not used.
 //
 // Cache: `planes` planes per tet, plane k of block b at
 // cache[(b * planes + k) * LANES + l] in the cache's precision (LANES 16
@@ -81,12 +81,25 @@ struct ek_fvm_hessian {
   int cached;     // a caching gradient pass ran
   // Assembly (hessian_assemble.c), built on first use: K's pattern over
   // vertex blocks (bptr nverts + 1, bcol: block rows, columns ascending),
-  // the scalar CSR (row_ptr, col) and per block the contributions, cptr
-  // (nblocks + 1) into contrib: slot * 16 + d * 4 + c (row corner d,
-  // column corner c), ascending; ebuf: the element Hessians.
-  int32_t *bptr, *bcol, *row_ptr, *col, *cptr, *contrib;
-  size_t nblocks;
-  void *ebuf;
+  // the scalar CSR (row_ptr, col), and the element-to-nonzero map per slot
+  // of the cache's order: slot_p (16 per slot, d * 4 + c: the offset in
+  // the values of entry (0, 0) of block (row corner d, column corner c)),
+  // slot_rs (4 per slot: the row stride 3 nb of corner d's block row),
+  // slot_first (bit d * 4 + c: this slot is the block's first, lowest,
+  // contribution), slot_lower (bit d * 4 + c: the block lies below the
+  // block diagonal, column vertex < row vertex: not summed, copied from its
+  // mirror); mirror (per block (v, w): the index of block (w, v));
+  // isolated: vertices in no tet (diagonal block 0).
+  int32_t *bptr, *bcol, *row_ptr, *col, *slot_p, *slot_rs, *mirror, *isolated;
+  uint16_t *slot_first, *slot_lower;
+  size_t nblocks, nisolated;
+  // The threads' plan for plan_threads threads: vertex rows owned per
+  // thread (slot_own, 4 per slot: the owner of corner d's row, 0xff
+  // padding), and per thread t the slot blocks touching its rows,
+  // ascending: tblk[tptr[t] .. tptr[t + 1]).
+  int plan_threads;
+  uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
+  int32_t *tptr, *tblk;
 };
 
 void ek_hessian_assembly_free(ek_fvm_hessian *h);
@@ -94,8 +107,9 @@ void ek_hessian_assembly_free(ek_fvm_hessian *h);
 // The diagonal blocks in the cache's precision (hessian.c, per precision).
 int ek_fvm_hessian_diag_f32(const ek_fvm_hessian *h, float *blocks);
 int ek_fvm_hessian_diag_f64(const ek_fvm_hessian *h, double *blocks);
-// The element Hessians in the cache's precision (hessian.c, per precision).
-int ek_fvm_hessian_elements_f32(const ek_fvm_hessian *h, float *ebuf);
-int ek_fvm_hessian_elements_f64(const ek_fvm_hessian *h, double *ebuf);
+// The element Hessians in the cache's precision added into K's values
+// through the map and plan above (hessian.c, per precision).
+int ek_fvm_hessian_assemble_f32(const ek_fvm_hessian *h, double *values);
+int ek_fvm_hessian_assemble_f64(const ek_fvm_hessian *h, double *values);
 
 #endif

@@ -107,7 +107,7 @@ EK_INLINE void element_blocks(const hess_args *a, size_t b0, size_t b1) {
           material_diff_direct(&mp, dF, R, dF, dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
-      elem_store(H, b * L + (size_t)o, a->corner);
+      elem_store(H, (size_t)o, a->corner + (b - b0) * 144 * L);
     }
   }
 }

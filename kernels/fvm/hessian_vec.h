@@ -87,27 +87,23 @@ EK_INLINE void elem_column(const vreal dP[9], const vreal g[4][3], vreal v0, int
   }
 }
 
-// Corner 0's columns, the symmetrisation, and the lanes' matrices written
-// per slot, 3x3 block by 3x3 block (what the assembly's gather reads: one
-// slot's 144 values contiguous, not 144 planes LANES apart):
-// dst[slot * 144 + (d * 4 + c) * 9 + i * 3 + k] for the EK_W slots from
-// slot0.
-EK_INLINE void elem_store(vreal H[144], size_t slot0, real *dst) {
+// Corner 0's columns, the symmetrisation, and the matrices written as 144
+// planes of the block's lanes (what the assembly reads, lane by lane):
+// dst[((d * 4 + c) * 9 + i * 3 + k) * LANES + o + l] for the EK_W lanes
+// from o, rows (d, i), columns (c, k).
+EK_INLINE void elem_store(vreal H[144], size_t o, real *dst) {
   const vreal half = vset((real)0.5);
   for (int r = 0; r < 12; r++)
     for (int k = 0; k < 3; k++)
       H[r * 12 + k] = vneg(vadd(vadd(H[r * 12 + 3 + k], H[r * 12 + 6 + k]), H[r * 12 + 9 + k]));
-  _Alignas(64) real t[144 * EK_W];
   for (int r = 0; r < 12; r++)
     for (int s = r; s < 12; s++) {
       vreal v = s == r ? H[r * 12 + r] : vmul(half, vadd(H[r * 12 + s], H[s * 12 + r]));
       const int d = r / 3, i = r % 3, c = s / 3, k = s % 3;
-      vstore(t + ((d * 4 + c) * 9 + i * 3 + k) * EK_W, v);
-      vstore(t + ((c * 4 + d) * 9 + k * 3 + i) * EK_W, v);
+      vstore(dst + ((d * 4 + c) * 9 + i * 3 + k) * L + o, v);
+      if (s != r)
+        vstore(dst + ((c * 4 + d) * 9 + k * 3 + i) * L + o, v);
     }
-  for (int l = 0; l < EK_W; l++)
-    for (int p = 0; p < 144; p++)
-      dst[(slot0 + (size_t)l) * 144 + (size_t)p] = t[p * EK_W + l];
 }
 
 #endif

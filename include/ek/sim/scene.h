@@ -158,7 +158,10 @@ int ek_linear_solver_available(ek_linear_solver s);
 //     algebraic multigrid (PCGAMG) on the assembled matrix M (1 + c dt) /
 //     dt^2 + K (hessian.h, ek_fvm_hessian_assemble; held dofs as identity
 //     rows and columns), with the six rigid-body modes of the current
-//     positions as the near-null space (MatNullSpaceCreateRigidBody);
+//     positions as the near-null space (MatNullSpaceCreateRigidBody),
+//     one damped Jacobi sweep per level, the hierarchy kept across
+//     Newton matrices while CG's iterations stay within 2x + 5 of those
+//     after its last rebuild (sim/implicit_petsc.c);
 //     stops at |r|_2 <= cg_tol |b|_2 (unpreconditioned), max_cg;
 //   "direct": PETSc's sparse Cholesky (CHOLMOD, else MUMPS) of the same
 //     matrix, for small bodies: one factorisation per Newton iteration.
