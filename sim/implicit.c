@@ -31,8 +31,8 @@
 // same bits at any thread count.
 //
 // Across MPI ranks (ek-sim under mpirun, more than one rank; sim/README.md
-// "MPI"): each rank owns a contiguous range of vertices and the elements
-// whose smallest vertex index is in it; its Hessian context holds those
+// "MPI"): each rank owns a contiguous range of the vertices' Morton order
+// and the elements whose lowest-placed vertex is in it; its Hessian context holds those
 // elements only (body.h hessian_create_part). The state and every vector
 // of the loop are replicated: each rank runs this same loop on the whole
 // x, with the gradient and the energy summed over the ranks (the same bits
@@ -41,6 +41,7 @@
 // (rows owned by the vertex ranges) and solved in parallel, dx gathered
 // whole on every rank. Only the assembled solvers run across ranks.
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -75,8 +76,10 @@ typedef struct {
   implicit_petsc *ps;
   // Across MPI ranks: diag, per dof, the system's diagonal term each row's
   // owner adds (mdiag, 1 at held dofs).
+  // perm: the vertices' Morton order (create_rank_part), PETSc's numbering.
   int mpi;
   double *diag;
+  int32_t *perm;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
@@ -93,6 +96,7 @@ static void data_free(implicit_data *d) {
   free(d->kvals);
   free(d->svals);
   free(d->diag);
+  free(d->perm);
   implicit_petsc_destroy(d->ps);
   free(d);
 }
@@ -112,12 +116,66 @@ static int agree(ek_sim *s, int rc) {
   return rc;
 }
 
-// This rank's elements and their Hessian context. Rank r owns the vertices
-// [nv r / size, nv (r + 1) / size) (PETSc's rows, implicit_petsc.h) and
-// the elements whose smallest vertex index it owns: the element cut
-// follows the row cut, so a rank's entries fall in its own rows except
-// along the cut, and the parts' quality is the vertex numbering's
-// locality (a box mesh: slabs; meshes from a file: as numbered).
+// The Morton (Z-order) code of a point of the cube [lo, lo + side]^3:
+// 21 bits per axis, interleaved x, y, z from the top (Morton 1966; the
+// bit spreading of Raman & Wise 2008, "Converting to and from dilated
+// integers").
+static uint64_t spread3(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+typedef struct {
+  uint64_t code;
+  size_t v;
+} morton_key;
+
+static int morton_cmp(const void *a, const void *b) {
+  const morton_key *p = a, *q = b;
+  if (p->code != q->code)
+    return p->code < q->code ? -1 : 1;
+  return p->v < q->v ? -1 : p->v > q->v; // ties: the vertex index (a total order)
+}
+
+// perm[v]: vertex v's place in the Morton order of the rest positions, on
+// the bounding box's enclosing cube (one scale for all axes, so the first
+// cuts fall across the longest extent: a beam is cut along its length).
+static int morton_order(const double *X, size_t nv, int32_t *perm) {
+  morton_key *k = malloc((nv + 1) * sizeof *k);
+  if (!k)
+    return -1;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, side = 0;
+  for (size_t v = 0; v < nv; v++)
+    for (int a = 0; a < 3; a++)
+      lo[a] = fmin(lo[a], X[3 * v + a]);
+  for (size_t v = 0; v < nv; v++)
+    for (int a = 0; a < 3; a++)
+      side = fmax(side, X[3 * v + a] - lo[a]);
+  const double scale = side > 0 ? 2097151.0 / side : 0; // 2^21 - 1
+  for (size_t v = 0; v < nv; v++) {
+    uint64_t c[3];
+    for (int a = 0; a < 3; a++)
+      c[a] = (uint64_t)((X[3 * v + a] - lo[a]) * scale);
+    k[v] = (morton_key){spread3(c[0]) << 2 | spread3(c[1]) << 1 | spread3(c[2]), v};
+  }
+  qsort(k, nv, sizeof *k, morton_cmp);
+  for (size_t i = 0; i < nv; i++)
+    perm[k[i].v] = (int32_t)i;
+  free(k);
+  return 0;
+}
+
+// This rank's elements and their Hessian context. The vertices are put in
+// the Morton order of their rest positions (perm) and rank r owns the
+// places [nv r / size, nv (r + 1) / size) of it (PETSc's rows,
+// implicit_petsc.h): a Morton cut. A rank owns the elements whose
+// lowest-placed vertex it owns, so the element cut follows the row cut and
+// a rank's entries fall in its own rows except along the cut.
 static int create_rank_part(ek_sim *s, implicit_data *d) {
   const ek_scene *sc = &s->scene;
   const sim_body *b = s->body;
@@ -136,13 +194,16 @@ static int create_rank_part(ek_sim *s, implicit_data *d) {
   const size_t v0 = s->nv * (size_t)rank / (size_t)size;
   const size_t v1 = s->nv * (size_t)(rank + 1) / (size_t)size;
   size_t *mine = malloc((b->ne + 1) * sizeof *mine), count = 0;
-  if (!mine)
+  d->perm = malloc((s->nv + 1) * sizeof *d->perm);
+  if (!mine || !d->perm || morton_order(b->X, s->nv, d->perm) < 0) {
+    free(mine);
     return agree(s, sim_fail(s, "out of memory"));
+  }
   for (size_t e = 0; e < b->ne; e++) {
     const int32_t *t = b->elems + e * (size_t)b->corners;
-    int32_t lo = t[0];
+    int32_t lo = d->perm[t[0]];
     for (int a = 1; a < b->corners; a++)
-      lo = t[a] < lo ? t[a] : lo;
+      lo = d->perm[t[a]] < lo ? d->perm[t[a]] : lo;
     if ((size_t)lo >= v0 && (size_t)lo < v1)
       mine[count++] = e;
   }
@@ -214,8 +275,8 @@ static int implicit_create(ek_sim *s, void **data) {
     }
     char err[512] = "";
     if (d->mpi)
-      d->ps = implicit_petsc_create_mpi(ls == EK_LINSOLVE_DIRECT, &d->pat, s->nv, s->body->ne,
-                                        s->body->corners, s->body->elems, s->body->X,
+      d->ps = implicit_petsc_create_mpi(ls == EK_LINSOLVE_DIRECT, &d->pat, s->nv, d->perm,
+                                        s->body->ne, s->body->corners, s->body->elems, s->body->X,
                                         sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
     else
       d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,

@@ -13,13 +13,12 @@
 // PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
 //
 // Across MPI ranks (ek-sim under mpirun; sim/README.md "MPI"): an MPIAIJ
-// matrix with block size 3 whose rows are owned by contiguous vertex
-// ranges, preallocated from the whole mesh's vertex adjacency; each rank
-// adds its elements' entries (MatSetValues, ADD_VALUES: rows of other ranks
-// travel in MatAssemblyBegin/End), the owner adds the diagonal once; the
-// same KSP and PC on PETSC_COMM_WORLD (the direct solver by MUMPS, the one
-// parallel Cholesky of Debian's PETSc); the solution is gathered whole on
-// every rank (VecScatterCreateToAll).
+// matrix with block size 3 in the vertices' Morton order (implicit.c),
+// rows owned by contiguous ranges of it, preallocated from the whole mesh's vertex adjacency; each
+// rank adds its elements' entries (MatSetValues, ADD_VALUES: rows of other ranks travel in
+// MatAssemblyBegin/End), the owner adds the diagonal once; the same KSP and PC on PETSC_COMM_WORLD
+// (the direct solver by MUMPS, the one parallel Cholesky of Debian's PETSc); the solution is
+// gathered whole on every rank (VecScatterCreateToAll).
 #include "implicit_petsc.h"
 
 #include <stdio.h>
@@ -46,10 +45,11 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
   return NULL;
 }
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          size_t ne, int corners, const int32_t *elems,
-                                          const double *X, double rtol, long max_its, char *err,
-                                          size_t errlen) {
-  (void)direct, (void)local, (void)nv, (void)ne, (void)corners, (void)elems, (void)X, (void)rtol;
+                                          const int32_t *perm, size_t ne, int corners,
+                                          const int32_t *elems, const double *X, double rtol,
+                                          long max_its, char *err, size_t errlen) {
+  (void)direct, (void)local, (void)nv, (void)perm, (void)ne, (void)corners, (void)elems, (void)X;
+  (void)rtol;
   (void)max_its;
   snprintf(err, errlen, "built without PETSc");
   return NULL;
@@ -93,11 +93,13 @@ struct implicit_petsc {
   Vec b, x, r;
   PetscInt n, nnz;
   int direct;
-  // Across ranks: this rank's rows [rstart, rend), its share's pattern
-  // (rows of all n, global columns) and the gather of x onto every rank.
+  // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
+  // its share's pattern (lrow: by the body's rows; lcol: PETSc's columns),
+  // PETSc's row of each of the body's rows (newrow) and the body's row of
+  // each owned row (oldrow), and the gather of x onto every rank.
   int mpi;
   PetscInt rstart, rend;
-  PetscInt *lrow, *lcol;
+  PetscInt *lrow, *lcol, *newrow, *oldrow;
   Vec xall;
   VecScatter gather;
 };
@@ -218,8 +220,8 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     PCHK(VecSetBlockSize(coords, 3));
     PetscScalar *c;
     PCHK(VecGetArray(coords, &c));
-    for (PetscInt i = p->rstart; i < p->rend; i++)
-      c[i - p->rstart] = X[i];
+    for (PetscInt i = 0; i < p->rend - p->rstart; i++)
+      c[i] = X[p->oldrow ? p->oldrow[i] : i];
     PCHK(VecRestoreArray(coords, &c));
     PCHK(MatNullSpaceCreateRigidBody(coords, &nsp));
     PCHK(MatSetNearNullSpace(p->A, nsp));
@@ -287,11 +289,11 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
   return p;
 }
 
-// Per row of this rank's vertex range [v0, v1): the vertices that share an
-// element with it (itself included), split into those in the range (the
-// diagonal block) and the others: 3 entries each (block size 3).
-static int preallocate(implicit_petsc *p, size_t nv, size_t ne, int corners, const int32_t *elems,
-                       size_t v0, size_t v1, char *err, size_t errlen) {
+// Per row of this rank's range [v0, v1) of places (perm): the vertices
+// that share an element with it (itself included), split into those in the
+// range (the diagonal block) and the others: 3 entries each (block size 3).
+static int preallocate(implicit_petsc *p, size_t nv, const int32_t *perm, size_t ne, int corners,
+                       const int32_t *elems, size_t v0, size_t v1, char *err, size_t errlen) {
   const size_t nown = v1 - v0;
   size_t *off = calloc(nown + 1, sizeof *off), *inc = NULL;
   size_t *stamp = malloc(nv * sizeof *stamp);
@@ -301,7 +303,7 @@ static int preallocate(implicit_petsc *p, size_t nv, size_t ne, int corners, con
   // The elements of each owned vertex (CSR: off, inc).
   for (size_t e = 0; ok && e < ne; e++)
     for (int a = 0; a < corners; a++) {
-      size_t v = (size_t)elems[e * corners + a];
+      size_t v = (size_t)perm[elems[e * corners + a]];
       if (v >= v0 && v < v1)
         off[v - v0 + 1]++;
     }
@@ -314,7 +316,7 @@ static int preallocate(implicit_petsc *p, size_t nv, size_t ne, int corners, con
       fill[i] = off[i];
     for (size_t e = 0; e < ne; e++)
       for (int a = 0; a < corners; a++) {
-        size_t v = (size_t)elems[e * corners + a];
+        size_t v = (size_t)perm[elems[e * corners + a]];
         if (v >= v0 && v < v1)
           inc[fill[v - v0]++] = e;
       }
@@ -325,7 +327,7 @@ static int preallocate(implicit_petsc *p, size_t nv, size_t ne, int corners, con
       stamp[v0 + i] = i;
       for (size_t k = off[i]; k < off[i + 1]; k++)
         for (int b = 0; b < corners; b++) {
-          size_t w = (size_t)elems[inc[k] * corners + b];
+          size_t w = (size_t)perm[elems[inc[k] * corners + b]];
           if (stamp[w] == i)
             continue;
           stamp[w] = i;
@@ -351,9 +353,9 @@ static int preallocate(implicit_petsc *p, size_t nv, size_t ne, int corners, con
 }
 
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          size_t ne, int corners, const int32_t *elems,
-                                          const double *X, double rtol, long max_its, char *err,
-                                          size_t errlen) {
+                                          const int32_t *perm, size_t ne, int corners,
+                                          const int32_t *elems, const double *X, double rtol,
+                                          long max_its, char *err, size_t errlen) {
   if (local->nnz > (size_t)PETSC_MAX_INT || 3 * nv > (size_t)PETSC_MAX_INT) {
     snprintf(err, errlen, "%zu nonzeros: more than this PETSc's indices hold", local->nnz);
     return NULL;
@@ -378,15 +380,24 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
   p->rend = (PetscInt)(3 * v1);
   p->lrow = malloc((local->nrows + 1) * sizeof(PetscInt));
   p->lcol = malloc((local->nnz + 1) * sizeof(PetscInt));
-  if (!p->lrow || !p->lcol || local->nrows != 3 * nv) {
-    snprintf(err, errlen, "%s", p->lrow && p->lcol ? "the pattern is not 3 nv rows" : "no memory");
+  p->newrow = malloc((3 * nv + 1) * sizeof(PetscInt));
+  p->oldrow = malloc((3 * (v1 - v0) + 1) * sizeof(PetscInt));
+  if (!p->lrow || !p->lcol || !p->newrow || !p->oldrow || local->nrows != 3 * nv) {
+    snprintf(err, errlen, "%s",
+             local->nrows != 3 * nv ? "the pattern is not 3 nv rows" : "no memory");
     implicit_petsc_destroy(p);
     return NULL;
+  }
+  for (size_t r = 0; r < 3 * nv; r++) {
+    const PetscInt q = 3 * (PetscInt)perm[r / 3] + (PetscInt)(r % 3);
+    p->newrow[r] = q;
+    if (q >= p->rstart && q < p->rend)
+      p->oldrow[q - p->rstart] = (PetscInt)r;
   }
   for (size_t i = 0; i <= local->nrows; i++)
     p->lrow[i] = local->row_ptr[i];
   for (size_t k = 0; k < local->nnz; k++)
-    p->lcol[k] = local->col[k];
+    p->lcol[k] = p->newrow[local->col[k]];
   const PetscInt nloc = p->rend - p->rstart;
   int rc = -1;
   PetscErrorCode e = MatCreate(PETSC_COMM_WORLD, &p->A);
@@ -400,7 +411,7 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
     const char *text = NULL;
     PetscErrorMessage(e, &text, NULL);
     snprintf(err, errlen, "PETSc: the parallel matrix: %s", text ? text : "?");
-  } else if (preallocate(p, nv, ne, corners, elems, v0, v1, err, errlen) == 0 &&
+  } else if (preallocate(p, nv, perm, ne, corners, elems, v0, v1, err, errlen) == 0 &&
              MatSetOption(p->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE) == 0 &&
              setup_solver(p, X, rtol, max_its, err, errlen) == 0 &&
              VecScatterCreateToAll(p->x, &p->gather, &p->xall) == 0) {
@@ -427,6 +438,8 @@ void implicit_petsc_destroy(implicit_petsc *p) {
   MatDestroy(&p->A);
   free(p->lrow);
   free(p->lcol);
+  free(p->newrow);
+  free(p->oldrow);
   free(p);
 }
 
@@ -446,10 +459,10 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
   for (PetscInt r = 0; r < p->n; r++) {
     const PetscInt k0 = p->lrow[r], len = p->lrow[r + 1] - k0;
     if (len > 0)
-      PCHK(MatSetValues(p->A, 1, &r, len, p->lcol + k0, values + k0, ADD_VALUES));
+      PCHK(MatSetValues(p->A, 1, p->newrow + r, len, p->lcol + k0, values + k0, ADD_VALUES));
   }
-  for (PetscInt r = p->rstart; r < p->rend; r++)
-    PCHK(MatSetValue(p->A, r, r, diag[r], ADD_VALUES));
+  for (PetscInt q = p->rstart; q < p->rend; q++)
+    PCHK(MatSetValue(p->A, q, q, diag[p->oldrow[q - p->rstart]], ADD_VALUES));
   PCHK(MatAssemblyBegin(p->A, MAT_FINAL_ASSEMBLY));
   PCHK(MatAssemblyEnd(p->A, MAT_FINAL_ASSEMBLY));
   return 0;
@@ -464,7 +477,11 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   PCHK(KSPSetOperators(p->ksp, p->A, p->A));
   PetscScalar *bv;
   PCHK(VecGetArrayWrite(p->b, &bv));
-  memcpy(bv, b + p->rstart, (size_t)(p->rend - p->rstart) * sizeof(double));
+  if (p->mpi)
+    for (PetscInt i = 0; i < p->rend - p->rstart; i++)
+      bv[i] = b[p->oldrow[i]];
+  else
+    memcpy(bv, b, (size_t)p->n * sizeof(double));
   PCHK(VecRestoreArrayWrite(p->b, &bv));
   PCHK(KSPSetUp(p->ksp));
   double t1 = sim_now();
@@ -493,7 +510,11 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   }
   const PetscScalar *xv;
   PCHK(VecGetArrayRead(whole, &xv));
-  memcpy(x, xv, (size_t)p->n * sizeof(double));
+  if (p->mpi)
+    for (PetscInt r = 0; r < p->n; r++)
+      x[r] = xv[p->newrow[r]];
+  else
+    memcpy(x, xv, (size_t)p->n * sizeof(double));
   PCHK(VecRestoreArrayRead(whole, &xv));
   *its = p->direct ? 1 : (long)n;
   *rel = bn > 0 ? rn / bn : 0;

@@ -38,15 +38,15 @@ int implicit_mpi_sum(double *v, size_t n, char *err, size_t errlen);
 implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern, const double *X,
                                       double rtol, long max_its, char *err, size_t errlen);
 // Across the session's ranks (implicit_mpi_size() > 1): `local` is the
-// pattern of this rank's elements' Hessian over all nv vertices (global
-// numbering: every rank holds every vertex); rows are owned by contiguous
-// vertex ranges, vertex v by rank floor(v size / nv) (implicit_mpi_owner);
-// the parallel matrix's pattern is that of all ne elements (elems, ne x
-// corners, the same on every rank). Collective.
+// pattern of this rank's elements' Hessian over all nv vertices (the body's
+// numbering: every rank holds every vertex); perm[v] is vertex v's place in
+// PETSc's numbering, whose rows rank r owns from place nv r / size to
+// nv (r + 1) / size; the parallel matrix's pattern is that of all ne
+// elements (elems, ne x corners, the same on every rank). Collective.
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          size_t ne, int corners, const int32_t *elems,
-                                          const double *X, double rtol, long max_its, char *err,
-                                          size_t errlen);
+                                          const int32_t *perm, size_t ne, int corners,
+                                          const int32_t *elems, const double *X, double rtol,
+                                          long max_its, char *err, size_t errlen);
 void implicit_petsc_destroy(implicit_petsc *p);
 
 // Solves A x = b, A's values (the pattern's order) given; *its the
@@ -57,7 +57,8 @@ void implicit_petsc_destroy(implicit_petsc *p);
 // (its elements' entries, added to those of the other ranks), diag (3 nv)
 // the diagonal each row's owner adds once, b (3 nv) the whole right-hand
 // side (each rank reads its rows), and x (3 nv) comes back whole on every
-// rank. Collective. diag is NULL for one process.
+// rank; all in the body's numbering. Collective. diag is NULL for one
+// process.
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
                          const double *b, double *x, long *its, double *rel, double *t_setup,
                          double *t_solve, char *err, size_t errlen);
