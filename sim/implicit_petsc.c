@@ -456,9 +456,11 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
     return 0;
   }
   PCHK(MatZeroEntries(p->A));
+  // A row of 3 entries is a vertex in none of this rank's elements (a
+  // vertex in a tet has at least 4 blocks: hessian.h's pattern): zeros.
   for (PetscInt r = 0; r < p->n; r++) {
     const PetscInt k0 = p->lrow[r], len = p->lrow[r + 1] - k0;
-    if (len > 0)
+    if (len > 3)
       PCHK(MatSetValues(p->A, 1, p->newrow + r, len, p->lcol + k0, values + k0, ADD_VALUES));
   }
   for (PetscInt q = p->rstart; q < p->rend; q++)
