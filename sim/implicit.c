@@ -217,6 +217,14 @@ static int create_rank_part(ek_sim *s, implicit_data *d) {
   return agree(s, rc);
 }
 
+// A failure of implicit_create after create_rank_part: across ranks, every
+// rank learns of it at the one agreement before the collective setup.
+static int create_failed(ek_sim *s, implicit_data *d, int rc) {
+  const int mpi = d->mpi;
+  data_free(d);
+  return mpi ? agree(s, rc) : rc;
+}
+
 static int implicit_create(ek_sim *s, void **data) {
   *data = NULL;
   implicit_data *d = calloc(1, sizeof *d);
@@ -248,30 +256,32 @@ static int implicit_create(ek_sim *s, void **data) {
   ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
   if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
-  if (!ok) {
-    data_free(d);
-    return sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3);
-  }
+  if (!ok)
+    return create_failed(
+        s, d, sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3));
   const ek_linear_solver ls = sc->implicit.linear_solver;
   if (ls != EK_LINSOLVE_MATRIX_FREE) {
     const sim_body_ops *ops = s->body->ops;
     const char *name = ek_linear_solver_name(ls);
-    if (!ops->hessian_pattern || !ops->hessian_assemble) {
-      data_free(d);
-      return sim_fail(s,
-                      "integrator.linear_solver \"%s\": this body has no assembled Hessian (tets "
-                      "only); use \"matrix_free\"",
-                      name);
-    }
-    if (ops->hessian_pattern(d->H, &d->pat) < 0) {
-      data_free(d);
-      return sim_fail(s, "the Hessian's pattern: %s", ek_last_error());
-    }
+    if (!ops->hessian_pattern || !ops->hessian_assemble)
+      return create_failed(s, d,
+                           sim_fail(s,
+                                    "integrator.linear_solver \"%s\": this body has no assembled "
+                                    "Hessian (tets only); use \"matrix_free\"",
+                                    name));
+    if (ops->hessian_pattern(d->H, &d->pat) < 0)
+      return create_failed(s, d, sim_fail(s, "the Hessian's pattern: %s", ek_last_error()));
     d->kvals = malloc((d->pat.nnz + 1) * sizeof(double));
     d->svals = malloc((d->pat.nnz + 1) * sizeof(double));
-    if (!d->kvals || !d->svals) {
+    if (d->mpi)
+      d->diag = malloc(d->n3 * sizeof(double));
+    if (!d->kvals || !d->svals || (d->mpi && !d->diag))
+      return create_failed(
+          s, d, sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz));
+    int rc;
+    if (d->mpi && (rc = agree(s, 0))) { // every rank is ready for the collective setup
       data_free(d);
-      return sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz);
+      return rc;
     }
     char err[512] = "";
     if (d->mpi)
@@ -281,11 +291,6 @@ static int implicit_create(ek_sim *s, void **data) {
     else
       d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,
                                     sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
-    if (d->mpi && !(d->diag = malloc(d->n3 * sizeof(double))) && d->ps) {
-      implicit_petsc_destroy(d->ps);
-      d->ps = NULL;
-      snprintf(err, sizeof err, "out of memory");
-    }
     if (!d->ps) {
       data_free(d);
       return sim_fail(s, "integrator.linear_solver \"%s\": %s", name, err);
