@@ -27,12 +27,6 @@
 
 #include "sim_internal.h"
 
-// Started by an MPI launcher (even with one process: Open MPI's mpirun
-// then wants MPI_Init and MPI_Finalize from a process that uses MPI).
-static int launched(void) {
-  return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
-}
-
 #ifndef EK_HAVE_PETSC
 
 implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern, const double *X,
@@ -134,6 +128,12 @@ static int petsc_start(char *err, size_t errlen) {
 }
 
 // ---- The MPI session ----
+
+// Started by an MPI launcher (even with one process: Open MPI's mpirun
+// then wants MPI_Init and MPI_Finalize from a process that uses MPI).
+static int launched(void) {
+  return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
+}
 
 int implicit_mpi_start(char *err, size_t errlen) {
   if (!launched())
