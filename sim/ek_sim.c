@@ -975,10 +975,15 @@ static int run(int argc, char **argv) {
   }
   t_setup = now() - t_setup;
   char body[160];
-  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads, dt %g (CFL limit %g), %ld "
-         "steps\n",
+  // Across MPI ranks the times below are rank 0's (its elements' passes,
+  // the parallel solve's wall time).
+  char ranks[48] = "";
+  if (implicit_mpi_size() > 1)
+    snprintf(ranks, sizeof ranks, " on each of %d MPI ranks", implicit_mpi_size());
+  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads%s, dt %g (CFL limit %g), "
+         "%ld steps\n",
          scene.path, nv, ek_sim_describe(sim, body, sizeof body), ek_sim_integrator_name(sim),
-         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
+         scene.precision, nthreads, ranks, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
