@@ -8,6 +8,9 @@
 //       per tet of the same ISA, precision and threads (the target:
 //       polar32 f32 per triangle <= 0.5x the 3x3 polar per tet, i.e. a
 //       speed-up of >= 2 in the "vs base" column);
+//   cloth/polar32_aos/<isa>/<prec>/threads:T  ek_polar32_ex_* on the same
+//       numbers as AoS records (6 in, 6 + 4 out); baseline: the polar32
+//       row (the AoS entry point's cost over its AoSoA kernel);
 //   cloth/polar3/<isa>/<prec>/threads:T    ek_polar3_aosoa_* (the SVD's
 //       polar, default options) per 3x3 matrix, the baseline above;
 //   cloth/kabsch/<isa>/<prec>/threads:T    ek_kabsch_ex_* per one-ring set
@@ -45,10 +48,10 @@
 #define KABSCH_SETS 4096
 
 typedef struct {
-  int f64, polar3, rc;
+  int f64, polar3, aos, rc;
   ek_isa isa;
   size_t n, nblocks;
-  void *F, *R, *Uc; // AoSoA batches
+  void *F, *R, *Uc; // AoSoA batches, or AoS arrays of n records (aos)
 } polar_ctx;
 
 static void call_polar(void *p) {
@@ -58,6 +61,10 @@ static void call_polar(void *p) {
     ek_svd3_opts o = {.isa = c->isa};
     rc = c->f64 ? ek_polar3_aosoa_f64(c->nblocks, c->F, c->R, c->Uc, &o)
                 : ek_polar3_aosoa_f32(c->nblocks, c->F, c->R, c->Uc, &o);
+  } else if (c->aos) {
+    ek_cloth_opts o = {.isa = c->isa};
+    rc = c->f64 ? ek_polar32_ex_f64(c->n, c->F, c->R, c->Uc, &o)
+                : ek_polar32_ex_f32(c->n, c->F, c->R, c->Uc, &o);
   } else {
     ek_cloth_opts o = {.isa = c->isa};
     rc = c->f64 ? ek_polar32_aosoa_f64(c->nblocks, c->F, c->R, c->Uc, &o)
@@ -256,7 +263,8 @@ int bench_cloth(ek_bench *b) {
   ek_isa isas[EK_ISA_COUNT];
   int nisa = ek_bench_isas(b, isas), counts[EK_BENCH_MAX_THREAD_COUNTS];
   int ncounts = ek_bench_thread_counts(b, counts), listing = ek_bench_listing(b);
-  char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], lapack[EK_BENCH_NAME_MAX];
+  char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], lapack[EK_BENCH_NAME_MAX],
+      aos_name[EK_BENCH_NAME_MAX];
   for (int ti = 0; ti < ncounts; ti++) {
     int threads = counts[ti];
     snprintf(lapack, sizeof lapack, "cloth/kabsch_lapack/f64/threads:%d", threads);
@@ -288,11 +296,16 @@ int bench_cloth(ek_bench *b) {
                  threads);
         snprintf(name, sizeof name, "cloth/polar32/%s/%s/threads:%d", ek_isa_name(isa), prec,
                  threads);
-        for (int polar3 = 1; polar3 >= 0; polar3--) {
-          const char *row_name = polar3 ? base : name;
+        snprintf(aos_name, sizeof aos_name, "cloth/polar32_aos/%s/%s/threads:%d", ek_isa_name(isa),
+                 prec, threads);
+        // polar3 (the base), polar32 through AoSoA, polar32 through AoS; a
+        // batch of whole blocks, so the AoS arrays fit the AoSoA buffers.
+        for (int v = 0; v < 3; v++) {
+          int polar3 = v == 0, aos = v == 2;
+          const char *row_name = polar3 ? base : aos ? aos_name : name;
           if (!ek_bench_wants(b, row_name))
             continue;
-          polar_ctx c = {.f64 = f64, .polar3 = polar3, .isa = isa, .n = CACHE_BATCH};
+          polar_ctx c = {.f64 = f64, .polar3 = polar3, .aos = aos, .isa = isa, .n = CACHE_BATCH};
           if (!listing && setup_polar(b, &c) != 0) {
             ek_bench_fail(b, "%s: out of memory", row_name);
             free_polar(&c);
@@ -304,10 +317,13 @@ int bench_cloth(ek_bench *b) {
                               .precision = prec,
                               .threads = threads,
                               .knobs = polar3 ? "api=aosoa;kernel=polar3;per=tet"
+                                       : aos  ? "api=aos;kernel=polar32;per=triangle"
                                               : "api=aosoa;kernel=polar32;per=triangle",
                               .items = CACHE_BATCH,
                               .bytes_per_item = (polar3 ? 27 : 16) * (f64 ? 8.0 : 4.0),
-                              .baseline = polar3 ? NULL : base,
+                              .baseline = polar3 ? NULL
+                                          : aos  ? name
+                                                 : base,
                               .fn = call_polar,
                               .ctx = &c};
           timed(b, &row, &c.rc);

@@ -79,9 +79,13 @@ void ek_tradeoff_progress(ek_tradeoff *t, const char *fmt, ...)
 size_t ek_tradeoff_count(const ek_tradeoff *t);
 const ek_tradeoff_point *ek_tradeoff_get(const ek_tradeoff *t, size_t i);
 
-// Pareto front of n points: front[i] = 1 when no other point has both a
-// lower time[i] and a lower err[i] (strictly); a point with a NaN time or
-// error is never on the front and hides no other point.
+// Pareto front of n points (both coordinates lower is better): front[i] = 1
+// when no other point dominates it, i.e. no point j has time[j] <= time[i]
+// and err[j] <= err[i] with one of the two strictly lower. Of points equal
+// in both (duplicates), only the first in the given order is on the front
+// (a deterministic pick: they cost the same). A point with a NaN time or
+// error is never on the front and hides no other point; +inf and 0 compare
+// as numbers (an error of 0, a loop's reference, beats every error > 0).
 void ek_tradeoff_pareto(size_t n, const double *time, const double *err, unsigned char *front);
 // The fronts of every family, among the points of the same thread count:
 // on err_p99 and on err_max. Called by the writers; 1 if point i is on it.

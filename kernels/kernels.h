@@ -120,10 +120,12 @@ typedef void ek_cloth_force_block_f64_fn(const ek_cloth_force_args_f64 *a, size_
 //   cloth_polar32:     F (6), unused                 -> R (6), Uc (4 or NULL)
 //   cloth_tri_velgrad: x (9), v (9)                  -> L, D, W (9 each or NULL)
 //   cloth_tet_velgrad: x (12), v (12)                -> L, D, W (9 each or NULL)
-typedef void ek_cloth_block_f32_fn(size_t nblocks, const float *a, const float *b, float *o0,
+// count is blocks of AoSoA batches (aos = 0) or items of AoS arrays (aos =
+// 1: transposed in registers; not cloth_tet_velgrad, AoSoA only).
+typedef void ek_cloth_block_f32_fn(size_t count, int aos, const float *a, const float *b, float *o0,
                                    float *o1, float *o2);
-typedef void ek_cloth_block_f64_fn(size_t nblocks, const double *a, const double *b, double *o0,
-                                   double *o1, double *o2);
+typedef void ek_cloth_block_f64_fn(size_t count, int aos, const double *a, const double *b,
+                                   double *o0, double *o1, double *o2);
 
 // A row of the kernel table: every kernel of one ISA target. A row starts
 // from the scalar kernels and the target's own kernels override them

@@ -10,8 +10,9 @@
 // elements, NaN/inf, extent) at the last and the worst frame. --explain prints the
 // pipeline the scene runs (kernels, variants, why) and runs nothing.
 // --advise runs the scene's first S simulated seconds with each candidate
-// setting (sim/advise.h), prints the table it decided from and the
-// cheapest candidate within X of the body size; with --explain also the
+// setting (sim/advise.h), prints the table it decided from (each against
+// a converged reference over the whole run, checked, timed repeatedly) and
+// the pick by the rule there; with --explain also the
 // kernels that choice drops and its pipeline.
 // Exit status (sim/cli.h, the same in every ek program): 0 done, 1 the run
 // failed (a bad scene or mesh, an element inverted with a model undefined
@@ -81,12 +82,14 @@ static void usage(FILE *out) {
           "                after the last sweep) and its largest C\n"
           "  --advise      run the scene's first S simulated seconds with each candidate\n"
           "                setting (model valid for the strains, rotations and J the scene\n"
-          "                reaches, precision, SVD sweeps, loop and its iterations), print the\n"
-          "                table (deviation from the most accurate setting over the body size,\n"
-          "                cost in s per simulated s) and the cheapest one within --tol;\n"
-          "                progress on stderr. With --explain: the kernels that choice drops\n"
-          "  --tol X       advise: largest deviation accepted, fraction of the body size\n"
-          "                (>= 0, default 0.01)\n"
+          "                reaches, precision, SVD sweeps, loop, its step and iterations),\n"
+          "                compare each over the whole run with a converged reference\n"
+          "                (explicit f64, dt halved until it moves by <= tol / 10), check it\n"
+          "                (inversion, flattening, blow-up, energy), time it repeatedly and\n"
+          "                print the table and the pick (rule in the output); progress on\n"
+          "                stderr. With --explain: the kernels that choice drops\n"
+          "  --tol X       advise: largest deviation accepted, a fraction of the smaller of\n"
+          "                the body size and the reference's motion (0 <= X < 1, default 0.01)\n"
           "  --time S      advise: simulated seconds per candidate (from the scene's dt to\n"
           "                1e9 steps of it; default 0.5 or the scene's duration if shorter)\n"
           "  -h, --help    this text\n"
@@ -405,6 +408,80 @@ static const char *need_text(ek_model_needs need) {
   return "?";
 }
 
+// What each pass of a step takes, per loop (issue 26: --explain said "no
+// SVD" for stable neo-Hookean and then "the step takes an SVD" in the
+// implicit loop, whose gradient pass does take one). A pass the loop does
+// not run says so. The rules are ek_trial_uses_svd's (trial.h) for tets.
+typedef struct {
+  const char *force, *gradient, *hessian, *refresh;
+} loop_passes;
+
+static loop_passes passes_of(const ek_scene *s) {
+  loop_passes p = {"not run by this loop's step", "none (no Newton solve)", "none (no Hessian)",
+                   NULL};
+  const ek_model m = s->material.model;
+  if (s->triangles) {
+    const int arap = m == EK_MODEL_ARAP;
+    const char *membrane = arap ? "membrane P = 2 mu (F - R): the 3x2 polar R of each "
+                                  "triangle's F (ek_polar32), no 3x3 SVD; bending constant"
+                                : "membrane P = F S: no SVD, no polar; bending constant";
+    if (s->integrator == EK_INTEGRATOR_XPBD) {
+      p.gradient = arap ? "constraint sweeps: C = sqrt(2 W / k) of the ARAP energy: the 3x2 "
+                          "polar per triangle, no 3x3 SVD"
+                        : "constraint sweeps: C = sqrt(2 W / k) of the StVK energy: no SVD";
+    } else {
+      p.force = membrane;
+      if (s->integrator == EK_INTEGRATOR_IMPLICIT) {
+        p.gradient = "the cloth force above (grad E = -f), no element eigensystems";
+        p.hessian = arap ? "2 mu (I - dR), dR the 3x2 polar's differential, recomputed per "
+                           "product from the last gradient's x"
+                         : "dF S + F dS with S's negative eigenvalues set to 0: no SVD";
+      }
+    }
+    return p;
+  }
+  const ek_model_desc *d = ek_model_describe(m);
+  const ek_model_needs need = ek_model_need(m, s->material.clamp);
+  if (need == EK_NEEDS_R_INPUT)
+    p.refresh = s->polar == EK_POLAR_WARM
+                    ? "R^n refresh at step start: the warm polar (no SVD; the SVD polar at the "
+                      "first step)"
+                    : "R^n refresh at step start: the SVD polar (ek_polar3_f64)";
+  if (s->integrator == EK_INTEGRATOR_XPBD) {
+    p.gradient = "constraint sweeps: F and the constraints from invariants (StVK: P = F S; "
+                 "stable neo-Hookean: C_D, C_H): no SVD";
+    return p;
+  }
+  if (s->integrator == EK_INTEGRATOR_IMPLICIT) {
+    p.gradient = d->isotropic ? "SVD3 per tet (f64): the projected Hessian's eigensystem is in "
+                                "the U, V frame for every isotropic model, whatever P alone "
+                                "needs"
+                 : need == EK_NEEDS_R_INPUT ? "no SVD: P from the given R^n"
+                                            : "no SVD: P linear in F, a constant Hessian";
+    p.hessian = d->isotropic               ? "no SVD: the eigensystems the gradient pass cached"
+                : need == EK_NEEDS_R_INPUT ? "no SVD: R^n cached"
+                                           : "no SVD: the constant element stiffness";
+    return p;
+  }
+  p.force = need == EK_NEEDS_NOTHING   ? "no SVD: P is polynomial in F"
+            : need == EK_NEEDS_J       ? "no SVD: J = det F and F^-T only"
+            : need == EK_NEEDS_R_INPUT ? "no SVD: R^n given per tet"
+            : need == EK_NEEDS_POLAR && s->polar == EK_POLAR_WARM
+                ? "no SVD: R(F) by the warm-started polar (the SVD polar at the first step)"
+            : need == EK_NEEDS_POLAR ? "SVD3 for the polar rotation R(F) = U V^T"
+                                     : "SVD3: singular values clamped at material.clamp";
+  return p;
+}
+
+static void print_passes(const ek_scene *s, const char *indent) {
+  const loop_passes p = passes_of(s);
+  printf("%sforce pass: %s\n", indent, p.force);
+  printf("%sgradient pass: %s\n", indent, p.gradient);
+  printf("%sHessian products: %s\n", indent, p.hessian);
+  if (p.refresh)
+    printf("%s%s\n", indent, p.refresh);
+}
+
 // The loads, boundary conditions and output of --explain.
 static void explain_tail(const ek_scene *s, long steps, const char *out) {
   printf("       gravity (%g, %g, %g), damping c = %g 1/s, dt = %g s, %ld steps (t_end = %g s)\n",
@@ -430,6 +507,8 @@ static void explain_tail(const ek_scene *s, long steps, const char *out) {
   if (s->has_ground)
     printf("       ground z = %g: friction-free (project position, zero normal velocity)\n",
            s->ground_height);
+  printf("passes     what each pass of the step takes:\n");
+  print_passes(s, "             ");
   if (out && out[0])
     printf("output     %s (+ .xmf XDMF) every %ld steps: positions, J, smallest singular value, "
            "energy density from the rest shape (one extra double pass per frame)\n",
@@ -564,10 +643,15 @@ static void explain(const ek_scene *s, long steps, const char *out, int threads)
   } else {
     printf("P(F) -> H = -V0 P Dm^-T -> scatter\n");
   }
-  printf("       %s: %s\n", s->model_name,
-         warm && need == EK_NEEDS_POLAR && !implicit
-             ? "no SVD: R(F) by the warm-started polar, P = 2 mu (F - R) + lambda (J - 1) J F^-T"
-             : need_text(need));
+  if (implicit)
+    printf("       %s: P alone needs %s; this pass: %s\n", s->model_name, need_text(need),
+           passes_of(s).gradient);
+  else
+    printf("       %s: %s\n", s->model_name,
+           warm && need == EK_NEEDS_POLAR
+               ? "no SVD: R(F) by the warm-started polar, P = 2 mu (F - R) + lambda (J - 1) J "
+                 "F^-T"
+               : need_text(need));
   ek_scatter sc = s->scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : s->scatter;
   static const char *why[] = {
       "", "tets of one colour share no vertex: blocks add straight into f, deterministic",
@@ -672,10 +756,10 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
   const char *who[2] = {"scene", "pick"};
   for (int i = 0; i < 2; ++i) {
     const ek_scene *s = both[i];
-    printf("%-10s %s (%s), %s loop, f%d, dt %g%s\n", who[i], s->model_name,
-           need_text(ek_model_need(s->material.model, s->material.clamp)),
+    printf("%-10s %s, %s loop, f%d, dt %g: %s\n", who[i], s->model_name,
            ek_scene_integrator_name(s->integrator), s->precision, s->dt,
-           ek_trial_uses_svd(s) ? ", the step takes an SVD" : ", no SVD in the step");
+           ek_trial_uses_svd(s) ? "the step takes an SVD" : "no SVD in the step");
+    print_passes(s, "             ");
   }
   int n = 0;
   printf("drops      what the scene's step runs and the pick's does not:");
@@ -701,6 +785,15 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
   if (scene->integrator == EK_INTEGRATOR_EXPLICIT && pick->integrator != EK_INTEGRATOR_EXPLICIT)
     n += printf("\n             the %g s explicit steps (%.0f per simulated s -> %.0f)", scene->dt,
                 1 / scene->dt, 1 / pick->dt) > 0;
+  if (scene->integrator == pick->integrator && scene->dt != pick->dt)
+    n += printf("\n             the step: dt %g -> %g (%.3g x the steps per simulated s)",
+                scene->dt, pick->dt, scene->dt / pick->dt) > 0;
+  if (scene->integrator == EK_INTEGRATOR_XPBD && pick->integrator == EK_INTEGRATOR_XPBD &&
+      (scene->xpbd.substeps != pick->xpbd.substeps ||
+       scene->xpbd.iterations != pick->xpbd.iterations))
+    n += printf("\n             XPBD sweeps: %ld substeps x %ld iterations -> %ld x %ld",
+                scene->xpbd.substeps, scene->xpbd.iterations, pick->xpbd.substeps,
+                pick->xpbd.iterations) > 0;
   if (scene->precision == 64 && pick->precision == 32)
     n += printf("\n             the f64 kernels (f32 variants instead)") > 0;
   if (scene->precision == 32 && pick->precision == 64)
@@ -730,7 +823,7 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
          scene->path, ek_mesh_nverts(mesh), ek_mesh_ntets(mesh), scene->model_name,
          ek_scene_integrator_name(scene->integrator), scene->precision, scene->dt);
   fflush(stdout);
-  ek_advise_opts o = {tol, sim_time, stderr};
+  ek_advise_opts o = {.tol = tol, .sim_time = sim_time, .progress = stderr};
   ek_advice a;
   if (ek_advise(scene, mesh, &o, &a, err, sizeof err) != 0) {
     fprintf(stderr, "ek-sim: %s\n", err);
@@ -813,6 +906,8 @@ static int run(int argc, char **argv) {
       tol_arg = a;
       if (parse_double(a, i + 1 < argc ? argv[++i] : NULL, 0, 0, &tol))
         return EK_EXIT_USAGE;
+      if (!(tol < 1)) // holding every vertex still deviates by 1 (advise.h)
+        return ek_cli_usage_error("ek-sim", "--tol %g: expected a number in [0, 1)", tol);
     } else if (strcmp(a, "--time") == 0) {
       if (parse_double(a, i + 1 < argc ? argv[++i] : NULL, 0, 1, &sim_time))
         return EK_EXIT_USAGE;

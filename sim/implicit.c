@@ -14,7 +14,8 @@
 //      outside the model's domain there); pinned and prescribed vertices
 //      sit at their position at t_{n+1} throughout;
 //   2. Newton: grad Phi and the element eigensystems in one pass; stop if
-//      the residual is at most newton_tol; else solve
+//      the residual is at most newton_tol after at least one iteration
+//      (below: the stopping rule); else solve
 //        (M (1 + c dt) / dt^2 + K) dx = -grad Phi
 //      over the free vertices by PCG (K: projected to PSD, so the system
 //      is SPD), then halve alpha from 1 until the Armijo condition
@@ -26,6 +27,29 @@
 //      same pass);
 //   3. v_{n+1} = (x_{n+1} - x_n) / dt; then the ground as in the explicit
 //      loop.
+// The stopping rule (issue 26). The residual r (ek_scene_implicit) is an
+// absolute bound on the remaining position error, relative to the body's
+// size. A body that moves less than about newton_tol body sizes in a step
+// (a settling body's drift, a near-equilibrium such as stable neo-Hookean
+// crushed to a point, where P(F) = O(|F|^2)) starts every step below
+// newton_tol, so the start point x~ + dt^2 g was accepted with no
+// iteration: its forces never acted (ek-verify --extremes: the point crush
+// stayed a point for all 30 steps, r = 7.3e-7 each; the shipped crush
+// scenes flew on at v_n for 42-52 of their last steps, r rising linearly
+// until an iteration ran). So the start point is accepted only when its
+// gradient is exactly 0 (it is then the step's solution, e.g. a body at
+// rest with no load); otherwise Newton runs at least one iteration, which
+// takes the forces into account, and the test r <= newton_tol applies
+// after it. A step that stops above newton_tol is counted (unconverged)
+// and its state used, unless that state turns the body inside out (signed
+// volume > 0 before, <= 0 after): near incompressibility a clamped model's
+// residual line search accepted such a step (V/V0 0.99 -> -177, every tet
+// inverted; every later step then stalled at once while the body flew on,
+// ending at V/V0 -4.7e6, reported as a finite state). That step fails with
+// EK_SIM_EUNCONVERGED and is not applied. A bound on r was not the test: r
+// over-estimates the error by up to 1 + (omega dt)^2 (its Hessian bound is
+// M / dt^2 only), and small or stiff bodies stopped at r = 2-64 on their
+// first crushed step and then recovered (ek-verify --extremes, L = 1e-4).
 // Every sum (objective, dot products) runs over fixed chunks in a fixed
 // order and every pass is deterministic (hessian.h), so a step has the
 // same bits at any thread count.
@@ -584,6 +608,19 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
   return 0;
 }
 
+// Whether the state x turns the body inside out: its signed measure (tets:
+// volume; body.h) > 0 at x_n and <= 0 at x. Asked of unconverged steps only
+// (the stopping rule above); the body's measure reads s->x, so x stands in
+// for it during the call.
+static int turned_inside_out(ek_sim *s, double *x, double *before, double *after) {
+  *before = s->body->ops->measure(s);
+  double *xn = s->x;
+  s->x = x;
+  *after = s->body->ops->measure(s);
+  s->x = xn;
+  return *before > 0 && !(*after > 0);
+}
+
 static int implicit_step(ek_sim *s, void *data) {
   implicit_data *d = data;
   const ek_scene *sc = &s->scene;
@@ -644,7 +681,10 @@ static int implicit_step(ek_sim *s, void *data) {
   long it = 0;
   int stalled = 0;
   double *blocks = d->pre;
-  while (res > sc->implicit.newton_tol && it < sc->implicit.max_newton && free_mass > 0) {
+  // At least one iteration unless grad Phi is exactly 0 (the stopping rule
+  // above).
+  while ((res > sc->implicit.newton_tol || (it == 0 && res > 0)) && it < sc->implicit.max_newton &&
+         free_mass > 0) {
     if ((rc = sim_stop_requested(s, "Newton iteration", it + 1, sc->implicit.max_newton)))
       return rc;
     long cg_its;
@@ -664,6 +704,13 @@ static int implicit_step(ek_sim *s, void *data) {
       s->newton.cg_iterations[it] = cg_its;
       s->newton.cg_relative[it] = cg_rel;
     }
+    // An iteration the stopping rule forces (the start residual is already
+    // at most newton_tol) tries the full step only: its step is below
+    // newton_tol body sizes, where Phi is quadratic to rounding, so a full
+    // step that neither decreases Phi nor the residual means the start
+    // point is the solution to rounding (a body at rest); backtracking
+    // there cost up to 40 gradient passes per step.
+    const int forced = it == 0 && res <= sc->implicit.newton_tol;
     it++;
     // Line search on Phi along dx.
     t0 = sim_now();
@@ -671,7 +718,7 @@ static int implicit_step(ek_sim *s, void *data) {
     double alpha = 1, phi_t = INFINITY, res_t = INFINITY;
     int accepted = 0;
     s->times.line_search += sim_now() - t0;
-    for (int bt = 0; bt < MAX_BACKTRACKS; bt++) {
+    for (int bt = 0; bt < (forced ? 1 : MAX_BACKTRACKS); bt++) {
       if ((rc = sim_stop_requested(s, "line-search trial", bt + 1, MAX_BACKTRACKS)))
         return rc;
       res_t = INFINITY; // computed below only when a test needs it
@@ -725,6 +772,16 @@ static int implicit_step(ek_sim *s, void *data) {
   s->times.last_residual = res;
   if (res > s->times.worst_residual)
     s->times.worst_residual = res;
+  double v_before, v_after;
+  if (res > sc->implicit.newton_tol && turned_inside_out(s, x, &v_before, &v_after)) {
+    sim_fail(s,
+             "step %ld (t = %g): Newton did not converge (residual %.3g > newton_tol %g after "
+             "%ld iterations: %s) and its state turns the body inside out (signed volume %.4g "
+             "-> %.4g); not applied",
+             s->n, s->t, res, sc->implicit.newton_tol, it,
+             stalled ? "the line search found no decrease" : "max_newton", v_before, v_after);
+    return EK_SIM_EUNCONVERGED;
+  }
   if (res > sc->implicit.newton_tol) {
     s->times.unconverged_steps++;
     if (s->times.unconverged_steps == 1)
@@ -766,21 +823,25 @@ static int implicit_explain(const ek_scene *s, FILE *out, int number) {
           "x_n|_M^2 by Newton (newton_tol %g, max_newton %ld)\n",
           number, im->newton_tol, im->max_newton);
   if (im->linear_solver == EK_LINSOLVE_MATRIX_FREE)
-    fprintf(out,
-            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
-            "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
-            "projected element Hessians in %s; backtracking line search (Armijo)\n",
-            im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol,
-            im->max_cg, s->precision == 32 ? "f32" : "f64");
+    fprintf(
+        out,
+        "       per Newton iteration: gradient + the element data the Hessian reuses (one pass, "
+        "double; what it takes per element: passes above); "
+        "%s-preconditioned CG (cg_tol %g, max_cg %ld) with matrix-free products on the "
+        "projected element Hessians in %s; backtracking line search (Armijo)\n",
+        im->preconditioner == EK_PRECOND_JACOBI ? "Jacobi" : "block-Jacobi", im->cg_tol, im->max_cg,
+        s->precision == 32 ? "f32" : "f64");
   else
-    fprintf(out,
-            "       per Newton iteration: gradient + element eigensystems (one pass, double); "
-            "the projected element Hessians (%s) assembled into a CSR matrix, then %s; "
-            "backtracking line search (Armijo)\n",
-            s->precision == 32 ? "f32" : "f64",
-            im->linear_solver == EK_LINSOLVE_AMG
-                ? "PETSc CG + GAMG with the rigid-body near-null space (linear_solver amg)"
-                : "PETSc sparse Cholesky (linear_solver direct)");
+    fprintf(
+        out,
+        "       per Newton iteration: gradient + the element data the Hessian reuses (one pass, "
+        "double; what it takes per element: passes above); "
+        "the projected element Hessians (%s) assembled into a CSR matrix, then %s; "
+        "backtracking line search (Armijo)\n",
+        s->precision == 32 ? "f32" : "f64",
+        im->linear_solver == EK_LINSOLVE_AMG
+            ? "PETSc CG + GAMG with the rigid-body near-null space (linear_solver amg)"
+            : "PETSc sparse Cholesky (linear_solver direct)");
   fprintf(out, "       v = (x_{n+1} - x_n) / dt; the ground after the solve\n");
   return number + 1;
 }

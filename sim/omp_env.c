@@ -18,9 +18,29 @@ static int set_default(const char *name, const char *value) {
   return 1;
 }
 
+// Whether /proc/self/exe is the program itself: started through the
+// dynamic loader (ld-linux-x86-64.so.2 --library-path ... ek-bench ...) it is
+// the loader, which would take the program's options as its own.
+static int self_is(const char *program) {
+  char exe[4096];
+  ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n <= 0)
+    return 0;
+  exe[n] = 0;
+  const char *base = strrchr(exe, '/');
+  return strcmp(base ? base + 1 : exe, program) == 0;
+}
+
 void omp_env_defaults(const char *program, char **argv) {
   int set = set_default("OMP_PROC_BIND", "close");
   set |= set_default("OMP_PLACES", "cores");
+  if (set && !getenv(REEXEC_GUARD) && !self_is(program)) {
+    fprintf(stderr,
+            "%s: note: /proc/self/exe is not %s (started through a loader, or renamed): "
+            "running with libgomp's defaults; set OMP_PROC_BIND=close OMP_PLACES=cores for ek's\n",
+            program, program);
+    return;
+  }
   if (set && !getenv(REEXEC_GUARD)) {
     setenv(REEXEC_GUARD, "1", 1);
     execv("/proc/self/exe", argv);

@@ -916,6 +916,23 @@ static int parse_allow(parse_ctx *c, const cJSON *root, ek_scene *s) {
   return 0;
 }
 
+// "advise": {"reference_dt": s}: the step of the explicit f64 run that
+// ek-sim --advise may trust as its converged reference (sim/advise.h).
+static int parse_advise(parse_ctx *c, const cJSON *root, ek_scene *s) {
+  const cJSON *adv = cJSON_GetObjectItemCaseSensitive(root, "advise");
+  if (!adv)
+    return 0;
+  const cJSON *node = NULL;
+  int rc;
+  if ((rc = want_object(c, adv, "advise")) ||
+      (rc = check_keys(c, adv, "advise", (const char *const[]){"reference_dt", NULL})) ||
+      (rc = get_number(c, adv, "advise", "reference_dt", 1, &s->advise_reference_dt, &node)))
+    return rc;
+  if (!(s->advise_reference_dt > 0))
+    return bad(c, "advise.reference_dt", node, "must be > 0");
+  return 0;
+}
+
 // XPBD's keys (ek_scene_xpbd).
 static int parse_xpbd(parse_ctx *c, const cJSON *integ, ek_scene_xpbd *x) {
   const char *solver = NULL, *elements = NULL;
@@ -1089,11 +1106,11 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
     rc = check_duplicates(&c, text, root);
   if (!rc)
     rc = check_keys(&c, root, "",
-                    (const char *const[]){"description", "mesh",     "initial", "material",
-                                          "precision",   "isa",      "scatter", "svd",
-                                          "polar",       "boundary", "gravity", "ground",
-                                          "damping",     "dt",       "steps",   "integrator",
-                                          "output",      "cloth",    "allow",   NULL});
+                    (const char *const[]){
+                        "description", "mesh",   "initial", "material",   "precision", "isa",
+                        "scatter",     "svd",    "polar",   "boundary",   "gravity",   "ground",
+                        "damping",     "dt",     "steps",   "integrator", "output",    "cloth",
+                        "allow",       "advise", NULL});
   if (!rc) {
     const cJSON *d = cJSON_GetObjectItemCaseSensitive(root, "description");
     if (d && !cJSON_IsString(d))
@@ -1117,6 +1134,8 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
     rc = parse_integrator(&c, root, &s);
   if (!rc)
     rc = parse_allow(&c, root, &s);
+  if (!rc)
+    rc = parse_advise(&c, root, &s);
   cJSON_Delete(root);
   if (rc)
     return rc;

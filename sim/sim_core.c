@@ -425,12 +425,28 @@ int sim_forces(ek_sim *s, const double *x) {
   return 0;
 }
 
-// ", dt D is above the CFL limit C" for an explicit scene stepped above its
-// limit, else "": the likely cause of a blow-up, said where it is reported.
-static const char *cfl_hint(const ek_sim *s, char *buf, size_t len) {
+// What a non-finite force from finite positions x says about the state:
+// "; the positions reach E body sizes from the rest centre (the state blew
+// up)" when E > 10 (issue 26: a diverged crush must read as a blow-up, not
+// as a model's domain), and ", dt D is above the CFL limit C" for an
+// explicit scene stepped above its limit (the likely cause), else "".
+static const char *cfl_hint(const ek_sim *s, const double *x, char *buf, size_t len) {
   buf[0] = '\0';
-  if (s->integrator == &sim_integrator_explicit && s->scene.dt > s->cfl_dt)
-    snprintf(buf, len, "; dt %g is %.3g times the CFL limit %g", s->scene.dt,
+  // The largest coordinate offset (not the distance: its square overflows
+  // for positions near 1e160, which a blow-up reaches).
+  double far = 0;
+  for (size_t i = 0; x && i < s->nv; ++i)
+    for (int k = 0; k < 3; ++k)
+      far = fmax(far, fabs(x[3 * i + k] - s->body_center[k]));
+  const double extent = s->body_size > 0 ? far / s->body_size : 0;
+  size_t used = 0;
+  if (extent > 10)
+    used = (size_t)snprintf(buf, len,
+                            "; the positions reach %.3g body sizes from the rest centre (the "
+                            "state blew up)",
+                            extent);
+  if (used < len && s->integrator == &sim_integrator_explicit && s->scene.dt > s->cfl_dt)
+    snprintf(buf + used, len - used, "; dt %g is %.3g times the CFL limit %g", s->scene.dt,
              s->scene.dt / s->cfl_dt, s->cfl_dt);
   return buf;
 }
@@ -443,7 +459,7 @@ int sim_check_forces(ek_sim *s, const double *x) {
         bad_vertex = i;
   if (bad_vertex == (size_t)-1)
     return 0;
-  char hint[128];
+  char hint[256];
   // Three causes, told apart (issue 28: a NaN state was reported as every
   // tet "inverted (J = -nan) ... use an invertible model", even for fixed
   // corotated): positions that are not finite (a blow-up the state check
@@ -454,8 +470,8 @@ int sim_check_forces(ek_sim *s, const double *x) {
     if (!isfinite(x[i]))
       return sim_fail(s, "step %ld (t = %g): non-finite state: vertex %zu position (%g, %g, %g)%s",
                       s->n, s->t, i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
-                      cfl_hint(s, hint, sizeof hint));
-  return s->body->ops->bad_force(s, x, bad_vertex, cfl_hint(s, hint, sizeof hint));
+                      cfl_hint(s, NULL, hint, sizeof hint));
+  return s->body->ops->bad_force(s, x, bad_vertex, cfl_hint(s, x, hint, sizeof hint));
 }
 
 // The state a step wrote must be finite (issue 28: at dt = 1e3 the state
@@ -470,12 +486,12 @@ static int check_state(ek_sim *s) {
     if (isfinite(s->x_next[i]) && isfinite(s->v_next[i]))
       continue;
     const double *x = s->x_next + (i - i % 3), *v = s->v_next + (i - i % 3);
-    char hint[128];
+    char hint[256];
     return sim_fail(s,
                     "step %ld (t = %g): non-finite state after the step: vertex %zu position "
                     "(%g, %g, %g), velocity (%g, %g, %g)%s",
                     s->n, s->t, i / 3, x[0], x[1], x[2], v[0], v[1], v[2],
-                    cfl_hint(s, hint, sizeof hint));
+                    cfl_hint(s, s->x, hint, sizeof hint));
   }
   return 0;
 }

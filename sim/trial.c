@@ -186,8 +186,27 @@ static int finite_positions(const double *x, size_t n) {
   return 1;
 }
 
+// Smallest det F over the tets of positions x (F in double), +inf with no
+// tets; NaN when F cannot be formed.
+static double min_det(const ek_mesh *mesh, const double *x, double *F) {
+  if (ek_mesh_deformation_gradients_f64(mesh, x, F) != 0)
+    return NAN;
+  double m = INFINITY;
+  for (size_t e = 0, nt = ek_mesh_ntets(mesh); e < nt; ++e) {
+    const double *f = F + 9 * e;
+    m = fmin(m, f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
+                    f[2] * (f[3] * f[7] - f[4] * f[6]));
+  }
+  return m;
+}
+
 int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, int monitor,
                  ek_trial *t) {
+  return ek_trial_run_frames(scene, mesh, sim_time, monitor, 0, t);
+}
+
+int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_time, int monitor,
+                        int nframes, ek_trial *t) {
   memset(t, 0, sizeof *t);
   t->sim_time = sim_time;
   t->cost_median = t->cost_min = t->energy_start = t->energy_end = t->energy_drift = NAN;
@@ -198,7 +217,8 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     return -1;
   }
   ek_scene s = *scene;
-  double nsteps = ceil(sim_time / s.dt - 1e-9);
+  const int K = nframes > 0 ? nframes : 1;
+  double nsteps = (double)K * ceil(sim_time / ((double)K * s.dt) - 1e-9);
   // Checked before the cast to long, which overflows (undefined) for
   // sim_time 1e300 (issue 28: a table of NaN costs, exit 0).
   if (!(nsteps <= (double)EK_TRIAL_MAX_STEPS)) {
@@ -224,7 +244,18 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
     mb.R_prev = malloc(9 * nt * sizeof(double));
   }
   int rc = 0;
-  if (!step_s || (monitor && !(mb.F && mb.U && mb.S && mb.V && mb.R_prev))) {
+  if (nframes > 0) {
+    t->frames = malloc((size_t)nframes * 3 * nv * sizeof(double));
+    t->frame_t = malloc((size_t)nframes * sizeof(double));
+    t->frame_kinel = malloc((size_t)nframes * sizeof(double));
+    t->frame_pot = malloc((size_t)nframes * sizeof(double));
+    t->frame_min_J = malloc((size_t)nframes * sizeof(double));
+    if (!mb.F)
+      mb.F = malloc(9 * nt * sizeof(double));
+  }
+  if (!step_s || (monitor && !(mb.F && mb.U && mb.S && mb.V && mb.R_prev)) ||
+      (nframes > 0 &&
+       !(t->frames && t->frame_t && t->frame_kinel && t->frame_pot && t->frame_min_J && mb.F))) {
     snprintf(t->error, sizeof t->error, "trial: out of memory for %ld steps, %zu tets", s.steps,
              nt);
     rc = -1;
@@ -241,6 +272,9 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
   ek_sim_energy(sim, &e);
   t->energy_start = e.kinetic + e.elastic + e.potential;
   const double moving_start = e.kinetic + e.elastic;
+  t->kinel0 = moving_start;
+  t->pot0 = e.potential;
+  const long per_frame = s.steps / K;
   const long every =
       s.steps / EK_TRIAL_MONITOR_SAMPLES > 0 ? s.steps / EK_TRIAL_MONITOR_SAMPLES : 1;
   if (monitor && monitor_sample(sim, mesh, &mb, 0, &t->monitor) != 0) {
@@ -259,6 +293,18 @@ int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, in
       break;
     }
     t->steps = n + 1;
+    if (nframes > 0 && (n + 1) % per_frame == 0) {
+      const double *x = ek_sim_positions(sim);
+      if (!finite_positions(x, 3 * nv))
+        break; // reported below
+      const int k = t->nframes++;
+      memcpy(t->frames + 3 * nv * (size_t)k, x, 3 * nv * sizeof(double));
+      t->frame_t[k] = (double)(n + 1) * s.dt;
+      ek_sim_energy(sim, &e);
+      t->frame_kinel[k] = e.kinetic + e.elastic;
+      t->frame_pot[k] = e.potential;
+      t->frame_min_J[k] = min_det(mesh, x, mb.F);
+    }
     if (monitor && ((n + 1) % every == 0 || n + 1 == s.steps)) {
       if (!finite_positions(ek_sim_positions(sim), 3 * nv))
         break; // reported below
@@ -323,5 +369,11 @@ void ek_trial_free(ek_trial *t) {
   if (!t)
     return;
   free(t->x);
-  t->x = NULL;
+  free(t->frames);
+  free(t->frame_t);
+  free(t->frame_kinel);
+  free(t->frame_pot);
+  free(t->frame_min_J);
+  t->x = t->frames = t->frame_t = t->frame_kinel = t->frame_pot = t->frame_min_J = NULL;
+  t->nframes = 0;
 }

@@ -75,6 +75,16 @@ typedef struct {
   // scene's allow.inverted.
   ek_sim_health health;
   ek_trial_monitor monitor;
+  // Frames (ek_trial_run_frames; 0 / NULL from ek_trial_run): the state
+  // after steps k * steps / nframes, k = 1..nframes (equal simulated
+  // times for every setting, the steps a multiple of nframes), recorded
+  // outside the timed steps: positions (nframes x nverts x 3), kinetic +
+  // elastic and gravity potential energy (ek_sim_energy), the smallest
+  // J = det F over the tets (F from the positions in double), and the
+  // start state's energies as frame "0" (kinel0, pot0).
+  int nframes;
+  double *frames, *frame_t, *frame_kinel, *frame_pot, *frame_min_J;
+  double kinel0, pot0;
 } ek_trial;
 
 // The most steps one trial runs (ek-sim --steps takes at most the same).
@@ -88,6 +98,12 @@ typedef struct {
 // up (out of memory; message in t->error). Free with ek_trial_free.
 int ek_trial_run(const ek_scene *scene, const ek_mesh *mesh, double sim_time, int monitor,
                  ek_trial *t);
+// ek_trial_run with nframes > 0 frames recorded (ek_trial, above): steps =
+// nframes * ceil(sim_time / (nframes * dt)) (to 1e-9 of a step), dt =
+// sim_time / steps. A run that fails keeps the frames it reached
+// (t->nframes of them).
+int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_time, int monitor,
+                        int nframes, ek_trial *t);
 void ek_trial_free(ek_trial *t);
 
 // The rest mesh's bounding-box diagonal.

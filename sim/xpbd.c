@@ -104,7 +104,7 @@ static int xpbd_explain(const ek_scene *s, FILE *out, int number) {
             "dlambda -> x += w grad C dlambda\n",
             s->precision == 32 ? EK_LANES_F32 : EK_LANES_F64);
   fprintf(out,
-          "  %d. v = (x - x_start) / h, ground; the force kernel above is not used by this "
+          "  %d. v = (x - x_start) / h, ground; the FVM force kernel (fvm.h) is not used by this "
           "loop (it gives the frames' fields)\n",
           number + 1);
   return number + 2;

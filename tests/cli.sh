@@ -81,7 +81,7 @@ expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantileve
 expect "ek-sim on a missing scene" 1 "$bin/ek-sim" "$scenes/no-such-scene.json" --no-output &&
   one_error "ek-sim on a missing scene"
 # ek-sim --advise: bad --tol / --time values and options that do not go with it.
-for args in "--tol -0.1" "--tol nan" "--tol x" "--time 0" "--time -1" "--time inf" "--time"; do
+for args in "--tol -0.1" "--tol 1" "--tol nan" "--tol x" "--time 0" "--time -1" "--time inf" "--time"; do
   # shellcheck disable=SC2086
   expect "ek-sim --advise $args" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise $args &&
     one_error "ek-sim --advise $args"
@@ -161,7 +161,7 @@ expect "ek-sim: inversion allowed" 0 "$bin/ek-sim" "$work/inv_allowed.json" --no
 grep -q "allowed: the scene studies inversion" "$out" ||
   fail "ek-sim: inversion allowed: the summary does not say so"
 expect "ek-sim --advise on a scene that inverts" 0 "$bin/ek-sim" "$data/inverts.json" --advise --time 2
-grep -q "failed .*ends with 24 of 24 tets inverted" "$out" ||
+grep -q "FAILURE .*ends with 24 of 24 tets inverted" "$out" ||
   fail "ek-sim --advise: the inverted reference is not flagged"
 grep -q "^pick .*none" "$out" || fail "ek-sim --advise: picked a setting that inverts"
 expect "ek-sim: frames hold NaN" 3 "$bin/ek-sim" "$data/flattens.json" --out "$work/flat.h5"

@@ -651,6 +651,13 @@ static void faults(void) {
                 "\"nu\": 0.3, \"density\": 1000}, " PIN ", \"gravity\": [0, 0, -9.81], "
                 "\"dt\": 1e3, \"steps\": 10}",
                 "non-finite", 0);
+  // Issue 26: a diverged explicit run read as "model ... is undefined
+  // there"; the message must say the state blew up.
+  nonfinite_run("fixed corotated at ~4x CFL: fails saying the state blew up",
+                "{" MESH ", \"material\": {\"model\": \"fixed_corotated\", \"E\": 1e5, "
+                "\"nu\": 0.3, \"density\": 1000}, " PIN ", \"gravity\": [0, 0, -9.81], "
+                "\"dt\": 0.1, \"steps\": 100}",
+                "blew up", 0);
   nonfinite_run("gravity 1e308: fails at the overflow",
                 "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 1e-3, "
                 "\"steps\": 10}",

@@ -20,10 +20,18 @@
 //      on the shipped cantilever: every step converges to newton_tol, and
 //      the trajectory stays within LINSOLVE_GAP_TOL of the matrix-free
 //      one; built without PETSc, the scene is refused with a message
-//      naming PETSc and the checks say they were skipped.
+//      naming PETSc and the checks say they were skipped;
+//   8. the stopping rule (issue 26): stable neo-Hookean crushed to a point
+//      (P(F) = O(|F|^2) there, so its start residual is below newton_tol)
+//      takes at least one Newton iteration every step and follows the run
+//      at newton_tol 1e-12 (was: 0 iterations, the body never moved);
+//   9. a clamped model near incompressibility whose unconverged step turns
+//      the body inside out fails with EK_SIM_EUNCONVERGED, state kept
+//      (was: a mirrored body, V/V0 -4.4e6, reported as a finite state).
 #include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -355,6 +363,125 @@ static void linear_solver_test(void) {
     free(xs[ls]);
 }
 
+// check() with a formatted detail.
+static void checkf(const char *what, int ok, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static void checkf(const char *what, int ok, const char *fmt, ...) {
+  char detail[512];
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(detail, sizeof detail, fmt, ap);
+  va_end(ap);
+  check(what, ok, detail);
+}
+
+// The crush of ek-verify --extremes (verify_extremes.c) on a 0.2 m cube of
+// 4^3 cells: every vertex at the centre (point) or on the mid-plane, plus
+// uniform noise of 1e-4 of the edge (a fixed LCG stream); damping 2 / tc,
+// tc the shear crossing time; implicit at dt = 1/30 s.
+static int crushed(run *r, int point, double nu, double clamp, double newton_tol) {
+  const double L = 0.2, E = 1e5, rho = 1000, mu = E / (2 * (1 + nu));
+  char json[1024];
+  snprintf(json, sizeof json,
+           "{\"mesh\": {\"box\": [4, 4, 4], \"size\": [%g, %g, %g]},"
+           " \"material\": {\"model\": \"stable_neo_hookean\", \"E\": %g, \"nu\": %g,"
+           " \"density\": %g, \"clamp\": %g}, \"damping\": %.17g, \"dt\": %.17g,"
+           " \"steps\": 30, \"integrator\": {\"type\": \"implicit\", \"newton_tol\": %g}}",
+           L, L, L, E, nu, rho, clamp, 2 / (L / sqrt(mu / rho)), 1.0 / 30, newton_tol);
+  if (start(r, json, 0))
+    return -1;
+  size_t n3 = 3 * ek_mesh_nverts(r->mesh);
+  const double *X = ek_mesh_rest_positions(r->mesh);
+  double *x = malloc(n3 * sizeof(double));
+  unsigned long long state = 12345;
+  for (size_t i = 0; x && i < n3; i++) {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    double u = (double)(state >> 11) / 9007199254740992.0;
+    x[i] = (point || i % 3 == 2 ? 0.5 * L : X[i]) + 1e-4 * L * (2 * u - 1);
+  }
+  int rc = x ? ek_sim_set_state(r->sim, x, NULL) : -1;
+  free(x);
+  if (rc) {
+    checkf("crushed start state", 0, "%s", ek_last_error());
+    finish(r);
+    return -1;
+  }
+  return 0;
+}
+
+// 8.
+static void stopping_rule_test(void) {
+  run r, ref;
+  if (crushed(&r, 1, 0.3, 0, 1e-6))
+    return;
+  if (crushed(&ref, 1, 0.3, 0, 1e-12)) {
+    finish(&r);
+    return;
+  }
+  size_t n3 = 3 * ek_mesh_nverts(r.mesh);
+  double *x0 = malloc(n3 * sizeof(double));
+  if (!x0) {
+    finish(&r);
+    finish(&ref);
+    return;
+  }
+  memcpy(x0, ek_sim_positions(r.sim), n3 * sizeof(double));
+  int rc = 0, min_its = 1 << 30, max_its = 0;
+  double r0_max = 0;
+  for (long n = 0; n < r.scene.steps && rc == 0; n++) {
+    rc = ek_sim_step(r.sim);
+    const ek_sim_newton_trace *t = ek_sim_last_newton(r.sim);
+    min_its = t->iterations < min_its ? t->iterations : min_its;
+    max_its = t->iterations > max_its ? t->iterations : max_its;
+    r0_max = fmax(r0_max, t->residual[0]);
+    if (rc == 0)
+      rc = ek_sim_step(ref.sim);
+  }
+  // The distance moved by the converged run, and the gap between the two.
+  const double *x = ek_sim_positions(r.sim), *xr = ek_sim_positions(ref.sim);
+  double moved = 0, gap = 0;
+  for (size_t i = 0; i < n3; i++) {
+    moved += (xr[i] - x0[i]) * (xr[i] - x0[i]);
+    gap += (x[i] - xr[i]) * (x[i] - xr[i]);
+  }
+  moved = sqrt(moved / (double)n3);
+  gap = sqrt(gap / (double)n3);
+  checkf("point crush: start residual below newton_tol (the case the rule is for)",
+         rc == 0 && r0_max <= r.scene.implicit.newton_tol, "largest start residual %.3g, tol %g",
+         r0_max, r.scene.implicit.newton_tol);
+  checkf("point crush: at least one Newton iteration every step", rc == 0 && min_its >= 1,
+         "%d to %d iterations per step over %ld steps%s%s", min_its, max_its, r.scene.steps,
+         rc ? ": " : "", rc ? ek_last_error() : "");
+  checkf("point crush: moves as the newton_tol 1e-12 run does",
+         rc == 0 && moved > 0 && gap <= 0.05 * moved,
+         "RMS displacement of the 1e-12 run %.3g m, RMS gap to it %.3g m (ratio %.3g, bound 0.05)",
+         moved, gap, moved > 0 ? gap / moved : INFINITY);
+  free(x0);
+  finish(&r);
+  finish(&ref);
+}
+
+// 9.
+static void inside_out_test(void) {
+  run r;
+  if (crushed(&r, 0, 0.49, 0.05, 1e-6))
+    return;
+  int rc = 0;
+  long n = 0;
+  double V0 = 0.2 * 0.2 * 0.2, Vbefore = 0;
+  for (; n < r.scene.steps && rc == 0; n++) {
+    Vbefore = ek_sim_volume(r.sim);
+    rc = ek_sim_step(r.sim);
+  }
+  double V = ek_sim_volume(r.sim);
+  const char *msg = rc ? ek_last_error() : "";
+  checkf("nu 0.49 clamped crush: the step that turns the body inside out fails, state kept",
+         rc == EK_SIM_EUNCONVERGED && V == Vbefore && V > 0 && strstr(msg, "inside out"),
+         "rc %d at step %ld (want %d), V/V0 %.4g after: %s", rc, n - 1, EK_SIM_EUNCONVERGED, V / V0,
+         msg);
+  finish(&r);
+}
+
 int main(int argc, char **argv) {
   scenes_dir_init(argc, argv);
   printf("test_sim_implicit (scenes from %s)\n", scenes_dir);
@@ -367,6 +494,8 @@ int main(int argc, char **argv) {
   crush_test("crush_nh_implicit");
   cantilever_test();
   linear_solver_test();
+  stopping_rule_test();
+  inside_out_test();
   printf("%s\n", failures ? "FAILED" : "ALL PASSED");
   return failures ? 1 : 0;
 }

@@ -1,7 +1,9 @@
 // Invariant: the speed/accuracy map's bookkeeping (bench/tradeoff.c) is
 // exact. The Pareto marking on hand-made sets: a point is on the front
-// exactly when no other point has both a strictly lower time and a strictly
-// lower error (ties, NaN, a single point, duplicates); the fronts are taken
+// exactly when no other point is at least as good in both time and error
+// and strictly better in one, and of exact duplicates only the first is
+// (ties in one coordinate, duplicates, zero and infinite errors, NaN, a
+// single point, the issue-26 polar pair); the fronts are taken
 // per family and thread count, on p99 and on max. The error distribution's
 // nearest-rank percentiles, maximum and over-budget count on a shuffled
 // 1..n (NaN counted as over budget, sorted last). The writers: a map written
@@ -40,15 +42,31 @@ static void check_pareto(void) {
     const char *expected;
   } cases[] = {
       // (1,5) (2,3) (3,4) (4,1) (5,1): (3,4) is beaten by (2,3); (5,1) has
-      // the same error as (4,1) and is slower: not beaten on both, so on.
-      {"staircase", 5, {1, 2, 3, 4, 5}, {5, 3, 4, 1, 1}, "11011"},
+      // the same error as (4,1) and is slower: dominated.
+      {"staircase", 5, {1, 2, 3, 4, 5}, {5, 3, 4, 1, 1}, "11010"},
       {"single point", 1, {7}, {1e-3}, "1"},
-      {"duplicates stay", 3, {1, 1, 2}, {2, 2, 3}, "110"},
-      {"equal time, lower error does not beat", 2, {1, 1}, {2, 1}, "11"},
+      {"single zero-error point", 1, {7}, {0}, "1"},
+      // Exact duplicates: the first of them only (the given order).
+      {"duplicates: the first stays", 3, {1, 1, 2}, {2, 2, 3}, "100"},
+      {"duplicates after a better point: none", 3, {0.5, 1, 1}, {1, 2, 2}, "100"},
+      {"three duplicates, then a faster worse point", 4, {3, 3, 3, 1}, {1, 1, 1, 2}, "1001"},
+      // Equal time: the lower error wins; equal error: the lower time wins.
+      {"equal time, lower error beats", 2, {1, 1}, {2, 1}, "01"},
+      {"equal error, lower time beats", 2, {2, 1}, {1, 1}, "01"},
+      // The issue-26 pair: scalar f64 SVD polar 494 ns and warm polar 6.9
+      // ns at one error, plus a slower point with a lower error.
+      {"equal error: the 494 ns polar off", 3, {494, 6.9, 700}, {1e-15, 1e-15, 1e-16}, "011"},
+      // Zero errors (loop references): 0 beats every error > 0 at equal
+      // or higher time; two zero-error points: the faster.
+      {"zero error beats equal-time error", 2, {5, 5}, {1e-9, 0}, "01"},
+      {"two zero errors: the faster", 3, {9, 4, 1}, {0, 0, 1e-3}, "011"},
+      {"zero-error duplicates: the first", 2, {4, 4}, {0, 0}, "10"},
       {"NaN never on the front, hides nothing", 4, {1, NAN, 3, 2}, {3, 0, NAN, 5}, "1000"},
+      {"NaN duplicates of a point hide nothing", 3, {NAN, 2, 2}, {1, NAN, 1}, "001"},
       {"one point beats all", 4, {1, 2, 3, 4}, {1, 2, 3, 4}, "1000"},
       {"anti-diagonal all on", 4, {1, 2, 3, 4}, {4, 3, 2, 1}, "1111"},
       {"inf error", 3, {1, 2, 3}, {INFINITY, 1, 0.5}, "111"},
+      {"inf errors tie: the faster", 3, {2, 1, 3}, {INFINITY, INFINITY, 1}, "011"},
   };
   for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
     unsigned char front[8];

@@ -7,7 +7,10 @@ usage: plot_tradeoff.py TRADEOFF.h5 OUTDIR [--bench BENCH.h5] [--threads N]
 One PNG per family of the map (OUTDIR/tradeoff_<family>.png, '/' in the
 family name as '_'): error vs time per point, log-log, the p99 error as the
 marker and the maximum as a whisker above it, the Pareto front on p99 drawn
-as a line, the default and McAdams et al. 2011 settings labelled. Points are
+as a line (bench/tradeoff.h: non-dominated, one of exact duplicates), the
+default and McAdams et al. 2011 settings labelled; a point with error 0 (a
+loop's reference) on the bottom edge, marked and labelled "reference (error
+0)". Points are
 those of one thread count (--threads, default the most the file has).
 
 With --bench BENCH.h5 (a default-suite file of ek-bench), one roofline per
@@ -28,7 +31,24 @@ import os
 import sys
 
 PROG = "plot_tradeoff"
-ERR_FLOOR = 1e-18  # an error of exactly 0 is drawn here (log axes)
+# An error of exactly 0 (a loop's reference: the run it is measured
+# against) has no place on a log axis. It is drawn as what it is: on the
+# bottom edge of the plot, a decade below the smallest error > 0, with a
+# marker of its own and the label "reference (error 0)" (issue 26: it was
+# drawn at 1e-18 as if it had that error).
+ZERO_MARKER = "v"
+
+
+def zero_row(pts):
+    """The y at which errors of 0 are drawn: a decade below the smallest
+    positive p99 or max error of the points (1 when there is none)."""
+    pos = [v for p in pts for v in (p["err_p99"], p["err_max"]) if math.isfinite(v) and v > 0]
+    return min(pos) / 10 if pos else 1.0
+
+
+def y_of(e, zero_y):
+    """Where an error is drawn: itself, or the zero row for 0."""
+    return e if e > 0 else zero_y
 
 
 def fail(msg):
@@ -94,6 +114,8 @@ def plot_family(plt, family, points, threads, outdir, meta):
     if not pts:
         return None
     fig, ax = plt.subplots(figsize=(8, 6))
+    zero_y = zero_row(pts)
+    zeros = []  # points with p99 error 0, drawn on the zero row
     groups = {}
     # Kernel maps group by ISA; the loop maps (no ISA: the scene's) by loop.
     for p in pts:
@@ -111,9 +133,12 @@ def plot_family(plt, family, points, threads, outdir, meta):
             if not (math.isfinite(t) and math.isfinite(e)):
                 nonfinite += 1
                 continue
+            if e == 0:
+                zeros.append(p)
+                continue
             xs.append(t)
-            ys.append(max(e, ERR_FLOOR))
-            tops.append(max(m, e, ERR_FLOOR) if math.isfinite(m) else None)
+            ys.append(e)
+            tops.append(max(m, e) if math.isfinite(m) else None)
         if not xs:
             continue
         ax.scatter(xs, ys, s=18, marker=markers.get(isa, "D"), color=colors.get(prec, "gray"),
@@ -122,15 +147,27 @@ def plot_family(plt, family, points, threads, outdir, meta):
             if top is not None and top > y:
                 ax.plot([x, x], [y, top], color=colors.get(prec, "gray"), lw=0.6, alpha=0.5)
                 ax.plot([x], [top], marker="_", color=colors.get(prec, "gray"), ms=6, alpha=0.7)
+    if zeros:
+        ax.scatter([p["time_median"] for p in zeros], [zero_y] * len(zeros), s=70,
+                   marker=ZERO_MARKER, color="black", label="reference (error 0)", zorder=5,
+                   clip_on=False)
+        for p in zeros:
+            k = knobs_of(p["setting"])
+            what = " ".join(v for v in (k.get("loop", ""), k.get("precision", "")) if v)
+            ax.annotate(f"reference {what} (error 0)".replace("  ", " "),
+                        (p["time_median"], zero_y), xytext=(6, 6), textcoords="offset points",
+                        fontsize=8)
     front = [p for p in front_line(pts)
              if math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"])]
     if front:
-        ax.step([p["time_median"] for p in front], [max(p["err_p99"], ERR_FLOOR) for p in front],
+        ax.step([p["time_median"] for p in front], [y_of(p["err_p99"], zero_y) for p in front],
                 where="post", color="black", lw=1.2, label="Pareto front (p99)", zorder=2)
     for p in pts:
         k = knobs_of(p["setting"])
         label = None
-        if p.get("is_reference"):
+        if p.get("is_reference") and p["err_p99"] == 0:
+            label = None  # labelled on the zero row above
+        elif p.get("is_reference"):
             label = f"reference {k.get('loop', '')} {k.get('precision', '')}"
         elif p.get("is_default"):
             label = f"default {k.get('loop', '')} {k.get('precision', '')}".replace("  ", " ")
@@ -139,17 +176,21 @@ def plot_family(plt, family, points, threads, outdir, meta):
         if label and math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"]):
             # f32 labels above right, f64 below right: the two McAdams points
             # sit at the same error.
-            ax.annotate(label, (p["time_median"], max(p["err_p99"], ERR_FLOOR)),
+            ax.annotate(label, (p["time_median"], y_of(p["err_p99"], zero_y)),
                         xytext=(8, 8 if k.get("precision") != "f64" else -16),
                         textcoords="offset points", fontsize=8,
                         arrowprops={"arrowstyle": "-", "lw": 0.5})
-            ax.scatter([p["time_median"]], [max(p["err_p99"], ERR_FLOOR)], s=60,
+            ax.scatter([p["time_median"]], [y_of(p["err_p99"], zero_y)], s=60,
                        facecolors="none", edgecolors="red", zorder=4)
     ax.set_xscale("log")
     ax.set_yscale("log")
+    if zeros:
+        # The zero row is the plot's bottom edge: nothing is drawn below it.
+        ax.set_ylim(bottom=zero_y)
     unit = pts[0].get("time_unit", "ns")
     ax.set_xlabel(f"time, median ({unit}), {threads} thread{'s' if threads > 1 else ''}")
-    ax.set_ylabel("error p99 (marker) to max (whisker)")
+    ax.set_ylabel("error p99 (marker) to max (whisker)"
+                  + ("; bottom edge: error 0" if zeros else ""))
     budgets = sorted({p["budget"] for p in pts if math.isfinite(p.get("budget", math.nan))})
     for b in budgets:
         ax.axhline(b, color="gray", ls=":", lw=0.8)

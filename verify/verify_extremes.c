@@ -379,11 +379,16 @@ static int run_row(const ek_scene *base, const ext_variant *v, const ext_case *c
       char msg[160];
       snprintf(msg, sizeof msg, "%s", ek_last_error());
       snprintf(r->error, sizeof r->error, "%s%s",
-               rc == EK_SIM_EINVERTED ? "inverted: " : "step failed: ", msg);
+               rc == EK_SIM_EINVERTED      ? "inverted: "
+               : rc == EK_SIM_EUNCONVERGED ? "not converged: "
+                                           : "step failed: ",
+               msg);
       copy_error(r->error, sizeof r->error, r->error);
       // A non-finite force is a blow-up; an inverted element outside the
-      // model's domain is a refusal with the state still finite.
-      if (rc != EK_SIM_EINVERTED)
+      // model's domain and a Newton solve that failed (EK_SIM_EUNCONVERGED)
+      // are refusals with the state still finite: the row fails as not
+      // restored, its note says why.
+      if (rc != EK_SIM_EINVERTED && rc != EK_SIM_EUNCONVERGED)
         r->finite = 0;
       break;
     }
@@ -547,7 +552,9 @@ int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *k
           const ek_scene *b = &base[l->kind != LOOP_EXPLICIT];
           int setup = run_row(b, v, c, l, precision, seed, &r) != 0;
           expectation e = expect_for(v, c, l);
-          int survived = !setup && r.finite && r.restoring && r.volume;
+          // A row whose step failed (a refusal with a finite state) did not
+          // survive, whatever the state it stopped at.
+          int survived = !setup && r.finite && r.restoring && r.volume && r.steps == r.planned;
           const char *status = status_of(e, survived, setup);
           int failed = setup || (e == EXPECT_SURVIVE && !survived);
           failures += failed;
@@ -600,8 +607,9 @@ int verify_extremes(ek_verify_ctx *ctx, struct cJSON *rows_json, struct cJSON *k
             char line[400];
             snprintf(line, sizeof line, "%s | %s %s | %s: %s%s%s", v->name, l->name,
                      p ? "f32" : "f64", c->name,
-                     setup       ? "setup error"
-                     : !r.finite ? "not finite"
+                     setup                 ? "setup error"
+                     : !r.finite           ? "not finite"
+                     : r.steps < r.planned ? "step refused"
                      : !r.restoring
                          ? (c->kind == CASE_REST ? "did not stay at rest" : "not restored")
                          : "volume not recovered",

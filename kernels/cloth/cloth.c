@@ -62,53 +62,36 @@ static int check_io(const char *fn, size_t count, size_t lanes, const io *a) {
                         names);
 }
 
-// AoS path: each thread packs a chunk into its own staging buffers, runs
-// the kernel there and unpacks the wanted outputs.
-typedef struct {
-  const io *a;
-  cloth_block_fn *block;
-} io_aos;
-
-static void io_aos_chunk(void *ctx, size_t i0, size_t m, real *const *buf) {
-  const io *a = ((const io_aos *)ctx)->a;
-  for (int k = 0; k < 2; k++)
-    if (buf[k])
-      EK_P(aosoa_pack)(m, a->in_planes[k], a->in[k] + (size_t)a->in_planes[k] * i0, buf[k]);
-  ((const io_aos *)ctx)->block(EK_P(aosoa_blocks)(m), buf[0], buf[1], buf[2], buf[3], buf[4]);
-  for (int k = 0; k < 3; k++)
-    if (buf[2 + k])
-      EK_P(aosoa_unpack)
-  (m, a->out_planes[k], buf[2 + k], a->out[k] + (size_t)a->out_planes[k] * i0);
-}
-
-static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
-  int rc = check_io(fn, n, 1, a);
+// OpenMP over chunks of `chunk` items of `lanes` records each: blocks of
+// an AoSoA batch (lanes = EK_LANES, aos = 0) or AoS records (lanes = 1,
+// aos = 1: the kernel transposes in registers, cloth_block.c; no staging).
+static int run_chunks(const char *fn, cloth_block_fn *block, size_t count, size_t lanes, int aos,
+                      const io *a) {
+  int rc = check_io(fn, count, lanes, a);
   if (rc)
     return rc;
-  int planes[5];
-  for (int k = 0; k < 5; k++)
-    planes[k] = k < 2 ? a->in_planes[k] : a->out[k - 2] ? a->out_planes[k - 2] : 0;
-  io_aos c = {a, block};
-  return EK_P(staged_chunks)(fn, n, CHUNK_BLOCKS, 5, planes, io_aos_chunk, &c);
-}
-
-static int run_blocks(const char *fn, cloth_block_fn *block, size_t nblocks, const io *a) {
-  int rc = check_io(fn, nblocks, EK_LANES, a);
-  if (rc)
-    return rc;
-  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+  const size_t chunk = aos ? (size_t)CHUNK_BLOCKS * EK_LANES : CHUNK_BLOCKS;
+  size_t nchunks = (count + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (nchunks > 1)
   for (size_t c = 0; c < nchunks; c++) {
-    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
+    size_t i0 = c * chunk, m = count - i0 < chunk ? count - i0 : chunk;
     const real *in[2];
     real *out[3];
     for (int k = 0; k < 2; k++)
-      in[k] = a->in[k] ? a->in[k] + b0 * (size_t)a->in_planes[k] * EK_LANES : NULL;
+      in[k] = a->in[k] ? a->in[k] + i0 * (size_t)a->in_planes[k] * lanes : NULL;
     for (int k = 0; k < 3; k++)
-      out[k] = a->out[k] ? a->out[k] + b0 * (size_t)a->out_planes[k] * EK_LANES : NULL;
-    block(nb, in[0], in[1], out[0], out[1], out[2]);
+      out[k] = a->out[k] ? a->out[k] + i0 * (size_t)a->out_planes[k] * lanes : NULL;
+    block(m, aos, in[0], in[1], out[0], out[1], out[2]);
   }
   return EK_OK;
+}
+
+static int run_aos(const char *fn, cloth_block_fn *block, size_t n, const io *a) {
+  return run_chunks(fn, block, n, 1, 1, a);
+}
+
+static int run_blocks(const char *fn, cloth_block_fn *block, size_t nblocks, const io *a) {
+  return run_chunks(fn, block, nblocks, EK_LANES, 0, a);
 }
 
 // ---- Rest data (double only) ----------------------------------------------
@@ -273,7 +256,7 @@ static void tet_velgrad_chunk(void *ctx, size_t i0, size_t m, real *const *buf) 
         }
       }
   }
-  c->block(nb, xs, vs, buf[2], buf[3], buf[4]);
+  c->block(nb, 0, xs, vs, buf[2], buf[3], buf[4]);
   for (int k = 0; k < 3; k++)
     if (buf[2 + k])
       EK_P(aosoa_unpack)(m, 9, buf[2 + k], c->out[k] + 9 * i0);

@@ -66,6 +66,11 @@
 //                 "inverted": true declares a scene that studies inversion
 //                 (say so in its description); "nonfinite": true one that
 //                 studies a failure. Either way the summary reports it.
+//   advise        {"reference_dt": s} (default none): ek-sim --advise takes
+//                 the scene's model in the explicit loop in f64 at this
+//                 step as its reference, trusted as converged (no
+//                 refinement; sim/advise.h), e.g. a step the scene's author
+//                 checked by halving. Without it the advisor refines one.
 #ifndef EK_SIM_SCENE_H
 #define EK_SIM_SCENE_H
 
@@ -130,9 +135,15 @@ int ek_linear_solver_available(ek_linear_solver s);
 //   the mass-weighted RMS of dt^2 M^-1 grad Phi relative to the body's
 //   size; as the Hessian is at least M / dt^2, it bounds the mass-weighted
 //   RMS of the remaining Newton step (the position error) from above.
+//   The start point is accepted with no iteration only when grad Phi is
+//   exactly 0 there; otherwise at least one iteration runs before the test
+//   (r bounds an absolute error: a body moving less than newton_tol L per
+//   step would otherwise never feel its forces; sim/implicit.c).
 // max_newton [50]: iterations per step; a step that stops above
 //   newton_tol is counted and reported (ek_sim_times.unconverged_steps,
-//   worst_residual), not hidden; its state is still used.
+//   worst_residual), not hidden; its state is still used, unless it
+//   turns the body inside out (signed volume > 0 before, <= 0 after): that
+//   step fails with EK_SIM_EUNCONVERGED (sim.h) and is not applied.
 // cg_tol [1e-4]: CG stops when |r_k|_{M^-1} <= cg_tol |grad Phi|_{M^-1}.
 // max_cg [1000]: CG iterations per Newton iteration (the last iterate is
 //   used: with x_0 = 0 every PCG iterate is a descent direction).
@@ -271,6 +282,9 @@ typedef struct {
   // "allow": the run may end with inverted elements (the scene studies
   // inversion), frames may hold NaN / inf or blown-up positions.
   int allow_inverted, allow_nonfinite;
+  // "advise": {"reference_dt": s}: ek-sim --advise's trusted reference
+  // step (0: none, the advisor refines its own).
+  double advise_reference_dt;
 } ek_scene;
 
 // Parse a scene file. 0 on success; < 0 with ek_last_error naming the file, the key

@@ -50,6 +50,13 @@ extern "C" {
 // Return code of ek_sim_step when the stop flag (ek_sim_set_stop_flag) was
 // seen inside the step: the step is not applied.
 #define EK_SIM_ESTOPPED (-11)
+// Return code of ek_sim_step when the implicit loop's Newton solve stopped
+// above newton_tol (max_newton, or a line search with no decrease) at a
+// state that turns the body inside out (signed volume > 0 before, <= 0
+// after): the step is not applied; the message names the step, the
+// residual and the volumes. The state is finite: a failed solve, not a
+// blow-up, and not an element outside the model's domain.
+#define EK_SIM_EUNCONVERGED (-12)
 // XPBD sweeps run between two looks at the stop flag (a slice of one
 // substep's iterations; the sweeps are the same either way).
 #define EK_SIM_STOP_SWEEPS 64
@@ -170,7 +177,7 @@ int ek_sim_force_phases(const ek_sim *sim, const char **names, double *seconds, 
 const char *ek_sim_warning(ek_sim *sim);
 void ek_sim_destroy(ek_sim *sim);
 // Advance one step with the scene's integrator. 0, EK_SIM_EINVERTED,
-// EK_SIM_ESTOPPED or < 0 (message in ek_last_error); on error the state
+// EK_SIM_ESTOPPED, EK_SIM_EUNCONVERGED or < 0 (message in ek_last_error); on error the state
 // is left as it was before the step. A step that leaves a position or a
 // velocity that is not finite fails (EK_EINVAL, "non-finite state"), so the
 // state is always finite.
