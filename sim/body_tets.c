@@ -472,6 +472,7 @@ typedef struct {
   ek_fvm_hessian *H;
   ek_tet_state *R64; // corotated linear in an f32 scene: R^n in double for the gradient
   int f32;
+  ek_tets *part; // hessian_create_part: the part's elements (H's), owned
 } tets_hessian;
 
 static void tets_hessian_destroy(void *h) {
@@ -480,16 +481,20 @@ static void tets_hessian_destroy(void *h) {
     return;
   ek_fvm_hessian_destroy(th->H);
   ek_tet_state_destroy(th->R64);
+  ek_tets_destroy(th->part);
   free(th);
 }
 
-static void *tets_hessian_create(ek_sim *s, sim_hessian_info *info) {
+// The whole mesh's Hessian (part NULL) or that of the tets `part` holds.
+static void *hessian_create_on(ek_sim *s, sim_hessian_info *info, ek_tets *part) {
   const ek_scene *sc = &s->scene;
   tets_hessian *th = calloc(1, sizeof *th);
   if (!th) {
+    ek_tets_destroy(part);
     sim_fail(s, "out of memory");
     return NULL;
   }
+  th->part = part;
   th->f32 = sc->precision == 32;
   info->f32 = th->f32;
   info->residual_merit = ek_model_need(s->mat.model, s->mat.clamp) == EK_NEEDS_SVD;
@@ -501,7 +506,7 @@ static void *tets_hessian_create(ek_sim *s, sim_hessian_info *info) {
                            .svd_refine = sc->svd.refine,
                            .projection = sc->implicit.projection,
                            .precision = sc->precision};
-  const ek_tets *el = ek_mesh_elements(tets_of(s)->mesh);
+  const ek_tets *el = part ? part : ek_mesh_elements(tets_of(s)->mesh);
   if (!(th->H = ek_fvm_hessian_create(el, &s->mat, &o)) ||
       (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT && th->f32 &&
        !(th->R64 = ek_tet_state_create(el, 9, 1)))) {
@@ -510,6 +515,38 @@ static void *tets_hessian_create(ek_sim *s, sim_hessian_info *info) {
     return NULL;
   }
   return th;
+}
+
+static void *tets_hessian_create(ek_sim *s, sim_hessian_info *info) {
+  return hessian_create_on(s, info, NULL);
+}
+
+// The part's tets, with every vertex of the mesh (the same rest positions,
+// so each tet's Dm^-1 and V0 have the bits of the whole mesh's).
+static void *tets_hessian_create_part(ek_sim *s, sim_hessian_info *info, const size_t *elems,
+                                      size_t count) {
+  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
+    // R^n is kept per tet of the whole mesh (tets_begin_step); a part
+    // would need its own copy, refreshed each step.
+    sim_fail(s, "model %s across MPI ranks: its per-tet R^n is not split; run it on one rank",
+             ek_model_long_name(s->mat.model));
+    return NULL;
+  }
+  const int32_t *all = s->body->elems;
+  int32_t *t = malloc((4 * count + 1) * sizeof *t);
+  if (!t) {
+    sim_fail(s, "out of memory");
+    return NULL;
+  }
+  for (size_t i = 0; i < count; i++)
+    memcpy(t + 4 * i, all + 4 * elems[i], 4 * sizeof *t);
+  ek_tets *part = ek_tets_create(s->body->nv, s->body->X, count, t);
+  free(t);
+  if (!part) {
+    sim_fail(s, "%s", ek_last_error());
+    return NULL;
+  }
+  return hessian_create_on(s, info, part);
 }
 
 static int tets_hessian_begin_step(ek_sim *s, void *h) {
@@ -640,6 +677,7 @@ const sim_body_ops sim_body_tets = {
     .fields = tets_fields,
     .rate_fields = tets_rate_fields,
     .hessian_create = tets_hessian_create,
+    .hessian_create_part = tets_hessian_create_part,
     .hessian_destroy = tets_hessian_destroy,
     .hessian_begin_step = tets_hessian_begin_step,
     .gradient = tets_gradient,

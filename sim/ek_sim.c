@@ -39,6 +39,7 @@
 #include "advise.h"
 #include "cli.h"
 #include "ek_git_revision.h"
+#include "implicit_petsc.h"
 #include "omp_env.h"
 #include "scene_find.h"
 
@@ -239,7 +240,7 @@ static double eta_seconds(const eta_mean *e, long remaining) {
 // The library's pending warning (ek_sim_warning), on its own line.
 static void print_sim_warning(ek_sim *sim, int tty) {
   const char *w = ek_sim_warning(sim);
-  if (w)
+  if (w && implicit_mpi_rank() == 0) // every rank has the same warnings
     fprintf(stderr, "%sek-sim: warning: %s\n", tty ? "\n" : "", w);
 }
 
@@ -669,12 +670,21 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
   const double n = (double)done;
   const double vals[] = {tm->gradient,   tm->matvec,       tm->preconditioner,
                          tm->cg_vectors, tm->line_search,  tm->integration + tm->polar_refresh,
-                         tm->assembly,   tm->solver_setup, tm->solver_solve};
-  const char *names[] = {
-      "gradient+eigensystems", "Hessian products", "preconditioner", "CG vectors", "line search",
-      "integration",           "assembly",         "setup",          "solve"};
-  // The assembled solvers' phases (linear_solver amg, direct) when they ran.
-  const int nph = tm->assembly > 0 ? 9 : 6;
+                         tm->assembly,   tm->solver_setup, tm->solver_solve,
+                         tm->mpi_sum};
+  const char *names[] = {"gradient+eigensystems",
+                         "Hessian products",
+                         "preconditioner",
+                         "CG vectors",
+                         "line search",
+                         "integration",
+                         "assembly",
+                         "setup",
+                         "solve",
+                         "MPI gradient sum"};
+  // The assembled solvers' phases (linear_solver amg, direct) when they
+  // ran, and the ranks' sum when there were ranks.
+  const int nph = tm->mpi_sum > 0 ? 10 : tm->assembly > 0 ? 9 : 6;
   double total = 0;
   for (int i = 0; i < nph; i++)
     total += vals[i];
@@ -832,6 +842,8 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
   return 0;
 }
 
+static int run(int argc, char **argv);
+
 int main(int argc, char **argv) {
   omp_env_defaults("ek-sim", argv);
   // HDF5 before 1.14.1 frees a file whose close failed (a full disk) but
@@ -840,6 +852,28 @@ int main(int argc, char **argv) {
   // ek-sim closes every file it opens itself, so the handler has nothing
   // to do: not installing it (before HDF5's first call) removes the crash.
   H5dont_atexit();
+  // Under mpirun with more than one process: MPI and PETSc start here
+  // (implicit_petsc.h; a plain run starts nothing). Every rank runs the
+  // scene (the implicit loop splits its elements and its solve, sim/
+  // README.md "MPI"); rank 0 alone prints the summary and writes frames.
+  char err[512];
+  if (implicit_mpi_start(err, sizeof err) < 0) {
+    fprintf(stderr, "ek-sim: %s\n", err);
+    return EK_EXIT_FAILED;
+  }
+  int rc = run(argc, argv);
+  // A rank that failed ends every rank (the others may wait in a
+  // collective call for it); else all finish together.
+  implicit_mpi_finish(rc);
+  return rc;
+}
+
+static int run(int argc, char **argv) {
+  const int rank = implicit_mpi_rank();
+  if (rank > 0 && !freopen("/dev/null", "w", stdout)) {
+    fprintf(stderr, "ek-sim: MPI rank %d: cannot silence its stdout\n", rank);
+    return EK_EXIT_FAILED;
+  }
   const char *scene_path = NULL, *out = NULL;
   long steps = -1, threads = 0;
   int force = 0, do_explain = 0, no_output = 0, residuals = 0, advise = 0;
@@ -890,6 +924,8 @@ int main(int argc, char **argv) {
   if (!advise && (tol_arg || !isnan(sim_time)))
     return ek_cli_usage_error("ek-sim", "%s is an option of --advise",
                               tol_arg ? "--tol" : "--time");
+  if (advise && implicit_mpi_size() > 1)
+    return ek_cli_usage_error("ek-sim", "--advise runs on one process: drop mpirun");
   if (advise && (out || steps >= 0 || force || residuals))
     return ek_cli_usage_error("ek-sim", "--advise writes no frames and runs by --time: drop %s",
                               out          ? "--out"
@@ -935,6 +971,8 @@ int main(int argc, char **argv) {
     steps = scene.steps;
   if (!out && !no_output && scene.output_file[0])
     out = scene.output_file;
+  if (rank > 0)
+    out = NULL; // rank 0 writes the frames; the others never open them
   const char *input = out ? output_is_input(out, &scene) : NULL;
   if (input && out == scene.output_file) {
     fprintf(stderr,
@@ -1032,10 +1070,15 @@ int main(int argc, char **argv) {
   }
   t_setup = now() - t_setup;
   char body[160];
-  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads, dt %g (CFL limit %g), %ld "
-         "steps\n",
+  // Across MPI ranks the times below are rank 0's (its elements' passes,
+  // the parallel solve's wall time).
+  char ranks[48] = "";
+  if (implicit_mpi_size() > 1)
+    snprintf(ranks, sizeof ranks, " on each of %d MPI ranks", implicit_mpi_size());
+  printf("ek-sim %s: %zu vertices, %s, integrator %s, f%d, %d threads%s, dt %g (CFL limit %g), "
+         "%ld steps\n",
          scene.path, nv, ek_sim_describe(sim, body, sizeof body), ek_sim_integrator_name(sim),
-         scene.precision, nthreads, scene.dt, ek_sim_cfl_dt(sim), steps);
+         scene.precision, nthreads, ranks, scene.dt, ek_sim_cfl_dt(sim), steps);
   ek_sim_energies e0, e1;
   ek_sim_energy(sim, &e0);
 
@@ -1102,7 +1145,7 @@ int main(int argc, char **argv) {
     }
     double t = now();
     eta_add(&eta_steps, t);
-    if (t - t_last_progress > 0.5 || n + 1 == steps) {
+    if (rank == 0 && (t - t_last_progress > 0.5 || n + 1 == steps)) {
       t_last_progress = t;
       double frac = (double)(n + 1) / (double)steps;
       double eta = eta_seconds(&eta_steps, steps - (n + 1));

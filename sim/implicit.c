@@ -53,7 +53,19 @@
 // Every sum (objective, dot products) runs over fixed chunks in a fixed
 // order and every pass is deterministic (hessian.h), so a step has the
 // same bits at any thread count.
+//
+// Across MPI ranks (ek-sim under mpirun, more than one rank; sim/README.md
+// "MPI"): each rank owns a contiguous range of the vertices' Morton order
+// and the elements whose lowest-placed vertex is in it; its Hessian context holds those
+// elements only (body.h hessian_create_part). The state and every vector
+// of the loop are replicated: each rank runs this same loop on the whole
+// x, with the gradient and the energy summed over the ranks (the same bits
+// on every rank, so every rank takes the same Newton and line-search
+// decisions), the system matrix assembled into PETSc's parallel matrix
+// (rows owned by the vertex ranges) and solved in parallel, dx gathered
+// whole on every rank. Only the assembled solvers run across ranks.
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -86,6 +98,12 @@ typedef struct {
   ek_csr_pattern pat;
   double *kvals, *svals;
   implicit_petsc *ps;
+  // Across MPI ranks: diag, per dof, the system's diagonal term each row's
+  // owner adds (mdiag, 1 at held dofs).
+  // perm: the vertices' Morton order (create_rank_part), PETSc's numbering.
+  int mpi;
+  double *diag;
+  int32_t *perm;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
@@ -101,11 +119,135 @@ static void data_free(implicit_data *d) {
   free(d->q32);
   free(d->kvals);
   free(d->svals);
+  free(d->diag);
+  free(d->perm);
   implicit_petsc_destroy(d->ps);
   free(d);
 }
 
 static void implicit_destroy(void *data) { data_free(data); }
+
+// 0 on every rank if rc is 0 on every rank, else EK_EINVAL on every rank
+// (a rank whose own rc was 0 says another rank failed): the ranks leave
+// creation together, never with one of them waiting in a collective call.
+static int agree(ek_sim *s, int rc) {
+  double failed = rc != 0;
+  char err[256];
+  if (implicit_mpi_sum(&failed, 1, err, sizeof err) < 0)
+    return rc ? rc : sim_fail(s, "%s", err);
+  if (failed > 0 && rc == 0)
+    return sim_fail(s, "another MPI rank failed to set up (its message is on its stderr)");
+  return rc;
+}
+
+// The Morton (Z-order) code of a point of the cube [lo, lo + side]^3:
+// 21 bits per axis, interleaved x, y, z from the top (Morton 1966; the
+// bit spreading of Raman & Wise 2008, "Converting to and from dilated
+// integers").
+static uint64_t spread3(uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+
+typedef struct {
+  uint64_t code;
+  size_t v;
+} morton_key;
+
+static int morton_cmp(const void *a, const void *b) {
+  const morton_key *p = a, *q = b;
+  if (p->code != q->code)
+    return p->code < q->code ? -1 : 1;
+  return p->v < q->v ? -1 : p->v > q->v; // ties: the vertex index (a total order)
+}
+
+// perm[v]: vertex v's place in the Morton order of the rest positions, on
+// the bounding box's enclosing cube (one scale for all axes, so the first
+// cuts fall across the longest extent: a beam is cut along its length).
+static int morton_order(const double *X, size_t nv, int32_t *perm) {
+  morton_key *k = malloc((nv + 1) * sizeof *k);
+  if (!k)
+    return -1;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, side = 0;
+  for (size_t v = 0; v < nv; v++)
+    for (int a = 0; a < 3; a++)
+      lo[a] = fmin(lo[a], X[3 * v + a]);
+  for (size_t v = 0; v < nv; v++)
+    for (int a = 0; a < 3; a++)
+      side = fmax(side, X[3 * v + a] - lo[a]);
+  const double scale = side > 0 ? 2097151.0 / side : 0; // 2^21 - 1
+  for (size_t v = 0; v < nv; v++) {
+    uint64_t c[3];
+    for (int a = 0; a < 3; a++)
+      c[a] = (uint64_t)((X[3 * v + a] - lo[a]) * scale);
+    k[v] = (morton_key){spread3(c[0]) << 2 | spread3(c[1]) << 1 | spread3(c[2]), v};
+  }
+  qsort(k, nv, sizeof *k, morton_cmp);
+  for (size_t i = 0; i < nv; i++)
+    perm[k[i].v] = (int32_t)i;
+  free(k);
+  return 0;
+}
+
+// This rank's elements and their Hessian context. The vertices are put in
+// the Morton order of their rest positions (perm) and rank r owns the
+// places [nv r / size, nv (r + 1) / size) of it (PETSc's rows,
+// implicit_petsc.h): a Morton cut. A rank owns the elements whose
+// lowest-placed vertex it owns, so the element cut follows the row cut and
+// a rank's entries fall in its own rows except along the cut.
+static int create_rank_part(ek_sim *s, implicit_data *d) {
+  const ek_scene *sc = &s->scene;
+  const sim_body *b = s->body;
+  const int size = implicit_mpi_size(), rank = implicit_mpi_rank();
+  if (sc->implicit.linear_solver == EK_LINSOLVE_MATRIX_FREE)
+    return sim_fail(s,
+                    "%d MPI ranks: the implicit loop runs across ranks with an assembled solver "
+                    "only; set integrator.linear_solver to \"amg\" or \"direct\", or run on "
+                    "one rank",
+                    size);
+  if (!b->ops->hessian_create_part)
+    return sim_fail(s,
+                    "%d MPI ranks: this body (%s) cannot be split across ranks; run on one "
+                    "rank",
+                    size, b->kind);
+  const size_t v0 = s->nv * (size_t)rank / (size_t)size;
+  const size_t v1 = s->nv * (size_t)(rank + 1) / (size_t)size;
+  size_t *mine = malloc((b->ne + 1) * sizeof *mine), count = 0;
+  d->perm = malloc((s->nv + 1) * sizeof *d->perm);
+  if (!mine || !d->perm || morton_order(b->X, s->nv, d->perm) < 0) {
+    free(mine);
+    return agree(s, sim_fail(s, "out of memory"));
+  }
+  for (size_t e = 0; e < b->ne; e++) {
+    const int32_t *t = b->elems + e * (size_t)b->corners;
+    int32_t lo = d->perm[t[0]];
+    for (int a = 1; a < b->corners; a++)
+      lo = d->perm[t[a]] < lo ? d->perm[t[a]] : lo;
+    if ((size_t)lo >= v0 && (size_t)lo < v1)
+      mine[count++] = e;
+  }
+  int rc = 0;
+  if (count == 0)
+    rc = sim_fail(s, "MPI rank %d of %d owns no element (%zu elements): use fewer ranks", rank,
+                  size, b->ne);
+  else if (!(d->H = b->ops->hessian_create_part(s, &d->hes, mine, count)))
+    rc = EK_EINVAL; // the message is in s->error
+  free(mine);
+  return agree(s, rc);
+}
+
+// A failure of implicit_create after create_rank_part: across ranks, every
+// rank learns of it at the one agreement before the collective setup.
+static int create_failed(ek_sim *s, implicit_data *d, int rc) {
+  const int mpi = d->mpi;
+  data_free(d);
+  return mpi ? agree(s, rc) : rc;
+}
 
 static int implicit_create(ek_sim *s, void **data) {
   *data = NULL;
@@ -118,7 +260,14 @@ static int implicit_create(ek_sim *s, void **data) {
   d->par = d->n3 > IMPLICIT_PARALLEL_DOFS;
   d->block = sc->implicit.preconditioner == EK_PRECOND_BLOCK_JACOBI;
   d->body = s->body;
-  if (!(d->H = s->body->ops->hessian_create(s, &d->hes))) {
+  d->mpi = implicit_mpi_size() > 1;
+  if (d->mpi) {
+    int rc = create_rank_part(s, d);
+    if (rc) {
+      data_free(d);
+      return rc;
+    }
+  } else if (!(d->H = s->body->ops->hessian_create(s, &d->hes))) {
     data_free(d);
     return EK_EINVAL; // the message is in s->error
   }
@@ -131,34 +280,41 @@ static int implicit_create(ek_sim *s, void **data) {
   ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
   if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
-  if (!ok) {
-    data_free(d);
-    return sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3);
-  }
+  if (!ok)
+    return create_failed(
+        s, d, sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3));
   const ek_linear_solver ls = sc->implicit.linear_solver;
   if (ls != EK_LINSOLVE_MATRIX_FREE) {
     const sim_body_ops *ops = s->body->ops;
     const char *name = ek_linear_solver_name(ls);
-    if (!ops->hessian_pattern || !ops->hessian_assemble) {
-      data_free(d);
-      return sim_fail(s,
-                      "integrator.linear_solver \"%s\": this body has no assembled Hessian (tets "
-                      "only); use \"matrix_free\"",
-                      name);
-    }
-    if (ops->hessian_pattern(d->H, &d->pat) < 0) {
-      data_free(d);
-      return sim_fail(s, "the Hessian's pattern: %s", ek_last_error());
-    }
+    if (!ops->hessian_pattern || !ops->hessian_assemble)
+      return create_failed(s, d,
+                           sim_fail(s,
+                                    "integrator.linear_solver \"%s\": this body has no assembled "
+                                    "Hessian (tets only); use \"matrix_free\"",
+                                    name));
+    if (ops->hessian_pattern(d->H, &d->pat) < 0)
+      return create_failed(s, d, sim_fail(s, "the Hessian's pattern: %s", ek_last_error()));
     d->kvals = malloc((d->pat.nnz + 1) * sizeof(double));
     d->svals = malloc((d->pat.nnz + 1) * sizeof(double));
-    if (!d->kvals || !d->svals) {
+    if (d->mpi)
+      d->diag = malloc(d->n3 * sizeof(double));
+    if (!d->kvals || !d->svals || (d->mpi && !d->diag))
+      return create_failed(
+          s, d, sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz));
+    int rc;
+    if (d->mpi && (rc = agree(s, 0))) { // every rank is ready for the collective setup
       data_free(d);
-      return sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz);
+      return rc;
     }
-    char err[512];
-    d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,
-                                  sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
+    char err[512] = "";
+    if (d->mpi)
+      d->ps = implicit_petsc_create_mpi(ls == EK_LINSOLVE_DIRECT, &d->pat, s->nv, d->perm,
+                                        s->body->ne, s->body->corners, s->body->elems, s->body->X,
+                                        sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
+    else
+      d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,
+                                    sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
     if (!d->ps) {
       data_free(d);
       return sim_fail(s, "integrator.linear_solver \"%s\": %s", name, err);
@@ -236,6 +392,16 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
   s->times.gradient_passes++;
   if (rc < 0)
     return sim_fail(s, "gradient: %s", ek_last_error());
+  if (d->mpi) {
+    // This rank's elements' share, summed over the ranks.
+    char err[256];
+    if (implicit_mpi_sum(gr, d->n3, err, sizeof err) < 0 ||
+        implicit_mpi_sum(&E, 1, err, sizeof err) < 0)
+      return sim_fail(s, "gradient: %s", err);
+    double t2 = sim_now();
+    s->times.mpi_sum += t2 - t1;
+    t1 = t2;
+  }
   // Inertia, gravity and damping of the free vertices, and their gradient.
   const double a = 1 / (dt * dt), b = c / dt;
   const double *xn = s->x, *xtil = d->xtil, *m = s->mass;
@@ -413,13 +579,19 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
   const double *w = d->is_free, *md = d->mdiag, *kv = d->kvals;
   double *sv = d->svals;
   const long n3 = (long)d->n3;
+  // Across ranks: this rank's share of K at free rows and columns; the
+  // diagonal term is added once, by the row's owner (implicit_petsc.h).
+  const int share = d->mpi;
+  if (share)
+    for (long r = 0; r < n3; r++)
+      d->diag[r] = w[r] != 0 ? md[r] : 1;
 #pragma omp parallel for schedule(static) if (d->par)
   for (long r = 0; r < n3; r++) {
     const int fr = w[r] != 0;
     for (int32_t k = rp[r]; k < rp[r + 1]; k++) {
       const int32_t c = col[k];
       double v = fr && w[c] != 0 ? kv[k] : 0;
-      if (c == r)
+      if (c == r && !share)
         v = fr ? v + md[r] : 1;
       sv[k] = v;
     }
@@ -428,8 +600,8 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
     d->r[i] = -d->g[i]; // 0 at held dofs (objective)
   s->times.assembly += sim_now() - t0;
   char err[512];
-  rc = implicit_petsc_solve(d->ps, d->svals, d->r, d->dx, iters, rel, &s->times.solver_setup,
-                            &s->times.solver_solve, err, sizeof err);
+  rc = implicit_petsc_solve(d->ps, d->svals, d->diag, d->r, d->dx, iters, rel,
+                            &s->times.solver_setup, &s->times.solver_solve, err, sizeof err);
   if (rc < 0)
     return sim_fail(s, "step %ld: %s", s->n, err);
   s->times.cg_iterations += *iters;

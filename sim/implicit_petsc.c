@@ -11,6 +11,14 @@
 // up again. PETSc is initialised on first use without its signal handlers
 // (ek-sim's SIGINT handling stays) and with errors returned, not printed;
 // PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
+//
+// Across MPI ranks (ek-sim under mpirun; sim/README.md "MPI"): an MPIAIJ
+// matrix with block size 3 in the vertices' Morton order (implicit.c),
+// rows owned by contiguous ranges of it, preallocated from the whole mesh's vertex adjacency; each
+// rank adds its elements' entries (MatSetValues, ADD_VALUES: rows of other ranks travel in
+// MatAssemblyBegin/End), the owner adds the diagonal once; the same KSP and PC on PETSC_COMM_WORLD
+// (the direct solver by MUMPS, the one parallel Cholesky of Debian's PETSc); the solution is
+// gathered whole on every rank (VecScatterCreateToAll).
 #include "implicit_petsc.h"
 
 #include <stdio.h>
@@ -30,13 +38,43 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
            "petsc-dev, and configure again; or use \"matrix_free\")");
   return NULL;
 }
+implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
+                                          const int32_t *perm, size_t ne, int corners,
+                                          const int32_t *elems, const double *X, double rtol,
+                                          long max_its, char *err, size_t errlen) {
+  (void)direct, (void)local, (void)nv, (void)perm, (void)ne, (void)corners, (void)elems, (void)X;
+  (void)rtol;
+  (void)max_its;
+  snprintf(err, errlen, "built without PETSc");
+  return NULL;
+}
 void implicit_petsc_destroy(implicit_petsc *p) { (void)p; }
-int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *b, double *x,
-                         long *its, double *rel, double *t_setup, double *t_solve, char *err,
-                         size_t errlen) {
-  (void)p, (void)values, (void)b, (void)x, (void)its, (void)rel, (void)t_setup, (void)t_solve;
+int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
+                         const double *b, double *x, long *its, double *rel, double *t_setup,
+                         double *t_solve, char *err, size_t errlen) {
+  (void)p, (void)values, (void)diag, (void)b, (void)x, (void)its, (void)rel, (void)t_setup;
+  (void)t_solve;
   snprintf(err, errlen, "built without PETSc");
   return -1;
+}
+// Without PETSc there is no MPI: ek-sim under mpirun runs N independent
+// copies, so it refuses to start (each would write the same frames).
+int implicit_mpi_start(char *err, size_t errlen) {
+  const char *n = getenv("OMPI_COMM_WORLD_SIZE"), *m = getenv("PMI_SIZE");
+  if ((n && strtol(n, NULL, 10) > 1) || (m && strtol(m, NULL, 10) > 1)) {
+    snprintf(err, errlen,
+             "launched by mpirun, but this build has no PETSc and so no MPI (install "
+             "petsc-dev and configure again, or run without mpirun)");
+    return -1;
+  }
+  return 0;
+}
+void implicit_mpi_finish(int rc) { (void)rc; }
+int implicit_mpi_rank(void) { return 0; }
+int implicit_mpi_size(void) { return 1; }
+int implicit_mpi_sum(double *v, size_t n, char *err, size_t errlen) {
+  (void)v, (void)n, (void)err, (void)errlen;
+  return 0;
 }
 int ek_linear_solver_available(ek_linear_solver s) { return s == EK_LINSOLVE_MATRIX_FREE; }
 
@@ -53,7 +91,19 @@ struct implicit_petsc {
   // the iterations of the last solve after a rebuild; last: the last
   // solve's; 0 = rebuild).
   long fresh_its, last_its;
+  // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
+  // its share's pattern (lrow: by the body's rows; lcol: PETSc's columns),
+  // PETSc's row of each of the body's rows (newrow) and the body's row of
+  // each owned row (oldrow), and the gather of x onto every rank.
+  int mpi;
+  PetscInt rstart, rend;
+  PetscInt *lrow, *lcol, *newrow, *oldrow;
+  Vec xall;
+  VecScatter gather;
 };
+
+// The session (implicit_mpi_start): started here, its size and rank.
+static int mpi_started, mpi_size = 1, mpi_rank;
 
 int ek_linear_solver_available(ek_linear_solver s) { return (unsigned)s < EK_LINSOLVE_COUNT; }
 
@@ -81,60 +131,101 @@ static int petsc_start(char *err, size_t errlen) {
   return 0;
 }
 
-static int setup(implicit_petsc *p, const ek_csr_pattern *pat, const double *X, double rtol,
-                 long max_its, char *err, size_t errlen) {
-  PetscInt *ia = malloc((pat->nrows + 1) * sizeof(PetscInt));
-  PetscInt *ja = malloc((pat->nnz + 1) * sizeof(PetscInt));
-  if (!ia || !ja) {
-    free(ia), free(ja);
-    snprintf(err, errlen, "out of memory for the matrix pattern");
+// ---- The MPI session ----
+
+// Started by an MPI launcher (even with one process: Open MPI's mpirun
+// then wants MPI_Init and MPI_Finalize from a process that uses MPI).
+static int launched(void) {
+  return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
+}
+
+int implicit_mpi_start(char *err, size_t errlen) {
+  if (!launched())
+    return 0; // a plain run: PETSc starts on first use, as without MPI
+  if (petsc_start(err, errlen) < 0)
+    return -1;
+  mpi_started = 1;
+  PCHK(MPI_Comm_size(PETSC_COMM_WORLD, &mpi_size));
+  PCHK(MPI_Comm_rank(PETSC_COMM_WORLD, &mpi_rank));
+  return 0;
+}
+
+void implicit_mpi_finish(int rc) {
+  if (!mpi_started)
+    return;
+  fflush(stdout);
+  fflush(stderr);
+  if (rc != 0 && mpi_size > 1)
+    MPI_Abort(PETSC_COMM_WORLD, rc);
+  PetscFinalize();
+  mpi_started = 0;
+}
+
+int implicit_mpi_rank(void) { return mpi_rank; }
+int implicit_mpi_size(void) { return mpi_size; }
+
+int implicit_mpi_sum(double *v, size_t n, char *err, size_t errlen) {
+  if (mpi_size == 1)
+    return 0;
+  if (n > (size_t)PETSC_MPI_INT_MAX) {
+    snprintf(err, errlen, "MPI: %zu values in one reduction", n);
     return -1;
   }
-  for (size_t i = 0; i <= pat->nrows; i++)
-    ia[i] = pat->row_ptr[i];
-  for (size_t k = 0; k < pat->nnz; k++)
-    ja[k] = pat->col[k];
-  p->n = (PetscInt)pat->nrows;
-  p->nnz = (PetscInt)pat->nnz;
-  PetscErrorCode e = MatCreate(PETSC_COMM_SELF, &p->A);
-  if (!e)
-    e = MatSetSizes(p->A, p->n, p->n, p->n, p->n);
-  if (!e)
-    e = MatSetBlockSize(p->A, 3);
-  if (!e)
-    e = MatSetType(p->A, MATSEQAIJ);
-  if (!e)
-    e = MatSeqAIJSetPreallocationCSR(p->A, ia, ja, NULL);
-  free(ia), free(ja);
-  PCHK(e);
-  PCHK(MatSetOption(p->A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE));
+  // MPI_Allreduce does not promise the same bits on every rank (MPI 4.0
+  // sec. 6.9.1 only advises it); the reduction on rank 0 and its broadcast
+  // do.
+  if (mpi_rank == 0)
+    PCHK(MPI_Reduce(MPI_IN_PLACE, v, (int)n, MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD));
+  else
+    PCHK(MPI_Reduce(v, NULL, (int)n, MPI_DOUBLE, MPI_SUM, 0, PETSC_COMM_WORLD));
+  PCHK(MPI_Bcast(v, (int)n, MPI_DOUBLE, 0, PETSC_COMM_WORLD));
+  return 0;
+}
+
+// ---- The solver ----
+
+// KSP and PC on A (created, block size 3, values not yet set): AMG-CG with
+// the rigid-body modes of X, or the direct solver.
+static int setup_solver(implicit_petsc *p, const double *X, double rtol, long max_its, char *err,
+                        size_t errlen) {
   PCHK(MatSetOption(p->A, MAT_SYMMETRIC, PETSC_TRUE));
   PCHK(MatSetOption(p->A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
   PCHK(MatSetOption(p->A, MAT_SPD, PETSC_TRUE));
   PCHK(MatSetOption(p->A, MAT_SPD_ETERNAL, PETSC_TRUE));
   PCHK(MatCreateVecs(p->A, &p->x, &p->b));
   PCHK(VecDuplicate(p->b, &p->r));
-  PCHK(KSPCreate(PETSC_COMM_SELF, &p->ksp));
+  MPI_Comm comm = p->mpi ? PETSC_COMM_WORLD : PETSC_COMM_SELF;
+  PCHK(KSPCreate(comm, &p->ksp));
   PC pc;
   PCHK(KSPGetPC(p->ksp, &pc));
   if (p->direct) {
     PCHK(KSPSetType(p->ksp, KSPPREONLY));
     PCHK(PCSetType(pc, PCCHOLESKY));
-#if defined(PETSC_HAVE_SUITESPARSE)
-    PCHK(PCFactorSetMatSolverType(pc, MATSOLVERCHOLMOD));
-#elif defined(PETSC_HAVE_MUMPS)
-    PCHK(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    if (p->mpi) {
+#if defined(PETSC_HAVE_MUMPS)
+      PCHK(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+#else
+      snprintf(err, errlen, "linear_solver \"direct\" across MPI ranks needs PETSc with MUMPS");
+      return -1;
 #endif
+    } else {
+#if defined(PETSC_HAVE_SUITESPARSE)
+      PCHK(PCFactorSetMatSolverType(pc, MATSOLVERCHOLMOD));
+#elif defined(PETSC_HAVE_MUMPS)
+      PCHK(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+#endif
+    }
   } else {
-    // The rigid-body modes of X (translations and the three rotations).
+    // The rigid-body modes of X (translations and the three rotations),
+    // this rank's rows of them.
     Vec coords;
     MatNullSpace nsp;
-    PCHK(VecCreateSeq(PETSC_COMM_SELF, p->n, &coords));
+    PCHK(VecDuplicate(p->b, &coords));
     PCHK(VecSetBlockSize(coords, 3));
     PetscScalar *c;
     PCHK(VecGetArray(coords, &c));
-    for (PetscInt i = 0; i < p->n; i++)
-      c[i] = X[i];
+    for (PetscInt i = 0; i < p->rend - p->rstart; i++)
+      c[i] = X[p->oldrow ? p->oldrow[i] : i];
     PCHK(VecRestoreArray(coords, &c));
     PCHK(MatNullSpaceCreateRigidBody(coords, &nsp));
     PCHK(MatSetNearNullSpace(p->A, nsp));
@@ -171,6 +262,38 @@ static int setup(implicit_petsc *p, const ek_csr_pattern *pat, const double *X, 
   return 0;
 }
 
+static int setup(implicit_petsc *p, const ek_csr_pattern *pat, const double *X, double rtol,
+                 long max_its, char *err, size_t errlen) {
+  PetscInt *ia = malloc((pat->nrows + 1) * sizeof(PetscInt));
+  PetscInt *ja = malloc((pat->nnz + 1) * sizeof(PetscInt));
+  if (!ia || !ja) {
+    free(ia), free(ja);
+    snprintf(err, errlen, "out of memory for the matrix pattern");
+    return -1;
+  }
+  for (size_t i = 0; i <= pat->nrows; i++)
+    ia[i] = pat->row_ptr[i];
+  for (size_t k = 0; k < pat->nnz; k++)
+    ja[k] = pat->col[k];
+  p->n = (PetscInt)pat->nrows;
+  p->nnz = (PetscInt)pat->nnz;
+  p->rstart = 0;
+  p->rend = p->n;
+  PetscErrorCode e = MatCreate(PETSC_COMM_SELF, &p->A);
+  if (!e)
+    e = MatSetSizes(p->A, p->n, p->n, p->n, p->n);
+  if (!e)
+    e = MatSetBlockSize(p->A, 3);
+  if (!e)
+    e = MatSetType(p->A, MATSEQAIJ);
+  if (!e)
+    e = MatSeqAIJSetPreallocationCSR(p->A, ia, ja, NULL);
+  free(ia), free(ja);
+  PCHK(e);
+  PCHK(MatSetOption(p->A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE));
+  return setup_solver(p, X, rtol, max_its, err, errlen);
+}
+
 implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern, const double *X,
                                       double rtol, long max_its, char *err, size_t errlen) {
   if (pattern->nnz > (size_t)PETSC_MAX_INT) {
@@ -192,6 +315,143 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
   return p;
 }
 
+// Per row of this rank's range [v0, v1) of places (perm): the vertices
+// that share an element with it (itself included), split into those in the
+// range (the diagonal block) and the others: 3 entries each (block size 3).
+static int preallocate(implicit_petsc *p, size_t nv, const int32_t *perm, size_t ne, int corners,
+                       const int32_t *elems, size_t v0, size_t v1, char *err, size_t errlen) {
+  const size_t nown = v1 - v0;
+  size_t *off = calloc(nown + 1, sizeof *off), *inc = NULL;
+  size_t *stamp = malloc(nv * sizeof *stamp);
+  PetscInt *d_nnz = malloc((3 * nown + 1) * sizeof *d_nnz);
+  PetscInt *o_nnz = malloc((3 * nown + 1) * sizeof *o_nnz);
+  int ok = off && stamp && d_nnz && o_nnz;
+  // The elements of each owned vertex (CSR: off, inc).
+  for (size_t e = 0; ok && e < ne; e++)
+    for (int a = 0; a < corners; a++) {
+      size_t v = (size_t)perm[elems[e * corners + a]];
+      if (v >= v0 && v < v1)
+        off[v - v0 + 1]++;
+    }
+  for (size_t i = 0; ok && i < nown; i++)
+    off[i + 1] += off[i];
+  ok = ok && (inc = malloc((off[nown] + 1) * sizeof *inc)) != NULL;
+  if (ok) {
+    size_t *fill = stamp; // borrowed as the fill counters (nown <= nv)
+    for (size_t i = 0; i < nown; i++)
+      fill[i] = off[i];
+    for (size_t e = 0; e < ne; e++)
+      for (int a = 0; a < corners; a++) {
+        size_t v = (size_t)perm[elems[e * corners + a]];
+        if (v >= v0 && v < v1)
+          inc[fill[v - v0]++] = e;
+      }
+    for (size_t v = 0; v < nv; v++)
+      stamp[v] = (size_t)-1;
+    for (size_t i = 0; i < nown; i++) {
+      PetscInt nd = 1, no = 0; // itself, in the diagonal block
+      stamp[v0 + i] = i;
+      for (size_t k = off[i]; k < off[i + 1]; k++)
+        for (int b = 0; b < corners; b++) {
+          size_t w = (size_t)perm[elems[inc[k] * corners + b]];
+          if (stamp[w] == i)
+            continue;
+          stamp[w] = i;
+          if (w >= v0 && w < v1)
+            nd++;
+          else
+            no++;
+        }
+      for (int c = 0; c < 3; c++) {
+        d_nnz[3 * i + c] = 3 * nd;
+        o_nnz[3 * i + c] = 3 * no;
+      }
+    }
+  }
+  PetscErrorCode e = ok ? MatMPIAIJSetPreallocation(p->A, 0, d_nnz, 0, o_nnz) : 0;
+  free(off), free(inc), free(stamp), free(d_nnz), free(o_nnz);
+  if (!ok) {
+    snprintf(err, errlen, "out of memory for the matrix's preallocation");
+    return -1;
+  }
+  PCHK(e);
+  return 0;
+}
+
+implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
+                                          const int32_t *perm, size_t ne, int corners,
+                                          const int32_t *elems, const double *X, double rtol,
+                                          long max_its, char *err, size_t errlen) {
+  if (local->nnz > (size_t)PETSC_MAX_INT || 3 * nv > (size_t)PETSC_MAX_INT) {
+    snprintf(err, errlen, "%zu nonzeros: more than this PETSc's indices hold", local->nnz);
+    return NULL;
+  }
+  if (!mpi_started) {
+    snprintf(err, errlen, "no MPI session (implicit_mpi_start)");
+    return NULL;
+  }
+  implicit_petsc *p = calloc(1, sizeof *p);
+  if (!p) {
+    snprintf(err, errlen, "out of memory");
+    return NULL;
+  }
+  p->direct = direct;
+  p->mpi = 1;
+  // Rank r owns the vertices [nv r / size, nv (r + 1) / size).
+  const size_t v0 = nv * (size_t)mpi_rank / (size_t)mpi_size;
+  const size_t v1 = nv * (size_t)(mpi_rank + 1) / (size_t)mpi_size;
+  p->n = (PetscInt)(3 * nv);
+  p->nnz = (PetscInt)local->nnz;
+  p->rstart = (PetscInt)(3 * v0);
+  p->rend = (PetscInt)(3 * v1);
+  p->lrow = malloc((local->nrows + 1) * sizeof(PetscInt));
+  p->lcol = malloc((local->nnz + 1) * sizeof(PetscInt));
+  p->newrow = malloc((3 * nv + 1) * sizeof(PetscInt));
+  p->oldrow = malloc((3 * (v1 - v0) + 1) * sizeof(PetscInt));
+  if (!p->lrow || !p->lcol || !p->newrow || !p->oldrow || local->nrows != 3 * nv) {
+    snprintf(err, errlen, "%s",
+             local->nrows != 3 * nv ? "the pattern is not 3 nv rows" : "no memory");
+    implicit_petsc_destroy(p);
+    return NULL;
+  }
+  for (size_t r = 0; r < 3 * nv; r++) {
+    const PetscInt q = 3 * (PetscInt)perm[r / 3] + (PetscInt)(r % 3);
+    p->newrow[r] = q;
+    if (q >= p->rstart && q < p->rend)
+      p->oldrow[q - p->rstart] = (PetscInt)r;
+  }
+  for (size_t i = 0; i <= local->nrows; i++)
+    p->lrow[i] = local->row_ptr[i];
+  for (size_t k = 0; k < local->nnz; k++)
+    p->lcol[k] = p->newrow[local->col[k]];
+  const PetscInt nloc = p->rend - p->rstart;
+  int rc = -1;
+  PetscErrorCode e = MatCreate(PETSC_COMM_WORLD, &p->A);
+  if (!e)
+    e = MatSetSizes(p->A, nloc, nloc, p->n, p->n);
+  if (!e)
+    e = MatSetBlockSize(p->A, 3);
+  if (!e)
+    e = MatSetType(p->A, MATMPIAIJ);
+  if (e) {
+    const char *text = NULL;
+    PetscErrorMessage(e, &text, NULL);
+    snprintf(err, errlen, "PETSc: the parallel matrix: %s", text ? text : "?");
+  } else if (preallocate(p, nv, perm, ne, corners, elems, v0, v1, err, errlen) == 0 &&
+             MatSetOption(p->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE) == 0 &&
+             setup_solver(p, X, rtol, max_its, err, errlen) == 0 &&
+             VecScatterCreateToAll(p->x, &p->gather, &p->xall) == 0) {
+    rc = 0;
+  } else if (!err[0]) {
+    snprintf(err, errlen, "PETSc: the parallel solver's setup failed");
+  }
+  if (rc < 0) {
+    implicit_petsc_destroy(p);
+    return NULL;
+  }
+  return p;
+}
+
 void implicit_petsc_destroy(implicit_petsc *p) {
   if (!p)
     return;
@@ -199,22 +459,57 @@ void implicit_petsc_destroy(implicit_petsc *p) {
   VecDestroy(&p->x);
   VecDestroy(&p->b);
   VecDestroy(&p->r);
+  VecDestroy(&p->xall);
+  VecScatterDestroy(&p->gather);
   MatDestroy(&p->A);
+  free(p->lrow);
+  free(p->lcol);
+  free(p->newrow);
+  free(p->oldrow);
   free(p);
 }
 
-int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *b, double *x,
-                         long *its, double *rel, double *t_setup, double *t_solve, char *err,
-                         size_t errlen) {
+// A's values: one process copies them into its AIJ arrays (the pattern's
+// order is PETSc's); across ranks each rank adds its share, rows of other
+// ranks included, and the owner its diagonal.
+static int set_values(implicit_petsc *p, const double *values, const double *diag, char *err,
+                      size_t errlen) {
+  if (!p->mpi) {
+    PetscScalar *a;
+    PCHK(MatSeqAIJGetArrayWrite(p->A, &a));
+    memcpy(a, values, (size_t)p->nnz * sizeof(double));
+    PCHK(MatSeqAIJRestoreArrayWrite(p->A, &a));
+    return 0;
+  }
+  PCHK(MatZeroEntries(p->A));
+  // A row of 3 entries is a vertex in none of this rank's elements (a
+  // vertex in a tet has at least 4 blocks: hessian.h's pattern): zeros.
+  for (PetscInt r = 0; r < p->n; r++) {
+    const PetscInt k0 = p->lrow[r], len = p->lrow[r + 1] - k0;
+    if (len > 3)
+      PCHK(MatSetValues(p->A, 1, p->newrow + r, len, p->lcol + k0, values + k0, ADD_VALUES));
+  }
+  for (PetscInt q = p->rstart; q < p->rend; q++)
+    PCHK(MatSetValue(p->A, q, q, diag[p->oldrow[q - p->rstart]], ADD_VALUES));
+  PCHK(MatAssemblyBegin(p->A, MAT_FINAL_ASSEMBLY));
+  PCHK(MatAssemblyEnd(p->A, MAT_FINAL_ASSEMBLY));
+  return 0;
+}
+
+int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
+                         const double *b, double *x, long *its, double *rel, double *t_setup,
+                         double *t_solve, char *err, size_t errlen) {
   double t0 = sim_now();
-  PetscScalar *a;
-  PCHK(MatSeqAIJGetArrayWrite(p->A, &a));
-  memcpy(a, values, (size_t)p->nnz * sizeof(double));
-  PCHK(MatSeqAIJRestoreArrayWrite(p->A, &a));
+  if (set_values(p, values, diag, err, errlen) < 0)
+    return -1;
   PCHK(KSPSetOperators(p->ksp, p->A, p->A));
   PetscScalar *bv;
   PCHK(VecGetArrayWrite(p->b, &bv));
-  memcpy(bv, b, (size_t)p->n * sizeof(double));
+  if (p->mpi)
+    for (PetscInt i = 0; i < p->rend - p->rstart; i++)
+      bv[i] = b[p->oldrow[i]];
+  else
+    memcpy(bv, b, (size_t)p->n * sizeof(double));
   PCHK(VecRestoreArrayWrite(p->b, &bv));
   // AMG: keep the last hierarchy (a preconditioner of a nearby matrix; CG
   // still solves with the new one to rtol) while a solve takes at most
@@ -251,10 +546,20 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   PCHK(VecAYPX(p->r, -1, p->b));
   PCHK(VecNorm(p->r, NORM_2, &rn));
   PCHK(VecNorm(p->b, NORM_2, &bn));
+  Vec whole = p->x;
+  if (p->mpi) {
+    PCHK(VecScatterBegin(p->gather, p->x, p->xall, INSERT_VALUES, SCATTER_FORWARD));
+    PCHK(VecScatterEnd(p->gather, p->x, p->xall, INSERT_VALUES, SCATTER_FORWARD));
+    whole = p->xall;
+  }
   const PetscScalar *xv;
-  PCHK(VecGetArrayRead(p->x, &xv));
-  memcpy(x, xv, (size_t)p->n * sizeof(double));
-  PCHK(VecRestoreArrayRead(p->x, &xv));
+  PCHK(VecGetArrayRead(whole, &xv));
+  if (p->mpi)
+    for (PetscInt r = 0; r < p->n; r++)
+      x[r] = xv[p->newrow[r]];
+  else
+    memcpy(x, xv, (size_t)p->n * sizeof(double));
+  PCHK(VecRestoreArrayRead(whole, &xv));
   *its = p->direct ? 1 : (long)n;
   *rel = bn > 0 ? rn / bn : 0;
   *t_solve += sim_now() - t0;

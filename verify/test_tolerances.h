@@ -68,4 +68,18 @@
 #define EK_POLAR_WARM_LOOP_F32_FACTOR 2
 #define EK_POLAR_WARM_LOOP_TOL_F64 1e-12
 
+// ---- ek-sim across MPI ranks (tests/mpi.sh, tests/frames_gap.c)
+// An implicit scene run on N ranks against the same scene on one rank: the
+// last frame's positions, mass-weighted RMS gap over the body size L
+// (lumped masses, sim/body.h), per step run and per newton_tol. The runs'
+// sums differ in order and their AMG hierarchies differ, so their Newton
+// iterates differ; each step of each run stops at a residual r <=
+// newton_tol, r = dt^2 |g|_{M^-1} / (sqrt(m_free) L) (ek_scene_implicit).
+// The system matrix A = M (1 + c dt) / dt^2 + K >= M / dt^2 (K projected
+// to PSD), so a step's distance from the exact minimiser, |A^-1 g|_M /
+// (sqrt(m_free) L), is at most r to first order: the two runs' steps are
+// within 2 newton_tol of each other, and backward Euler's dissipative step
+// does not amplify an earlier gap. Budget: 2 newton_tol per step run.
+#define EK_SIM_MPI_GAP_PER_STEP 2.0
+
 #endif
