@@ -98,22 +98,6 @@ static void deform(ek_rng *rng, const scene *sc, double strain, double *x) {
       x[3 * v + r] -= c[r];
 }
 
-static void round_to(int prec, size_t n, double *x) {
-  if (prec == 32)
-    for (size_t i = 0; i < n; i++)
-      x[i] = (float)x[i];
-}
-
-static double max_abs_diff(size_t n, const double *a, const double *b) {
-  double e = 0;
-  for (size_t i = 0; i < n; i++) {
-    double d = fabs(a[i] - b[i]);
-    if (!(d <= e)) // NaN counts as the worst
-      e = d;
-  }
-  return e;
-}
-
 static int any_nan(size_t n, const double *x) {
   for (size_t i = 0; i < n; i++)
     if (isnan(x[i]))
@@ -121,38 +105,7 @@ static int any_nan(size_t n, const double *x) {
   return 0;
 }
 
-static const int32_t *ref_members(const ek_xpbd_ref_set *s, size_t j, const double **b, int *K) {
-  *K = s->start[j + 1] - s->start[j];
-  *b = s->b + 3 * ((size_t)s->start[j] - j);
-  return s->members + s->start[j];
-}
-
-// ---- The library in either precision, on double arrays (exact for
-// float values) ----
-static int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iterations) {
-  if (prec == 64)
-    return ek_xpbd_iterate_f64(xp, NULL, x, iterations);
-  float *xf = malloc(n3 * sizeof(float));
-  for (size_t i = 0; i < n3; i++)
-    xf[i] = (float)x[i];
-  int rc = ek_xpbd_iterate_f32(xp, NULL, xf, iterations);
-  for (size_t i = 0; i < n3; i++)
-    x[i] = xf[i];
-  free(xf);
-  return rc;
-}
-
-static int lib_residual(const ek_xpbd *xp, int prec, size_t n3, const double *x, double *res,
-                        double *cmax) {
-  if (prec == 64)
-    return ek_xpbd_residual_f64(xp, NULL, x, res, cmax);
-  float *xf = malloc(n3 * sizeof(float));
-  for (size_t i = 0; i < n3; i++)
-    xf[i] = (float)x[i];
-  int rc = ek_xpbd_residual_f32(xp, NULL, xf, res, cmax);
-  free(xf);
-  return rc;
-}
+// ---- The library's XPBD object ----
 
 static ek_xpbd *lib_create(const scene *sc, int elements, int solver, ek_isa isa, int prec) {
   ek_xpbd_opts o = {.elements = (ek_xpbd_elements)elements,

@@ -2,11 +2,13 @@
 // (test_fvm_common.h), lumped masses m_i = density * sum of V_t / 4 over
 // vertex i's tets, inverse masses (a fraction `pinned` of the vertices
 // held), the bounding-box diagonal, the reference's tet and cluster sets
-// (reference/xpbd) and the element layer.
+// (reference/xpbd) and the element layer; and the helpers both tests
+// share (rounding, the largest difference, the library in either precision).
 #ifndef EK_TEST_XPBD_SCENE_H
 #define EK_TEST_XPBD_SCENE_H
 
 #include <ek/elements.h>
+#include <ek/xpbd.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -82,6 +84,61 @@ static inline double scene_momentum_error(const scene *sc, double h, const doubl
     p += m * sqrt(v0);
   }
   return fmax(fabs(dp[0]), fmax(fabs(dp[1]), fabs(dp[2]))) / p;
+}
+
+// ---- Helpers both XPBD tests use ----
+// Round x to the precision's values (so f32 and f64 runs start alike).
+static inline void round_to(int prec, size_t n, double *x) {
+  if (prec == 32)
+    for (size_t i = 0; i < n; i++)
+      x[i] = (float)x[i];
+}
+
+// Largest |a - b| (NaN counts as the worst).
+static inline double max_abs_diff(size_t n, const double *a, const double *b) {
+  double e = 0;
+  for (size_t i = 0; i < n; i++) {
+    double d = fabs(a[i] - b[i]);
+    if (!(d <= e)) // NaN counts as the worst
+      e = d;
+  }
+  return e;
+}
+
+// Members of the reference set's constraint j: K vertices and the rest
+// data b.
+static inline const int32_t *ref_members(const ek_xpbd_ref_set *s, size_t j, const double **b,
+                                         int *K) {
+  *K = s->start[j + 1] - s->start[j];
+  *b = s->b + 3 * ((size_t)s->start[j] - j);
+  return s->members + s->start[j];
+}
+
+// The library in either precision, on double arrays (exact for float
+// values).
+static inline int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iterations) {
+  if (prec == 64)
+    return ek_xpbd_iterate_f64(xp, NULL, x, iterations);
+  float *xf = malloc(n3 * sizeof(float));
+  for (size_t i = 0; i < n3; i++)
+    xf[i] = (float)x[i];
+  int rc = ek_xpbd_iterate_f32(xp, NULL, xf, iterations);
+  for (size_t i = 0; i < n3; i++)
+    x[i] = xf[i];
+  free(xf);
+  return rc;
+}
+
+static inline int lib_residual(const ek_xpbd *xp, int prec, size_t n3, const double *x, double *res,
+                               double *cmax) {
+  if (prec == 64)
+    return ek_xpbd_residual_f64(xp, NULL, x, res, cmax);
+  float *xf = malloc(n3 * sizeof(float));
+  for (size_t i = 0; i < n3; i++)
+    xf[i] = (float)x[i];
+  int rc = ek_xpbd_residual_f32(xp, NULL, xf, res, cmax);
+  free(xf);
+  return rc;
 }
 
 #endif

@@ -86,53 +86,6 @@ static void deform(ek_rng *rng, const scene *sc, int inverted, double *x) {
         x[3 * v] = -0.5 * x[3 * v];
 }
 
-static void round_to(int prec, size_t n, double *x) {
-  if (prec == 32)
-    for (size_t i = 0; i < n; i++)
-      x[i] = (float)x[i];
-}
-
-static double max_abs_diff(size_t n, const double *a, const double *b) {
-  double e = 0;
-  for (size_t i = 0; i < n; i++) {
-    double d = fabs(a[i] - b[i]);
-    if (!(d <= e))
-      e = d;
-  }
-  return e;
-}
-
-static const int32_t *ref_members(const ek_xpbd_ref_set *s, size_t j, const double **b, int *K) {
-  *K = s->start[j + 1] - s->start[j];
-  *b = s->b + 3 * ((size_t)s->start[j] - j);
-  return s->members + s->start[j];
-}
-
-static int lib_iterate(ek_xpbd *xp, int prec, size_t n3, double *x, int iterations) {
-  if (prec == 64)
-    return ek_xpbd_iterate_f64(xp, NULL, x, iterations);
-  float *xf = malloc(n3 * sizeof(float));
-  for (size_t i = 0; i < n3; i++)
-    xf[i] = (float)x[i];
-  int rc = ek_xpbd_iterate_f32(xp, NULL, xf, iterations);
-  for (size_t i = 0; i < n3; i++)
-    x[i] = xf[i];
-  free(xf);
-  return rc;
-}
-
-static int lib_residual(const ek_xpbd *xp, int prec, size_t n3, const double *x, double *res,
-                        double *cmax) {
-  if (prec == 64)
-    return ek_xpbd_residual_f64(xp, NULL, x, res, cmax);
-  float *xf = malloc(n3 * sizeof(float));
-  for (size_t i = 0; i < n3; i++)
-    xf[i] = (float)x[i];
-  int rc = ek_xpbd_residual_f32(xp, NULL, xf, res, cmax);
-  free(xf);
-  return rc;
-}
-
 static ek_xpbd *lib_create(const scene *sc, const ek_material *mat, int elements, int solver,
                            ek_isa isa, int prec) {
   ek_xpbd_opts o = {.elements = (ek_xpbd_elements)elements,
@@ -148,6 +101,7 @@ static ek_xpbd *lib_create(const scene *sc, const ek_material *mat, int elements
   return xp;
 }
 
+// `sweeps` reference sweeps of a solver; Gauss-Seidel in `order`.
 static void ref_sweeps(const ek_xpbd_ref_set *s, int solver, const double *w, double cmin,
                        const int32_t *order, int sweeps, double *x, double *lambda) {
   for (int it = 0; it < sweeps; it++)
