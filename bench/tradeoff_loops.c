@@ -1,8 +1,9 @@
 // The loop maps of the speed/accuracy study (tradeoff.h): for the
 // cantilever (scenes/cantilever*.json, family "loop/cantilever") and the
 // twisted bar (scenes/twist*.json, "loop/twist"), explicit / implicit /
-// XPBD settings x f32 / f64 x SVD sweeps x iterations or substeps, each run
-// for 1 s of simulated time (sim/trial.h). A point's error is the
+// XPBD settings x f32 / f64 x SVD sweeps x iterations or substeps, and the
+// implicit loop's linear solvers (matrix_free; amg and direct in a build
+// with PETSc), each run for 1 s of simulated time (sim/trial.h). A point's error is the
 // deviation of its final positions from the most accurate setting's, per
 // vertex over the body size (the distribution over the vertices; err_max
 // is the deviation of trial.h); its cost the time per simulated second;
@@ -153,6 +154,25 @@ static int family_settings(setting_list *l, const char *const names[3], int coar
   s = im;
   s.implicit.max_newton = 1;
   rc |= push_new(l, &s, 0, 0);
+  // The solver axis (issue 24): the implicit settings with each assembled
+  // linear solver this build has (PETSc's CG + GAMG, its sparse Cholesky;
+  // sim/README.md "The implicit loop's linear solvers"): the scene's knobs,
+  // f64, and newton_tol 1e-4 (the cheap end). Their rows name the solver
+  // (";linear_solver=..."); the matrix-free rows above keep their names.
+  // Without PETSc they are skipped (ek_tradeoff_loops says so).
+  for (int ls = EK_LINSOLVE_AMG; ls < EK_LINSOLVE_COUNT; ++ls) {
+    if (!ek_linear_solver_available((ek_linear_solver)ls))
+      continue;
+    s = im;
+    s.implicit.linear_solver = (ek_linear_solver)ls;
+    rc |= push_new(l, &s, 0, 0);
+    s.precision = 64;
+    rc |= push_new(l, &s, 0, 0);
+    s = im;
+    s.implicit.linear_solver = (ek_linear_solver)ls;
+    s.implicit.newton_tol = 1e-4;
+    rc |= push_new(l, &s, 0, 0);
+  }
   const long grid[][2] = {{20, 10}, {100, 10}, {500, 2}, {1000, 1}, {2000, 1}};
   rc |= push_new(l, &xp, 1, 0);
   for (int k = 0; k < 5 && grid[k][0] <= max_substeps; ++k) {
@@ -252,6 +272,12 @@ int ek_tradeoff_loops(ek_tradeoff *t) {
   setting_list l = {0};
   const int quick = ek_tradeoff_options(t)->quick;
   const double sim_time = quick ? LOOPS_QUICK_SIM_TIME : LOOPS_SIM_TIME;
+  for (int ls = EK_LINSOLVE_AMG; ls < EK_LINSOLVE_COUNT; ++ls)
+    if (!ek_linear_solver_available((ek_linear_solver)ls))
+      fprintf(stderr,
+              "tradeoff loops: implicit linear_solver %s skipped: it needs PETSc, and this build "
+              "has none (the implicit points are matrix_free only)\n",
+              ek_linear_solver_name((ek_linear_solver)ls));
   int rc = family_settings(&l, cantilever, 1, 2000);
   if (rc == 0)
     rc = run_family(t, "loop/cantilever", &l, sim_time);

@@ -89,6 +89,20 @@ static int add_dt(rows_buf *b, const ek_scene *s, double dt) {
   return add_row(b, &v, NULL);
 }
 
+// Copies of the implicit setting s with each assembled linear solver this
+// build has (amg, direct: PETSc; advise.h), the matrix-free one being s.
+static int add_solvers(rows_buf *b, const ek_scene *s) {
+  for (int ls = 0; ls < EK_LINSOLVE_COUNT; ++ls) {
+    if (ls == (int)s->implicit.linear_solver || !ek_linear_solver_available((ek_linear_solver)ls))
+      continue;
+    ek_scene v = *s;
+    v.implicit.linear_solver = (ek_linear_solver)ls;
+    if (add_row(b, &v, NULL))
+      return -1;
+  }
+  return 0;
+}
+
 // The loop knobs a user would try (advise.h), on setting s.
 static int add_knobs(rows_buf *b, const ek_scene *s, const ek_mesh *mesh) {
   if (s->integrator == EK_INTEGRATOR_EXPLICIT) {
@@ -102,9 +116,9 @@ static int add_knobs(rows_buf *b, const ek_scene *s, const ek_mesh *mesh) {
     v.implicit.newton_tol = 1e-4;
     w.implicit.cg_tol = 1e-2;
     one.implicit.max_newton = 1; // Baraff and Witkin 1998: one linearised solve per step
-    if (add_row(b, &v, NULL) || add_row(b, &w, NULL) || add_row(b, &one, NULL) ||
-        add_dt(b, s, s->dt / 2) || add_dt(b, s, s->dt / 4) || add_dt(b, s, 1.0 / 60) ||
-        add_dt(b, s, 1.0 / 120))
+    if (add_solvers(b, s) || add_row(b, &v, NULL) || add_row(b, &w, NULL) ||
+        add_row(b, &one, NULL) || add_dt(b, s, s->dt / 2) || add_dt(b, s, s->dt / 4) ||
+        add_dt(b, s, 1.0 / 60) || add_dt(b, s, 1.0 / 120))
       return -1;
   } else {
     static const double fs[] = {0.5, 1, 2, 4}, fi[] = {0.5, 1, 2};
@@ -189,6 +203,14 @@ static int add_model(rows_buf *b, const ek_scene *scene, const ek_mesh *mesh, ek
     } else if (L == EK_INTEGRATOR_IMPLICIT) {
       if (add_dt(b, &v, frame_dt) || add_dt(b, &v, 1.0 / 240))
         return -1;
+      // The scene's model also with each assembled solver, at the frame
+      // step (where the implicit loop is cheapest).
+      if (m == scene->material.model && frame_dt > 0 && isfinite(frame_dt)) {
+        ek_scene w = v;
+        w.dt = frame_dt;
+        if (add_solvers(b, &w))
+          return -1;
+      }
     } else {
       ek_scene w = v;
       w.dt = frame_dt;
@@ -801,6 +823,27 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
           "reference's by > %g of its scale at a frame\n",
           a->sim_time, a->nframes, a->tol, a->threads, a->scale, a->body_size, a->motion,
           EK_ADVISE_FLAT_J, EK_ADVISE_RUNAWAY, EK_ADVISE_ENERGY_MAX);
+  {
+    // The solver axis (issue 24): which linear solvers the implicit
+    // candidates use, and the ones this build cannot run.
+    int implicit_rows = 0;
+    for (size_t i = 0; i < a->n; ++i)
+      implicit_rows += a->rows[i].setting.integrator == EK_INTEGRATOR_IMPLICIT;
+    char have[128] = "", lack[128] = "";
+    size_t nh = 0, nl = 0;
+    for (int ls = 0; ls < EK_LINSOLVE_COUNT; ++ls) {
+      const int ok = ek_linear_solver_available((ek_linear_solver)ls);
+      char *buf = ok ? have : lack;
+      size_t *n = ok ? &nh : &nl;
+      int w = snprintf(buf + *n, sizeof have - *n, "%s%s", *n ? ", " : "",
+                       ek_linear_solver_name((ek_linear_solver)ls));
+      if (w > 0 && (size_t)w < sizeof have - *n)
+        *n += (size_t)w;
+    }
+    if (implicit_rows)
+      fprintf(out, "solvers    the implicit candidates' linear solvers: %s%s%s%s\n", have,
+              nl ? "; skipped: " : "", lack, nl ? " (need PETSc; this build has none)" : "");
+  }
   fprintf(out,
           "reference  %s, dt halved until two runs (or their extrapolations 2 x_k - x_(k-1)) "
           "differ by <= tol / 10:\n",

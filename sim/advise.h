@@ -62,6 +62,14 @@
 // 2}. And the other loops in the scene's precision: explicit at 0.5 and 0.9
 // x the bound, implicit at 1/60 s (or the frame step) and 1/240 s, XPBD (StVK and
 // stable neo-Hookean) at its default knobs and 4x the substeps.
+// The solver axis (issue 24): every implicit candidate of the scene's model
+// at the scene's own knobs (an implicit scene: in f64 and f32; otherwise
+// the implicit row at the frame step) is also run with each other linear
+// solver this build has (integrator.linear_solver: matrix_free, and with
+// PETSc amg and direct, scene.h), timed and measured like every row; its
+// setting text names the solver (";linear_solver=amg"; matrix_free rows
+// name none). The table's "solvers" line lists the solvers tried and those
+// skipped (a build without PETSc).
 //
 // Costs: every candidate's first run gives one cost (median step wall time
 // x steps per simulated second); those within tol run opts.rounds - 1 more

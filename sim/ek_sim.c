@@ -756,9 +756,13 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
   const char *who[2] = {"scene", "pick"};
   for (int i = 0; i < 2; ++i) {
     const ek_scene *s = both[i];
-    printf("%-10s %s, %s loop, f%d, dt %g: %s\n", who[i], s->model_name,
-           ek_scene_integrator_name(s->integrator), s->precision, s->dt,
-           ek_trial_uses_svd(s) ? "the step takes an SVD" : "no SVD in the step");
+    printf(
+        "%-10s %s, %s loop%s%s, f%d, dt %g: %s\n", who[i], s->model_name,
+        ek_scene_integrator_name(s->integrator),
+        s->integrator == EK_INTEGRATOR_IMPLICIT ? ", linear_solver " : "",
+        s->integrator == EK_INTEGRATOR_IMPLICIT ? ek_linear_solver_name(s->implicit.linear_solver)
+                                                : "",
+        s->precision, s->dt, ek_trial_uses_svd(s) ? "the step takes an SVD" : "no SVD in the step");
     print_passes(s, "             ");
   }
   int n = 0;
@@ -780,6 +784,22 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
     n += printf("\n             Newton: the gradient + eigensystem passes, Hessian products, PCG "
                 "and line "
                 "search") > 0;
+  // The solver axis (issue 24): an implicit pick with another linear solver.
+  const ek_linear_solver ls_scene = scene->integrator == EK_INTEGRATOR_IMPLICIT
+                                        ? scene->implicit.linear_solver
+                                        : EK_LINSOLVE_COUNT,
+                         ls_pick = pick->integrator == EK_INTEGRATOR_IMPLICIT
+                                       ? pick->implicit.linear_solver
+                                       : EK_LINSOLVE_COUNT;
+  if (ls_scene == EK_LINSOLVE_MATRIX_FREE && ls_pick != EK_LINSOLVE_COUNT &&
+      ls_pick != EK_LINSOLVE_MATRIX_FREE)
+    n += printf("\n             the matrix-free Hessian products and their PCG (linear_solver %s "
+                "instead: the projected element Hessians assembled, then %s)",
+                ek_linear_solver_name(ls_pick),
+                ls_pick == EK_LINSOLVE_AMG ? "PETSc CG + GAMG" : "PETSc sparse Cholesky") > 0;
+  else if (ls_scene != EK_LINSOLVE_COUNT && ls_pick != EK_LINSOLVE_COUNT && ls_scene != ls_pick)
+    n += printf("\n             the linear solver: %s -> %s", ek_linear_solver_name(ls_scene),
+                ek_linear_solver_name(ls_pick)) > 0;
   if (scene->integrator == EK_INTEGRATOR_XPBD && pick->integrator != EK_INTEGRATOR_XPBD)
     n += printf("\n             the XPBD constraint sweeps") > 0;
   if (scene->integrator == EK_INTEGRATOR_EXPLICIT && pick->integrator != EK_INTEGRATOR_EXPLICIT)

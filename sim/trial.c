@@ -127,9 +127,15 @@ void ek_trial_setting_text(const ek_scene *s, char *out, size_t outlen) {
       append(out, outlen, &n, ";rsqrt=%s", s->svd.exact_rsqrt > 0 ? "exact" : "approx");
   }
   append(out, outlen, &n, ";loop=%s;dt=%.4g", ek_scene_integrator_name(s->integrator), s->dt);
-  if (s->integrator == EK_INTEGRATOR_IMPLICIT)
+  if (s->integrator == EK_INTEGRATOR_IMPLICIT) {
     append(out, outlen, &n, ";newton_tol=%g;cg_tol=%g;max_newton=%ld", s->implicit.newton_tol,
            s->implicit.cg_tol, s->implicit.max_newton);
+    // The assembled solvers only: a matrix-free setting keeps the text it
+    // had before the key existed (the trade map's rows keep their names).
+    if (s->implicit.linear_solver != EK_LINSOLVE_MATRIX_FREE)
+      append(out, outlen, &n, ";linear_solver=%s",
+             ek_linear_solver_name(s->implicit.linear_solver));
+  }
   if (s->integrator == EK_INTEGRATOR_XPBD)
     append(out, outlen, &n, ";substeps=%ld;iterations=%ld", s->xpbd.substeps, s->xpbd.iterations);
 }

@@ -20,7 +20,9 @@
 //   precision              32 | 64
 //   svd.sweeps, svd.refine, svd.exact_rsqrt
 //   integrator, dt         the loop (explicit / implicit / xpbd) and its step
-//   implicit.newton_tol, implicit.max_newton, implicit.cg_tol, implicit.max_cg
+//   implicit.newton_tol, implicit.max_newton, implicit.cg_tol, implicit.max_cg,
+//   implicit.linear_solver (amg, direct: a build with PETSc,
+//                          ek_linear_solver_available)
 //   xpbd.substeps, xpbd.iterations
 // The trial itself sets steps (and dt, so that a whole number of steps
 // ends at the simulated time) and never writes frames.
@@ -129,7 +131,9 @@ int ek_trial_set_model(ek_scene *scene, ek_model model, char *why, size_t whylen
 int ek_trial_uses_svd(const ek_scene *scene);
 
 // The setting as "key=value;..." (model, precision, svd, loop and its
-// knobs) for tables and tradeoff points.
+// knobs) for tables and tradeoff points. The implicit loop's linear solver
+// is named (";linear_solver=amg" / "direct") only when it is not the
+// default matrix_free, so matrix-free settings keep their earlier text.
 void ek_trial_setting_text(const ek_scene *scene, char *out, size_t outlen);
 
 #ifdef __cplusplus

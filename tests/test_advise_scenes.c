@@ -7,7 +7,9 @@
 // explicit error is 1 / steps of its motion), one step
 // of it otherwise (a thirtieth or sixtieth of a second), at most the
 // scene's duration; scenes of more than EK_ADVISE_TEST_MAX_TETS tets only
-// when named. EK_ADVISE_SCENES="a.json b.json" runs only those.
+// when named. EK_ADVISE_SCENES="a.json b.json" runs only those. An implicit
+// scene's candidates include its setting with each assembled linear solver
+// (amg, direct) in f64 and f32 when the build has PETSc, none otherwise.
 #include "advise.h"
 #include "test_sim_common.h"
 
@@ -65,6 +67,38 @@ static void advise_scene(const char *name, int named) {
            (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec), f->stop);
   snprintf(what, sizeof what, "%s: reference converged", name);
   check(what, f->converged, detail);
+  // The solver axis (issue 24, advise.h): an implicit scene's own setting
+  // with each assembled linear solver, in f64 and f32, among the rows that
+  // ran, their text naming the solver; none without PETSc.
+  if (scene.integrator == EK_INTEGRATOR_IMPLICIT &&
+      scene.implicit.linear_solver == EK_LINSOLVE_MATRIX_FREE)
+    for (int ls = EK_LINSOLVE_AMG; ls < EK_LINSOLVE_COUNT; ++ls) {
+      const char *lsn = ek_linear_solver_name((ek_linear_solver)ls);
+      char key[64];
+      snprintf(key, sizeof key, "linear_solver=%s", lsn);
+      int prec[2] = {0, 0}, bad = 0;
+      size_t rows = 0;
+      for (size_t i = 0; i < a.n; ++i) {
+        const ek_advise_row *r = &a.rows[i];
+        if (r->setting.integrator != EK_INTEGRATOR_IMPLICIT ||
+            r->setting.implicit.linear_solver != (ek_linear_solver)ls)
+          continue;
+        rows++;
+        bad += r->skipped || r->rounds < 1 || !strstr(r->text, key);
+        if (r->setting.material.model == scene.material.model)
+          prec[r->setting.precision == 32] = 1;
+      }
+      if (ek_linear_solver_available((ek_linear_solver)ls)) {
+        snprintf(what, sizeof what, "%s: %s candidates (f64, f32)", name, lsn);
+        snprintf(detail, sizeof detail, "%zu rows, f64 %s, f32 %s, %d not run or not named", rows,
+                 prec[0] ? "yes" : "no", prec[1] ? "yes" : "no", bad);
+        check(what, prec[0] && prec[1] && bad == 0, detail);
+      } else {
+        snprintf(what, sizeof what, "%s: no %s rows (no PETSc)", name, lsn);
+        snprintf(detail, sizeof detail, "%zu rows; skipped: this build has no PETSc", rows);
+        check(what, rows == 0, detail);
+      }
+    }
   if (a.pick < 0) {
     snprintf(what, sizeof what, "%s: a pick", name);
     check(what, 0, "none within tol (the reference itself failed a check)");

@@ -8,7 +8,10 @@ One PNG per family of the map (OUTDIR/tradeoff_<family>.png, '/' in the
 family name as '_'): error vs time per point, log-log, the p99 error as the
 marker and the maximum as a whisker above it, the Pareto front on p99 drawn
 as a line (bench/tradeoff.h: non-dominated, one of exact duplicates), the
-default and McAdams et al. 2011 settings labelled; a point with error 0 (a
+default and McAdams et al. 2011 settings labelled; the implicit loop's points
+with an assembled linear solver (a setting naming linear_solver=amg or direct)
+drawn with a marker of their own ("implicit amg", "implicit direct") and the
+f32 one at the scene's knobs labelled; a point with error 0 (a
 loop's reference) on the bottom edge, marked and labelled "reference (error
 0)". Points are
 those of one thread count (--threads, default the most the file has).
@@ -68,6 +71,18 @@ def knobs_of(setting):
     return out
 
 
+def group_of(setting):
+    """A point's group in a map: its ISA (kernel maps), else its loop, the
+    implicit loop with its linear solver when that is not the default
+    matrix_free ("implicit amg", "implicit direct")."""
+    k = knobs_of(setting)
+    if "isa" in k:
+        return k["isa"]
+    loop = k.get("loop", "?")
+    ls = k.get("linear_solver", "matrix_free")
+    return loop if ls == "matrix_free" else f"{loop} {ls}"
+
+
 def open_h5(path, what, group):
     import h5py
     if not os.path.exists(path):
@@ -117,13 +132,15 @@ def plot_family(plt, family, points, threads, outdir, meta):
     zero_y = zero_row(pts)
     zeros = []  # points with p99 error 0, drawn on the zero row
     groups = {}
-    # Kernel maps group by ISA; the loop maps (no ISA: the scene's) by loop.
+    # Kernel maps group by ISA; the loop maps (no ISA: the scene's) by loop,
+    # the implicit loop also by its linear solver (issue 24: a setting with
+    # "linear_solver=amg|direct"; none named is the default matrix_free).
     for p in pts:
-        k = knobs_of(p["setting"])
-        groups.setdefault((k.get("precision", "?"), k.get("isa", k.get("loop", "?"))),
+        groups.setdefault((knobs_of(p["setting"]).get("precision", "?"), group_of(p["setting"])),
                           []).append(p)
     markers = {"scalar": "s", "avx2": "^", "avx512": "o",
-               "explicit": "s", "implicit": "^", "xpbd": "o"}
+               "explicit": "s", "implicit": "^", "xpbd": "o",
+               "implicit amg": "v", "implicit direct": "P"}
     colors = {"f32": "tab:blue", "f64": "tab:orange"}
     nonfinite = 0
     for (prec, isa), sel in sorted(groups.items()):
@@ -171,6 +188,10 @@ def plot_family(plt, family, points, threads, outdir, meta):
             label = f"reference {k.get('loop', '')} {k.get('precision', '')}"
         elif p.get("is_default"):
             label = f"default {k.get('loop', '')} {k.get('precision', '')}".replace("  ", " ")
+        elif (k.get("linear_solver") and k.get("precision") == "f32"
+              and k.get("newton_tol") == "1e-06"):
+            # Each assembled solver at the scene's implicit knobs (f32).
+            label = f"implicit {k['linear_solver']} f32"
         elif k.get("label") == "mcadams2011" and k.get("isa") == best_isa(pts):
             label = f"McAdams 2011 {k.get('precision', '')}"
         if label and math.isfinite(p["time_median"]) and math.isfinite(p["err_p99"]):
