@@ -251,6 +251,8 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
   const ek_kernel_table *kt = ek_kernels_for(isa);
   if (!kt)
     return EK_EISA;
+  // The row's SVD chains (kernels.h): the force kernel's wide variant where 4 (fvm_model.h).
+  knobs.chains = kt->svd3_chains;
 
   // AUTO: see fvm.h for why thread buffers.
   ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;

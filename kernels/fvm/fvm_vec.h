@@ -22,6 +22,9 @@ typedef struct ek_fvm_args_f64 fvm_args;
 // more), so two SVD chains can be in flight; AVX-512 (one vector per block)
 // takes two blocks at a time.
 #define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
+// The wide variant's group (4 vectors, fvm_model.h) and the larger of the two.
+#define GROUP_BLOCKS_WIDE (EK_VPB >= 4 ? 1 : 4 / EK_VPB)
+#define GROUP_BLOCKS_MAX GROUP_BLOCKS_WIDE
 
 // Rotations of corotated linear for block b's lanes (identity in padding
 // lanes), from the per-element state or the caller-order array.
