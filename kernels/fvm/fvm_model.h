@@ -28,6 +28,9 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
   const int gb = nc == 4 ? GROUP_BLOCKS_WIDE : GROUP_BLOCKS;
   for (size_t b = b0; b < b1; b += (size_t)gb) {
     const int nb = b1 - b < (size_t)gb ? (int)(b1 - b) : gb;
+    if (a->prefetch)
+      for (size_t bn = b + (size_t)gb; bn < b + 2 * (size_t)gb && bn < b1; bn++)
+        prefetch_vertices(a, bn);
     if (MODEL_READS_R && !a->R_direct)
       for (int g = 0; g < nb; g++)
         gather_R(a, b + (size_t)g, Rb[g]);

@@ -67,6 +67,22 @@ static inline void scatter_R_warm(const fvm_args *a, size_t b, const real *Rb) {
   }
 }
 
+// Start the cache misses of block b's vertex rows: the positions its
+// gather reads and, when it adds into f, the force rows its scatter
+// updates. Issued a group ahead (fvm_model.h) on meshes whose vertex
+// arrays outgrow the core's caches (fvm.c, prefetch): the hardware
+// prefetchers follow the packed planes but not these indexed rows.
+// A padding lane (index -1) prefetches row 0, which is harmless.
+static inline void prefetch_vertices(const fvm_args *a, size_t b) {
+  const int32_t *idx = a->idx + b * 4 * L;
+  for (int k = 0; k < 4 * L; k++) {
+    const size_t v = (size_t)(idx[k] < 0 ? 0 : idx[k]) * 3;
+    __builtin_prefetch(a->x + v, 0, 3);
+    if (a->f)
+      __builtin_prefetch(a->f + v, 1, 3);
+  }
+}
+
 // Steps 1-2 (gather, F = Ds Dm^-1) and 4-5 (H = -V0 P Dm^-T, scatter) are
 // fvm_tet.h's, shared with the Hessian kernels.
 static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
