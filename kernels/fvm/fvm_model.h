@@ -4,7 +4,8 @@
 // H = -V0 P Dm^-T, h1..h3 to vertices 1..3 and -(h1+h2+h3) to vertex 0.
 // The block loop is instantiated per SVD or warm-polar variant with the
 // variant a compile-time constant; the models that take an SVD run two
-// vectors' Jacobi chains side by side (svd3_pair), as the SVD kernel does.
+// vectors' Jacobi chains side by side (svd3_pair), or four where the row's
+// svd3_chains says so (svd3_quad_est), as the SVD kernel does.
 // The argument contract is in fvm_kernel.h; the scatter strategies (which
 // call this with f or corner set) live in the driver, fvm.c.
 #ifndef EK_FVM_MODEL_H
