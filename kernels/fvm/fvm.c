@@ -116,6 +116,16 @@ static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, 
   return rc < 0 ? rc : EK_OK;
 }
 
+// Whether the block kernels prefetch the next group's vertex rows
+// (fvm_vec.h): when the positions and forces outgrow a core's L2 (1 MiB on Zen 5).
+#define PREFETCH_MIN_BYTES ((size_t)1 << 20)
+static int prefetch_for(const ek_tets *el) {
+  const char *e = getenv("EK_FVM_PREFETCH");
+  if (e && *e)
+    return atoi(e);
+  return el->nverts * 3 * sizeof(real) * 2 > PREFETCH_MIN_BYTES;
+}
+
 static double now(void) { return omp_get_wtime(); }
 
 static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl) {
@@ -251,6 +261,8 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
   const ek_kernel_table *kt = ek_kernels_for(isa);
   if (!kt)
     return EK_EISA;
+  // The row's SVD chains (kernels.h): the force kernel's wide variant where 4 (fvm_model.h).
+  knobs.chains = kt->svd3_chains;
 
   // AUTO: see fvm.h for why thread buffers.
   ek_scatter s = o.scatter == EK_SCATTER_AUTO ? EK_SCATTER_DEFAULT : o.scatter;
@@ -262,6 +274,7 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                 .svd = &knobs,
                 .R_warm = warm ? ws->data : NULL,
                 .polar_iters = polar_iters,
+                .prefetch = prefetch_for(el),
                 .x = x};
   if (o.phase_times && !warm) {
     ek_svd3_opts so = {.sweeps = o.svd_sweeps,

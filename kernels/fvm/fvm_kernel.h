@@ -54,6 +54,7 @@ struct ek_fvm_args_f32 {
   int polar_iters;
   const float *x;
   const float *P_in;
+  int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
   float *f;
   float *corner;
 };
@@ -73,6 +74,7 @@ struct ek_fvm_args_f64 {
   int polar_iters;
   const double *x;
   const double *P_in;
+  int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
   double *f;
   double *corner;
 };

@@ -4,7 +4,8 @@
 // H = -V0 P Dm^-T, h1..h3 to vertices 1..3 and -(h1+h2+h3) to vertex 0.
 // The block loop is instantiated per SVD or warm-polar variant with the
 // variant a compile-time constant; the models that take an SVD run two
-// vectors' Jacobi chains side by side (svd3_pair), as the SVD kernel does.
+// vectors' Jacobi chains side by side (svd3_pair), or four where the row's
+// svd3_chains says so (svd3_quad_est), as the SVD kernel does.
 // The argument contract is in fvm_kernel.h; the scatter strategies (which
 // call this with f or corner set) live in the driver, fvm.c.
 #ifndef EK_FVM_MODEL_H
@@ -17,23 +18,30 @@
 // Blocks [b0, b1), group by group: gather, F of every vector, P (through the SVD for
 // `sigma`, two vectors at a time; or through `warm` iterations of the warm
 // polar when warm > 0), corner forces, scatter.
-EK_INLINE void fvm_blocks(int sigma, int exact, int warm, const fvm_args *a, size_t b0, size_t b1) {
-  _Alignas(64) real Rb[GROUP_BLOCKS][9 * L];
-  _Alignas(64) real hb[GROUP_BLOCKS][12 * L];
+// nc: vectors in flight through the SVD (2, or 4 for the wide variant,
+// fvm_blocks_sigma), a compile-time constant at each call.
+EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args *a, size_t b0,
+                          size_t b1) {
+  _Alignas(64) real Rb[GROUP_BLOCKS_MAX][9 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS_MAX][12 * L];
   const ek_material_lanes mp =
       material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
-  for (size_t b = b0; b < b1; b += GROUP_BLOCKS) {
-    const int nb = b1 - b < GROUP_BLOCKS ? (int)(b1 - b) : GROUP_BLOCKS;
+  const int gb = nc == 4 ? GROUP_BLOCKS_WIDE : GROUP_BLOCKS;
+  for (size_t b = b0; b < b1; b += (size_t)gb) {
+    const int nb = b1 - b < (size_t)gb ? (int)(b1 - b) : gb;
+    if (a->prefetch)
+      for (size_t bn = b + (size_t)gb; bn < b + 2 * (size_t)gb && bn < b1; bn++)
+        prefetch_vertices(a, bn);
     if (MODEL_READS_R && !a->R_direct)
       for (int g = 0; g < nb; g++)
         gather_R(a, b + (size_t)g, Rb[g]);
     if (warm && !a->R_direct)
       for (int g = 0; g < nb; g++)
         gather_R_warm(a, b + (size_t)g, Rb[g]);
-    for (int v0 = 0; v0 < nb * EK_VPB; v0 += 2) {
-      // 1 only for the last block of an odd range on AVX-512 (one vector per block).
-      const int nv = nb * EK_VPB - v0 < 2 ? 1 : 2;
-      vreal F[2][9], P[2][9];
+    for (int v0 = 0; v0 < nb * EK_VPB; v0 += nc) {
+      // Fewer than nc only in the last group of a range on AVX-512 (one vector per block).
+      const int nv = nb * EK_VPB - v0 < nc ? nb * EK_VPB - v0 : nc;
+      vreal F[4][9], P[4][9];
       for (int j = 0; j < nv; j++) {
         const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
         deformation_gradient(a, b + (size_t)g, o, F[j]);
@@ -53,9 +61,12 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, const fvm_args *a, siz
           material_pk1_rotation(&mp, F[j], R, P[j]);
         }
       } else if (sigma) {
-        // Step 3a: the SVD of both vectors side by side, then P from it.
-        vreal U[2][9], S[2][3], V[2][9];
-        svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
+        // Step 3a: the SVD of the nv vectors side by side, then P from it.
+        vreal U[4][9], S[4][3], V[4][9];
+        if (nc == 4)
+          EK_SYM(svd3_quad_est)(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine);
+        else
+          svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
         for (int j = 0; j < nv; j++)
           material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
       } else {
@@ -87,13 +98,20 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, const fvm_args *a, siz
 
 // The models that can take an SVD: through it (sigma, per rsqrt mode) when
 // the table says so for this clamp, else in F.
+// The approximate rsqrt (the default) has a wide variant, 4 vectors in
+// flight, where the row's svd3_chains is 4 (a->svd->chains; AVX-512, one
+// vector per block, only: the copy is built there alone).
 EK_INLINE void fvm_blocks_sigma(const fvm_args *a, size_t b0, size_t b1) {
   if (!material_uses_sigma_at(a->mat->clamp))
-    fvm_blocks(0, 0, 0, a, b0, b1);
+    fvm_blocks(0, 0, 0, 2, a, b0, b1);
   else if (a->svd->exact_rsqrt)
-    fvm_blocks(1, 1, 0, a, b0, b1);
+    fvm_blocks(1, 1, 0, 2, a, b0, b1);
+#if EK_VPB == 1
+  else if (a->svd->chains == 4)
+    fvm_blocks(1, 0, 0, 4, a, b0, b1);
+#endif
   else
-    fvm_blocks(1, 0, 0, a, b0, b1);
+    fvm_blocks(1, 0, 0, 2, a, b0, b1);
 }
 
 // Fixed corotated and ARAP: the warm polar when the driver set R_warm (it
@@ -102,13 +120,13 @@ EK_INLINE void fvm_blocks_rotation(const fvm_args *a, size_t b0, size_t b1) {
   if (!a->R_warm)
     fvm_blocks_sigma(a, b0, b1);
   else if (a->polar_iters == 1)
-    fvm_blocks(0, 0, 1, a, b0, b1);
+    fvm_blocks(0, 0, 1, 2, a, b0, b1);
   else if (a->polar_iters == 2)
-    fvm_blocks(0, 0, 2, a, b0, b1);
+    fvm_blocks(0, 0, 2, 2, a, b0, b1);
   else if (a->polar_iters == 3)
-    fvm_blocks(0, 0, 3, a, b0, b1);
+    fvm_blocks(0, 0, 3, 2, a, b0, b1);
   else
-    fvm_blocks(0, 0, a->polar_iters, a, b0, b1);
+    fvm_blocks(0, 0, a->polar_iters, 2, a, b0, b1);
 }
 
 // The model's entry: the warm polar's or the SVD's variants where the
@@ -119,7 +137,7 @@ EK_INLINE void fvm_model_blocks(const fvm_args *a, size_t b0, size_t b1) {
 #elif MODEL_CLAMPABLE
   fvm_blocks_sigma(a, b0, b1);
 #else
-  fvm_blocks(0, 0, 0, a, b0, b1);
+  fvm_blocks(0, 0, 0, 2, a, b0, b1);
 #endif
 }
 

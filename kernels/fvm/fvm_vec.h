@@ -22,6 +22,9 @@ typedef struct ek_fvm_args_f64 fvm_args;
 // more), so two SVD chains can be in flight; AVX-512 (one vector per block)
 // takes two blocks at a time.
 #define GROUP_BLOCKS (EK_VPB >= 2 ? 1 : 2)
+// The wide variant's group (4 vectors, fvm_model.h) and the larger of the two.
+#define GROUP_BLOCKS_WIDE (EK_VPB >= 4 ? 1 : 4 / EK_VPB)
+#define GROUP_BLOCKS_MAX GROUP_BLOCKS_WIDE
 
 // Rotations of corotated linear for block b's lanes (identity in padding
 // lanes), from the per-element state or the caller-order array.
@@ -61,6 +64,22 @@ static inline void scatter_R_warm(const fvm_args *a, size_t b, const real *Rb) {
     size_t s = (size_t)a->morton_slot[t];
     for (int k = 0; k < 9; k++)
       a->R_warm[(s / L * 9 + (size_t)k) * L + s % L] = Rb[k * L + l];
+  }
+}
+
+// Start the cache misses of block b's vertex rows: the positions its
+// gather reads and, when it adds into f, the force rows its scatter
+// updates. Issued a group ahead (fvm_model.h) on meshes whose vertex
+// arrays outgrow the core's caches (fvm.c, prefetch): the hardware
+// prefetchers follow the packed planes but not these indexed rows.
+// A padding lane (index -1) prefetches row 0, which is harmless.
+static inline void prefetch_vertices(const fvm_args *a, size_t b) {
+  const int32_t *idx = a->idx + b * 4 * L;
+  for (int k = 0; k < 4 * L; k++) {
+    const size_t v = (size_t)(idx[k] < 0 ? 0 : idx[k]) * 3;
+    __builtin_prefetch(a->x + v, 0, 3);
+    if (a->f)
+      __builtin_prefetch(a->f + v, 1, 3);
   }
 }
 

@@ -202,6 +202,21 @@ __attribute__((noinline)) void EK_SYM(svd3_pair_est)(int nv, const vreal A[2][9]
     svd3_core_pair(2, A, U, S, V, sweeps, refine, 0);
 }
 
+__attribute__((noinline)) void EK_SYM(svd3_quad_est)(int nv, const vreal A[4][9], vreal U[4][9],
+                                                     vreal S[4][3], vreal V[4][9], int sweeps,
+                                                     int refine) {
+  if (nv == 4) {
+    vreal scale[4];
+    svd3_core_n(4, A, U, S, V, scale, sweeps, refine, 0);
+    for (int j = 0; j < 4; j++)
+      for (int i = 0; i < 3; i++)
+        S[j][i] = vmul(S[j][i], scale[j]);
+  } else {
+    for (int j = 0; j < nv; j += 2)
+      EK_SYM(svd3_pair_est)(nv - j < 2 ? 1 : 2, A + j, U + j, S + j, V + j, sweeps, refine);
+  }
+}
+
 // This source's entries in a kernel table row (dispatch.c).
 void EK_SYM(svd3_block_fill)(ek_kernel_table *t);
 void EK_SYM(svd3_block_fill)(ek_kernel_table *t) { t->EK_FIELD(svd3_block) = EK_SYM(svd3_block); }

@@ -446,6 +446,13 @@ EK_INLINE void svd3_pair(int nv, const vreal A[2][9], vreal U[2][9], vreal S[2][
     EK_SYM(svd3_pair_est)(nv, A, U, S, V, sweeps, refine);
 }
 
+// Four vectors side by side (nv = 1..4; fewer go through the pair), the
+// approximate rsqrt only: the fused force kernel's wide variant where the
+// row's svd3_chains is 4 (svd3_block.c says why 4 pay on some cores).
+// Built in svd3_block.c; the same operations per lane, so the same bits.
+void EK_SYM(svd3_quad_est)(int nv, const vreal A[4][9], vreal U[4][9], vreal S[4][3], vreal V[4][9],
+                           int sweeps, int refine);
+
 // The SVD of one vector of matrices with the given knobs.
 EK_INLINE void svd3_core(const vreal A[9], vreal U[9], vreal S[3], vreal V[9],
                          const ek_svd3_knobs *k) {
