@@ -278,6 +278,14 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
   return 0;
 }
 
+// The size from which S pays: AIJ's values at least 8 MiB. Measured (busy
+// 2-core Zen 5, 1 thread, PETSc 3.18): the bracket (3.5 M nonzeros, A ~
+// 40 MB, beyond the caches) solves ~25% faster with S, CG's iterations
+// unchanged; the cantilever (~0.4 M, within L2/L3) ~5% slower: there the
+// multiply is not bound by memory and SBAIJ's scattered transpose half
+// costs more than the bytes it saves.
+#define SBAIJ_MIN_NNZ ((size_t)1 << 20)
+
 // S (struct implicit_petsc) from the pattern: its blocks (i, j >= i) and
 // the map sv from its values (each block column-major: PETSc's BAIJ
 // layout) to the CSR's. A pattern of other than dense 3x3 blocks
@@ -377,7 +385,7 @@ static int setup(implicit_petsc *p, const ek_csr_pattern *pat, const double *X, 
   free(ia), free(ja);
   PCHK(e);
   PCHK(MatSetOption(p->A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE));
-  if (!p->direct && setup_sbaij(p, pat, err, errlen) < 0)
+  if (!p->direct && pat->nnz >= SBAIJ_MIN_NNZ && setup_sbaij(p, pat, err, errlen) < 0)
     return -1;
   return setup_solver(p, X, rtol, max_its, err, errlen);
 }
