@@ -83,6 +83,12 @@ int ek_linear_solver_available(ek_linear_solver s) { return s == EK_LINSOLVE_MAT
 
 struct implicit_petsc {
   Mat A;
+  // One process, AMG: A's upper block triangle as SBAIJ (block size 3), the
+  // operator CG and the finest level's smoother and residual multiply by
+  // (half A's bytes); sv[i]: the CSR value of its i-th stored value. NULL:
+  // A alone.
+  Mat S;
+  PetscInt *sv, snnz;
   KSP ksp;
   Vec b, x, r;
   PetscInt n, nnz;
@@ -151,8 +157,18 @@ int implicit_mpi_start(char *err, size_t errlen) {
 }
 
 void implicit_mpi_finish(int rc) {
-  if (!mpi_started)
+  if (!mpi_started) {
+    // A plain run that used PETSc: finalise it too, so that diagnostics
+    // asked for in PETSC_OPTIONS (-log_view, -ksp_view, ...) print at exit
+    // (PetscFinalize prints them; sim/README.md "Assembled solvers").
+    PetscBool up = PETSC_FALSE;
+    PetscInitialized(&up);
+    if (up) {
+      fflush(stdout);
+      PetscFinalize();
+    }
     return;
+  }
   fflush(stdout);
   fflush(stderr);
   if (rc != 0 && mpi_size > 1)
@@ -233,21 +249,25 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     PCHK(VecDestroy(&coords));
     PCHK(KSPSetType(p->ksp, KSPCG));
     PCHK(PCSetType(pc, PCGAMG));
-    // Smoothing by one damped Jacobi sweep per level (Richardson, scale
-    // 0.5), not PETSc's Chebyshev: the hierarchy is kept for the next
-    // Newton matrices (implicit_petsc_solve), and Chebyshev's eigenvalue
-    // bounds then go stale: CG's directions were poor (the cantilever took
-    // 29 Newton iterations per step instead of 5, 900 backtracks). SOR was
-    // faster on the cantilever but its setup failed on the bracket
-    // (DIVERGED_PC_FAILED). A coarse problem of up to 1000 equations.
-    // Measured (busy 2-core Zen 5, 1 thread): the cantilever 18 CG
-    // iterations per Newton iteration, ~100 ms per step (PETSc's defaults
-    // with a rebuild per solve: 11 iterations, ~140 ms); the bracket 17.5.
-    // PETSC_OPTIONS still wins.
-    static const char *const defaults[][2] = {{"-mg_levels_ksp_type", "richardson"},
+    // Smoothing by two Chebyshev-Jacobi iterations per level (PETSc's
+    // GAMG default smoother; its eigenvalue bounds come from the setup and
+    // stay with the hierarchy when it is kept for the next Newton
+    // matrices: implicit_petsc_solve), a coarse problem of up to 1000
+    // equations. Measured (busy 2-core Zen 5, 1 thread, CPU time,
+    // interleaved): against one Richardson-Jacobi sweep of scale 0.5 (the
+    // earlier choice), the cantilever 10.5 CG iterations per Newton
+    // iteration instead of 18.4, 5.10 Newton iterations per step instead of
+    // 5.00, ~10% less CPU time (0.94-0.95 s against 1.04-1.06 s for 30
+    // steps); the bracket 10.8 instead of 18.2, ~4% less; twist_implicit
+    // 11.6 instead of 18.8, ~8% less. One Chebyshev iteration: 16.4 on the
+    // cantilever, ~7% less. Richardson scale 0.7 failed on the bracket;
+    // SOR's setup failed on it (DIVERGED_PC_FAILED). An earlier session
+    // saw Chebyshev's kept bounds go stale (the cantilever 29 Newton
+    // iterations per step); with two iterations and this reuse rule these
+    // runs saw 5.10, every step to newton_tol. PETSC_OPTIONS still wins.
+    static const char *const defaults[][2] = {{"-mg_levels_ksp_type", "chebyshev"},
                                               {"-mg_levels_pc_type", "jacobi"},
-                                              {"-mg_levels_ksp_richardson_scale", "0.5"},
-                                              {"-mg_levels_ksp_max_it", "1"},
+                                              {"-mg_levels_ksp_max_it", "2"},
                                               {"-pc_gamg_coarse_eq_limit", "1000"}};
     for (size_t i = 0; i < sizeof defaults / sizeof defaults[0]; i++) {
       PetscBool set = PETSC_FALSE;
@@ -259,6 +279,84 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     PCHK(KSPSetTolerances(p->ksp, rtol, 1e-300, PETSC_DEFAULT, (PetscInt)max_its));
   }
   PCHK(KSPSetFromOptions(p->ksp));
+  return 0;
+}
+
+// The size from which S pays: AIJ's values at least 8 MiB. Measured (busy
+// 2-core Zen 5, 1 thread, PETSc 3.18): the bracket (3.5 M nonzeros, A ~
+// 40 MB, beyond the caches) solves ~25% faster with S, CG's iterations
+// unchanged; the cantilever (~0.4 M, within L2/L3) ~5% slower: there the
+// multiply is not bound by memory and SBAIJ's scattered transpose half
+// costs more than the bytes it saves.
+#define SBAIJ_MIN_NNZ ((size_t)1 << 20)
+
+// S (struct implicit_petsc) from the pattern: its blocks (i, j >= i) and
+// the map sv from its values (each block column-major: PETSc's BAIJ
+// layout) to the CSR's. A pattern of other than dense 3x3 blocks
+// (hessian.h promises them) leaves S unset.
+static int setup_sbaij(implicit_petsc *p, const ek_csr_pattern *pat, char *err, size_t errlen) {
+  const size_t nb = pat->nrows / 3;
+  const int32_t *rp = pat->row_ptr, *col = pat->col;
+  if (pat->nrows % 3 || pat->nnz % 9)
+    return 0;
+  PetscInt *bi = malloc((nb + 1) * sizeof *bi), *bj = malloc((pat->nnz / 9 + 1) * sizeof *bj);
+  PetscInt *sv = malloc((pat->nnz + 1) * sizeof *sv);
+  if (!bi || !bj || !sv) {
+    free(bi), free(bj), free(sv);
+    snprintf(err, errlen, "out of memory for the symmetric matrix pattern");
+    return -1;
+  }
+  int dense = 1;
+  size_t nbz = 0, ns = 0;
+  bi[0] = 0;
+  for (size_t i = 0; dense && i < nb; i++) {
+    const int32_t k0 = rp[3 * i], len = rp[3 * i + 1] - k0;
+    dense = len % 3 == 0 && rp[3 * i + 2] - rp[3 * i + 1] == len &&
+            rp[3 * i + 3] - rp[3 * i + 2] == len;
+    size_t b0 = nbz;
+    for (int32_t k = 0; dense && k < len; k += 3) {
+      const int32_t c = col[k0 + k];
+      for (int r = 0; dense && r < 3; r++)
+        for (int q = 0; q < 3; q++)
+          dense = dense && col[rp[3 * i + r] + k + q] == c + q;
+      dense = dense && c % 3 == 0;
+      if (dense && (size_t)c / 3 >= i)
+        bj[nbz++] = c / 3;
+    }
+    if (!dense)
+      break;
+    bi[i + 1] = (PetscInt)nbz;
+    // Values of the blocks (i, j >= i): column-major within a block.
+    for (size_t b = b0; b < nbz; b++)
+      for (int q = 0; q < 3; q++)
+        for (int r = 0; r < 3; r++) {
+          const int32_t row = (int32_t)(3 * i) + r, k1 = rp[row];
+          // The block's first column in row `row` (rows share columns).
+          int32_t k = k1;
+          while (col[k] != 3 * bj[b])
+            k++;
+          sv[ns++] = k + q;
+        }
+  }
+  PetscErrorCode e = 0;
+  if (dense) {
+    e = MatCreate(PETSC_COMM_SELF, &p->S);
+    if (!e)
+      e = MatSetSizes(p->S, p->n, p->n, p->n, p->n);
+    if (!e)
+      e = MatSetType(p->S, MATSEQSBAIJ);
+    if (!e)
+      e = MatSeqSBAIJSetPreallocationCSR(p->S, 3, bi, bj, NULL);
+  }
+  free(bi), free(bj);
+  if (!dense || e) {
+    free(sv);
+    MatDestroy(&p->S);
+  } else {
+    p->sv = sv;
+    p->snnz = (PetscInt)ns;
+  }
+  PCHK(e);
   return 0;
 }
 
@@ -291,6 +389,12 @@ static int setup(implicit_petsc *p, const ek_csr_pattern *pat, const double *X, 
   free(ia), free(ja);
   PCHK(e);
   PCHK(MatSetOption(p->A, MAT_NEW_NONZERO_LOCATION_ERR, PETSC_TRUE));
+  // -ek_sbaij_min_nnz N (PETSC_OPTIONS) moves the threshold: tests/mpi.sh
+  // runs the small scenes with S (0) against their plain runs.
+  PetscInt min_nnz = (PetscInt)SBAIJ_MIN_NNZ;
+  PCHK(PetscOptionsGetInt(NULL, NULL, "-ek_sbaij_min_nnz", &min_nnz, NULL));
+  if (!p->direct && (PetscInt)pat->nnz >= min_nnz && setup_sbaij(p, pat, err, errlen) < 0)
+    return -1;
   return setup_solver(p, X, rtol, max_its, err, errlen);
 }
 
@@ -462,6 +566,8 @@ void implicit_petsc_destroy(implicit_petsc *p) {
   VecDestroy(&p->xall);
   VecScatterDestroy(&p->gather);
   MatDestroy(&p->A);
+  MatDestroy(&p->S);
+  free(p->sv);
   free(p->lrow);
   free(p->lcol);
   free(p->newrow);
@@ -479,6 +585,14 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
     PCHK(MatSeqAIJGetArrayWrite(p->A, &a));
     memcpy(a, values, (size_t)p->nnz * sizeof(double));
     PCHK(MatSeqAIJRestoreArrayWrite(p->A, &a));
+    if (p->S) {
+      PCHK(MatSeqSBAIJGetArray(p->S, &a));
+      for (PetscInt i = 0; i < p->snnz; i++)
+        a[i] = values[p->sv[i]];
+      PCHK(MatSeqSBAIJRestoreArray(p->S, &a));
+      PCHK(MatAssemblyBegin(p->S, MAT_FINAL_ASSEMBLY));
+      PCHK(MatAssemblyEnd(p->S, MAT_FINAL_ASSEMBLY));
+    }
     return 0;
   }
   PCHK(MatZeroEntries(p->A));
@@ -502,7 +616,7 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   double t0 = sim_now();
   if (set_values(p, values, diag, err, errlen) < 0)
     return -1;
-  PCHK(KSPSetOperators(p->ksp, p->A, p->A));
+  PCHK(KSPSetOperators(p->ksp, p->S ? p->S : p->A, p->A));
   PetscScalar *bv;
   PCHK(VecGetArrayWrite(p->b, &bv));
   if (p->mpi)
