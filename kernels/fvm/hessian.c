@@ -114,13 +114,27 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
+// The 3 rows of each K block that plan entry k's runs add into.
+static inline void prefetch_runs(const ek_fvm_hessian *h, const double *values, int32_t k) {
+  for (int32_t r = h->krun[k]; r < h->krun[k + 1]; r++) {
+    const double *o = values + h->runs[r].p;
+    const size_t rs = (size_t)h->runs[r].rs;
+    __builtin_prefetch(o, 1, 3);
+    __builtin_prefetch(o + rs, 1, 3);
+    __builtin_prefetch(o + 2 * rs, 1, 3);
+  }
+}
+
 // K's values (ek_fvm_hessian_assemble): per thread t of the plan
 // (hessian_kernel.h), the slot blocks touching its rows in ascending order;
 // per block, the element Hessians of its lanes (HESS_ELEMENT) into a
-// buffer that stays in L1 (144 planes), then each element block on or above
-// the block diagonal whose row t owns added into the values through the map
-// (the block's first contribution written as 0 + e: the sum from 0 in
-// ascending slot order, as a plain assembly); then, after a barrier, the
+// buffer that stays in L1 (144 planes), then the element blocks on or
+// above the block diagonal whose row t owns added into the values through
+// the plan's runs (hessian_sum: per K block, the slot block's contributions
+// summed in registers in ascending slot order onto the block's partial sum,
+// loaded and stored once; a block's first contribution written as 0 + e:
+// the sum from 0 in ascending slot order, as a plain assembly); then,
+// after a barrier, the
 // blocks below the diagonal copied from their mirrors. Each nonzero is
 // summed by one thread in ascending slot order, so any thread count gives
 // the same bits; a block touching rows of two threads is computed by both
@@ -146,15 +160,9 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
       for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
         const size_t b = (size_t)h->tblk[k];
         // The block's destinations into the cache while its element
-        // Hessians are computed (long enough to hide the misses of the
-        // values' scattered rows).
-        for (int32_t r = h->krun[k]; r < h->krun[k + 1]; r++) {
-          const double *o = values + h->runs[r].p;
-          const size_t rs = (size_t)h->runs[r].rs;
-          __builtin_prefetch(o, 1, 3);
-          __builtin_prefetch(o + rs, 1, 3);
-          __builtin_prefetch(o + 2 * rs, 1, 3);
-        }
+        // Hessians are computed (prefetching a block further ahead gave
+        // no gain: docs/perf.md, "Hessian assembly").
+        prefetch_runs(h, values, k);
         la.asm_k = k;
         if (iso)
           h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
