@@ -114,17 +114,6 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
-// The 3 rows of each K block that plan entry k's runs add into.
-static inline void prefetch_runs(const ek_fvm_hessian *h, const double *values, int32_t k) {
-  for (int32_t r = h->krun[k]; r < h->krun[k + 1]; r++) {
-    const double *o = values + h->runs[r].p;
-    const size_t rs = (size_t)h->runs[r].rs;
-    __builtin_prefetch(o, 1, 3);
-    __builtin_prefetch(o + rs, 1, 3);
-    __builtin_prefetch(o + 2 * rs, 1, 3);
-  }
-}
-
 // K's values (ek_fvm_hessian_assemble): per thread t of the plan
 // (hessian_kernel.h), the slot blocks touching its rows in ascending order;
 // per block, the element Hessians of its lanes (HESS_ELEMENT) into a
@@ -159,10 +148,6 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
     for (int t = omp_get_thread_num(); t < nt; t += team)
       for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
         const size_t b = (size_t)h->tblk[k];
-        // The block's destinations into the cache while its element
-        // Hessians are computed (prefetching a block further ahead gave
-        // no gain: docs/perf.md, "Hessian assembly").
-        prefetch_runs(h, values, k);
         la.asm_k = k;
         if (iso)
           h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);

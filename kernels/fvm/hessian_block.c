@@ -113,15 +113,26 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 // the thread's plan entry asm_k, each the block's element blocks that add
 // into one 3x3 block of K, in ascending slot order, summed in registers
 // and stored once (vsum_run3: masked 3-wide rows where the target has
-// them).
+// them). The rows of the run RUN_AHEAD runs on (the next entry's past the
+// last) are prefetched: K's rows are scattered over ~20 MB, and a
+// prefetch of a whole block's rows before its element Hessians was
+// dropped or evicted (no gain; docs/perf.md, "Hessian assembly").
+#define RUN_AHEAD 6
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
-  (void)b1; // one block: the plan entry's
+  (void)b0, (void)b1; // one block: the plan entry's
   const struct ek_fvm_hessian *h = a->asm_h;
   const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
+  const ek_hess_run *end = h->runs + h->krun[h->tptr[h->plan_threads]];
   const uint16_t *off = h->run_e + h->kcon[a->asm_k];
-  (void)b0;
   for (; r < r1; r++) {
+    if (r + RUN_AHEAD < end) {
+      const double *q = a->values + r[RUN_AHEAD].p;
+      const size_t rs = (size_t)r[RUN_AHEAD].rs;
+      __builtin_prefetch(q, 1, 3);
+      __builtin_prefetch(q + rs, 1, 3);
+      __builtin_prefetch(q + 2 * rs, 1, 3);
+    }
     vsum_run3(a->values + r->p, (size_t)r->rs, a->corner, L, off, r->n, r->first);
     off += r->n;
   }
