@@ -162,6 +162,10 @@ typedef struct {
   // cached eigensystem its gradient pass wrote).
   ek_hessian_block_f32_fn *hessian_frame_block_f32;
   ek_hessian_block_f64_fn *hessian_frame_block_f64;
+  // The assembly's sums of one block's element Hessians into K's values
+  // (hessian_kernel.h).
+  ek_hessian_block_f32_fn *hessian_sum_f32;
+  ek_hessian_block_f64_fn *hessian_sum_f64;
   ek_xpbd_block_f32_fn *xpbd_block_f32;
   ek_xpbd_block_f64_fn *xpbd_block_f64;
   ek_cloth_force_block_f32_fn *cloth_membrane_block_f32, *cloth_bending_block_f32;

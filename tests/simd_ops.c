@@ -641,6 +641,55 @@ static void check_records(ek_simd_tally *t) {
   op_done(&cs, t, "np = 1..9: the inverse, nothing past the records");
 }
 
+// vsum_run3: a 3x3 block of doubles (rows rs apart, a guard after each
+// row's 3 values) plus n element blocks of 9 reals a plane stride 16 apart,
+// against the sums written out in plain C: the partial sum's bits kept
+// (quieted) once it is NaN, else acc + e. Inputs from a[] (NaNs,
+// infinities, signed zeros, subnormals) as the element values and b[] as
+// K's old values; first and n = 1..4 each tried.
+static void check_sum_run(ek_simd_tally *t) {
+  op_check cr = {"vsum_run3", 0, 0};
+  enum { RS = 7, ES = 16 };
+  const double guard = 1234.5;
+  int tried = 0;
+  for (int base = 0; base + 4 * 9 * ES <= NL * 4 && tried < 48; base += 97, tried++) {
+    const int n = 1 + tried % 4, first = tried / 4 % 2;
+    real e[4 * 9 * ES];
+    uint16_t off[4];
+    for (int k = 0; k < 4 * 9 * ES; k++)
+      e[k] = a[(base + k) % NL];
+    for (int j = 0; j < n; j++)
+      off[j] = (uint16_t)(j * 9 * ES + (tried + j) % ES);
+    double o[3 * RS], want[3 * RS];
+    for (int k = 0; k < 3 * RS; k++)
+      o[k] = want[k] = k % RS < 3 ? (double)b[(base + k) % NL] : guard;
+    for (int i = 0; i < 3; i++)
+      for (int m = 0; m < 3; m++) {
+        double acc = first ? 0 : want[i * RS + m];
+        for (int j = 0; j < n; j++) {
+          const double x = (double)e[off[j] + (3 * i + m) * ES];
+          if (isnan(acc)) {
+            uint64_t u;
+            memcpy(&u, &acc, 8);
+            u |= (uint64_t)1 << 51; // quieted
+            memcpy(&acc, &u, 8);
+          } else
+            acc = acc + x;
+        }
+        want[i * RS + m] = acc;
+      }
+    vsum_run3(o, RS, e, ES, off, n, first);
+    for (int k = 0; k < 3 * RS; k++) {
+      uint64_t g, w;
+      memcpy(&g, &o[k], 8);
+      memcpy(&w, &want[k], 8);
+      lane_result(&cr, g == w, k, "run %d (n %d, first %d): expected %a got %a", tried, n, first,
+                  want[k], o[k]);
+    }
+  }
+  op_done(&cr, t, "n = 1..4, first or not: the plain sums' bits, first NaN kept, guards intact");
+}
+
 void EK_SYM(simd_ops)(uint64_t seed, ek_simd_tally *t) {
   make_inputs(seed);
   check_memory(t);
@@ -650,4 +699,5 @@ void EK_SYM(simd_ops)(uint64_t seed, ek_simd_tally *t) {
   check_vmath(t);
   check_gathers(t);
   check_records(t);
+  check_sum_run(t);
 }

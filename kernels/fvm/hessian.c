@@ -114,18 +114,16 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
-// a + b, and where both are NaN, a's NaN (quieted) as x86's add returns
-// it for its first operand: the sum's NaN is its first NaN contribution's
-// whichever way the compiler orders the operands of the add.
-static inline double nan_first(double a, double b) { return a != a ? a + 0.0 : a + b; }
-
 // K's values (ek_fvm_hessian_assemble): per thread t of the plan
 // (hessian_kernel.h), the slot blocks touching its rows in ascending order;
 // per block, the element Hessians of its lanes (HESS_ELEMENT) into a
-// buffer that stays in L1 (144 planes), then each element block on or above
-// the block diagonal whose row t owns added into the values through the map
-// (the block's first contribution written as 0 + e: the sum from 0 in
-// ascending slot order, as a plain assembly); then, after a barrier, the
+// buffer that stays in L1 (144 planes), then the element blocks on or
+// above the block diagonal whose row t owns added into the values through
+// the plan's runs (hessian_sum: per K block, the slot block's contributions
+// summed in registers in ascending slot order onto the block's partial sum,
+// loaded and stored once; a block's first contribution written as 0 + e:
+// the sum from 0 in ascending slot order, as a plain assembly); then,
+// after a barrier, the
 // blocks below the diagonal copied from their mirrors. Each nonzero is
 // summed by one thread in ascending slot order, so any thread count gives
 // the same bits; a block touching rows of two threads is computed by both
@@ -139,65 +137,23 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
   hess_args a = args_for(h, HESS_ELEMENT);
   a.cache = h->cache;
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
-  const int32_t *slot_tet = a.slot_tet;
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     _Alignas(64) real buf[EK_LANES * 144];
     hess_args la = a;
     la.corner = buf;
+    la.values = values;
+    la.asm_h = h;
     const int team = omp_get_num_threads();
     for (int t = omp_get_thread_num(); t < nt; t += team)
       for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
         const size_t b = (size_t)h->tblk[k];
-        // The block's destinations into the cache while its element
-        // Hessians are computed (~16 x 25 ns: long enough to hide the
-        // misses of the values' scattered rows).
-        for (size_t s = b * EK_LANES; s < (b + 1) * EK_LANES; s++)
-          for (int d = 0; d < 4; d++) {
-            const size_t rs = (size_t)h->slot_rs[4 * s + (size_t)d];
-            for (int c = 0; c < 4; c++) {
-              if (h->slot_lower[s] >> (d * 4 + c) & 1)
-                continue;
-              const double *o = values + h->slot_p[16 * s + (size_t)(d * 4 + c)];
-              __builtin_prefetch(o, 1, 3);
-              __builtin_prefetch(o + rs, 1, 3);
-              __builtin_prefetch(o + 2 * rs, 1, 3);
-            }
-          }
+        la.asm_k = k;
         if (iso)
           h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
         else
           h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
-        for (int l = 0; l < EK_LANES; l++) {
-          const size_t s = b * EK_LANES + (size_t)l;
-          if (slot_tet[s] < 0)
-            continue;
-          const real *E = buf + l; // plane p at E[p * EK_LANES]
-          const unsigned first = h->slot_first[s], lower = h->slot_lower[s];
-          for (int d = 0; d < 4; d++) {
-            if (h->slot_own[4 * s + (size_t)d] != t)
-              continue;
-            const size_t rs = (size_t)h->slot_rs[4 * s + (size_t)d];
-            for (int c = 0; c < 4; c++) {
-              if (lower >> (d * 4 + c) & 1)
-                continue;
-              const real *e = E + (d * 4 + c) * 9 * EK_LANES;
-              double *o = values + h->slot_p[16 * s + (size_t)(d * 4 + c)];
-              // acc as the plain gather's: 0 (a first contribution) or
-              // the partial sum, plus the element's value.
-              double acc[9] = {0};
-              if (!(first >> (d * 4 + c) & 1))
-                for (int i = 0; i < 3; i++)
-                  for (int m = 0; m < 3; m++)
-                    acc[3 * i + m] = o[(size_t)i * rs + (size_t)m];
-              for (int q = 0; q < 9; q++)
-                acc[q] = nan_first(acc[q], (double)e[q * EK_LANES]);
-              for (int i = 0; i < 3; i++)
-                for (int m = 0; m < 3; m++)
-                  o[(size_t)i * rs + (size_t)m] = acc[3 * i + m];
-            }
-          }
-        }
+        h->kt->EK_FIELD(hessian_sum)(&la, b, b + 1);
       }
       // The blocks below the diagonal, (v, w) with w < v: the transpose of
       // (w, v), whose sum has the same contributions (each element block

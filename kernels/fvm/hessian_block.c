@@ -109,8 +109,38 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
     frame_diag_blocks(a, b0, b1);
 }
 
+// The assembly's sums (hessian_kernel.h, hessian_sum): block b0's runs of
+// the thread's plan entry asm_k, each the block's element blocks that add
+// into one 3x3 block of K, in ascending slot order, summed in registers
+// and stored once (vsum_run3: masked 3-wide rows where the target has
+// them). The rows of the run RUN_AHEAD runs on (the next entry's past the
+// last) are prefetched: K's rows are scattered over ~20 MB, and a
+// prefetch of a whole block's rows before its element Hessians was
+// dropped or evicted (no gain; docs/perf.md, "Hessian assembly").
+#define RUN_AHEAD 6
+void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
+void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
+  (void)b0, (void)b1; // one block: the plan entry's
+  const struct ek_fvm_hessian *h = a->asm_h;
+  const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
+  const ek_hess_run *end = h->runs + h->krun[h->tptr[h->plan_threads]];
+  const uint16_t *off = h->run_e + h->kcon[a->asm_k];
+  for (; r < r1; r++) {
+    if (r + RUN_AHEAD < end) {
+      const double *q = a->values + r[RUN_AHEAD].p;
+      const size_t rs = (size_t)r[RUN_AHEAD].rs;
+      __builtin_prefetch(q, 1, 3);
+      __builtin_prefetch(q + rs, 1, 3);
+      __builtin_prefetch(q + 2 * rs, 1, 3);
+    }
+    vsum_run3(a->values + r->p, (size_t)r->rs, a->corner, L, off, r->n, r->first);
+    off += r->n;
+  }
+}
+
 // This source's entries in a kernel table row (dispatch.c).
 void EK_SYM(hessian_block_fill)(ek_kernel_table *t);
 void EK_SYM(hessian_block_fill)(ek_kernel_table *t) {
   t->EK_FIELD(hessian_frame_block) = EK_SYM(hessian_frame_block);
+  t->EK_FIELD(hessian_sum) = EK_SYM(hessian_sum);
 }

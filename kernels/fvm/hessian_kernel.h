@@ -17,7 +17,11 @@
 //     and columns corner-major, 3 c + k), symmetrised, written to corner
 //     as 144 planes per block from b0: corner[((b - b0) * 144 + (d * 4 +
 //     c) * 9 + i * 3 + k) * LANES + l], rows (d, i), columns (c, k); out is
-//     not used.
+//     not used;
+//   hessian_sum (its own table entry, after HESS_ELEMENT on one block b0 =
+//     b1 - 1): the element Hessians in corner added into values through
+//     the runs of asm_h's plan entry asm_k (hessian.c,
+//     ek_fvm_hessian_assemble_f32/f64, says the order).
 //
 // Cache: `planes` planes per tet, plane k of block b at
 // cache[(b * planes + k) * LANES + l] in the cache's precision (LANES 16
@@ -60,9 +64,22 @@ enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
     T *energy;            /* gradient: V0 psi per slot */                                          \
     T *out;                                                                                        \
     T *corner;                                                                                     \
+    /* assembly (hessian_sum): K's values, the map and plan, the thread */                         \
+    double *values;                                                                                \
+    const struct ek_fvm_hessian *asm_h;                                                            \
+    int asm_k; /* the plan entry (tblk index) */                                                   \
   }
 EK_HESS_ARGS(float, ek_hess_args_f32);
 EK_HESS_ARGS(double, ek_hess_args_f64);
+
+// One run of the assembly's plan: the element blocks of one slot block
+// that add into the 3x3 block of K at values + p (rows rs apart), n of
+// them, in ascending slot order; first: the run starts the block's sum
+// (its first contribution: written as 0 + e).
+typedef struct {
+  int32_t p, rs;
+  uint16_t n, first;
+} ek_hess_run;
 
 // Behind ek_fvm_hessian.
 struct ek_fvm_hessian {
@@ -100,6 +117,12 @@ struct ek_fvm_hessian {
   int plan_threads;
   uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
   int32_t *tptr, *tblk;
+  // Per plan entry k (tblk[k], on its thread): the runs runs[krun[k] ..
+  // krun[k + 1]) and their element blocks' plane offsets (d * 4 + c) * 9 *
+  // LANES + l in the element buffer, from run_e[kcon[k]], n per run.
+  int32_t *krun, *kcon;
+  ek_hess_run *runs;
+  uint16_t *run_e;
 };
 
 void ek_hessian_assembly_free(ek_fvm_hessian *h);

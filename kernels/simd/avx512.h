@@ -229,4 +229,33 @@ static inline __attribute__((always_inline)) void vstore_records(real *p, int np
     vstore(p + v * EK_W, acc);
   }
 }
+// vsum_run3 (generic.h's contract): each of the block's 3 rows summed in a
+// 256-bit register, 3 doubles wide (the element's 3 values gathered from
+// their planes and widened), with one masked load and one masked store of
+// K per run: the same adds in the same order as the scalar body, so the
+// same bits. The NaN rule as a blend: where the partial sum is NaN the
+// result is that sum + 0 (quieted; 0 is not NaN, so either operand order
+// of the add gives it).
+#define EK_HAVE_VSUM_RUN3
+static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
+                             int n, int first) {
+  const __m256d zero = _mm256_setzero_pd();
+  __m256d acc[3];
+  for (int i = 0; i < 3; i++)
+    acc[i] = first ? zero : _mm256_maskz_loadu_pd(7, o + (size_t)i * rs);
+  for (int j = 0; j < n; j++)
+    for (int i = 0; i < 3; i++) {
+      const real *ei = e + off[j] + (size_t)(3 * i) * es;
+#if defined(EK_REAL_F32)
+      const __m256d ev = _mm256_cvtps_pd(_mm_setr_ps(ei[0], ei[es], ei[2 * es], 0));
+#else
+      const __m256d ev = _mm256_setr_pd(ei[0], ei[es], ei[2 * es], 0);
+#endif
+      const __mmask8 nan = _mm256_cmp_pd_mask(acc[i], acc[i], _CMP_UNORD_Q);
+      acc[i] = _mm256_mask_add_pd(_mm256_add_pd(acc[i], ev), nan, acc[i], zero);
+    }
+  for (int i = 0; i < 3; i++)
+    _mm256_mask_storeu_pd(o + (size_t)i * rs, 7, acc[i]);
+}
+
 #endif

@@ -78,4 +78,26 @@ static inline void vstore_records(real *p, int np, const vreal *planes) {
 }
 #endif
 
+// vsum_run3(o, rs, e, off, n, first): one 3x3 block of an assembled
+// matrix (rows rs apart) plus n element blocks in order, each 9 values a
+// plane stride es apart from e + off[j], summed in double:
+//   o[i rs + m] = (((o[i rs + m] + e_0) + e_1) + ... + e_{n-1})
+// (o's old value taken as 0 where first). A sum keeps its first NaN: once
+// the partial sum is NaN it stays (quieted), as x86's add returns its first
+// operand's NaN, whichever way the compiler orders the add's operands
+// (kernels/fvm/hessian.c, the assembly, says why the order matters).
+#ifndef EK_HAVE_VSUM_RUN3
+static inline double vsum_nan_first_(double a, double b) { return a != a ? a + 0.0 : a + b; }
+static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
+                             int n, int first) {
+  for (int i = 0; i < 3; i++)
+    for (int m = 0; m < 3; m++) {
+      double acc = first ? 0 : o[(size_t)i * rs + (size_t)m];
+      for (int j = 0; j < n; j++)
+        acc = vsum_nan_first_(acc, (double)e[off[j] + (size_t)(3 * i + m) * es]);
+      o[(size_t)i * rs + (size_t)m] = acc;
+    }
+}
+#endif
+
 #endif
