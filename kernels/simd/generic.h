@@ -99,12 +99,13 @@ static inline void vstore_records_tile(real *p, int np, const vreal *planes) {
 // permutes in vload_records_masked (avx512.h) or AVX2's tile through L1;
 // the store is the mirror image. Zen 5, the warm polar's AoS API, f32,
 // 4096 matrices, 1 thread: 3.6 ns per matrix against 5.8 (AVX-512) and
-// 6.9 against 8.9 (AVX2); the AoSoA kernel 3.0 / 5.8 (docs/perf.md). q = 3 where 3 divides np, else q = np for odd np; np = 2
-// is q = 1, s = 2; np = 4 is q = 2, s = 2, where stage 1 takes a two-source
-// permute per stream (even W: the blends cannot split by parity) and leaves
-// the lanes in order; np = 8 takes the target's other path. The
-// loops are unrolled fully so that, np being a literal at every call, the
-// masks and indices fold to constants.
+// 6.9 against 8.9 (AVX2); the AoSoA kernel 3.0 / 5.8 (docs/perf.md).
+// q = 3 where 3 divides np, else q = np for odd np; np = 2 is q = 1,
+// s = 2; np = 4 is q = 2, s = 2, where stage 1 takes a two-source permute
+// per stream (even W: selects cannot split by parity) and leaves the lanes
+// in order; np = 8 takes the target's other path. The loops are unrolled
+// fully so that, np being a literal at every call, the masks and indices
+// fold to constants.
 EK_AI int vrec_factored(int np) { return np % 3 == 0 || np % 2 == 1 || np == 2 || np == 4; }
 EK_AI int vrec_q(int np) { return np % 3 == 0 ? 3 : np % 2 == 1 ? np : np / 2; }
 // Stage 1: lane j of class c's vector holds stream position vrec_pos (of
