@@ -10,6 +10,11 @@
 //       ek_polar3_warm_aosoa_*, K = the default and 1; the speed-up column
 //       is the SVD polar's time over it (the issue's "<= 0.35x the SVD
 //       polar per element" reads as a speed-up >= 2.86)
+//   polar/warm_aosoa/<isa>/<prec>/n:N/threads:T         ek_polar3_warm_aosoa_*
+//   polar/warm_aos/<isa>/<prec>/n:N/threads:T           ek_polar3_warm_* (AoS:
+//       the transpose in registers), baseline the AoSoA row above, default
+//       iterations, the "near" inputs, N = 4096 (cache-resident) and 2^20
+//       (issue 27: the AoS entry point within 1.3x of its AoSoA kernel)
 // Inputs:
 //   near        A = R* S, R* uniform, S's singular values in [0.9, 1.1], the
 //               guess R* turned by up to 2 degrees: 4096 matrices
@@ -52,12 +57,16 @@ typedef struct {
   size_t n, nblocks;
   void *A, *G, *R; // AoSoA: input, guess, in/out
   ek_isa isa;
-  int iterations, svd, rc;
+  int iterations, svd, aos, rc;
 } polar_ctx;
 
 static void call_polar(void *p) {
   polar_ctx *c = p;
-  if (c->svd) {
+  if (c->aos) {
+    ek_polar_warm_opts o = {.iterations = c->iterations, .isa = c->isa};
+    c->rc = c->f64 ? ek_polar3_warm_f64(c->n, c->A, c->R, &o)
+                   : ek_polar3_warm_f32(c->n, c->A, c->R, &o);
+  } else if (c->svd) {
     ek_svd3_opts o = {.isa = c->isa};
     c->rc = c->f64 ? ek_polar3_aosoa_f64(c->nblocks, c->A, c->R, NULL, &o)
                    : ek_polar3_aosoa_f32(c->nblocks, c->A, c->R, NULL, &o);
@@ -204,6 +213,100 @@ static int input_rows(ek_bench *b, const char *in, size_t n, const double *A, co
   return rc;
 }
 
+// The AoS API against the AoSoA kernel on the same inputs (n of them, the
+// "near" set's generator), default iterations.
+static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const int *counts,
+                    int nth) {
+  int listing = ek_bench_listing(b), rc = 0;
+  double *A = NULL, *G = NULL;
+  for (int f64 = 0; f64 < 2; f64++) {
+    const char *prec = f64 ? "f64" : "f32";
+    size_t es = f64 ? sizeof(double) : sizeof(float);
+    int its = f64 ? ek_polar_warm_default_iterations_f64() : ek_polar_warm_default_iterations_f32();
+    polar_ctx c, a; // AoSoA, AoS
+    int ready = 0;
+    for (int t = 0; t < nth; t++)
+      for (int i = 0; i < nisa; i++)
+        for (int aos = 0; aos < 2; aos++) {
+          char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
+          snprintf(base, sizeof base, "polar/warm_aosoa/%s/%s/n:%zu/threads:%d",
+                   ek_isa_name(isas[i]), prec, n, counts[t]);
+          snprintf(name, sizeof name, "polar/warm_aos/%s/%s/n:%zu/threads:%d", ek_isa_name(isas[i]),
+                   prec, n, counts[t]);
+          if (!ek_bench_wants(b, aos ? name : base))
+            continue;
+          if (!listing && !ready) {
+            if (!A) {
+              A = malloc(n * 9 * sizeof(double)), G = malloc(n * 9 * sizeof(double));
+              if (!A || !G) {
+                free(A), free(G);
+                ek_bench_fail(b, "polar: out of memory");
+                return -1;
+              }
+              ek_rng rng;
+              ek_rng_seed(&rng, ek_check_stream_seed(ek_bench_seed(b), "polar near"));
+              ek_check_warm_cases(&rng, n, 0.9, 1.1, 0, 2, A, G);
+            }
+            if (setup(&c, f64, n, A, G) != 0) {
+              ek_bench_fail(b, "%s: out of memory", name);
+              free_ctx(&c);
+              free(A), free(G);
+              return -1;
+            }
+            a = c;
+            a.A = malloc(n * 9 * es), a.G = malloc(n * 9 * es), a.R = malloc(n * 9 * es);
+            if (!a.A || !a.G || !a.R) {
+              free(a.A), free(a.G), free(a.R), free_ctx(&c), free(A), free(G);
+              ek_bench_fail(b, "%s: out of memory", name);
+              return -1;
+            }
+            for (size_t e = 0; e < n * 9; e++)
+              if (f64)
+                ((double *)a.A)[e] = A[e], ((double *)a.G)[e] = G[e];
+              else
+                ((float *)a.A)[e] = (float)A[e], ((float *)a.G)[e] = (float)G[e];
+            a.aos = 1;
+            ready = 1;
+          }
+          polar_ctx *x = aos ? &a : &c;
+          snprintf(knobs, sizeof knobs, "api=%s;iterations=%d;input=near;n=%zu",
+                   aos ? "polar_warm" : "polar_warm_aosoa", its, n);
+          ek_bench_row row = {.name = aos ? name : base,
+                              .family = "polar",
+                              .isa = isas[i],
+                              .precision = prec,
+                              .threads = counts[t],
+                              .knobs = knobs,
+                              .items = n,
+                              .flops_per_item = warm_flops(its),
+                              .bytes_per_item = 27 * (f64 ? 8.0 : 4.0),
+                              .baseline = aos ? base : NULL,
+                              .fn = call_polar,
+                              .ctx = x};
+          if (!listing) {
+            x->isa = isas[i], x->svd = 0, x->iterations = its;
+            if (aos)
+              memcpy(a.R, a.G, n * 9 * es);
+            else
+              reset_guess(&c);
+            call_polar(x);
+            if (x->rc != 0) {
+              ek_bench_fail(b, "%s: the call returned %d (%s)", row.name, x->rc, ek_last_error());
+              rc = -1;
+              continue;
+            }
+          }
+          ek_bench_run(b, &row);
+        }
+    if (ready) {
+      free_ctx(&c);
+      free(a.A), free(a.G), free(a.R);
+    }
+  }
+  free(A), free(G);
+  return rc;
+}
+
 int bench_polar(ek_bench *b) {
   ek_isa isas[EK_ISA_COUNT];
   int nisa = ek_bench_isas(b, isas);
@@ -225,6 +328,8 @@ int bench_polar(ek_bench *b) {
   }
   rc |= input_rows(b, "near", NEAR_BATCH, A, G, isas, nisa, counts, nth);
   free(A), free(G);
+  rc |= aos_rows(b, NEAR_BATCH, isas, nisa, counts, nth);
+  rc |= aos_rows(b, (size_t)1 << 20, isas, nisa, counts, nth);
   // The scenes' F, with the previous sample's SVD polar as the guess.
   static const char *const scenes[] = {"cantilever", "twist"};
   for (int s = 0; s < 2; s++) {

@@ -164,4 +164,40 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(zero, i)));
 }
 #endif
+// The record transposes' primitives (generic.h, EK_HAVE_VREC_PERM): a
+// blend by a constant lane mask (vblendps / vblendpd, an immediate: m must
+// fold to a constant, which the fully unrolled loops of generic.h make it),
+// a one-source lane permute (vpermps; doubles move as float pairs) and a
+// two-source one (two permutes and a blend: AVX2 has no vpermt2ps).
+#define EK_HAVE_VREC_PERM
+#if defined(EK_REAL_F32)
+static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+  return _mm256_blend_ps(a, b, (int)m);
+}
+#else
+static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+  return _mm256_blend_pd(a, b, (int)m);
+}
+#endif
+// Lane l = v[idx[l] mod W] (idx constant).
+static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int *idx) {
+  int32_t ix[8];
+#pragma GCC unroll 8
+  for (int i = 0; i < 8; i++)
+    ix[i] = EK_W == 8 ? idx[i] % 8 : 2 * (idx[i / 2] % 4) + i % 2;
+  __m256i x = _mm256_loadu_si256((const __m256i *)ix);
+#if defined(EK_REAL_F32)
+  return _mm256_permutevar8x32_ps(v, x);
+#else
+  return _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), x));
+#endif
+}
+// Lane l = idx[l] < W ? a[idx[l]] : b[idx[l] - W] (idx constant).
+static inline __attribute__((always_inline)) vreal vrec_perm2(vreal a, vreal b, const int *idx) {
+  unsigned m = 0;
+#pragma GCC unroll 8
+  for (int l = 0; l < EK_W; l++)
+    m |= (unsigned)(idx[l] >= EK_W) << l;
+  return vrec_blend(m, vrec_perm(a, idx), vrec_perm(b, idx));
+}
 #endif

@@ -162,27 +162,81 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 }
 #endif
 
-// The record transposes (simd.h) in registers: the W records are np whole
-// vectors in memory; lane l of plane k is element np l + k of them, i.e.
-// lane (np l + k) mod W of vector (np l + k) / W. Each plane (on the way
-// in) or each vector of records (on the way out) is merged from the np
-// vectors by masked one-source permutes. The loops are unrolled fully
-// (the pragmas) so that, np being a literal at every call, the indices and
-// masks fold to constants: without that the AoS SVD ran 6.6x slower.
+// The record transposes (simd.h) in registers. generic.h writes the
+// transpose once in terms of three primitives (EK_HAVE_VREC_PERM): a blend
+// by a constant lane mask, a one-source and a two-source lane permute by
+// constant indices (vpermps / vpermt2ps), for the record sizes it can
+// factor (np = 3 s, odd np, np = 2). The other sizes (4, 8) take
+// vload_records_masked below: lane l of plane k is element np l + k of
+// the np vectors, i.e. lane (np l + k) mod W of vector (np l + k) / W, and
+// each plane (on the way in) or each vector of records (on the way out) is
+// merged from the np vectors by masked one-source permutes (np per plane
+// at worst: 81 for np = 9, against generic.h's 9 permutes and 36 blends).
+// The loops are unrolled fully (the pragmas) so that, np being a literal
+// at every call, the indices and masks fold to constants: without that the
+// AoS SVD ran 6.6x slower.
 #if defined(EK_REAL_F32)
 typedef int32_t vrec_lane;
 static inline vreal vrec_permute(vreal acc, vmask m, __m512i i, vreal v) {
   return _mm512_mask_permutexvar_ps(acc, m, i, v);
+}
+static inline vreal vrec_perm_ix(vreal v, __m512i i) { return _mm512_permutexvar_ps(i, v); }
+static inline vreal vrec_perm2_ix(vreal a, vreal b, __m512i i) {
+  return _mm512_permutex2var_ps(a, i, b);
 }
 #else
 typedef int64_t vrec_lane;
 static inline vreal vrec_permute(vreal acc, vmask m, __m512i i, vreal v) {
   return _mm512_mask_permutexvar_pd(acc, m, i, v);
 }
+static inline vreal vrec_perm_ix(vreal v, __m512i i) { return _mm512_permutexvar_pd(i, v); }
+static inline vreal vrec_perm2_ix(vreal a, vreal b, __m512i i) {
+  return _mm512_permutex2var_pd(a, i, b);
+}
 #endif
-#define EK_HAVE_VRECORDS
-static inline __attribute__((always_inline)) void vload_records(const real *p, int np,
-                                                                vreal *planes) {
+#define EK_HAVE_VREC_PERM
+// Lane l = bit l of m ? b : a (m a constant at the call). A bitwise select
+// by a constant vector (vpternlog) rather than a masked blend (vblendmps):
+// the compiler folds the records' loads into the blends as masked memory
+// operands, which on Zen 5 (f32, the warm polar's AoS API, 1 thread) cost
+// little on a cache-resident batch (3.5 ns per matrix against 3.7 here)
+// but 17.9 ns on 2^20 matrices against 4.4 here (the AoSoA kernel: 3.3);
+// and each blend needs its mask in a k register, a kmov from a general
+// register (too many masks to keep), on port 5 on Intel.
+static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+  vrec_lane sel[EK_W];
+#pragma GCC unroll 16
+  for (int l = 0; l < EK_W; l++)
+    sel[l] = -(vrec_lane)((m >> l) & 1);
+  __m512i x = _mm512_loadu_si512(sel);
+  // (x & b) | (~x & a): truth table 0xd8 for operands (a, b, x).
+#if defined(EK_REAL_F32)
+  return _mm512_castsi512_ps(
+      _mm512_ternarylogic_epi32(_mm512_castps_si512(a), _mm512_castps_si512(b), x, 0xd8));
+#else
+  return _mm512_castsi512_pd(
+      _mm512_ternarylogic_epi64(_mm512_castpd_si512(a), _mm512_castpd_si512(b), x, 0xd8));
+#endif
+}
+// Lane l = v[idx[l]] (idx constant).
+static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int *idx) {
+  vrec_lane ix[EK_W];
+#pragma GCC unroll 16
+  for (int l = 0; l < EK_W; l++)
+    ix[l] = idx[l];
+  return vrec_perm_ix(v, _mm512_loadu_si512(ix));
+}
+// Lane l = idx[l] < W ? a[idx[l]] : b[idx[l] - W] (idx constant).
+static inline __attribute__((always_inline)) vreal vrec_perm2(vreal a, vreal b, const int *idx) {
+  vrec_lane ix[EK_W];
+#pragma GCC unroll 16
+  for (int l = 0; l < EK_W; l++)
+    ix[l] = idx[l];
+  return vrec_perm2_ix(a, b, _mm512_loadu_si512(ix));
+}
+#define EK_HAVE_VRECORDS_MASKED
+static inline __attribute__((always_inline)) void vload_records_masked(const real *p, int np,
+                                                                       vreal *planes) {
   vreal in[EK_RECORD_MAX];
 #pragma GCC unroll 16
   for (int v = 0; v < np; v++)
@@ -207,8 +261,8 @@ static inline __attribute__((always_inline)) void vload_records(const real *p, i
     planes[k] = acc;
   }
 }
-static inline __attribute__((always_inline)) void vstore_records(real *p, int np,
-                                                                 const vreal *planes) {
+static inline __attribute__((always_inline)) void vstore_records_masked(real *p, int np,
+                                                                        const vreal *planes) {
 #pragma GCC unroll 16
   for (int v = 0; v < np; v++) {
     vrec_lane idx[EK_W];

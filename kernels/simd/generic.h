@@ -58,9 +58,9 @@ static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return vsel(m, vneg(a)
 // whole vectors. (Measured on Zen 4, AVX-512 float: 16-lane gathers for
 // the loads cost as much as this; gathering the output runs from a
 // just-stored tile cost 2x more: the gathers wait for the stores; README,
-// "The AoS API".) AVX-512 transposes in registers (avx512.h).
-#ifndef EK_HAVE_VRECORDS
-static inline void vload_records(const real *p, int np, vreal *planes) {
+// "The AoS API".) The scalar target's path; the vector targets transpose in
+// registers below.
+static inline void vload_records_tile(const real *p, int np, vreal *planes) {
   real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
   for (int l = 0; l < EK_W; l++)
     for (int k = 0; k < np; k++)
@@ -68,13 +68,186 @@ static inline void vload_records(const real *p, int np, vreal *planes) {
   for (int k = 0; k < np; k++)
     planes[k] = vload(tile + k * EK_W);
 }
-static inline void vstore_records(real *p, int np, const vreal *planes) {
+static inline void vstore_records_tile(real *p, int np, const vreal *planes) {
   real tile[EK_RECORD_MAX * EK_W] __attribute__((aligned(64)));
   for (int k = 0; k < np; k++)
     vstore(tile + k * EK_W, planes[k]);
   for (int l = 0; l < EK_W; l++)
     for (int k = 0; k < np; k++)
       p[l * np + k] = tile[k * EK_W + l];
+}
+
+#define EK_AI static inline __attribute__((always_inline))
+#ifdef EK_HAVE_VREC_PERM
+// The record transposes in registers, from the target's vrec_blend (a
+// constant lane mask), vrec_perm and vrec_perm2 (constant lane indices).
+// The W records are np vectors in memory; element e = np l + k is field k of
+// record l, at lane e mod W of vector e / W. With np = q s (q odd):
+//  1. split by e mod q, with blends alone: in a group of q vectors (q W
+//     elements, a multiple of q), the q elements at one lane j are
+//     W t + j, t < q, and W is coprime with q, so they lie in q different
+//     classes mod q: one blend chain of the q vectors per class c puts the
+//     whole class in one vector, W of its elements p = (e - c) / q (a
+//     "stream": p = s l + r for field k = q r + c), lane j holding
+//     p = (W t + j - c) / q, a fixed lane order;
+//  2. split each stream by p mod s the same way (s odd: its s vectors hold
+//     at lane j the positions W g + p_j, g < s, in s different classes mod
+//     s) and put the lanes in record order with one permute; s = 2 (both in
+//     one class) takes one two-source permute, s = 1 one permute.
+// For np = 9 (q = s = 3): 36 selects (vrec_blend: vpternlog on AVX-512,
+// vblendps on AVX2) and 9 permutes per 9 planes, against 81 masked
+// permutes in vload_records_masked (avx512.h) or AVX2's tile through L1;
+// the store is the mirror image. Zen 5, the warm polar's AoS API, f32,
+// 4096 matrices, 1 thread: 3.6 ns per matrix against 5.8 (AVX-512) and
+// 6.9 against 8.9 (AVX2); the AoSoA kernel 3.0 / 5.8 (docs/perf.md).
+// q = 3 where 3 divides np, else q = np for odd np; np = 2 is q = 1,
+// s = 2; np = 4 is q = 2, s = 2, where stage 1 takes a two-source permute
+// per stream (even W: selects cannot split by parity) and leaves the lanes
+// in order; np = 8 takes the target's other path. The loops are unrolled
+// fully so that, np being a literal at every call, the masks and indices
+// fold to constants.
+EK_AI int vrec_factored(int np) { return np % 3 == 0 || np % 2 == 1 || np == 2 || np == 4; }
+EK_AI int vrec_q(int np) { return np % 3 == 0 ? 3 : np % 2 == 1 ? np : np / 2; }
+// Stage 1: lane j of class c's vector holds stream position vrec_pos (of
+// W in the group); position p (< W) is at lane vrec_lane_at.
+EK_AI int vrec_pos(int q, int c, int j) {
+  if (q == 2)
+    return j;
+  int t = 0;
+#pragma GCC unroll 16
+  for (int u = 0; u < q; u++)
+    if ((EK_W * u + j) % q == c)
+      t = u;
+  return (EK_W * t + j - c) / q;
+}
+EK_AI int vrec_lane_at(int q, int c, int p) { return q == 2 ? p : (q * p + c) % EK_W; }
+// Lanes j of group vector t whose element is in class c (mod q).
+EK_AI unsigned vrec_class_mask(int q, int t, int c) {
+  unsigned m = 0;
+#pragma GCC unroll 16
+  for (int j = 0; j < EK_W; j++)
+    m |= (unsigned)((EK_W * t + j) % q == c) << j;
+  return m;
+}
+// Lanes j of stream c's group-g vector whose position is in class r (mod s).
+EK_AI unsigned vrec_stream_mask(int q, int s, int c, int g, int r) {
+  unsigned m = 0;
+#pragma GCC unroll 16
+  for (int j = 0; j < EK_W; j++)
+    m |= (unsigned)((EK_W * g + vrec_pos(q, c, j)) % s == r) << j;
+  return m;
+}
+
+EK_AI void vrec_load_factored(const real *p, int np, vreal *planes) {
+  const int q = vrec_q(np), s = np / q;
+  vreal in[EK_RECORD_MAX], b[EK_RECORD_MAX]; // b[g q + c]: class c of group g
+#pragma GCC unroll 16
+  for (int v = 0; v < np; v++)
+    in[v] = vload(p + v * EK_W);
+#pragma GCC unroll 16
+  for (int g = 0; g < s; g++)
+#pragma GCC unroll 16
+    for (int c = 0; c < q; c++) {
+      if (q == 2) {
+        int idx[EK_W];
+#pragma GCC unroll 16
+        for (int j = 0; j < EK_W; j++)
+          idx[j] = 2 * j + c;
+        b[g * q + c] = vrec_perm2(in[2 * g], in[2 * g + 1], idx);
+        continue;
+      }
+      vreal acc = in[q * g];
+#pragma GCC unroll 16
+      for (int t = 1; t < q; t++)
+        acc = vrec_blend(vrec_class_mask(q, t, c), acc, in[q * g + t]);
+      b[g * q + c] = acc;
+    }
+#pragma GCC unroll 16
+  for (int c = 0; c < q; c++)
+#pragma GCC unroll 16
+    for (int r = 0; r < s; r++) {
+      // Field q r + c of record l: stream position s l + r.
+      int idx[EK_W];
+#pragma GCC unroll 16
+      for (int l = 0; l < EK_W; l++) {
+        int pos = s * l + r;
+        idx[l] = (s == 2 ? pos / EK_W * EK_W : 0) + vrec_lane_at(q, c, pos % EK_W);
+      }
+      if (s == 2) {
+        planes[q * r + c] = vrec_perm2(b[c], b[q + c], idx);
+        continue;
+      }
+      vreal acc = b[c];
+#pragma GCC unroll 16
+      for (int g = 1; g < s; g++)
+        acc = vrec_blend(vrec_stream_mask(q, s, c, g, r), acc, b[g * q + c]);
+      planes[q * r + c] = vrec_perm(acc, idx);
+    }
+}
+
+EK_AI void vrec_store_factored(real *p, int np, const vreal *planes) {
+  const int q = vrec_q(np), s = np / q;
+  vreal b[EK_RECORD_MAX];
+#pragma GCC unroll 16
+  for (int c = 0; c < q; c++) {
+    if (s == 2) {
+#pragma GCC unroll 16
+      for (int g = 0; g < 2; g++) {
+        int idx[EK_W];
+#pragma GCC unroll 16
+        for (int j = 0; j < EK_W; j++) {
+          int pos = EK_W * g + vrec_pos(q, c, j);
+          idx[j] = pos % 2 * EK_W + pos / 2;
+        }
+        b[g * q + c] = vrec_perm2(planes[c], planes[q + c], idx);
+      }
+      continue;
+    }
+    // Field q r + c in the lane order of stage 1: lane j of group g holds
+    // stream position W g + p_j, of record (W g + p_j) / s, for the one g
+    // whose position is in class r.
+    vreal rq[EK_RECORD_MAX];
+#pragma GCC unroll 16
+    for (int r = 0; r < s; r++) {
+      int idx[EK_W];
+#pragma GCC unroll 16
+      for (int j = 0; j < EK_W; j++) {
+        int l = 0;
+#pragma GCC unroll 16
+        for (int g = 0; g < s; g++)
+          if ((EK_W * g + vrec_pos(q, c, j)) % s == r)
+            l = (EK_W * g + vrec_pos(q, c, j)) / s;
+        idx[j] = l;
+      }
+      rq[r] = vrec_perm(planes[q * r + c], idx);
+    }
+#pragma GCC unroll 16
+    for (int g = 0; g < s; g++) {
+      vreal acc = rq[0];
+#pragma GCC unroll 16
+      for (int r = 1; r < s; r++)
+        acc = vrec_blend(vrec_stream_mask(q, s, c, g, r), acc, rq[r]);
+      b[g * q + c] = acc;
+    }
+  }
+#pragma GCC unroll 16
+  for (int g = 0; g < s; g++)
+#pragma GCC unroll 16
+    for (int t = 0; t < q; t++) {
+      if (q == 2) {
+        int idx[EK_W];
+#pragma GCC unroll 16
+        for (int j = 0; j < EK_W; j++)
+          idx[j] = (EK_W * t + j) % 2 * EK_W + (EK_W * t + j) / 2;
+        vstore(p + (2 * g + t) * EK_W, vrec_perm2(b[2 * g], b[2 * g + 1], idx));
+        continue;
+      }
+      vreal acc = b[g * q];
+#pragma GCC unroll 16
+      for (int c = 1; c < q; c++)
+        acc = vrec_blend(vrec_class_mask(q, t, c), acc, b[g * q + c]);
+      vstore(p + (q * g + t) * EK_W, acc);
+    }
 }
 #endif
 
@@ -99,5 +272,41 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
     }
 }
 #endif
+
+EK_AI void vload_records(const real *p, int np, vreal *planes) {
+#ifdef EK_HAVE_VREC_PERM
+  if (np == 1) {
+    planes[0] = vload(p);
+    return;
+  }
+  if (vrec_factored(np)) {
+    vrec_load_factored(p, np, planes);
+    return;
+  }
+#endif
+#ifdef EK_HAVE_VRECORDS_MASKED
+  vload_records_masked(p, np, planes);
+#else
+  vload_records_tile(p, np, planes);
+#endif
+}
+EK_AI void vstore_records(real *p, int np, const vreal *planes) {
+#ifdef EK_HAVE_VREC_PERM
+  if (np == 1) {
+    vstore(p, planes[0]);
+    return;
+  }
+  if (vrec_factored(np)) {
+    vrec_store_factored(p, np, planes);
+    return;
+  }
+#endif
+#ifdef EK_HAVE_VRECORDS_MASKED
+  vstore_records_masked(p, np, planes);
+#else
+  vstore_records_tile(p, np, planes);
+#endif
+}
+#undef EK_AI
 
 #endif
