@@ -309,9 +309,9 @@ static int implicit_create(ek_sim *s, void **data) {
     }
     char err[512] = "";
     if (d->mpi)
-      d->ps = implicit_petsc_create_mpi(ls == EK_LINSOLVE_DIRECT, &d->pat, s->nv, d->perm,
-                                        s->body->ne, s->body->corners, s->body->elems, s->body->X,
-                                        sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
+      d->ps =
+          implicit_petsc_create_mpi(ls == EK_LINSOLVE_DIRECT, &d->pat, s->nv, d->perm, s->body->X,
+                                    sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
     else
       d->ps = implicit_petsc_create(ls == EK_LINSOLVE_DIRECT, &d->pat, s->body->X,
                                     sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);

@@ -14,9 +14,10 @@
 //
 // Across MPI ranks (ek-sim under mpirun; sim/README.md "MPI"): an MPIAIJ
 // matrix with block size 3 in the vertices' Morton order (implicit.c),
-// rows owned by contiguous ranges of it, preallocated from the whole mesh's vertex adjacency; each
-// rank adds its elements' entries (MatSetValues, ADD_VALUES: rows of other ranks travel in
-// MatAssemblyBegin/End), the owner adds the diagonal once; the same KSP and PC on PETSC_COMM_WORLD
+// rows owned by contiguous ranges of it, its pattern the union of the ranks' shares given once
+// as COO entries (MatSetPreallocationCOO); each rank's elements' entries and the owner's diagonal
+// go in with MatSetValuesCOO, which sums them (rows of other ranks included) in a fixed order;
+// the same KSP and PC on PETSC_COMM_WORLD
 // (the direct solver by MUMPS, the one parallel Cholesky of Debian's PETSc); the solution is
 // gathered whole on every rank (VecScatterCreateToAll).
 #include "implicit_petsc.h"
@@ -39,10 +40,9 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
   return NULL;
 }
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          const int32_t *perm, size_t ne, int corners,
-                                          const int32_t *elems, const double *X, double rtol,
+                                          const int32_t *perm, const double *X, double rtol,
                                           long max_its, char *err, size_t errlen) {
-  (void)direct, (void)local, (void)nv, (void)perm, (void)ne, (void)corners, (void)elems, (void)X;
+  (void)direct, (void)local, (void)nv, (void)perm, (void)X;
   (void)rtol;
   (void)max_its;
   snprintf(err, errlen, "built without PETSc");
@@ -98,12 +98,14 @@ struct implicit_petsc {
   // solve's; 0 = rebuild).
   long fresh_its, last_its;
   // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
-  // its share's pattern (lrow: by the body's rows; lcol: PETSc's columns),
   // PETSc's row of each of the body's rows (newrow) and the body's row of
-  // each owned row (oldrow), and the gather of x onto every rank.
+  // each owned row (oldrow), the values in the order of the COO pattern
+  // given to PETSc (cv: its share's nnz, then the owned rows' diagonals),
+  // and the gather of x onto every rank.
   int mpi;
   PetscInt rstart, rend;
-  PetscInt *lrow, *lcol, *newrow, *oldrow;
+  PetscInt *newrow, *oldrow;
+  PetscScalar *cv;
   Vec xall;
   VecScatter gather;
 };
@@ -419,72 +421,8 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
   return p;
 }
 
-// Per row of this rank's range [v0, v1) of places (perm): the vertices
-// that share an element with it (itself included), split into those in the
-// range (the diagonal block) and the others: 3 entries each (block size 3).
-static int preallocate(implicit_petsc *p, size_t nv, const int32_t *perm, size_t ne, int corners,
-                       const int32_t *elems, size_t v0, size_t v1, char *err, size_t errlen) {
-  const size_t nown = v1 - v0;
-  size_t *off = calloc(nown + 1, sizeof *off), *inc = NULL;
-  size_t *stamp = malloc(nv * sizeof *stamp);
-  PetscInt *d_nnz = malloc((3 * nown + 1) * sizeof *d_nnz);
-  PetscInt *o_nnz = malloc((3 * nown + 1) * sizeof *o_nnz);
-  int ok = off && stamp && d_nnz && o_nnz;
-  // The elements of each owned vertex (CSR: off, inc).
-  for (size_t e = 0; ok && e < ne; e++)
-    for (int a = 0; a < corners; a++) {
-      size_t v = (size_t)perm[elems[e * corners + a]];
-      if (v >= v0 && v < v1)
-        off[v - v0 + 1]++;
-    }
-  for (size_t i = 0; ok && i < nown; i++)
-    off[i + 1] += off[i];
-  ok = ok && (inc = malloc((off[nown] + 1) * sizeof *inc)) != NULL;
-  if (ok) {
-    size_t *fill = stamp; // borrowed as the fill counters (nown <= nv)
-    for (size_t i = 0; i < nown; i++)
-      fill[i] = off[i];
-    for (size_t e = 0; e < ne; e++)
-      for (int a = 0; a < corners; a++) {
-        size_t v = (size_t)perm[elems[e * corners + a]];
-        if (v >= v0 && v < v1)
-          inc[fill[v - v0]++] = e;
-      }
-    for (size_t v = 0; v < nv; v++)
-      stamp[v] = (size_t)-1;
-    for (size_t i = 0; i < nown; i++) {
-      PetscInt nd = 1, no = 0; // itself, in the diagonal block
-      stamp[v0 + i] = i;
-      for (size_t k = off[i]; k < off[i + 1]; k++)
-        for (int b = 0; b < corners; b++) {
-          size_t w = (size_t)perm[elems[inc[k] * corners + b]];
-          if (stamp[w] == i)
-            continue;
-          stamp[w] = i;
-          if (w >= v0 && w < v1)
-            nd++;
-          else
-            no++;
-        }
-      for (int c = 0; c < 3; c++) {
-        d_nnz[3 * i + c] = 3 * nd;
-        o_nnz[3 * i + c] = 3 * no;
-      }
-    }
-  }
-  PetscErrorCode e = ok ? MatMPIAIJSetPreallocation(p->A, 0, d_nnz, 0, o_nnz) : 0;
-  free(off), free(inc), free(stamp), free(d_nnz), free(o_nnz);
-  if (!ok) {
-    snprintf(err, errlen, "out of memory for the matrix's preallocation");
-    return -1;
-  }
-  PCHK(e);
-  return 0;
-}
-
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          const int32_t *perm, size_t ne, int corners,
-                                          const int32_t *elems, const double *X, double rtol,
+                                          const int32_t *perm, const double *X, double rtol,
                                           long max_its, char *err, size_t errlen) {
   if (local->nnz > (size_t)PETSC_MAX_INT || 3 * nv > (size_t)PETSC_MAX_INT) {
     snprintf(err, errlen, "%zu nonzeros: more than this PETSc's indices hold", local->nnz);
@@ -508,13 +446,16 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
   p->nnz = (PetscInt)local->nnz;
   p->rstart = (PetscInt)(3 * v0);
   p->rend = (PetscInt)(3 * v1);
-  p->lrow = malloc((local->nrows + 1) * sizeof(PetscInt));
-  p->lcol = malloc((local->nnz + 1) * sizeof(PetscInt));
+  const PetscInt nloc = p->rend - p->rstart;
+  const size_t ncoo = local->nnz + (size_t)nloc;
   p->newrow = malloc((3 * nv + 1) * sizeof(PetscInt));
-  p->oldrow = malloc((3 * (v1 - v0) + 1) * sizeof(PetscInt));
-  if (!p->lrow || !p->lcol || !p->newrow || !p->oldrow || local->nrows != 3 * nv) {
+  p->oldrow = malloc(((size_t)nloc + 1) * sizeof(PetscInt));
+  p->cv = malloc((ncoo + 1) * sizeof(PetscScalar));
+  PetscInt *ci = malloc((ncoo + 1) * sizeof(PetscInt)), *cj = malloc((ncoo + 1) * sizeof(PetscInt));
+  if (!p->newrow || !p->oldrow || !p->cv || !ci || !cj || local->nrows != 3 * nv) {
     snprintf(err, errlen, "%s",
              local->nrows != 3 * nv ? "the pattern is not 3 nv rows" : "no memory");
+    free(ci), free(cj);
     implicit_petsc_destroy(p);
     return NULL;
   }
@@ -524,11 +465,21 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
     if (q >= p->rstart && q < p->rend)
       p->oldrow[q - p->rstart] = (PetscInt)r;
   }
-  for (size_t i = 0; i <= local->nrows; i++)
-    p->lrow[i] = local->row_ptr[i];
-  for (size_t k = 0; k < local->nnz; k++)
-    p->lcol[k] = p->newrow[local->col[k]];
-  const PetscInt nloc = p->rend - p->rstart;
+  // The COO pattern: this rank's share (a row of 3 entries is a vertex in
+  // none of its elements, a vertex in a tet having at least 4 blocks:
+  // hessian.h's pattern; its zeros are left out by a negative row, which
+  // PETSc skips), then each owned row's diagonal. PETSc sums repeated
+  // entries, the other ranks' included, in an order fixed here once: one
+  // message per neighbour per assembly instead of MatSetValues' stash.
+  for (size_t r = 0; r < 3 * nv; r++) {
+    const int32_t k0 = local->row_ptr[r], k1 = local->row_ptr[r + 1];
+    for (int32_t k = k0; k < k1; k++) {
+      ci[k] = k1 - k0 > 3 ? p->newrow[r] : -1;
+      cj[k] = p->newrow[local->col[k]];
+    }
+  }
+  for (PetscInt q = 0; q < nloc; q++)
+    ci[local->nnz + (size_t)q] = cj[local->nnz + (size_t)q] = p->rstart + q;
   int rc = -1;
   PetscErrorCode e = MatCreate(PETSC_COMM_WORLD, &p->A);
   if (!e)
@@ -541,14 +492,14 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
     const char *text = NULL;
     PetscErrorMessage(e, &text, NULL);
     snprintf(err, errlen, "PETSc: the parallel matrix: %s", text ? text : "?");
-  } else if (preallocate(p, nv, perm, ne, corners, elems, v0, v1, err, errlen) == 0 &&
-             MatSetOption(p->A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE) == 0 &&
+  } else if (MatSetPreallocationCOO(p->A, (PetscCount)ncoo, ci, cj) == 0 &&
              setup_solver(p, X, rtol, max_its, err, errlen) == 0 &&
              VecScatterCreateToAll(p->x, &p->gather, &p->xall) == 0) {
     rc = 0;
   } else if (!err[0]) {
     snprintf(err, errlen, "PETSc: the parallel solver's setup failed");
   }
+  free(ci), free(cj);
   if (rc < 0) {
     implicit_petsc_destroy(p);
     return NULL;
@@ -568,8 +519,7 @@ void implicit_petsc_destroy(implicit_petsc *p) {
   MatDestroy(&p->A);
   MatDestroy(&p->S);
   free(p->sv);
-  free(p->lrow);
-  free(p->lcol);
+  free(p->cv);
   free(p->newrow);
   free(p->oldrow);
   free(p);
@@ -595,18 +545,10 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
     }
     return 0;
   }
-  PCHK(MatZeroEntries(p->A));
-  // A row of 3 entries is a vertex in none of this rank's elements (a
-  // vertex in a tet has at least 4 blocks: hessian.h's pattern): zeros.
-  for (PetscInt r = 0; r < p->n; r++) {
-    const PetscInt k0 = p->lrow[r], len = p->lrow[r + 1] - k0;
-    if (len > 3)
-      PCHK(MatSetValues(p->A, 1, p->newrow + r, len, p->lcol + k0, values + k0, ADD_VALUES));
-  }
-  for (PetscInt q = p->rstart; q < p->rend; q++)
-    PCHK(MatSetValue(p->A, q, q, diag[p->oldrow[q - p->rstart]], ADD_VALUES));
-  PCHK(MatAssemblyBegin(p->A, MAT_FINAL_ASSEMBLY));
-  PCHK(MatAssemblyEnd(p->A, MAT_FINAL_ASSEMBLY));
+  memcpy(p->cv, values, (size_t)p->nnz * sizeof(double));
+  for (PetscInt q = 0; q < p->rend - p->rstart; q++)
+    p->cv[p->nnz + q] = diag[p->oldrow[q]];
+  PCHK(MatSetValuesCOO(p->A, p->cv, INSERT_VALUES));
   return 0;
 }
 

@@ -41,11 +41,10 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
 // pattern of this rank's elements' Hessian over all nv vertices (the body's
 // numbering: every rank holds every vertex); perm[v] is vertex v's place in
 // PETSc's numbering, whose rows rank r owns from place nv r / size to
-// nv (r + 1) / size; the parallel matrix's pattern is that of all ne
-// elements (elems, ne x corners, the same on every rank). Collective.
+// nv (r + 1) / size; the parallel matrix's pattern is the union of the
+// ranks' `local` patterns. Collective.
 implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *local, size_t nv,
-                                          const int32_t *perm, size_t ne, int corners,
-                                          const int32_t *elems, const double *X, double rtol,
+                                          const int32_t *perm, const double *X, double rtol,
                                           long max_its, char *err, size_t errlen);
 void implicit_petsc_destroy(implicit_petsc *p);
 
