@@ -53,3 +53,10 @@ int ek_batch_check(const char *fn, size_t count, size_t item_bytes, size_t align
     }
   return EK_OK;
 }
+
+size_t ek_aos_head(const void *p, size_t rec_bytes, size_t n) {
+  for (size_t h = 0; h < EK_LANES_F32 && h < n; h++)
+    if (((uintptr_t)p + h * rec_bytes) % 64 == 0)
+      return h;
+  return 0;
+}

@@ -271,6 +271,52 @@ static void layouts_and_threads(int bits, uint64_t seed) {
   free(A), free(G), free(R1), free(R2);
 }
 
+// ---- AoS at every start within a 64-byte line: the same bits ----
+// The AoS driver takes the records before the first whole line on their
+// own (ek_aos_head, kernels.h), so the rest's vectors span whole lines;
+// where the array starts must not change any record's result. Reference:
+// the AoSoA path on the same records.
+static void aos_starts(int bits, ek_isa isa, uint64_t seed) {
+  enum { STARTS = EK_LANES_F32 + 2 };
+  ek_rng rng;
+  ek_rng_seed(&rng, ek_check_stream_seed(seed, "aos_starts"));
+  const size_t n = N_TAIL, es = bits == 32 ? sizeof(float) : sizeof(double);
+  double *A = ek_check_malloc(n * 9 * sizeof(double)), *G = ek_check_malloc(n * 9 * sizeof(double));
+  double *Rref = ek_check_malloc(n * 9 * sizeof(double)),
+         *R = ek_check_malloc(n * 9 * sizeof(double));
+  ek_check_warm_cases(&rng, n, 0.5, 2, 0, 30, A, G);
+  memcpy(Rref, G, n * 9 * sizeof(double));
+  ek_check_run_polar_warm(bits, 1, n, A, Rref, isa, 0);
+  unsigned char *a = ek_alloc((n + STARTS) * 9 * es), *r = ek_alloc((n + STARTS) * 9 * es);
+  int bad = -1;
+  for (int k = 0; k < STARTS && bad < 0; k++) {
+    // Start k records into the line: k 36 (f32) or 72 (f64) bytes.
+    void *ak = a + (size_t)k * 9 * es, *rk = r + (size_t)k * 9 * es;
+    ek_polar_warm_opts o = {.isa = isa};
+    int rc;
+    if (bits == 32) {
+      ek_check_to_f32(n * 9, A, ak), ek_check_to_f32(n * 9, G, rk);
+      rc = ek_polar3_warm_f32(n, ak, rk, &o);
+      ek_check_from_f32(n * 9, rk, R);
+    } else {
+      memcpy(ak, A, n * 9 * es), memcpy(rk, G, n * 9 * es);
+      rc = ek_polar3_warm_f64(n, ak, rk, &o);
+      memcpy(R, rk, n * 9 * es);
+    }
+    if (rc != 0 || memcmp(R, Rref, n * 9 * sizeof(double)) != 0)
+      bad = k;
+  }
+  char label[200];
+  snprintf(label, sizeof label, "%s f%d AoS = AoSoA bits at %d starts (n = %d)", ek_isa_name(isa),
+           bits, STARTS, N_TAIL);
+  char detail[80] = "";
+  if (bad >= 0)
+    snprintf(detail, sizeof detail, "differs when the array starts %d records into a line", bad);
+  check(label, bad < 0, detail);
+  ek_free(a), ek_free(r);
+  free(A), free(G), free(Rref), free(R);
+}
+
 // ---- Bad options and arguments: EK_EINVAL, nothing written ----
 static void bad_input(void) {
   _Alignas(64) float A[9 * 16], R[9 * 16], R0[9 * 16];
@@ -566,6 +612,7 @@ int main(int argc, char **argv) {
     for (int bits = 32; bits <= 64; bits += 32) {
       accuracy(bits, isa, seed);
       extremes(bits, isa, seed);
+      aos_starts(bits, isa, seed);
     }
   }
   for (int bits = 32; bits <= 64; bits += 32) {

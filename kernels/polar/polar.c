@@ -97,6 +97,12 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
   if ((rc = ek_batch_check(fn, n, 9 * sizeof(real), _Alignof(real), 2, (const void *[]){A, R},
                            (const char *const[]){"A", "R"})))
     return rc;
+  // The output's lines decide the head (ek_aos_head); A, allocated alike,
+  // usually shares them.
+  const size_t head = ek_aos_head(R, 9 * sizeof(real), n);
+  if (head)
+    aos(head, A, R, iters);
+  A += 9 * head, R += 9 * head, n -= head;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (nchunks > 1)

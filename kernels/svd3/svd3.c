@@ -117,14 +117,22 @@ static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real
 // AoS path: the kernel reads and writes the AoS arrays itself, transposing
 // in registers (svd3_block.c, k->aos), so nothing is staged or copied.
 // Chunks of whole blocks (a multiple of EK_W): every vector of a chunk is
-// full except at the very end of the batch.
+// full except at the very end of the batch and in the head (ek_aos_head).
 static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real *S, real *V,
                    const ek_svd3_knobs *k) {
-  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
   ek_svd3_knobs ka = *k;
   ka.aos = 1;
   ka.chains = chains_for(k, n);
+  // The first output's lines decide the head (ek_aos_head; the others,
+  // allocated alike, usually share them).
+  const void *first = U ? (const void *)U : V ? (const void *)V : (const void *)A;
+  const size_t head = ek_aos_head(first, 9 * sizeof(real), n);
+  if (head)
+    block(head, A, U, S && !k->polar ? S : NULL, V, &ka);
+  A += 9 * head, n -= head;
+  U = U ? U + 9 * head : NULL, V = V ? V + 9 * head : NULL, S = S ? S + 3 * head : NULL;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t nchunks = (n + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (nchunks > 1)
   for (size_t c = 0; c < nchunks; c++) {
     size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
