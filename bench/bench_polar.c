@@ -213,6 +213,22 @@ static int input_rows(ek_bench *b, const char *in, size_t n, const double *A, co
   return rc;
 }
 
+// The "near" input: n random rotations x near-identity stretches (A) and
+// guesses within 2 degrees of their rotations (G). < 0 when out of memory.
+static int near_cases(ek_bench *b, size_t n, double **A, double **G) {
+  *A = malloc(n * 9 * sizeof(double)), *G = malloc(n * 9 * sizeof(double));
+  if (!*A || !*G) {
+    free(*A), free(*G);
+    *A = *G = NULL;
+    ek_bench_fail(b, "polar: out of memory");
+    return -1;
+  }
+  ek_rng rng;
+  ek_rng_seed(&rng, ek_check_stream_seed(ek_bench_seed(b), "polar near"));
+  ek_check_warm_cases(&rng, n, 0.9, 1.1, 0, 2, *A, *G);
+  return 0;
+}
+
 // The AoS API against the AoSoA kernel on the same inputs (n of them, the
 // "near" set's generator), default iterations.
 static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const int *counts,
@@ -236,17 +252,8 @@ static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const i
           if (!ek_bench_wants(b, aos ? name : base))
             continue;
           if (!listing && !ready) {
-            if (!A) {
-              A = malloc(n * 9 * sizeof(double)), G = malloc(n * 9 * sizeof(double));
-              if (!A || !G) {
-                free(A), free(G);
-                ek_bench_fail(b, "polar: out of memory");
-                return -1;
-              }
-              ek_rng rng;
-              ek_rng_seed(&rng, ek_check_stream_seed(ek_bench_seed(b), "polar near"));
-              ek_check_warm_cases(&rng, n, 0.9, 1.1, 0, 2, A, G);
-            }
+            if (!A && near_cases(b, n, &A, &G) != 0)
+              return -1;
             if (setup(&c, f64, n, A, G) != 0) {
               ek_bench_fail(b, "%s: out of memory", name);
               free_ctx(&c);
@@ -315,17 +322,8 @@ int bench_polar(ek_bench *b) {
   int listing = ek_bench_listing(b), rc = 0;
   // near: random rotations x near-identity stretch, guess <= 2 degrees off.
   double *A = NULL, *G = NULL;
-  if (!listing) {
-    A = malloc(NEAR_BATCH * 9 * sizeof(double)), G = malloc(NEAR_BATCH * 9 * sizeof(double));
-    if (!A || !G) {
-      free(A), free(G);
-      ek_bench_fail(b, "polar: out of memory");
-      return -1;
-    }
-    ek_rng rng;
-    ek_rng_seed(&rng, ek_check_stream_seed(ek_bench_seed(b), "polar near"));
-    ek_check_warm_cases(&rng, NEAR_BATCH, 0.9, 1.1, 0, 2, A, G);
-  }
+  if (!listing && near_cases(b, NEAR_BATCH, &A, &G) != 0)
+    return -1;
   rc |= input_rows(b, "near", NEAR_BATCH, A, G, isas, nisa, counts, nth);
   free(A), free(G);
   rc |= aos_rows(b, NEAR_BATCH, isas, nisa, counts, nth);

@@ -165,18 +165,32 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 }
 #endif
 // The record transposes' primitives (generic.h, EK_HAVE_VREC_PERM): a
-// blend by a constant lane mask (vblendps / vblendpd, an immediate: m must
-// fold to a constant, which the fully unrolled loops of generic.h make it),
-// a one-source lane permute (vpermps; doubles move as float pairs) and a
+// blend by a constant lane mask (vblendps / vblendpd, an immediate, where
+// the mask folds to a constant, as the fully unrolled loops of generic.h
+// make it at -O2 and above; else vblendvps / vblendvpd on a mask vector: the
+// -O1 sanitizer build does not fold it, and an immediate would not compile), a
+// one-source lane permute (vpermps; doubles move as float pairs) and a
 // two-source one (two permutes and a blend: AVX2 has no vpermt2ps).
 #define EK_HAVE_VREC_PERM
 #if defined(EK_REAL_F32)
 static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
-  return _mm256_blend_ps(a, b, (int)m);
+  int32_t sel[8];
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++)
+    sel[l] = -(int32_t)((m >> l) & 1);
+  if (__builtin_constant_p(m))
+    return _mm256_blend_ps(a, b, (int)(m & 0xff));
+  return _mm256_blendv_ps(a, b, _mm256_castsi256_ps(_mm256_loadu_si256((const __m256i *)sel)));
 }
 #else
 static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
-  return _mm256_blend_pd(a, b, (int)m);
+  int64_t sel[4];
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++)
+    sel[l] = -(int64_t)((m >> l) & 1);
+  if (__builtin_constant_p(m))
+    return _mm256_blend_pd(a, b, (int)(m & 0xf));
+  return _mm256_blendv_pd(a, b, _mm256_castsi256_pd(_mm256_loadu_si256((const __m256i *)sel)));
 }
 #endif
 // Lane l = v[idx[l] mod W] (idx constant).
