@@ -735,10 +735,7 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
     if (ek_trial_run_frames(&r->setting, mesh, o->sim_time, 0, a->nframes, &t) != 0) {
       snprintf(err, errlen, "advise: %s", t.error);
       ek_trial_free(&t);
-      ek_trial_free(&rt);
-      free(costs);
-      ek_advice_free(a);
-      return EK_ENOMEM;
+      goto trial_failed;
     }
     ek_advise_measure m;
     ek_advise_measure_trial(mesh, &t, &rt, scene->allow_inverted, &m);
@@ -776,10 +773,7 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
       if (ek_trial_run(&r->setting, mesh, o->sim_time, 0, &t) != 0) {
         snprintf(err, errlen, "advise: %s", t.error);
         ek_trial_free(&t);
-        ek_trial_free(&rt);
-        free(costs);
-        ek_advice_free(a);
-        return EK_ENOMEM;
+        goto trial_failed;
       }
       if (!t.failed)
         costs[i * (size_t)rounds + (size_t)r->rounds++] = t.cost_median;
@@ -801,6 +795,11 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
   a->ref = rt; // ek_advice_free frees it
   a->pick = ek_advice_pick(a, o->tol);
   return 0;
+trial_failed: // err holds the trial's message
+  free(costs);
+  ek_trial_free(&rt);
+  ek_advice_free(a);
+  return EK_ENOMEM;
 oom_rt:
   ek_trial_free(&rt);
 oom:

@@ -119,10 +119,15 @@ static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, 
 // Whether the block kernels prefetch the next group's vertex rows
 // (fvm_vec.h): when the positions and forces outgrow a core's L2 (1 MiB on Zen 5).
 #define PREFETCH_MIN_BYTES ((size_t)1 << 20)
+// EK_FVM_PREFETCH=0|1 forces it, read once (not on every force call).
 static int prefetch_for(const ek_tets *el) {
-  const char *e = getenv("EK_FVM_PREFETCH");
-  if (e && *e)
-    return atoi(e);
+  static _Atomic int forced = -2; // -2: not read yet, -1: not set
+  if (forced == -2) {
+    const char *e = getenv("EK_FVM_PREFETCH");
+    forced = e && *e ? atoi(e) != 0 : -1;
+  }
+  if (forced >= 0)
+    return forced;
   return el->nverts * 3 * sizeof(real) * 2 > PREFETCH_MIN_BYTES;
 }
 
