@@ -188,7 +188,7 @@ static void models_init(void) {
   SNH = (int)EK_MODEL_STABLE_NEO_HOOKEAN;
   for (int w = FIXED_COROT_WARM; w <= FIXED_COROT_WARM_IT1; w++) {
     models[w].mat = models[FIXED_COROT].mat;
-    snprintf(models[w].name, sizeof models[w].name, "%s_warm%s", models[FIXED_COROT].name,
+    snprintf(models[w].name, sizeof models[w].name, "%s_warm%s", ek_model_describe(fc)->name,
              w == FIXED_COROT_WARM_IT1 ? "_it1" : "");
   }
 }

@@ -224,7 +224,7 @@ static int map_svd(ek_tradeoff *t, int bits, const ek_svd3_set *set, ek_isa auto
               opts.exact_rsqrt = exact ? 1 : -1;
               opts.refine = refine ? refine : EK_SVD3_REFINE_NONE;
             }
-            char setting[256], refine_text[8];
+            char setting[256], refine_text[12];
             snprintf(refine_text, sizeof refine_text, refine ? "%d" : "none", refine);
             snprintf(setting, sizeof setting, "precision=f%d;sweeps=%d;rsqrt=%s;refine=%s;isa=%s%s",
                      bits, sweeps, exact ? "exact" : "approx", refine_text,
