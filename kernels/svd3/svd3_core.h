@@ -422,7 +422,7 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   // applied after the sweeps, in the same order (the same operations on
   // every entry of V, so the same bits). V's 9 planes per vector then stay
   // out of the registers while the chains of B's pairs run (4 vectors of B
-  // and V do not fit 32 zmm registers): Zen 5, 4 vectors, 2% less time
+  // and V do not fit 32 zmm registers): Zen 5, 4 vectors, f32 0-3% less time, f64 4-6%
   // (docs/perf.md, "SVD"). One vector (the kernels that inline an SVD)
   // keeps the plain sweep: its B and V fit.
   if (n == 1) {
