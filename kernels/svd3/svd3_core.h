@@ -30,6 +30,8 @@
 
 #include <math.h>
 
+#include <ek/svd3.h>
+
 #include "kernels.h"
 
 #define EK_INLINE static inline __attribute__((always_inline))
@@ -175,7 +177,9 @@ EK_INLINE vreal svd3_col_dot(const vreal M[9], int p, int q) {
 // [ek] t = |x| + sqrt(x^2 + y^2) + TINY > 0, so (c, s) = (t, u) / |(t, u)|
 // needs no test: a negligible pair (x, y ~ 0) gets c = 1, s = 0 (up to the
 // rounding of 1/sqrt), and TINY is far below any angle that matters.
-EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact) {
+// svd3_refine_angle rotates B and returns (c, s); svd3_refine_pair also
+// rotates V.
+EK_INLINE void svd3_refine_angle(vreal B[9], int p, int q, int exact, vreal *cout, vreal *sout) {
   vreal alpha = svd3_col_dot(B, p, p), beta = svd3_col_dot(B, q, q);
   vreal gam = svd3_col_dot(B, p, q);
   vreal x = vsub(alpha, beta), y = vadd(gam, gam);
@@ -189,6 +193,12 @@ EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact)
   // 1/sqrt would leave c = 1 +- 1e-7.
   vreal c = vsel(veq(u, vzero()), vset(1), vmul(t, om)), s = vmul(u, om);
   svd3_rotate_cols(B, p, q, c, s);
+  *cout = c, *sout = s;
+}
+
+EK_INLINE void svd3_refine_pair(vreal B[9], vreal V[9], int p, int q, int exact) {
+  vreal c, s;
+  svd3_refine_angle(B, p, q, exact, &c, &s);
   svd3_rotate_cols(V, p, q, c, s);
 }
 
@@ -407,8 +417,39 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
   svd3_jacobi_sweeps(n, st, sweeps, refine, exact);
   for (int j = 0; j < n; j++)
     svd3_form_B(&st[j], exact);
-  for (int sweep = 0; sweep < refine; sweep++)
-    svd3_refine_sweep(n, st, exact);
+  // Step 5 rotates B and V by the same (c, s), but only B's columns feed
+  // the next pair's angle: with several vectors, V's rotations are kept and
+  // applied after the sweeps, in the same order (the same operations on
+  // every entry of V, so the same bits). V's 9 planes per vector then stay
+  // out of the registers while the chains of B's pairs run (4 vectors of B
+  // and V do not fit 32 zmm registers): Zen 5, 4 vectors, f32 0-3% less time, f64 4-6%
+  // (docs/perf.md, "SVD"). One vector (the kernels that inline an SVD)
+  // keeps the plain sweep: its B and V fit.
+  if (n == 1) {
+    for (int sweep = 0; sweep < refine; sweep++)
+      svd3_refine_sweep(1, st, exact);
+    for (int j = 0; j < n; j++)
+      svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
+    return;
+  }
+  vreal rc[3 * EK_SVD3_MAX_REFINE][SVD3_MAX_N], rs[3 * EK_SVD3_MAX_REFINE][SVD3_MAX_N];
+  for (int sweep = 0; sweep < refine; sweep++) {
+    vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
+    for (int j = 0; j < n; j++)
+      svd3_refine_angle(st[j].B, 0, 1, exact, &c[0][j], &s[0][j]);
+    for (int j = 0; j < n; j++)
+      svd3_refine_angle(st[j].B, 1, 2, exact, &c[1][j], &s[1][j]);
+    for (int j = 0; j < n; j++)
+      svd3_refine_angle(st[j].B, 2, 0, exact, &c[2][j], &s[2][j]);
+  }
+  for (int sweep = 0; sweep < refine; sweep++) {
+    vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
+    for (int j = 0; j < n; j++) {
+      svd3_rotate_cols(st[j].V, 0, 1, c[0][j], s[0][j]);
+      svd3_rotate_cols(st[j].V, 1, 2, c[1][j], s[1][j]);
+      svd3_rotate_cols(st[j].V, 2, 0, c[2][j], s[2][j]);
+    }
+  }
   for (int j = 0; j < n; j++)
     svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
 }
