@@ -75,8 +75,9 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 // Slot blocks per group of the assembly's plan: one run sums a K block's
 // contributions from all of the group's blocks, so a K block is loaded and
 // stored fewer times (docs/perf.md, "Hessian assembly"); the group's
-// element Hessians, 144 planes per block, stay in L1 (4 blocks: 36 KB).
-#define HESS_GROUP 4
+// element Hessians, 144 planes per block (8 blocks: 72 KB, L1 and L2),
+// sit on the thread's stack; 4 blocks (L1) were slower, 16 little faster.
+#define HESS_GROUP 8
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
