@@ -139,21 +139,26 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    _Alignas(64) real buf[EK_LANES * 144];
+    _Alignas(64) real buf[HESS_GROUP * EK_LANES * 144];
     hess_args la = a;
-    la.corner = buf;
     la.values = values;
     la.asm_h = h;
     const int team = omp_get_num_threads();
     for (int t = omp_get_thread_num(); t < nt; t += team)
-      for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
-        const size_t b = (size_t)h->tblk[k];
-        la.asm_k = k;
-        if (iso)
-          h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
-        else
-          h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
-        h->kt->EK_FIELD(hessian_sum)(&la, b, b + 1);
+      for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
+        const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
+        const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
+        for (int32_t k = k0; k < k1; k++) {
+          const size_t b = (size_t)h->tblk[k];
+          la.corner = buf + (size_t)(k - k0) * 144 * EK_LANES;
+          if (iso)
+            h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
+          else
+            h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
+        }
+        la.asm_k = g;
+        la.corner = buf;
+        h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
       }
       // The blocks below the diagonal, (v, w) with w < v: the transpose of
       // (w, v), whose sum has the same contributions (each element block

@@ -31,12 +31,13 @@ static void plan_free(ek_fvm_hessian *h) {
   h->row_own = NULL;
   free(h->tptr);
   free(h->tblk);
+  free(h->tgrp);
   free(h->krun);
   free(h->kcon);
   free(h->runs);
   free(h->run_e);
   h->slot_own = NULL;
-  h->tptr = h->tblk = h->krun = h->kcon = NULL;
+  h->tptr = h->tblk = h->tgrp = h->krun = h->kcon = NULL;
   h->runs = NULL;
   h->run_e = NULL;
   h->plan_threads = 0;
@@ -249,68 +250,71 @@ static int run_entry_cmp(const void *a, const void *b) {
   return (x->l > y->l) - (x->l < y->l);
 }
 
-// The runs of each plan entry (hessian_kernel.h, ek_hess_run): entry k's
-// element blocks that its thread sums (rows it owns, on or above the block
-// diagonal), grouped by their K block, each group in ascending lane (slot)
-// order, so a K block is loaded and stored once per slot block, and its
-// sum has the plain assembly's order.
+// The runs of each plan group (hessian_kernel.h, ek_hess_run): the
+// element blocks of group g's slot blocks that its thread sums (rows it
+// owns, on or above the block diagonal), grouped by their K block, each
+// group in ascending (entry, lane) order, i.e. ascending slot order (a
+// thread's entries ascend), so a K block is loaded and stored once per
+// group of slot blocks, and its sum has the plain assembly's order.
 static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
-  const size_t nk = (size_t)h->tptr[nt];
+  const size_t ng = (size_t)h->tgrp[nt];
   const int32_t *slot_tet = cache_blocks(h)->slot_tet;
   size_t ncon = 0;
   // Count: every owned upper element block of every entry is one element
   // of run_e; runs at most as many.
-  int tk = 0;
-  for (size_t k = 0; k < nk; k++) {
-    while ((size_t)h->tptr[tk + 1] <= k)
-      tk++;
-    const size_t b = (size_t)h->tblk[k];
-    for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
-      if (slot_tet[s] >= 0)
-        for (int d = 0; d < 4; d++)
-          if (h->slot_own[4 * s + (size_t)d] == tk)
-            for (int c = 0; c < 4; c++)
-              ncon += !(h->slot_lower[s] >> (d * 4 + c) & 1);
-  }
-  h->krun = malloc((nk + 1) * sizeof(int32_t));
-  h->kcon = malloc((nk + 1) * sizeof(int32_t));
+  for (int t = 0; t < nt; t++)
+    for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
+      const size_t b = (size_t)h->tblk[k];
+      for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+        if (slot_tet[s] >= 0)
+          for (int d = 0; d < 4; d++)
+            if (h->slot_own[4 * s + (size_t)d] == t)
+              for (int c = 0; c < 4; c++)
+                ncon += !(h->slot_lower[s] >> (d * 4 + c) & 1);
+    }
+  h->krun = malloc((ng + 1) * sizeof(int32_t));
+  h->kcon = malloc((ng + 1) * sizeof(int32_t));
   h->runs = malloc((ncon + 1) * sizeof(ek_hess_run));
   h->run_e = malloc((ncon + 1) * sizeof(uint16_t));
-  run_entry *ent = malloc(lanes * 16 * sizeof *ent);
+  run_entry *ent = malloc(HESS_GROUP * lanes * 16 * sizeof *ent);
   if (!h->krun || !h->kcon || !h->runs || !h->run_e || !ent || ncon > INT32_MAX) {
     free(ent);
     return EK_ENOMEM;
   }
   size_t nr = 0, nc = 0;
-  tk = 0;
-  for (size_t k = 0; k < nk; k++) {
-    while ((size_t)h->tptr[tk + 1] <= k)
-      tk++;
-    h->krun[k] = (int32_t)nr;
-    h->kcon[k] = (int32_t)nc;
-    const size_t b = (size_t)h->tblk[k];
-    size_t ne = 0;
-    for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
-      if (slot_tet[s] >= 0)
-        for (int d = 0; d < 4; d++)
-          if (h->slot_own[4 * s + (size_t)d] == tk)
-            for (int c = 0; c < 4; c++)
-              if (!(h->slot_lower[s] >> (d * 4 + c) & 1))
-                ent[ne++] = (run_entry){h->slot_p[16 * s + (size_t)(d * 4 + c)],
-                                        (uint16_t)(s - b * lanes), (uint16_t)(d * 4 + c)};
-    qsort(ent, ne, sizeof *ent, run_entry_cmp);
-    for (size_t i = 0; i < ne; i++) {
-      const size_t s = b * lanes + ent[i].l;
-      const int dc = ent[i].dc;
-      if (i == 0 || ent[i].p != ent[i - 1].p)
-        h->runs[nr++] = (ek_hess_run){ent[i].p, h->slot_rs[4 * s + (size_t)(dc >> 2)], 0,
-                                      (uint16_t)(h->slot_first[s] >> dc & 1)};
-      h->runs[nr - 1].n++;
-      h->run_e[nc++] = (uint16_t)((size_t)dc * 9 * lanes + ent[i].l);
+  for (int t = 0; t < nt; t++)
+    for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
+      h->krun[g] = (int32_t)nr;
+      h->kcon[g] = (int32_t)nc;
+      const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
+      const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
+      size_t ne = 0;
+      for (int32_t k = k0; k < k1; k++) {
+        const size_t b = (size_t)h->tblk[k];
+        for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+          if (slot_tet[s] >= 0)
+            for (int d = 0; d < 4; d++)
+              if (h->slot_own[4 * s + (size_t)d] == t)
+                for (int c = 0; c < 4; c++)
+                  if (!(h->slot_lower[s] >> (d * 4 + c) & 1))
+                    ent[ne++] = (run_entry){h->slot_p[16 * s + (size_t)(d * 4 + c)],
+                                            (uint16_t)((size_t)(k - k0) * lanes + s - b * lanes),
+                                            (uint16_t)(d * 4 + c)};
+      }
+      qsort(ent, ne, sizeof *ent, run_entry_cmp);
+      for (size_t i = 0; i < ne; i++) {
+        const size_t j = ent[i].l / lanes, l = ent[i].l % lanes;
+        const size_t s = (size_t)h->tblk[k0 + (int32_t)j] * lanes + l;
+        const int dc = ent[i].dc;
+        if (i == 0 || ent[i].p != ent[i - 1].p)
+          h->runs[nr++] = (ek_hess_run){ent[i].p, h->slot_rs[4 * s + (size_t)(dc >> 2)], 0,
+                                        (uint16_t)(h->slot_first[s] >> dc & 1)};
+        h->runs[nr - 1].n++;
+        h->run_e[nc++] = (uint16_t)((144 * j + (size_t)dc * 9) * lanes + l);
+      }
     }
-  }
-  h->krun[nk] = (int32_t)nr;
-  h->kcon[nk] = (int32_t)nc;
+  h->krun[ng] = (int32_t)nr;
+  h->kcon[ng] = (int32_t)nc;
   free(ent);
   return EK_OK;
 }
@@ -383,6 +387,15 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
       }
   }
   free(seen);
+  h->tgrp = malloc(((size_t)nt + 1) * sizeof(int32_t));
+  if (!h->tgrp) {
+    plan_free(h);
+    ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
+    return EK_ENOMEM;
+  }
+  h->tgrp[0] = 0;
+  for (int t = 0; t < nt; t++)
+    h->tgrp[t + 1] = h->tgrp[t] + (h->tptr[t + 1] - h->tptr[t] + HESS_GROUP - 1) / HESS_GROUP;
   if (build_runs(h, nt, lanes) < 0) {
     plan_free(h);
     ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");

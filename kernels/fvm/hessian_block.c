@@ -109,8 +109,8 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
     frame_diag_blocks(a, b0, b1);
 }
 
-// The assembly's sums (hessian_kernel.h, hessian_sum): block b0's runs of
-// the thread's plan entry asm_k, each the block's element blocks that add
+// The assembly's sums (hessian_kernel.h, hessian_sum): the runs of the
+// thread's plan group asm_k, each the group's element blocks that add
 // into one 3x3 block of K, in ascending slot order, summed in registers
 // and stored once (vsum_run3: masked 3-wide rows where the target has
 // them). The rows of the run RUN_AHEAD runs on (the next entry's past the
@@ -120,10 +120,10 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 #define RUN_AHEAD 6
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
-  (void)b0, (void)b1; // one block: the plan entry's
+  (void)b0, (void)b1; // the plan group's blocks
   const struct ek_fvm_hessian *h = a->asm_h;
   const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
-  const ek_hess_run *end = h->runs + h->krun[h->tptr[h->plan_threads]];
+  const ek_hess_run *end = h->runs + h->krun[h->tgrp[h->plan_threads]];
   const uint16_t *off = h->run_e + h->kcon[a->asm_k];
   for (; r < r1; r++) {
     if (r + RUN_AHEAD < end) {

@@ -18,9 +18,9 @@
 //     as 144 planes per block from b0: corner[((b - b0) * 144 + (d * 4 +
 //     c) * 9 + i * 3 + k) * LANES + l], rows (d, i), columns (c, k); out is
 //     not used;
-//   hessian_sum (its own table entry, after HESS_ELEMENT on one block b0 =
-//     b1 - 1): the element Hessians in corner added into values through
-//     the runs of asm_h's plan entry asm_k (hessian.c,
+//   hessian_sum (its own table entry, after HESS_ELEMENT on each block of
+//     a group): the element Hessians in corner added into values through
+//     the runs of asm_h's plan group asm_k (hessian.c,
 //     ek_fvm_hessian_assemble_f32/f64, says the order).
 //
 // Cache: `planes` planes per tet, plane k of block b at
@@ -67,13 +67,20 @@ enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
     /* assembly (hessian_sum): K's values, the map and plan, the thread */                         \
     double *values;                                                                                \
     const struct ek_fvm_hessian *asm_h;                                                            \
-    int asm_k; /* the plan entry (tblk index) */                                                   \
+    int asm_k; /* the plan group (hessian_kernel.h, tgrp) */                                       \
   }
 EK_HESS_ARGS(float, ek_hess_args_f32);
 EK_HESS_ARGS(double, ek_hess_args_f64);
 
-// One run of the assembly's plan: the element blocks of one slot block
-// that add into the 3x3 block of K at values + p (rows rs apart), n of
+// Slot blocks per group of the assembly's plan: one run sums a K block's
+// contributions from all of the group's blocks, so a K block is loaded and
+// stored fewer times (docs/perf.md, "Hessian assembly"); the group's
+// element Hessians, 144 planes per block (8 blocks: 72 KB, L1 and L2),
+// sit on the thread's stack; 4 blocks (L1) were slower, 16 little faster.
+#define HESS_GROUP 8
+
+// One run of the assembly's plan: the element blocks of one group of slot
+// blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
 // them, in ascending slot order; first: the run starts the block's sum
 // (its first contribution: written as 0 + e).
 typedef struct {
@@ -114,12 +121,17 @@ struct ek_fvm_hessian {
   // thread (slot_own, 4 per slot: the owner of corner d's row, 0xff
   // padding), and per thread t the slot blocks touching its rows,
   // ascending: tblk[tptr[t] .. tptr[t + 1]).
+  // Thread t's entries are taken HESS_GROUP at a time (its last group may
+  // be shorter): groups tgrp[t] .. tgrp[t + 1], group g's entries from
+  // tptr[t] + (g - tgrp[t]) HESS_GROUP; their element Hessians side by
+  // side in the thread's buffer (entry j of the group at 144 j LANES).
   int plan_threads;
   uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
-  int32_t *tptr, *tblk;
-  // Per plan entry k (tblk[k], on its thread): the runs runs[krun[k] ..
-  // krun[k + 1]) and their element blocks' plane offsets (d * 4 + c) * 9 *
-  // LANES + l in the element buffer, from run_e[kcon[k]], n per run.
+  int32_t *tptr, *tblk, *tgrp;
+  // Per group g: the runs runs[krun[g] .. krun[g + 1]) and their element
+  // blocks' plane offsets (144 j + (d * 4 + c) * 9) * LANES + l in the
+  // element buffer (entry j of the group, lane l), from run_e[kcon[g]], n
+  // per run.
   int32_t *krun, *kcon;
   ek_hess_run *runs;
   uint16_t *run_e;

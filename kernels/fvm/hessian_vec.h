@@ -90,13 +90,17 @@ EK_INLINE void elem_column(const vreal dP[9], const vreal g[4][3], vreal v0, int
 // Corner 0's columns, the symmetrisation, and the matrices written as 144
 // planes of the block's lanes (what the assembly reads, lane by lane):
 // dst[((d * 4 + c) * 9 + i * 3 + k) * LANES + o + l] for the EK_W lanes
-// from o, rows (d, i), columns (c, k).
+// from o, rows (d, i), columns (c, k). The loops unrolled: the plane
+// offsets (divisions by 3) are then constants, not ~15% of the element
+// kernel's samples (docs/perf.md, "Hessian assembly").
 EK_INLINE void elem_store(vreal H[144], size_t o, real *dst) {
   const vreal half = vset((real)0.5);
   for (int r = 0; r < 12; r++)
     for (int k = 0; k < 3; k++)
       H[r * 12 + k] = vneg(vadd(vadd(H[r * 12 + 3 + k], H[r * 12 + 6 + k]), H[r * 12 + 9 + k]));
+#pragma GCC unroll 12
   for (int r = 0; r < 12; r++)
+#pragma GCC unroll 12
     for (int s = r; s < 12; s++) {
       vreal v = s == r ? H[r * 12 + r] : vmul(half, vadd(H[r * 12 + s], H[s * 12 + r]));
       const int d = r / 3, i = r % 3, c = s / 3, k = s % 3;
