@@ -76,10 +76,10 @@ static inline void scatter_R_warm(const fvm_args *a, size_t b, const real *Rb) {
 static inline void prefetch_vertices(const fvm_args *a, size_t b) {
   const int32_t *idx = a->idx + b * 4 * L;
   for (int k = 0; k < 4 * L; k++) {
-    const size_t v = (size_t)(idx[k] < 0 ? 0 : idx[k]) * 3;
-    __builtin_prefetch(a->x + v, 0, 3);
+    const size_t v = (size_t)(idx[k] < 0 ? 0 : idx[k]);
+    __builtin_prefetch(a->x + v * 3, 0, 3);
     if (a->f)
-      __builtin_prefetch(a->f + v, 1, 3);
+      __builtin_prefetch(a->f + v * (size_t)a->fstride, 1, 3);
   }
 }
 
@@ -95,7 +95,10 @@ static inline void corner_forces(const vreal P[9], const real *dm_inv, const rea
 }
 
 static inline void scatter_block(const fvm_args *a, size_t b, const real *hb) {
-  tet_scatter_block(a->idx + b * 4 * L, hb, 3, a->f);
+  if (a->fstride == 4)
+    tet_scatter_block_rows4(a->idx + b * 4 * L, hb, a->f);
+  else
+    tet_scatter_block(a->idx + b * 4 * L, hb, 3, a->f);
 }
 
 #endif
