@@ -589,6 +589,60 @@ static void check_gathers(ek_simd_tally *t) {
   }
   op_done(&cg, t, "x[idx], x[0] where idx < 0");
   op_done(&cp, t, "points x[3 idx + k], mask where idx < 0");
+#if defined(EK_HAVE_VLOAD_POINTS)
+  op_check cl = {"vload_points", 0, 0};
+  for (int v = 0; v < NV; v++) {
+    const int32_t *ix = idx + v * EK_W;
+    real p[3][EK_W];
+    vreal pv[3];
+    int mask[EK_W];
+    put_mask(mask, vload_points(a, ix, pv));
+    for (int k = 0; k < 3; k++)
+      put(p[k], pv[k]);
+    for (int l = 0; l < EK_W; l++) {
+      int i = v * EK_W + l, j = ix[l] < 0 ? 0 : ix[l];
+      int ok = mask[l] == (ix[l] < 0);
+      for (int k = 0; k < 3; k++)
+        ok &= same(a[3 * j + k], p[k][l], 0);
+      lane_result(&cl, ok, i, "idx %d: expected (%a %a %a) mask %d got (%a %a %a) mask %d",
+                  (int)ix[l], a[3 * j], a[3 * j + 1], a[3 * j + 2], ix[l] < 0, p[0][l], p[1][l],
+                  p[2][l], mask[l]);
+    }
+  }
+  op_done(&cl, t, "vgather_points' values by loads and a transpose");
+#endif
+#if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
+  // Random rows (repeats in a vector included) against the scalar adds in
+  // lane order, corners inner; lanes whose corner 0 is negative skipped.
+  op_check cs = {"vscatter_add_rows4", 0, 0};
+  static real rows[NX * 4], ref[NX * 4];
+  for (int i = 0; i < NX * 4; i++)
+    rows[i] = ref[i] = a[(7 * i + 3) % NL];
+  for (int v = 0; v + 4 <= NV; v += 4) {
+    int32_t ci[4 * EK_W];
+    for (int k = 0; k < 4 * EK_W; k++)
+      ci[k] = k < EK_W || idx[v * EK_W + k] >= 0 ? idx[v * EK_W + k] : -idx[v * EK_W + k];
+    vreal h[12];
+    real hs[12][EK_W];
+    for (int k = 0; k < 12; k++) {
+      h[k] = vload(b + ((v + k) % NV) * EK_W);
+      put(hs[k], h[k]);
+    }
+    vscatter_add_rows4(rows, ci, EK_W, h);
+    for (int l = 0; l < EK_W; l++) {
+      if (ci[l] < 0)
+        continue;
+      for (int c = 0; c < 4; c++)
+        for (int k = 0; k < 3; k++)
+          ref[ci[c * EK_W + l] * 4 + k] += hs[3 * c + k][l];
+    }
+  }
+  for (int i = 0; i < NX; i++)
+    for (int k = 0; k < 3; k++)
+      lane_result(&cs, same(ref[4 * i + k], rows[4 * i + k], 1), 3 * i + k,
+                  "row %d component %d: expected %a got %a", i, k, ref[4 * i + k], rows[4 * i + k]);
+  op_done(&cs, t, "rows of 4 += corner values, lane order, corners inner");
+#endif
 }
 
 // ---- The record transposes, for every np the API allows ----

@@ -142,10 +142,17 @@ static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl)
   return a;
 }
 
+// Thread buffers with rows of 4 floats where the row's kernels add a
+// row with one 16-byte load and store (fvm_tet.h, vscatter_add_rows4:
+// AVX-512 and AVX2, f32); elsewhere the scalar adds gain nothing from the
+// pad and the buffers stay nverts x 3.
 static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
-                        ek_scatter s) {
+                        ek_scatter s, ek_isa isa) {
   fvm_ctx c = {kt, args_for(a, el, scatter_blocks(el, s))};
-  scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c};
+  const int rows4 = s == EK_SCATTER_THREAD_BUFFERS &&
+                    (isa == EK_ISA_AVX512 || isa == EK_ISA_AVX2) && sizeof(real) == 4;
+  c.a.fstride = rows4 ? 4 : 3;
+  scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c, c.a.fstride};
   return EK_P(scatter_run)(&j, f);
 }
 
@@ -210,7 +217,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   pt->pk1 = t4 - t3;
 
   a.P_in = P;
-  rc = run_strategy(kt, el, a, f, s);
+  rc = run_strategy(kt, el, a, f, s, isa);
   pt->scatter = now() - t4;
   return rc;
 }
@@ -280,6 +287,7 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                 .R_warm = warm ? ws->data : NULL,
                 .polar_iters = polar_iters,
                 .prefetch = prefetch_for(el),
+                .fstride = 3,
                 .x = x};
   if (o.phase_times && !warm) {
     ek_svd3_opts so = {.sweeps = o.svd_sweeps,
@@ -291,10 +299,10 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
     // Warm polar: fused (fvm.h), the whole call reported as the P phase.
     memset(o.phase_times, 0, sizeof *o.phase_times);
     double t0 = now();
-    rc = run_strategy(kt, el, a, f, s);
+    rc = run_strategy(kt, el, a, f, s, isa);
     o.phase_times->pk1 = now() - t0;
   } else {
-    rc = run_strategy(kt, el, a, f, s);
+    rc = run_strategy(kt, el, a, f, s, isa);
   }
   if (rc == EK_ENOMEM)
     ek_set_error("%s: out of memory for scratch buffers", fn);

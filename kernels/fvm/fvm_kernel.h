@@ -19,7 +19,7 @@
 //   P = 2 mu (F - R) + lambda (J - 1) cof(F): no SVD;
 //   then H = -V0 P Dm^-T (Teran et al. 2003 sec. 4) and
 //   f != NULL:      add h1..h3 and -(h1+h2+h3) into f (caller vertex order,
-//                   nverts x 3), lane by lane in lane order; the caller
+//                   nverts x fstride, fstride 3 or 4), lane by lane in lane order; the caller
 //                   guarantees no other thread touches those vertices;
 //   corner != NULL: write the corner forces into corner[(b*12 + c*3 + i)*L
 //                   + l] (corner c = 0..3, component i) instead.
@@ -56,6 +56,7 @@ struct ek_fvm_args_f32 {
   const float *P_in;
   int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
   float *f;
+  int fstride; // floats per vertex row of f: 3, or 4 (padded thread buffers: scatter.h)
   float *corner;
 };
 
@@ -76,6 +77,7 @@ struct ek_fvm_args_f64 {
   const double *P_in;
   int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
   double *f;
+  int fstride;
   double *corner;
 };
 

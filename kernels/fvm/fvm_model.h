@@ -32,6 +32,8 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
     if (a->prefetch)
       for (size_t bn = b + (size_t)gb; bn < b + 2 * (size_t)gb && bn < b1; bn++)
         prefetch_vertices(a, bn);
+    for (size_t bn = b + 2 * (size_t)gb; bn < b + 3 * (size_t)gb && bn < b1; bn++)
+      prefetch_planes(a, bn);
     if (MODEL_READS_R && !a->R_direct)
       for (int g = 0; g < nb; g++)
         gather_R(a, b + (size_t)g, Rb[g]);

@@ -8,6 +8,14 @@
 
 #include <stdint.h>
 
+// The corners' coordinates: vload_points where the target has it (same
+// values as vgather_points: loads and a transpose instead of gathers).
+#if defined(EK_HAVE_VLOAD_POINTS)
+#define tet_points vload_points
+#else
+#define tet_points vgather_points
+#endif
+
 // Gather the 4 corners of the EK_W lanes at offset o of block b from the
 // points x (vgather_points, straight into registers) and form
 // D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
@@ -17,9 +25,9 @@ EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real 
                             real pad, vreal D[9]) {
   const int32_t *idx = idx_block + o;
   vreal x0[3], xc[3], Ds[9], Dmi[9];
-  vmask is_pad = vgather_points(x, idx, x0);
+  vmask is_pad = tet_points(x, idx, x0);
   for (int c = 0; c < 3; c++) {
-    vgather_points(x, idx + (c + 1) * EK_LANES, xc);
+    tet_points(x, idx + (c + 1) * EK_LANES, xc);
     for (int i = 0; i < 3; i++)
       Ds[i * 3 + c] = vsub(xc[i], x0[i]);
   }
@@ -70,6 +78,30 @@ static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, i
         o[i] += hb[(c * ncomp + i) * EK_LANES + l];
     }
   }
+}
+
+// tet_scatter_block's adds into rows of 4 (3 components and a pad the
+// sums leave alone but for adding 0: out is a thread buffer of nverts x 4,
+// scatter.c), through vscatter_add_rows4 where the target has it.
+static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real *hb, real *out) {
+#if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
+  for (int o = 0; o < EK_LANES; o += EK_W) {
+    vreal h[12];
+    for (int k = 0; k < 12; k++)
+      h[k] = vload(hb + k * EK_LANES + o);
+    vscatter_add_rows4(out, idx_block + o, EK_LANES, h);
+  }
+#else
+  for (int l = 0; l < EK_LANES; l++) {
+    if (idx_block[l] < 0)
+      continue;
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx_block[c * EK_LANES + l] * 4;
+      for (int i = 0; i < 3; i++)
+        o[i] += hb[(c * 3 + i) * EK_LANES + l];
+    }
+  }
+#endif
 }
 
 #endif

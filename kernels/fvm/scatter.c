@@ -57,7 +57,8 @@ static void run_colored(const scatter_job *j, real *out) {
 // each; threads take parts round-robin, then out = sum of the buffers in
 // part order (parallel over vertices).
 static int run_buffers(const scatter_job *j, real *out) {
-  size_t n = j->el->nverts * (size_t)j->ncomp, nb = j->el->morton.nslots / L;
+  const size_t nc = (size_t)j->ncomp, st = j->buf_stride ? (size_t)j->buf_stride : nc;
+  size_t nv = j->el->nverts, n = nv * st, nb = j->el->morton.nslots / L;
   real *buf = EK_P(scratch_get)(0, EK_FVM_PARTS * n * sizeof(real));
   if (!buf)
     return EK_ENOMEM;
@@ -74,12 +75,13 @@ static int run_buffers(const scatter_job *j, real *out) {
     }
 #pragma omp barrier
 #pragma omp for schedule(static)
-    for (size_t i = 0; i < n; i++) {
-      real s = buf[i];
-      for (int p = 1; p < EK_FVM_PARTS; p++)
-        s += buf[(size_t)p * n + i];
-      out[i] = s;
-    }
+    for (size_t v = 0; v < nv; v++)
+      for (size_t k = 0; k < nc; k++) {
+        real s = buf[v * st + k];
+        for (int p = 1; p < EK_FVM_PARTS; p++)
+          s += buf[(size_t)p * n + v * st + k];
+        out[v * nc + k] = s;
+      }
   }
   return EK_OK;
 }

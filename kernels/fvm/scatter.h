@@ -31,6 +31,12 @@ typedef struct {
   int parallel;        // 0: run on the calling thread alone
   scatter_range_fn *range;
   const void *ctx;
+  // Floats per vertex in THREAD_BUFFERS' buffers (what the range function
+  // adds into there): ncomp (0 says so too), or 4 for ncomp 3, rows padded
+  // so that a target can add a row with one 16-byte load and store
+  // (fvm_tet.h, tet_scatter_block_rows4; fvm.c chooses). The other
+  // strategies add into out, rows of ncomp.
+  int buf_stride;
 } scatter_job;
 
 // out (nverts x ncomp) = the sum of the job's corner values; overwritten.

@@ -164,6 +164,66 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(zero, i)));
 }
 #endif
+// vload_points and vscatter_add_rows4 (avx512.h says why and how) on 8
+// lanes, f32: rows[k] holds points k and 4 + k, the same 4x4 transposes
+// inside each 128-bit lane. The loads are vmaskmovps (12 bytes: no read
+// past the array); rows of 4 need no masked store, and the NaN rule of the
+// scalar add is a blend.
+#if defined(EK_REAL_F32)
+#define EK_HAVE_VLOAD_POINTS
+static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
+                                                                vreal p[3]) {
+  const __m128i m3 = _mm_setr_epi32(-1, -1, -1, 0);
+  __m128 r[8];
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++)
+    r[l] = _mm_maskload_ps(x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3, m3);
+  __m256 rows[4];
+#pragma GCC unroll 4
+  for (int k = 0; k < 4; k++)
+    rows[k] = _mm256_insertf128_ps(_mm256_castps128_ps256(r[k]), r[4 + k], 1);
+  __m256d t0 = _mm256_castps_pd(_mm256_unpacklo_ps(rows[0], rows[1])); // x0 x1 y0 y1
+  __m256d t1 = _mm256_castps_pd(_mm256_unpackhi_ps(rows[0], rows[1])); // z0 z1 0 0
+  __m256d t2 = _mm256_castps_pd(_mm256_unpacklo_ps(rows[2], rows[3])); // x2 x3 y2 y3
+  __m256d t3 = _mm256_castps_pd(_mm256_unpackhi_ps(rows[2], rows[3])); // z2 z3 0 0
+  p[0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
+  p[1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
+  p[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
+  __m256i i = _mm256_loadu_si256((const __m256i *)idx);
+  return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_setzero_si256(), i));
+}
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m256 rows[4][4];
+  const __m256 zero = _mm256_setzero_ps();
+#pragma GCC unroll 4
+  for (int c = 0; c < 4; c++) {
+    __m256d t0 = _mm256_castps_pd(_mm256_unpacklo_ps(h[3 * c], h[3 * c + 1]));
+    __m256d t1 = _mm256_castps_pd(_mm256_unpackhi_ps(h[3 * c], h[3 * c + 1]));
+    __m256d t2 = _mm256_castps_pd(_mm256_unpacklo_ps(h[3 * c + 2], zero));
+    __m256d t3 = _mm256_castps_pd(_mm256_unpackhi_ps(h[3 * c + 2], zero));
+    rows[c][0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
+    rows[c][1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
+    rows[c][2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
+    rows[c][3] = _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3));
+  }
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m128 hv =
+          l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
+      __m128 ov = _mm_loadu_ps(o);
+      _mm_storeu_ps(o, _mm_blendv_ps(ov, _mm_add_ps(ov, hv), _mm_cmpord_ps(ov, ov)));
+    }
+  }
+}
+#endif
+
 // The record transposes' primitives (generic.h, EK_HAVE_VREC_PERM): a
 // blend by a constant lane mask (vblendps / vblendpd, an immediate, where
 // the mask folds to a constant, as the fully unrolled loops of generic.h

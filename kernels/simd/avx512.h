@@ -162,6 +162,87 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 }
 #endif
 
+// vload_points(x, idx, p): vgather_points' contract (same values, so the
+// same bits) by one 3-float masked load per lane and an in-register
+// transpose instead of three vgatherdps (f32). Zen 5 (perf on the FVM
+// force kernel, docs/perf.md): the 12 gathers per tet vector were 22-28%
+// of the kernel's own samples. Here: 16 masked 16-byte loads (element 3
+// masked off: no read past the array's end), 12 vinsertf32x4 and 5
+// unpacks; lane j of rows[k] holds point 4j + k, and the 4x4 transposes
+// inside each 128-bit lane put the lanes in order.
+#if defined(EK_REAL_F32)
+#define EK_HAVE_VLOAD_POINTS
+static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
+                                                                vreal p[3]) {
+  __m128 r[16];
+#pragma GCC unroll 16
+  for (int l = 0; l < 16; l++)
+    r[l] = _mm_maskz_loadu_ps(7, x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3);
+  __m512 rows[4];
+#pragma GCC unroll 4
+  for (int k = 0; k < 4; k++)
+    rows[k] = _mm512_insertf32x4(
+        _mm512_insertf32x4(_mm512_insertf32x4(_mm512_castps128_ps512(r[k]), r[4 + k], 1), r[8 + k],
+                           2),
+        r[12 + k], 3);
+  __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(rows[0], rows[1])); // x0 x1 y0 y1
+  __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(rows[0], rows[1])); // z0 z1 0 0
+  __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(rows[2], rows[3])); // x2 x3 y2 y3
+  __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(rows[2], rows[3])); // z2 z3 0 0
+  p[0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+  p[1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+  p[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+  return _mm512_cmplt_epi32_mask(_mm512_loadu_si512(idx), _mm512_setzero_si512());
+}
+// vscatter_add_rows4(out, idx, stride, h): for lane l = 0..W-1 in order,
+// skipping lanes with idx[l] < 0, and corner c = 0..3 in order,
+// out[4 i + k] += lane l of h[3 c + k] (k < 3), i = idx[c stride + l]:
+// the scalar scatter's adds in its order (so the same bits; NaNs below)
+// into rows padded to 4 floats (the thread buffers', scatter.c), one
+// 16-byte load-add-store per row instead of 3 scalar ones. The rows come
+// from the inverse of vload_points' transpose (8 unpacks per corner) and
+// one vextractf32x4 per row. Padded rows, not the caller's 3-float rows:
+// a row's load then takes its data from the one earlier store of the same
+// row (store-to-load forwarding); with 12-byte masked rows (rows of 3)
+// the next load of a row waited for the store to leave (Zen 5: the FVM
+// force 5-6 ns per tet slower than the scalar scatter).
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m512 rows[4][4];
+  const __m512 zero = _mm512_setzero_ps();
+#pragma GCC unroll 4
+  for (int c = 0; c < 4; c++) {
+    __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c], h[3 * c + 1])); // x0 y0 x1 y1
+    __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c], h[3 * c + 1])); // x2 y2 x3 y3
+    __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c + 2], zero));     // z0 0 z1 0
+    __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c + 2], zero));     // z2 0 z3 0
+    rows[c][0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+    rows[c][1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+    rows[c][2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+    rows[c][3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+  }
+#pragma GCC unroll 16
+  for (int l = 0; l < 16; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m128 hv = _mm512_extractf32x4_ps(rows[c][l % 4], l / 4);
+      __m128 ov = _mm_loadu_ps(o);
+      // The scalar o += h gives o's NaN where both are NaN (x86 returns
+      // its first operand's); the compiler may order the vector add's
+      // operands either way (inverted tets' NaN forces changed sign), so
+      // a NaN o is kept as it is (a sum, already quiet) and only the
+      // other lanes take the add.
+      const __mmask8 num = _mm_cmp_ps_mask(ov, ov, _CMP_ORD_Q);
+      _mm_storeu_ps(o, _mm_mask_add_ps(ov, num, ov, hv));
+    }
+  }
+}
+#endif
+
 // The record transposes (simd.h) in registers. generic.h writes the
 // transpose once in terms of three primitives (EK_HAVE_VREC_PERM): a blend
 // by a constant lane mask, a one-source and a two-source lane permute by
