@@ -3,14 +3,16 @@
 //           scalable implicit finite element analyses in solid mechanics
 //           with over a half a billion degrees of freedom") with the six
 //           rigid-body modes as the near-null space (MatNullSpaceCreate-
-//           RigidBody), as PETSc's elasticity examples (ksp ex56) set it;
+//           RigidBody), as PETSc's elasticity examples (ksp ex56) set it,
+//           those of the current positions at each rebuild
+//           (PCSetCoordinates; AMG_REBUILD_EXCESS: when);
 //   direct: KSPPREONLY + PCCHOLESKY by CHOLMOD (supernodal; Chen et al.
 //           2008), else MUMPS, else PETSc's own.
 // One sequential AIJ matrix with block size 3, created once from ek's CSR
 // pattern (hessian.h); each solve copies the values in and sets the solver
-// up again. PETSc is initialised on first use without its signal handlers
-// (ek-sim's SIGINT handling stays) and with errors returned, not printed;
-// PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
+// up again (the factorisation) or keeps it (AMG, by the rule below). PETSc is initialised on first
+// use without its signal handlers (ek-sim's SIGINT handling stays) and with errors returned, not
+// printed; PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
 //
 // Across MPI ranks (ek-sim under mpirun; sim/README.md "MPI"): an MPIAIJ
 // matrix with block size 3 in the vertices' Morton order (implicit.c),
