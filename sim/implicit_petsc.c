@@ -3,14 +3,16 @@
 //           scalable implicit finite element analyses in solid mechanics
 //           with over a half a billion degrees of freedom") with the six
 //           rigid-body modes as the near-null space (MatNullSpaceCreate-
-//           RigidBody), as PETSc's elasticity examples (ksp ex56) set it;
+//           RigidBody), as PETSc's elasticity examples (ksp ex56) set it,
+//           those of the current positions at each rebuild
+//           (PCSetCoordinates; AMG_REBUILD_EXCESS: when);
 //   direct: KSPPREONLY + PCCHOLESKY by CHOLMOD (supernodal; Chen et al.
 //           2008), else MUMPS, else PETSc's own.
 // One sequential AIJ matrix with block size 3, created once from ek's CSR
 // pattern (hessian.h); each solve copies the values in and sets the solver
-// up again. PETSc is initialised on first use without its signal handlers
-// (ek-sim's SIGINT handling stays) and with errors returned, not printed;
-// PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
+// up again (the factorisation) or keeps it (AMG, by the rule below). PETSc is initialised on first
+// use without its signal handlers (ek-sim's SIGINT handling stays) and with errors returned, not
+// printed; PETSC_OPTIONS in the environment still reaches KSPSetFromOptions.
 //
 // Across MPI ranks (ek-sim under mpirun; sim/README.md "MPI"): an MPIAIJ
 // matrix with block size 3 in the vertices' Morton order (implicit.c),
@@ -50,9 +52,10 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
 }
 void implicit_petsc_destroy(implicit_petsc *p) { (void)p; }
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
-                         const double *b, double *x, long *its, double *rel, double *t_setup,
-                         double *t_solve, char *err, size_t errlen) {
-  (void)p, (void)values, (void)diag, (void)b, (void)x, (void)its, (void)rel, (void)t_setup;
+                         const double *b, const double *pos, double *x, long *its, double *rel,
+                         double *t_setup, double *t_solve, char *err, size_t errlen) {
+  (void)p, (void)values, (void)diag, (void)b, (void)pos, (void)x, (void)its, (void)rel;
+  (void)t_setup;
   (void)t_solve;
   snprintf(err, errlen, "built without PETSc");
   return -1;
@@ -81,6 +84,19 @@ int ek_linear_solver_available(ek_linear_solver s) { return s == EK_LINSOLVE_MAT
 #else
 #include <petscksp.h>
 
+// The rebuild rule's budget, in CG iterations: a rebuild costs about as
+// much as 60-70 of the bracket's CG iterations (1 thread), so keeping the
+// hierarchy while the iterations it adds stay below that bounds what a
+// stale hierarchy costs by what a rebuild would (the ski-rental rule).
+// Measured (bracket, 30 steps, busy 2-core Zen 5, CPU time; sim/README.md):
+// the earlier rule (keep while a solve takes at most 2x + 5 the iterations
+// after the last setup, then recompute) let CG climb from 9 to 40
+// iterations per solve: PCGAMG reuses its prolongators by default
+// (PCGAMGSetReuseInterpolation), so its "rebuilds" recomputed only the
+// Galerkin products, the base for the 2x then grew with every one. Now
+// every rebuild is a whole new hierarchy.
+#define AMG_REBUILD_EXCESS 60
+
 struct implicit_petsc {
   Mat A;
   // One process, AMG: A's upper block triangle as SBAIJ (block size 3), the
@@ -93,10 +109,11 @@ struct implicit_petsc {
   Vec b, x, r;
   PetscInt n, nnz;
   int direct;
-  // AMG: the hierarchy is kept across solves while they stay cheap (fresh:
-  // the iterations of the last solve after a rebuild; last: the last
-  // solve's; 0 = rebuild).
-  long fresh_its, last_its;
+  // AMG: the hierarchy is kept across solves until the iterations they
+  // took beyond the solve after its rebuild (fresh_its) add up to
+  // excess_max (excess: that sum so far); fresh_its 0: none yet.
+  long fresh_its, excess;
+  PetscInt excess_max;
   // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
   // PETSc's row of each of the body's rows (newrow) and the body's row of
   // each owned row (oldrow), the values in the order of the COO pattern
@@ -277,6 +294,10 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
       if (!set)
         PCHK(PetscOptionsSetValue(NULL, defaults[i][0], defaults[i][1]));
     }
+    // A rebuild is a whole new hierarchy (AMG_REBUILD_EXCESS says why).
+    PCHK(PCGAMGSetReuseInterpolation(pc, PETSC_FALSE));
+    p->excess_max = AMG_REBUILD_EXCESS;
+    PCHK(PetscOptionsGetInt(NULL, NULL, "-ek_amg_rebuild_excess", &p->excess_max, NULL));
     PCHK(KSPSetNormType(p->ksp, KSP_NORM_UNPRECONDITIONED));
     PCHK(KSPSetTolerances(p->ksp, rtol, 1e-300, PETSC_DEFAULT, (PetscInt)max_its));
   }
@@ -552,10 +573,31 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
   return 0;
 }
 
+// GAMG's near-null space for its next rebuild: the rigid-body modes of
+// pos (this rank's rows), through PCSetCoordinates (PETSc's smoothed
+// aggregation then builds the three translations and the three rotations
+// from them; a rebuild would otherwise reuse the modes of its first setup,
+// those of the rest shape X).
+static int rigid_modes_now(implicit_petsc *p, PC pc, const double *pos, char *err, size_t errlen) {
+  const PetscInt nloc = p->rend - p->rstart;
+  PetscReal *c = malloc(((size_t)nloc + 1) * sizeof *c);
+  if (!c) {
+    snprintf(err, errlen, "out of memory for the coordinates");
+    return -1;
+  }
+  for (PetscInt i = 0; i < nloc; i++)
+    c[i] = pos[p->oldrow ? p->oldrow[i] : i];
+  PetscErrorCode e = PCSetCoordinates(pc, 3, nloc / 3, c);
+  free(c);
+  PCHK(e);
+  return 0;
+}
+
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
-                         const double *b, double *x, long *its, double *rel, double *t_setup,
-                         double *t_solve, char *err, size_t errlen) {
+                         const double *b, const double *pos, double *x, long *its, double *rel,
+                         double *t_setup, double *t_solve, char *err, size_t errlen) {
   double t0 = sim_now();
+  int rc;
   if (set_values(p, values, diag, err, errlen) < 0)
     return -1;
   PCHK(KSPSetOperators(p->ksp, p->S ? p->S : p->A, p->A));
@@ -568,14 +610,20 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
     memcpy(bv, b, (size_t)p->n * sizeof(double));
   PCHK(VecRestoreArrayWrite(p->b, &bv));
   // AMG: keep the last hierarchy (a preconditioner of a nearby matrix; CG
-  // still solves with the new one to rtol) while a solve takes at most
-  // twice the iterations of the one after its rebuild, plus 5; rebuild
-  // after one that took more, or failed.
-  const int reuse = !p->direct && p->fresh_its > 0 && p->last_its <= 2 * p->fresh_its + 5;
+  // still solves with the new one to rtol) until the iterations the kept
+  // solves took beyond the fresh one add up to excess_max, then rebuild
+  // it, its near-null space the rigid-body modes of the current positions
+  // pos; rebuild also after a kept one failed (AMG_REBUILD_EXCESS says
+  // why).
+  int keep = !p->direct && p->fresh_its > 0 && p->excess < p->excess_max;
+  PC pc;
+  PCHK(KSPGetPC(p->ksp, &pc));
   KSPConvergedReason why;
   PetscInt n;
-  for (int attempt = reuse ? 0 : 1; attempt < 2; attempt++) {
-    PCHK(KSPSetReusePreconditioner(p->ksp, attempt == 0 ? PETSC_TRUE : PETSC_FALSE));
+  for (int attempt = 0; attempt < 2; attempt++) {
+    PCHK(KSPSetReusePreconditioner(p->ksp, keep ? PETSC_TRUE : PETSC_FALSE));
+    if (!keep && !p->direct && pos && (rc = rigid_modes_now(p, pc, pos, err, errlen)) < 0)
+      return rc;
     PCHK(KSPSetUp(p->ksp));
     double t1 = sim_now();
     *t_setup += t1 - t0;
@@ -584,11 +632,16 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
     t0 = sim_now();
     PCHK(KSPGetConvergedReason(p->ksp, &why));
     PCHK(KSPGetIterationNumber(p->ksp, &n));
-    if (attempt == 0 && why < 0)
-      continue; // the kept hierarchy failed: rebuild, solve again
-    if (attempt == 1)
+    if (keep && why < 0) {
+      keep = 0; // the kept hierarchy failed: rebuild, solve again
+      continue;
+    }
+    if (!keep) {
       p->fresh_its = (long)n;
-    p->last_its = (long)n;
+      p->excess = 0;
+    } else if ((long)n > p->fresh_its) {
+      p->excess += (long)n - p->fresh_its;
+    }
     break;
   }
   if (why < 0 && why != KSP_DIVERGED_ITS) {

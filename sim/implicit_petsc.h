@@ -57,9 +57,10 @@ void implicit_petsc_destroy(implicit_petsc *p);
 // the diagonal each row's owner adds once, b (3 nv) the whole right-hand
 // side (each rank reads its rows), and x (3 nv) comes back whole on every
 // rank; all in the body's numbering. Collective. diag is NULL for one
-// process.
+// process. pos (3 nv, whole): the current positions, whose rigid-body
+// modes an AMG rebuild takes as its near-null space (NULL: those of X).
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
-                         const double *b, double *x, long *its, double *rel, double *t_setup,
-                         double *t_solve, char *err, size_t errlen);
+                         const double *b, const double *pos, double *x, long *its, double *rel,
+                         double *t_setup, double *t_solve, char *err, size_t errlen);
 
 #endif
