@@ -699,9 +699,13 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
          (double)tm->newton_iterations / n,
          tm->newton_iterations ? (double)tm->cg_iterations / (double)tm->newton_iterations : 0.0,
          tm->backtracks, tm->last_residual, tm->worst_residual, tm->unconverged_steps, done);
-  printf("per tet    Hessian product %.2f ns (%ld products), gradient+eigensystems pass %.2f ns "
-         "(%ld passes)",
-         tm->matvecs ? 1e9 * tm->matvec / ((double)tm->matvecs * (double)nt) : NAN, tm->matvecs,
+  // An assembled solver (amg, direct) runs no Hessian products: say so, not nan.
+  if (tm->matvecs)
+    printf("per tet    Hessian product %.2f ns (%ld products), ",
+           1e9 * tm->matvec / ((double)tm->matvecs * (double)nt), tm->matvecs);
+  else
+    printf("per tet    no Hessian products, ");
+  printf("gradient+eigensystems pass %.2f ns (%ld passes)",
          1e9 * tm->gradient / ((double)tm->gradient_passes * (double)nt), tm->gradient_passes);
   if (tm->gradient_timed > 0)
     printf("; caching the eigensystems is %.0f%% of a pass (phase-timed steps: a pass without "
