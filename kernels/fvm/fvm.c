@@ -131,16 +131,6 @@ static int prefetch_for(const ek_tets *el) {
   return el->nverts * 3 * sizeof(real) * 2 > PREFETCH_MIN_BYTES;
 }
 
-// EK_FVM_INTERLEAVE=0|1 (experiment): fvm_model.h's scatter inside the next group's SVD.
-static int interleave_for(void) {
-  static _Atomic int v = -1;
-  if (v == -1) {
-    const char *e = getenv("EK_FVM_INTERLEAVE");
-    v = e && *e ? atoi(e) != 0 : 0;
-  }
-  return v;
-}
-
 static double now(void) { return omp_get_wtime(); }
 
 static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl) {
@@ -296,7 +286,6 @@ int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const rea
                 .R_warm = warm ? ws->data : NULL,
                 .polar_iters = polar_iters,
                 .prefetch = prefetch_for(el),
-                .interleave = interleave_for(),
                 .fstride = 3,
                 .x = x};
   if (o.phase_times && !warm) {

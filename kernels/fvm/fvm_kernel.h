@@ -54,8 +54,7 @@ struct ek_fvm_args_f32 {
   int polar_iters;
   const float *x;
   const float *P_in;
-  int prefetch;   // 1: prefetch the next group's vertex rows (fvm_vec.h)
-  int interleave; // 1: scatter a group during the next one's SVD (fvm_model.h)
+  int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
   float *f;
   int fstride; // floats per vertex row of f: 3, or 4 (padded thread buffers: scatter.h)
   float *corner;
@@ -77,7 +76,6 @@ struct ek_fvm_args_f64 {
   const double *x;
   const double *P_in;
   int prefetch; // 1: prefetch the next group's vertex rows (fvm_vec.h)
-  int interleave;
   double *f;
   int fstride;
   double *corner;

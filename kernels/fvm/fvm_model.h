@@ -15,76 +15,6 @@
 #include "../polar/polar_warm_core.h"
 #include "fvm_vec.h"
 
-// Four vectors' SVD (svd3_quad_est's operations in its order: svd3_core_n
-// with n = 4, S scaled back) with the scatter of the previous group's np
-// blocks (pb, phb) issued between the Jacobi sweeps' pair steps, one block
-// per step, the rest after the sweeps: the scatter's loads and stores
-// (independent of the SVD) then sit in the out-of-order window beside the
-// latency-bound rotation chains instead of running before them alone.
-// The blocks keep their order, so every vertex's sums keep theirs.
-EK_INLINE void fvm_svd4_scatter(const vreal A[4][9], vreal U[4][9], vreal S[4][3], vreal V[4][9],
-                                int sweeps, int refine, const fvm_args *a, size_t pb, int np,
-                                real (*phb)[12 * L]) {
-  enum { n = 4 };
-  svd3_state st[n];
-  int done = 0;
-  for (int j = 0; j < n; j++)
-    svd3_start(&st[j], A[j]);
-  {
-    // svd3_jacobi_sweeps with the scatter steps between the pair steps.
-    const int flush = sweeps >= SVD3_FLUSH_SWEEPS, rough = refine > 0;
-    if (flush)
-      vflush_begin();
-    for (int sweep = 0; sweep < sweeps; sweep++) {
-      for (int j = 0; j < n; j++)
-        svd3_jacobi_pair(st[j].s, st[j].qt, 0, 1, 2, 0, rough);
-      if (done < np && !flush)
-        scatter_block(a, pb + (size_t)done, phb[done]), done++;
-      for (int j = 0; j < n; j++)
-        svd3_jacobi_pair(st[j].s, st[j].qt, 1, 2, 0, 0, rough);
-      if (done < np && !flush)
-        scatter_block(a, pb + (size_t)done, phb[done]), done++;
-      for (int j = 0; j < n; j++)
-        svd3_jacobi_pair(st[j].s, st[j].qt, 2, 0, 1, 0, rough);
-      if (done < np && !flush)
-        scatter_block(a, pb + (size_t)done, phb[done]), done++;
-    }
-    if (flush) {
-      vflush_end();
-      for (int j = 0; j < n; j++)
-        vfence(st[j].qt[0]);
-    }
-  }
-  for (; done < np; done++)
-    scatter_block(a, pb + (size_t)done, phb[done]);
-  for (int j = 0; j < n; j++)
-    svd3_form_B(&st[j], 0);
-  vreal rc[3 * EK_SVD3_MAX_REFINE][n], rs[3 * EK_SVD3_MAX_REFINE][n];
-  for (int sweep = 0; sweep < refine; sweep++) {
-    vreal(*c)[n] = rc + 3 * sweep, (*s)[n] = rs + 3 * sweep;
-    for (int j = 0; j < n; j++)
-      svd3_refine_angle(st[j].B, 0, 1, 0, &c[0][j], &s[0][j]);
-    for (int j = 0; j < n; j++)
-      svd3_refine_angle(st[j].B, 1, 2, 0, &c[1][j], &s[1][j]);
-    for (int j = 0; j < n; j++)
-      svd3_refine_angle(st[j].B, 2, 0, 0, &c[2][j], &s[2][j]);
-  }
-  for (int sweep = 0; sweep < refine; sweep++) {
-    vreal(*c)[n] = rc + 3 * sweep, (*s)[n] = rs + 3 * sweep;
-    for (int j = 0; j < n; j++) {
-      svd3_rotate_cols(st[j].V, 0, 1, c[0][j], s[0][j]);
-      svd3_rotate_cols(st[j].V, 1, 2, c[1][j], s[1][j]);
-      svd3_rotate_cols(st[j].V, 2, 0, c[2][j], s[2][j]);
-    }
-  }
-  vreal scale[n];
-  for (int j = 0; j < n; j++)
-    svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], 0);
-  for (int j = 0; j < n; j++)
-    for (int i = 0; i < 3; i++)
-      S[j][i] = vmul(S[j][i], scale[j]);
-}
-
 // Blocks [b0, b1), group by group: gather, F of every vector, P (through the SVD for
 // `sigma`, two vectors at a time; or through `warm` iterations of the warm
 // polar when warm > 0), corner forces, scatter.
@@ -93,18 +23,12 @@ EK_INLINE void fvm_svd4_scatter(const vreal A[4][9], vreal U[4][9], vreal S[4][3
 EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args *a, size_t b0,
                           size_t b1) {
   _Alignas(64) real Rb[GROUP_BLOCKS_MAX][9 * L];
-  _Alignas(64) real hbuf[2][GROUP_BLOCKS_MAX][12 * L];
-  // ilv: the wide SVD variant scatters group k during group k+1's SVD
-  // (fvm_svd4_scatter); pending: group k's blocks, not yet added.
-  const int ilv = sigma && nc == 4 && !warm && !a->corner && a->interleave;
-  size_t pend_b = 0;
-  int pend_n = 0, par = 0;
+  _Alignas(64) real hb[GROUP_BLOCKS_MAX][12 * L];
   const ek_material_lanes mp =
       material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   const int gb = nc == 4 ? GROUP_BLOCKS_WIDE : GROUP_BLOCKS;
   for (size_t b = b0; b < b1; b += (size_t)gb) {
     const int nb = b1 - b < (size_t)gb ? (int)(b1 - b) : gb;
-    real(*hb)[12 * L] = hbuf[par];
     if (a->prefetch)
       for (size_t bn = b + (size_t)gb; bn < b + 2 * (size_t)gb && bn < b1; bn++)
         prefetch_vertices(a, bn);
@@ -141,11 +65,7 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
       } else if (sigma) {
         // Step 3a: the SVD of the nv vectors side by side, then P from it.
         vreal U[4][9], S[4][3], V[4][9];
-        if (ilv && nv == 4) {
-          fvm_svd4_scatter((const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, a, pend_b,
-                           pend_n, hbuf[par ^ 1]);
-          pend_n = 0;
-        } else if (nc == 4)
+        if (nc == 4)
           EK_SYM(svd3_quad_est)(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine);
         else
           svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
@@ -172,16 +92,10 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
     if (warm && !a->R_direct)
       for (int g = 0; g < nb; g++)
         scatter_R_warm(a, b + (size_t)g, Rb[g]);
-    if (ilv) {
-      for (int g = 0; g < pend_n; g++) // a group whose SVD took no scatter
-        scatter_block(a, pend_b + (size_t)g, hbuf[par ^ 1][g]);
-      pend_b = b, pend_n = nb, par ^= 1;
-    } else if (!a->corner)
+    if (!a->corner)
       for (int g = 0; g < nb; g++)
         scatter_block(a, b + (size_t)g, hb[g]);
   }
-  for (int g = 0; g < pend_n; g++)
-    scatter_block(a, pend_b + (size_t)g, hbuf[par ^ 1][g]);
 }
 
 // The models that can take an SVD: through it (sigma, per rsqrt mode) when
