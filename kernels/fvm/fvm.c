@@ -142,15 +142,14 @@ static fvm_args args_for(fvm_args a, const ek_tets *el, const ek_tet_blocks *bl)
   return a;
 }
 
-// Thread buffers with rows of 4 floats where the row's kernels add a
-// row with one 16-byte load and store (fvm_tet.h, vscatter_add_rows4:
-// AVX-512 and AVX2, f32); elsewhere the scalar adds gain nothing from the
-// pad and the buffers stay nverts x 3.
+// Thread buffers with rows of 4 reals where the row's kernels add a row
+// with one load and store (fvm_tet.h, vscatter_add_rows4: AVX-512 and
+// AVX2, 16 bytes in f32, 32 in f64); elsewhere the scalar adds gain
+// nothing from the pad and the buffers stay nverts x 3.
 static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a, real *f,
                         ek_scatter s, ek_isa isa) {
   fvm_ctx c = {kt, args_for(a, el, scatter_blocks(el, s))};
-  const int rows4 = s == EK_SCATTER_THREAD_BUFFERS &&
-                    (isa == EK_ISA_AVX512 || isa == EK_ISA_AVX2) && sizeof(real) == 4;
+  const int rows4 = s == EK_SCATTER_THREAD_BUFFERS && (isa == EK_ISA_AVX512 || isa == EK_ISA_AVX2);
   c.a.fstride = rows4 ? 4 : 3;
   scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c, c.a.fstride};
   return EK_P(scatter_run)(&j, f);

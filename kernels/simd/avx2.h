@@ -222,6 +222,57 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     }
   }
 }
+#else
+// f64, 4 lanes: a point or a row of 4 doubles is one register (vmaskmovpd
+// loads of 3 doubles); the transposes are 4x4 ones by unpacks and
+// vperm2f128.
+#define EK_HAVE_VLOAD_POINTS
+static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
+                                                                vreal p[3]) {
+  const __m256i m3 = _mm256_setr_epi64x(-1, -1, -1, 0);
+  __m256d r[4];
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++)
+    r[l] = _mm256_maskload_pd(x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3, m3);
+  __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]); // x0 x1 z0 z1
+  __m256d t1 = _mm256_unpackhi_pd(r[0], r[1]); // y0 y1 0 0
+  __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]); // x2 x3 z2 z3
+  __m256d t3 = _mm256_unpackhi_pd(r[2], r[3]); // y2 y3 0 0
+  p[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  p[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  p[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  __m128i i = _mm_loadu_si128((const __m128i *)idx);
+  return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(_mm_setzero_si128(), i)));
+}
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m256d rows[4][4];
+  const __m256d zero = _mm256_setzero_pd();
+#pragma GCC unroll 4
+  for (int c = 0; c < 4; c++) {
+    __m256d t0 = _mm256_unpacklo_pd(h[3 * c], h[3 * c + 1]); // x0 y0 x2 y2
+    __m256d t1 = _mm256_unpackhi_pd(h[3 * c], h[3 * c + 1]); // x1 y1 x3 y3
+    __m256d t2 = _mm256_unpacklo_pd(h[3 * c + 2], zero);     // z0 0 z2 0
+    __m256d t3 = _mm256_unpackhi_pd(h[3 * c + 2], zero);     // z1 0 z3 0
+    rows[c][0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    rows[c][1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    rows[c][2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    rows[c][3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+  }
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m256d ov = _mm256_loadu_pd(o);
+      _mm256_storeu_pd(o, _mm256_blendv_pd(ov, _mm256_add_pd(ov, rows[c][l]),
+                                           _mm256_cmp_pd(ov, ov, _CMP_ORD_Q)));
+    }
+  }
+}
 #endif
 
 // The record transposes' primitives (generic.h, EK_HAVE_VREC_PERM): a

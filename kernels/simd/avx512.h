@@ -241,6 +241,70 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     }
   }
 }
+#else
+// f64: the same contracts on 8 lanes, a point or a row of 4 doubles being
+// one 256-bit register (3-double masked loads: no read past the array;
+// rows of 4 doubles in the thread buffers: one 256-bit load, add and store
+// per row instead of 3 scalar adds). The transposes: 4x4 ones inside each
+// 256-bit half (unpacks) and one vpermt2pd per output to put the 128-bit
+// pieces in lane order.
+#define EK_HAVE_VLOAD_POINTS
+static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
+                                                                vreal p[3]) {
+  __m256d r[8];
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++)
+    r[l] = _mm256_maskz_loadu_pd(7, x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3);
+  __m512d rows[4];
+#pragma GCC unroll 4
+  for (int k = 0; k < 4; k++) // points k and 4 + k
+    rows[k] = _mm512_insertf64x4(_mm512_castpd256_pd512(r[k]), r[4 + k], 1);
+  __m512d t0 = _mm512_unpacklo_pd(rows[0], rows[1]); // x0 x1 z0 z1 | x4 x5 z4 z5
+  __m512d t1 = _mm512_unpackhi_pd(rows[0], rows[1]); // y0 y1 0 0 | y4 y5 0 0
+  __m512d t2 = _mm512_unpacklo_pd(rows[2], rows[3]); // x2 x3 z2 z3 | x6 x7 z6 z7
+  __m512d t3 = _mm512_unpackhi_pd(rows[2], rows[3]); // y2 y3 0 0 | y6 y7 0 0
+  const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+  const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+  p[0] = _mm512_permutex2var_pd(t0, lo, t2);
+  p[1] = _mm512_permutex2var_pd(t1, lo, t3);
+  p[2] = _mm512_permutex2var_pd(t0, hi, t2);
+  return _mm256_cmplt_epi32_mask(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
+}
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m512d rows[4][4]; // rows[c][q]: lanes (0, 2), (4, 6), (1, 3), (5, 7) for q = 0..3
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
+  const __m512i hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
+#pragma GCC unroll 4
+  for (int c = 0; c < 4; c++) {
+    __m512d t0 = _mm512_unpacklo_pd(h[3 * c], h[3 * c + 1]); // x0 y0 x2 y2 x4 y4 x6 y6
+    __m512d t1 = _mm512_unpackhi_pd(h[3 * c], h[3 * c + 1]); // x1 y1 x3 y3 ...
+    __m512d t2 = _mm512_unpacklo_pd(h[3 * c + 2], zero);     // z0 0 z2 0 ...
+    __m512d t3 = _mm512_unpackhi_pd(h[3 * c + 2], zero);     // z1 0 z3 0 ...
+    rows[c][0] = _mm512_permutex2var_pd(t0, lo, t2);
+    rows[c][1] = _mm512_permutex2var_pd(t0, hi, t2);
+    rows[c][2] = _mm512_permutex2var_pd(t1, lo, t3);
+    rows[c][3] = _mm512_permutex2var_pd(t1, hi, t3);
+  }
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      // Lane l: register (l & 1) * 2 + l / 4, half (l / 2) & 1.
+      const __m512d rv = rows[c][(l & 1) * 2 + l / 4];
+      __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
+      __m256d ov = _mm256_loadu_pd(o);
+      // The NaN rule of the f32 version above.
+      const __mmask8 num = _mm256_cmp_pd_mask(ov, ov, _CMP_ORD_Q);
+      _mm256_storeu_pd(o, _mm256_mask_add_pd(ov, num, ov, hv));
+    }
+  }
+}
 #endif
 
 // The record transposes (simd.h) in registers. generic.h writes the
