@@ -229,7 +229,24 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
 #pragma GCC unroll 4
     for (int c = 0; c < 4; c++) {
       real *o = out + (size_t)idx[c * stride + l] * 4;
-      __m128 hv = _mm512_extractf32x4_ps(rows[c][l % 4], l / 4);
+      // l / 4 folds to the immediate once the loop is unrolled; the
+      // switch keeps an unoptimised (-O1 sanitizer) build compiling.
+      const __m512 rv = rows[c][l % 4];
+      __m128 hv;
+      switch (l / 4) {
+      case 0:
+        hv = _mm512_castps512_ps128(rv);
+        break;
+      case 1:
+        hv = _mm512_extractf32x4_ps(rv, 1);
+        break;
+      case 2:
+        hv = _mm512_extractf32x4_ps(rv, 2);
+        break;
+      default:
+        hv = _mm512_extractf32x4_ps(rv, 3);
+        break;
+      }
       __m128 ov = _mm_loadu_ps(o);
       // The scalar o += h gives o's NaN where both are NaN (x86 returns
       // its first operand's); the compiler may order the vector add's
