@@ -57,6 +57,7 @@ void EK_SYM(polar_warm_block)(size_t nblocks, const real *A, real *R, int iters)
   ek_fpmode_leave(mode);
 }
 
+#if !defined(EK_TARGET_SCALAR) // the scalar target stages instead (below)
 // AoS: nv vectors of EK_W matrices from m0 on, transposed to and from
 // registers (vload_records, vstore_records; in-register permutes on
 // AVX-512) instead of packed into staging blocks and unpacked, as
@@ -97,6 +98,7 @@ EK_INLINE void polar_warm_aos(size_t n, const real *A, real *R, int iters) {
     for (int i = 0; i < 9; i++)
       R[9 * (m + l) + i] = r[9 * l + i];
 }
+#endif
 
 void EK_SYM(polar_warm_aos)(size_t n, const real *A, real *R, int iters);
 #if defined(EK_TARGET_SCALAR)
