@@ -250,6 +250,27 @@ static int run_entry_cmp(const void *a, const void *b) {
   return (x->l > y->l) - (x->l < y->l);
 }
 
+// The element blocks of slot block b that thread t sums: its slots' blocks
+// (d, c) on or above the block diagonal whose row d t owns, in (slot, d, c)
+// order; written to out (lane index base + the slot's lane) unless out is
+// NULL; returns how many.
+static size_t block_entries(const ek_fvm_hessian *h, const int32_t *slot_tet, int t, size_t b,
+                            size_t lanes, size_t base, run_entry *out) {
+  size_t ne = 0;
+  for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
+    if (slot_tet[s] >= 0)
+      for (int d = 0; d < 4; d++)
+        if (h->slot_own[4 * s + (size_t)d] == t)
+          for (int c = 0; c < 4; c++)
+            if (!(h->slot_lower[s] >> (d * 4 + c) & 1)) {
+              if (out)
+                out[ne] = (run_entry){h->slot_p[16 * s + (size_t)(d * 4 + c)],
+                                      (uint16_t)(base + s - b * lanes), (uint16_t)(d * 4 + c)};
+              ne++;
+            }
+  return ne;
+}
+
 // The runs of each plan group (hessian_kernel.h, ek_hess_run): the
 // element blocks of group g's slot blocks that its thread sums (rows it
 // owns, on or above the block diagonal), grouped by their K block, each
@@ -263,15 +284,8 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   // Count: every owned upper element block of every entry is one element
   // of run_e; runs at most as many.
   for (int t = 0; t < nt; t++)
-    for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++) {
-      const size_t b = (size_t)h->tblk[k];
-      for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
-        if (slot_tet[s] >= 0)
-          for (int d = 0; d < 4; d++)
-            if (h->slot_own[4 * s + (size_t)d] == t)
-              for (int c = 0; c < 4; c++)
-                ncon += !(h->slot_lower[s] >> (d * 4 + c) & 1);
-    }
+    for (int32_t k = h->tptr[t]; k < h->tptr[t + 1]; k++)
+      ncon += block_entries(h, slot_tet, t, (size_t)h->tblk[k], lanes, 0, NULL);
   h->krun = malloc((ng + 1) * sizeof(int32_t));
   h->kcon = malloc((ng + 1) * sizeof(int32_t));
   h->runs = malloc((ncon + 1) * sizeof(ek_hess_run));
@@ -289,18 +303,9 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
       const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
       const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
       size_t ne = 0;
-      for (int32_t k = k0; k < k1; k++) {
-        const size_t b = (size_t)h->tblk[k];
-        for (size_t s = b * lanes; s < (b + 1) * lanes; s++)
-          if (slot_tet[s] >= 0)
-            for (int d = 0; d < 4; d++)
-              if (h->slot_own[4 * s + (size_t)d] == t)
-                for (int c = 0; c < 4; c++)
-                  if (!(h->slot_lower[s] >> (d * 4 + c) & 1))
-                    ent[ne++] = (run_entry){h->slot_p[16 * s + (size_t)(d * 4 + c)],
-                                            (uint16_t)((size_t)(k - k0) * lanes + s - b * lanes),
-                                            (uint16_t)(d * 4 + c)};
-      }
+      for (int32_t k = k0; k < k1; k++)
+        ne += block_entries(h, slot_tet, t, (size_t)h->tblk[k], lanes, (size_t)(k - k0) * lanes,
+                            ent + ne);
       qsort(ent, ne, sizeof *ent, run_entry_cmp);
       for (size_t i = 0; i < ne; i++) {
         const size_t j = ent[i].l / lanes, l = ent[i].l % lanes;
