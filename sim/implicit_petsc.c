@@ -21,7 +21,9 @@
 // go in with MatSetValuesCOO, which sums them (rows of other ranks included) in a fixed order;
 // the same KSP and PC on PETSC_COMM_WORLD
 // (the direct solver by MUMPS, the one parallel Cholesky of Debian's PETSc); the solution is
-// gathered whole on every rank (VecScatterCreateToAll).
+// gathered whole on every rank (VecScatterCreateToAll). AMG with at least SBAIJ_MIN_NNZ values
+// per rank: CG and the finest smoother multiply by an MPISBAIJ copy of A's upper block triangle,
+// as one process does by SBAIJ (setup_mpisbaij); GAMG builds from A.
 #include "implicit_petsc.h"
 
 #include <stdio.h>
@@ -95,6 +97,10 @@ int ek_linear_solver_available(ek_linear_solver s) { return s == EK_LINSOLVE_MAT
 // (PCGAMGSetReuseInterpolation), so its "rebuilds" recomputed only the
 // Galerkin products, the base for the 2x then grew with every one. Now
 // every rebuild is a whole new hierarchy.
+// Sixth round, with the cheaper Galerkin products ("rap", setup_solver):
+// still flat around 60 (bracket, 10 steps, busy, CPU time, two rounds:
+// 30: 15.1 CG iterations per Newton iteration, 13.54 / 13.48 s; 60: 15.4,
+// 13.17 / 12.83 s; 100: 16.8, 13.85 / 13.92 s).
 #define AMG_REBUILD_EXCESS 60
 
 struct implicit_petsc {
@@ -292,6 +298,21 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     // saw Chebyshev's kept bounds go stale (the cantilever 29 Newton
     // iterations per step); with two iterations and this reuse rule these
     // runs saw 5.10, every step to newton_tol. PETSC_OPTIONS still wins.
+    // Sixth round (bracket, 5 steps unless said, 1 thread, busy 2-core Zen
+    // 5, CPU time of whole runs; the default: 4.40 Newton iterations per
+    // step, 13.8 CG iterations per Newton iteration, 6.4-7.1 s), not kept:
+    // -pc_gamg_agg_nsmooths 0 (27.3 CG iterations, 7.26 s: the cheap setup
+    // does not pay); -mg_levels_ksp_max_it 3 (11.6, 7.28 s); -pc_gamg_
+    // threshold 0 (14.0, 7.04 s); -pc_gamg_square_graph 0 (10 steps: 13.3
+    // CG iterations, 37.9 s against 13.2); Chebyshev targets
+    // -mg_levels_ksp_chebyshev_esteig 0,0.05,0,1.1 (13.6, same time) and
+    // 0,0.2,0,1.1 (15.0, slower); -pc_gamg_esteig_ksp_max_it 5 and
+    // -mg_levels_pc_type pbjacobi (the first solve fails: DIVERGED_
+    // INDEFINITE_PC, DIVERGED_PC_FAILED); -matptap_via hypre (indefinite).
+    // A looser CG tolerance (scene cg_tol 1e-3): the bracket 10.6 CG
+    // iterations at the same 4.40 Newton iterations, 18% less CPU, but
+    // twist_implicit 12.9 Newton iterations per step and 12 of its 60
+    // steps above newton_tol (4.55 and 1 at 1e-4), so no forcing term.
     static const char *const defaults[][2] = {{"-mg_levels_ksp_type", "chebyshev"},
                                               {"-mg_levels_pc_type", "jacobi"},
                                               {"-mg_levels_ksp_max_it", "2"},
@@ -308,7 +329,9 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     // rebuilds, busy 2-core Zen 5, 1 thread, 3 interleaved pairs): GAMG's
     // PtAP 1.5-3.5 -> 0.8-2.2 s of wall time, CPU time of the whole run
     // 6.69 / 6.99 / 7.10 -> 5.93 / 6.30 / 6.36 s, CG and Newton iterations
-    // unchanged. Across ranks the MPIAIJ product has no "rap"; its others
+    // unchanged; 10 steps, two rounds: 14.29 / 14.41 -> 13.24 / 12.78 s,
+    // setup 543 / 537 -> 318 / 280 ms per step (wall). Across ranks the
+    // MPIAIJ product has no "rap"; its others
     // ("nonscalable", "allatonce", "allatonce_merged", "backend") were no
     // faster than the default, allatonce 9x slower (2 ranks, 2 steps).
     PetscBool set = PETSC_FALSE;
@@ -331,7 +354,15 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
 // 40 MB, beyond the caches) solves ~25% faster with S, CG's iterations
 // unchanged; the cantilever (~0.4 M, within L2/L3) ~5% slower: there the
 // multiply is not bound by memory and SBAIJ's scattered transpose half
-// costs more than the bytes it saves.
+// costs more than the bytes it saves. Across ranks the same threshold
+// applies to each rank's values (setup_mpisbaij). Measured (bracket, 10
+// steps, 2 ranks, --threads 1, busy 2-core Zen 5 at load 4-5, two
+// interleaved rounds; the same 4.90 Newton and 14.9 CG iterations): the
+// MPISBAIJ operator against MPIAIJ, user CPU 18.4 / 20.2 -> 14.8 / 16.4 s,
+// rank 0's solve 3.09 / 3.11 -> 2.09 / 2.62 s per step (wall, load-bound);
+// filling its values takes 4-17 ms per solve (busy, wall, the wait for
+// the other rank in the assembly included; its diagonal block in place),
+// 11-20 ms all through MatSetValuesBlocked.
 #define SBAIJ_MIN_NNZ ((size_t)1 << 20)
 
 // S (struct implicit_petsc) from the pattern: its blocks (i, j >= i) and
@@ -467,8 +498,8 @@ implicit_petsc *implicit_petsc_create(int direct, const ek_csr_pattern *pattern,
 // block columns, sorted) and sv (block row by block row, row-major): the
 // blocks within this rank's columns go to S's diagonal block (SeqSBAIJ:
 // the same blocks in the same order, each column-major) when its pattern
-// is that (checked; else every block goes through MatSetValuesBlocked,
-// 10-20 ms per solve on the bracket, 2 ranks, against < 1 ms). Takes bi,
+// is that (checked; else every block goes through MatSetValuesBlocked:
+// SBAIJ_MIN_NNZ has the figures). Takes bi,
 // bj and sv.
 static int split_mpisbaij(implicit_petsc *p, PetscInt nb, PetscInt *bi, PetscInt *bj, PetscInt *sv,
                           char *err, size_t errlen) {
