@@ -36,8 +36,10 @@
 //      clamped, P is not the gradient of psi) take the Armijo test on Phi
 //      only when neither x nor the trial point has a clamped singular
 //      value (any_clamped), where Phi is the potential of the gradient;
-//      otherwise the trial is accepted when the residual decreases,
-//      r_t <= (1 - 1e-4 alpha) r. The residual alone everywhere (before)
+//      from such an x a trial that has one is halved until it has none
+//      (the last of the MAX_BACKTRACKS trials excepted); from a clamped x
+//      the trial is accepted when the residual decreases, r_t <= (1 -
+//      1e-4 alpha) r. The residual alone everywhere (before)
 //      crawled: dx solves with the Hessian at F_hat, not the force's
 //      Jacobian, so it need not descend the residual; ek-verify --extremes,
 //      fixed corotated + clamp, plane crush at nu = 0.49: step 1 took 50
@@ -46,7 +48,10 @@
 //      (the residual rose for every alpha in [2.4e-7, 1], while psi's slope
 //      along dx was 620x grad.dx). With the test on Phi where it holds,
 //      every step converges there (10 of the 40 known failures were such
-//      rows; 6 recover, test_sim_implicit 10.);
+//      rows; 8 recover, test_sim_implicit 10.). Accepting a clamped trial
+//      from an unclamped x on the residual (stable neo-Hookean + clamp, nu
+//      = 0.499: step 1 took |dx| = 176 at alpha 1/64 into the clamp, r 4045
+//      -> 542, then stalled) left 2 of the 8;
 //   3. v_{n+1} = (x_{n+1} - x_n) / dt; then the ground as in the explicit
 //      loop.
 // The stopping rule (issue 26). The residual r (ek_scene_implicit) is an
@@ -845,12 +850,20 @@ static int implicit_step(ek_sim *s, void *data) {
         return rc;
       // Clamped models: Phi is the potential of the gradient on a segment
       // whose ends have no clamped singular value (their psi and P are the
-      // model's there, material.h): Armijo on Phi as for any model; where
-      // an end is clamped, the residual.
+      // model's there, material.h): Armijo on Phi as for any model. From
+      // such an x, a trial with a clamped singular value is shortened
+      // (where the test on Phi means nothing) until it has none; only the
+      // last trial may enter the clamp, on the residual. From a clamped x,
+      // the residual.
       int use_residual = d->hes.residual_merit;
       if (use_residual && d->dm_inv && isfinite(phi_t)) {
         trial_clamped = any_clamped(s, d, d->xt);
         use_residual = x_clamped || trial_clamped;
+        if (!x_clamped && trial_clamped && bt + 1 < MAX_BACKTRACKS) {
+          alpha *= 0.5;
+          s->times.backtracks++;
+          continue;
+        }
       }
       if (isfinite(phi_t) && use_residual) {
         res_t = residual(d, s, d->gt, free_mass);

@@ -202,7 +202,7 @@ static int is_row(const ext_variant *v, const ext_case *c, const ext_loop *l) {
 // takes a time ~ 1 / |F|. The model does recover, later than the row's 30
 // tc: measured (explicit, 1x CFL, f64, seed 1) V/V0 1.6e-11 at 30 tc,
 // > 0.5 at ~70 tc and 1 from ~80 tc on; from noise 1e-3 L V/V0 > 0.5 at
-// ~12 tc, from 1e-2 L restored within 30 tc (test_stability asserts both
+// ~12 tc, from 1e-2 L restored within 30 tc (test_sim_explicit 5. holds both
 // ends). With the clamp (sigma_hat >= clamp) P(F_hat) is O(1) there and the
 // snh+clamp rows recover (PASS). So the point rows expect no recovery
 // within the run (xfail; an xpass would be reported), as the XPBD rows do.
