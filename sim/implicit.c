@@ -32,7 +32,26 @@
 //      is never accepted. Near convergence Phi's change falls below its
 //      rounding; a trial whose Phi is within that rounding of Phi(x) is
 //      accepted when the residual decreases (its gradient comes with the
-//      same pass);
+//      same pass). Clamped models (material.h: where a singular value is
+//      clamped, P is not the gradient of psi) take the Armijo test on Phi
+//      only when neither x nor the trial point has a clamped singular
+//      value (any_clamped), where Phi is the potential of the gradient;
+//      from such an x a trial that has one is halved until it has none
+//      (the last of the MAX_BACKTRACKS trials excepted); from a clamped x
+//      the trial is accepted when the residual decreases, r_t <= (1 -
+//      1e-4 alpha) r. The residual alone everywhere (before)
+//      crawled: dx solves with the Hessian at F_hat, not the force's
+//      Jacobian, so it need not descend the residual; ek-verify --extremes,
+//      fixed corotated + clamp, plane crush at nu = 0.49: step 1 took 50
+//      iterations at alpha 1/8-1/128, r 4.9 -> 0.24 (0.1-1% per iteration),
+//      and step 2 then stalled at r 8.5e3 with a body turned inside out
+//      (the residual rose for every alpha in [2.4e-7, 1], while psi's slope
+//      along dx was 620x grad.dx). With the test on Phi where it holds,
+//      every step converges there (10 of the 40 known failures were such
+//      rows; 8 recover, test_sim_implicit 10.). Accepting a clamped trial
+//      from an unclamped x on the residual (stable neo-Hookean + clamp, nu
+//      = 0.499: step 1 took |dx| = 176 at alpha 1/64 into the clamp, r 4045
+//      -> 542, then stalled) left 2 of the 8;
 //   3. v_{n+1} = (x_{n+1} - x_n) / dt; then the ground as in the explicit
 //      loop.
 // The stopping rule (issue 26). The residual r (ek_scene_implicit) is an
@@ -117,6 +136,11 @@ typedef struct {
   // acc only while s->v is still those, i.e. no ek_sim_set_state since).
   double *acc, *vlast;
   int have_acc;
+  // Clamped models (hes.residual_merit, tets): each element's rest inverse
+  // D_m^-1 (row-major 3x3), to tell whether a state has a clamped singular
+  // value (any_clamped), i.e. whether the energy is the force's potential
+  // there.
+  double *dm_inv;
 } implicit_data;
 
 static void data_free(implicit_data *d) {
@@ -136,6 +160,7 @@ static void data_free(implicit_data *d) {
   free(d->perm);
   free(d->acc);
   free(d->vlast);
+  free(d->dm_inv);
   implicit_petsc_destroy(d->ps);
   free(d);
 }
@@ -264,6 +289,76 @@ static int create_failed(ek_sim *s, implicit_data *d, int rc) {
   return mpi ? agree(s, rc) : rc;
 }
 
+// Each tet's D_m^-1 (D_m = [X1 - X0, X2 - X0, X3 - X0]), row-major; NULL
+// when out of memory. A degenerate rest tet gets non-finite entries, which
+// any_clamped counts as clamped (the residual merit, as before).
+static double *rest_inverses(const sim_body *b) {
+  double *inv = malloc(9 * b->ne * sizeof(double));
+  for (size_t e = 0; inv && e < b->ne; e++) {
+    const int32_t *t = b->elems + 4 * e;
+    double D[9], *m = inv + 9 * e;
+    for (int i = 0; i < 3; i++)
+      for (int c = 0; c < 3; c++)
+        D[3 * i + c] = b->X[3 * t[c + 1] + i] - b->X[3 * t[0] + i];
+    m[0] = D[4] * D[8] - D[5] * D[7], m[1] = D[2] * D[7] - D[1] * D[8];
+    m[2] = D[1] * D[5] - D[2] * D[4], m[3] = D[5] * D[6] - D[3] * D[8];
+    m[4] = D[0] * D[8] - D[2] * D[6], m[5] = D[2] * D[3] - D[0] * D[5];
+    m[6] = D[3] * D[7] - D[4] * D[6], m[7] = D[1] * D[6] - D[0] * D[7];
+    m[8] = D[0] * D[4] - D[1] * D[3];
+    const double det = D[0] * m[0] + D[1] * m[3] + D[2] * m[6];
+    for (int k = 0; k < 9; k++)
+      m[k] /= det;
+  }
+  return inv;
+}
+
+// 1 if some tet of x has a singular value below the clamp (or is inverted,
+// or not finite): there the clamped model's energy is not the potential of
+// its force (material.h). The smallest singular value from the smallest
+// eigenvalue of C = F^T F in closed form (Smith 1961, CACM 4(4)); near the
+// clamp, where this and the kernel's SVD may round apart, psi and P agree
+// to first order either way. Elements are independent (an OR): the same
+// answer at any thread count and on every MPI rank (x is replicated).
+static int any_clamped(const ek_sim *s, const implicit_data *d, const double *x) {
+  const sim_body *b = d->body;
+  const double c2 = s->mat.clamp * s->mat.clamp;
+  const long ne = (long)b->ne;
+  int any = 0;
+#pragma omp parallel for schedule(static) reduction(| : any) if (d->par)
+  for (long e = 0; e < ne; e++) {
+    const int32_t *t = b->elems + 4 * e;
+    const double *m = d->dm_inv + 9 * e;
+    double D[9], F[9], C[6];
+    for (int i = 0; i < 3; i++)
+      for (int c = 0; c < 3; c++)
+        D[3 * i + c] = x[3 * t[c + 1] + i] - x[3 * t[0] + i];
+    for (int i = 0; i < 3; i++)
+      for (int j = 0; j < 3; j++)
+        F[3 * i + j] = D[3 * i] * m[j] + D[3 * i + 1] * m[3 + j] + D[3 * i + 2] * m[6 + j];
+    const double J = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
+                     F[2] * (F[3] * F[7] - F[4] * F[6]);
+    // C's entries 00, 11, 22, 01, 02, 12.
+    static const int ci[6] = {0, 1, 2, 0, 0, 1}, cj[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 6; k++)
+      C[k] = F[ci[k]] * F[cj[k]] + F[3 + ci[k]] * F[3 + cj[k]] + F[6 + ci[k]] * F[6 + cj[k]];
+    const double q = (C[0] + C[1] + C[2]) / 3, p1 = C[3] * C[3] + C[4] * C[4] + C[5] * C[5];
+    const double p2 =
+        (C[0] - q) * (C[0] - q) + (C[1] - q) * (C[1] - q) + (C[2] - q) * (C[2] - q) + 2 * p1;
+    double lmin = q;
+    if (p2 > 0) {
+      const double p = sqrt(p2 / 6), B0 = (C[0] - q) / p, B1 = (C[1] - q) / p, B2 = (C[2] - q) / p,
+                   B3 = C[3] / p, B4 = C[4] / p, B5 = C[5] / p;
+      double r =
+          0.5 * (B0 * (B1 * B2 - B5 * B5) - B3 * (B3 * B2 - B5 * B4) + B4 * (B3 * B5 - B1 * B4));
+      r = r < -1 ? -1 : r > 1 ? 1 : r;
+      // The smallest of q + 2 p cos(phi + 2 pi k / 3), phi = acos(r) / 3.
+      lmin = q + 2 * p * cos(acos(r) / 3 + 2.0943951023931957);
+    }
+    any |= !(J > 0 && lmin > c2);
+  }
+  return any;
+}
+
 static int implicit_create(ek_sim *s, void **data) {
   *data = NULL;
   implicit_data *d = calloc(1, sizeof *d);
@@ -295,6 +390,8 @@ static int implicit_create(ek_sim *s, void **data) {
   ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
   if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
+  if (ok && d->hes.residual_merit && s->body->corners == 4)
+    ok &= (d->dm_inv = rest_inverses(s->body)) != NULL;
   if (!ok)
     return create_failed(
         s, d, sim_fail(s, "out of memory for the implicit solver's vectors (%zu dofs)", d->n3));
@@ -700,6 +797,8 @@ static int implicit_step(ek_sim *s, void *data) {
   s->newton.phi[0] = phi;
   long it = 0;
   int stalled = 0;
+  // Whether x has a clamped singular value (clamped models, line search).
+  int x_clamped = d->dm_inv ? any_clamped(s, d, x) : 1;
   double *blocks = d->pre;
   // At least one iteration unless grad Phi is exactly 0 (the stopping rule
   // above).
@@ -736,7 +835,7 @@ static int implicit_step(ek_sim *s, void *data) {
     t0 = sim_now();
     const double slope = dot(d, d->g, d->dx);
     double alpha = 1, phi_t = INFINITY, res_t = INFINITY;
-    int accepted = 0;
+    int accepted = 0, trial_clamped = 1;
     s->times.line_search += sim_now() - t0;
     for (int bt = 0; bt < (forced ? 1 : MAX_BACKTRACKS); bt++) {
       if ((rc = sim_stop_requested(s, "line-search trial", bt + 1, MAX_BACKTRACKS)))
@@ -749,7 +848,24 @@ static int implicit_step(ek_sim *s, void *data) {
       s->times.line_search += sim_now() - t0;
       if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
         return rc;
-      if (isfinite(phi_t) && d->hes.residual_merit) {
+      // Clamped models: Phi is the potential of the gradient on a segment
+      // whose ends have no clamped singular value (their psi and P are the
+      // model's there, material.h): Armijo on Phi as for any model. From
+      // such an x, a trial with a clamped singular value is shortened
+      // (where the test on Phi means nothing) until it has none; only the
+      // last trial may enter the clamp, on the residual. From a clamped x,
+      // the residual.
+      int use_residual = d->hes.residual_merit;
+      if (use_residual && d->dm_inv && isfinite(phi_t)) {
+        trial_clamped = any_clamped(s, d, d->xt);
+        use_residual = x_clamped || trial_clamped;
+        if (!x_clamped && trial_clamped && bt + 1 < MAX_BACKTRACKS) {
+          alpha *= 0.5;
+          s->times.backtracks++;
+          continue;
+        }
+      }
+      if (isfinite(phi_t) && use_residual) {
         res_t = residual(d, s, d->gt, free_mass);
         accepted = res_t <= (1 - ARMIJO_C1 * alpha) * res;
       } else if (isfinite(phi_t)) {
@@ -772,6 +888,7 @@ static int implicit_step(ek_sim *s, void *data) {
       // x (its gradient is in d->g).
       break;
     }
+    x_clamped = trial_clamped;
     double *tmp = x;
     x = d->xt;
     d->xt = tmp;

@@ -11,6 +11,14 @@
 //     same crush with plain neo-Hookean is reported as an inversion
 //     (EK_SIM_EINVERTED, state kept, no crash).
 //  4. The same run gives the same bits at 1 and 2 threads.
+//  5. ek-verify --extremes' expectations at the extremes (verify_extremes.c)
+//     rest on two measured facts, held here so a change shows: stable
+//     neo-Hookean crushed to within 1e-4 L of a point is still a point
+//     after 30 shear crossing times (P = O(|F|^2) at F = 0) while from
+//     1e-2 L it recovers its volume; and a plane crush at nu = 0.49 drives
+//     fixed corotated to states stiffer than rest (the rest CFL step does
+//     not bound them) while linear elasticity (constant K) at nu = 0.499
+//     recovers at 1x the CFL step (the step is right for the P-wave).
 //
 // Mesh sizes keep the test under ~60 s on 2 cores: the energy body is
 // 4 x 4 x 4 cubes (384 tets, 1000 steps). The cantilever is 100 x 1 x 10
@@ -30,6 +38,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "material/material_ref.h"
 #include "test_sim_common.h"
 #include "test_tolerances.h"
 
@@ -299,6 +308,155 @@ static void threads_test(void) {
   ek_mesh_destroy(m);
 }
 
+// ------------------------------------------------------------ 5. extremes
+
+// The crush of ek-verify --extremes on its 0.2 m cube of 4^3 cells (E 1e5
+// Pa, density 1000): every vertex on the mid-plane (or at the centre, point)
+// plus uniform noise of `noise` L per coordinate, damping 2 / tc (tc = L /
+// sqrt(mu / rho)), dt = cfl x ek_sim_cfl_dt, 30 tc of steps.
+static int crushed(run *r, const char *model, double nu, int point, double noise, double cfl) {
+  const double L = 0.2, E = 1e5, rho = 1000, tc = L / sqrt(E / (2 * (1 + nu)) / rho);
+  char json[1024];
+  double dt = 1e-30; // below any CFL limit: no warning; the first sim reads the limit
+  for (int pass = 0; pass < 2; pass++) {
+    snprintf(json, sizeof json,
+             "{\"mesh\": {\"box\": [4, 4, 4], \"size\": [%g, %g, %g]},"
+             " \"material\": {\"model\": \"%s\", \"E\": %g, \"nu\": %g, \"density\": %g},"
+             " \"damping\": %.17g, \"dt\": %.17g, \"steps\": %ld}",
+             L, L, L, model, E, nu, rho, 2 / tc, dt, pass ? (long)ceil(30 * tc / dt) : 1L);
+    if (start(r, json, 0))
+      return -1;
+    if (pass == 0) {
+      dt = cfl * ek_sim_cfl_dt(r->sim);
+      finish(r);
+    }
+  }
+  size_t n3 = 3 * ek_mesh_nverts(r->mesh);
+  const double *X = ek_mesh_rest_positions(r->mesh);
+  double *x = malloc(n3 * sizeof(double));
+  for (size_t i = 0; x && i < n3; i++)
+    x[i] = (point || i % 3 == 2 ? 0.5 * L : X[i]) + noise * L * uniform(-1, 1);
+  int rc = x ? ek_sim_set_state(r->sim, x, NULL) : -1;
+  free(x);
+  if (rc) {
+    check("crushed start state", 0, ek_last_error());
+    finish(r);
+    return -1;
+  }
+  return 0;
+}
+
+// Runs the crush to its end (or its first failed step); V / V0 at the end.
+static double crush_volume_ratio(run *r, int *rc) {
+  const double V0 = 0.2 * 0.2 * 0.2;
+  *rc = 0;
+  for (long n = 0; n < r->scene.steps && *rc == 0; n++)
+    *rc = ek_sim_step(r->sim);
+  return ek_sim_volume(r->sim) / V0;
+}
+
+// Largest eigenvalue of a symmetric 9x9 matrix: power iteration on H + s I,
+// s = |H|_F >= every |eigenvalue|, so the top of the shifted spectrum is
+// the top of H's.
+static double max_eigenvalue9(const double *H) {
+  double s = 0, v[9], w[9], top = 0;
+  for (int k = 0; k < 81; k++)
+    s += H[k] * H[k];
+  s = sqrt(s);
+  for (int i = 0; i < 9; i++)
+    v[i] = 1.0 + 0.1 * i;
+  for (int it = 0; it < 2000; it++) {
+    double n = 0;
+    for (int i = 0; i < 9; i++) {
+      w[i] = s * v[i];
+      for (int j = 0; j < 9; j++)
+        w[i] += 0.5 * (H[9 * i + j] + H[9 * j + i]) * v[j];
+      n += w[i] * w[i];
+    }
+    n = sqrt(n);
+    for (int i = 0; i < 9; i++)
+      v[i] = w[i] / n;
+    top = n - s;
+  }
+  return top;
+}
+
+// Max over the tets of the largest eigenvalue of d2psi/dF2 at the sim's
+// state, over the same at F = I (the reference Hessian, material_ref.h).
+static double stiffness_ratio(const run *r, const ek_material_ref *m) {
+  size_t nt = ek_mesh_ntets(r->mesh);
+  double *F = malloc(9 * nt * sizeof(double)), H[81], top = 0;
+  const double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  if (!F || ek_mesh_deformation_gradients_f64(r->mesh, ek_sim_positions(r->sim), F) != 0) {
+    free(F);
+    return NAN;
+  }
+  for (size_t e = 0; e < nt; e++) {
+    ek_hessian_ref(m, F + 9 * e, NULL, H, 0);
+    top = fmax(top, max_eigenvalue9(H));
+  }
+  free(F);
+  ek_hessian_ref(m, I, NULL, H, 0);
+  return top / max_eigenvalue9(H);
+}
+
+static void extremes_test(void) {
+  omp_set_num_threads(1);
+  char detail[256];
+  run r;
+  int rc;
+  // Stable neo-Hookean at F = 0: P(eps A) scales as eps^2 (P(0) = 0, dP(0)
+  // = 0), the reason a point crush within 1e-4 L does not recover in 30 tc.
+  const ek_material snh = {EK_MODEL_STABLE_NEO_HOOKEAN, 3.8e4, 5.8e4, 0};
+  double A[18] = {0.9, 0.2, -0.1, 0.1, 1.1, 0.3, -0.2, 0.1, 1.0}, P[18], nP[2] = {0, 0};
+  for (int k = 0; k < 9; k++)
+    A[9 + k] = 1e-5 * A[k], A[k] *= 1e-2;
+  ek_pk1_f64(&snh, 2, A, NULL, P);
+  for (int k = 0; k < 9; k++)
+    nP[0] += P[k] * P[k], nP[1] += P[9 + k] * P[9 + k];
+  double order = log(sqrt(nP[0] / nP[1])) / log(10.0);
+  snprintf(detail, sizeof detail, "|P(1e-2 A)| / |P(1e-5 A)| = 10^%.3f (|F|^2: 10^6)", order);
+  check("stable neo-Hookean: P = O(|F|^2) at F = 0", fabs(order - 6) < 0.05, detail);
+  if (crushed(&r, "stable_neo_hookean", 0.3, 1, 1e-4, 1.0) == 0) {
+    double ratio = crush_volume_ratio(&r, &rc);
+    snprintf(detail, sizeof detail, "V/V0 %.3g after 30 tc (rc %d)", ratio, rc);
+    check("stable neo-Hookean point crush within 1e-4 L: still a point after 30 tc",
+          rc == 0 && ratio < 1e-6, detail);
+    finish(&r);
+  }
+  if (crushed(&r, "stable_neo_hookean", 0.3, 1, 1e-2, 1.0) == 0) {
+    double ratio = crush_volume_ratio(&r, &rc);
+    snprintf(detail, sizeof detail, "V/V0 %.6g after 30 tc (rc %d)", ratio, rc);
+    report("stable neo-Hookean point crush within 1e-2 L: volume after 30 tc",
+           rc ? INFINITY : fabs(ratio - 1), EK_SIM_VOLUME_TOL, detail);
+    finish(&r);
+  }
+  // Fixed corotated, plane crush at nu = 0.49, 1x CFL: two steps re-expand
+  // it past rest (measured max J 1.6), where its Hessian is 2.5x the rest
+  // one, above what the rest CFL step bounds.
+  if (crushed(&r, "fixed_corotated", 0.49, 0, 1e-4, 1.0) == 0) {
+    rc = ek_sim_step(r.sim);
+    if (rc == 0)
+      rc = ek_sim_step(r.sim);
+    ek_material_ref m = {EK_MODEL_FIXED_COROTATED, r.scene.material.mu, r.scene.material.lambda, 0};
+    double ratio = rc ? NAN : stiffness_ratio(&r, &m);
+    snprintf(detail, sizeof detail, "largest element Hessian after 2 steps %.3g x the rest one",
+             ratio);
+    check("fixed corotated plane crush at nu = 0.49: stiffer than rest after 2 steps",
+          rc == 0 && ratio > 2, detail);
+    finish(&r);
+  }
+  // Linear elasticity (constant K) at nu = 0.499, 1x the CFL step: the
+  // step bounds its every state, and the body recovers.
+  if (crushed(&r, "linear", 0.499, 0, 1e-4, 1.0) == 0) {
+    double ratio = crush_volume_ratio(&r, &rc);
+    snprintf(detail, sizeof detail, "V/V0 %.6g after 30 tc, dt %g (rc %d)", ratio, r.scene.dt, rc);
+    report("linear plane crush at nu = 0.499, 1x CFL: volume after 30 tc",
+           rc ? INFINITY : fabs(ratio - 1), EK_SIM_VOLUME_TOL, detail);
+    finish(&r);
+  }
+}
+
 int main(int argc, char **argv) {
   unsigned long long seed = scenes_dir_init(argc, argv);
   printf("test_sim_explicit --seed %llu (scenes from %s)\n", seed, scenes_dir);
@@ -310,6 +468,7 @@ int main(int argc, char **argv) {
   threads_test();
   crush_test();
   cantilever_test();
+  extremes_test();
   printf("%s\n", failures ? "FAILED" : "ALL PASSED");
   return failures ? 1 : 0;
 }

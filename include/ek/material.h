@@ -50,7 +50,8 @@
 //        values (P_hat_i depends on the other sigma_hat_j: fixed
 //        corotated's J term, neo-Hookean's log J): a solver that needs an
 //        energy consistent with P must not rely on psi there (the implicit
-//        loop's line search uses the residual for clamped models).
+//        loop's line search uses the residual where an element is clamped,
+//        sim/implicit.c).
 // So with clamp > 0 neo-Hookean is finite for every finite F (inverted and
 // flat elements get finite, restoring forces) and the return value is 0.
 //
