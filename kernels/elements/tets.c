@@ -160,6 +160,25 @@ static int32_t *morton_vertices(const ek_tets *el) {
   return seq;
 }
 
+// The vertex range of each THREAD_BUFFERS part (tets.h), per precision:
+// the parts are scatter_share's shares of nslots / lanes blocks.
+static void part_ranges(ek_tets *el, const int32_t *seq) {
+  for (int f64 = 0; f64 < 2; f64++) {
+    const size_t lanes = f64 ? EK_LANES_F64 : EK_LANES_F32, nb = el->morton.nslots / lanes;
+    for (int p = 0; p < EK_FVM_PARTS; p++) {
+      const size_t b0 = nb * (size_t)p / EK_FVM_PARTS, b1 = nb * (size_t)(p + 1) / EK_FVM_PARTS;
+      size_t lo = el->nverts, hi = 0;
+      for (size_t e = b0 * lanes * 4; e < b1 * lanes * 4; e++)
+        if (seq[e] >= 0) {
+          lo = (size_t)seq[e] < lo ? (size_t)seq[e] : lo;
+          hi = (size_t)seq[e] + 1 > hi ? (size_t)seq[e] + 1 : hi;
+        }
+      el->part_vlo[f64][p] = lo < hi ? lo : 0;
+      el->part_vhi[f64][p] = lo < hi ? hi : 0;
+    }
+  }
+}
+
 // Vertex incidence (CSR) over the Morton slots (layer.h): entries
 // slot * 4 + corner, ascending.
 static int incidence(ek_tets *el, const int32_t *seq) {
@@ -355,6 +374,8 @@ ek_tets *ek_tets_create(size_t nverts, const double *X, size_t ntets, const int3
   if (morton_order(el, X, el->morton.slot_tet) || blocks_pack(el, &el->morton))
     goto oom;
   int32_t *seq = morton_vertices(el);
+  if (seq)
+    part_ranges(el, seq);
   int bad = !seq || incidence(el, seq) || colored_order(el, seq);
   free(seq);
   if (bad)

@@ -9,6 +9,7 @@
 
 #include <ek/batch.h>
 #include <ek/elements.h>
+#include <ek/fvm.h> // EK_FVM_PARTS
 #include <stddef.h>
 #include <stdint.h>
 
@@ -50,6 +51,13 @@ struct ek_tets {
   // Vertex incidence over the Morton order: entries vert_entries[
   // vert_start[v] .. vert_start[v+1]) are slot * 4 + corner, ascending.
   int32_t *vert_start, *vert_entries;
+
+  // The THREAD_BUFFERS scatter's parts (kernels/fvm/scatter.c: EK_FVM_PARTS
+  // equal shares of the Morton blocks of f32, [0], or f64, [1]): part p's
+  // tets touch vertices [part_vlo[.][p], part_vhi[.][p]) only (empty: lo =
+  // hi), so its buffer is zeroed and summed over that range alone (about
+  // half the vertices per part on a box mesh).
+  size_t part_vlo[2][EK_FVM_PARTS], part_vhi[2][EK_FVM_PARTS];
 };
 
 // Per-element state (elements.h): nblocks * planes * LANES values of the

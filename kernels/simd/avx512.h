@@ -174,10 +174,27 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 #define EK_HAVE_VLOAD_POINTS
 static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
                                                                 vreal p[3]) {
+  const __m512i iv = _mm512_loadu_si512(idx);
+  const vmask pad = _mm512_cmplt_epi32_mask(iv, _mm512_setzero_si512());
   __m128 r[16];
+  // No padding lane (every vector but a mesh's last few): each lane's row
+  // address straight from its index (an index load, a lea and the load),
+  // without the per-lane sign test, branch and clamp (6 instructions per
+  // lane; FVM fixed corotated f32, 101 400 tets: ~2% of the force's time,
+  // docs/perf.md). Tried and slower: the 16 offsets from a vector store
+  // (12 max(idx, 0)) read back as integers: GCC moved them lane by lane
+  // out of the register (vpextrd), and forced through memory each read
+  // waited on the 64-byte store (no forwarding into the narrower loads,
+  // +50% time on Zen 5).
+  if (__builtin_expect(pad == 0, 1)) {
 #pragma GCC unroll 16
-  for (int l = 0; l < 16; l++)
-    r[l] = _mm_maskz_loadu_ps(7, x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3);
+    for (int l = 0; l < 16; l++)
+      r[l] = _mm_maskz_loadu_ps(7, x + (ptrdiff_t)idx[l] * 3);
+  } else {
+#pragma GCC unroll 16
+    for (int l = 0; l < 16; l++)
+      r[l] = _mm_maskz_loadu_ps(7, x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3);
+  }
   __m512 rows[4];
 #pragma GCC unroll 4
   for (int k = 0; k < 4; k++)
@@ -192,7 +209,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
   p[1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
   p[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-  return _mm512_cmplt_epi32_mask(_mm512_loadu_si512(idx), _mm512_setzero_si512());
+  return pad;
 }
 // vscatter_add_rows4(out, idx, stride, h): for lane l = 0..W-1 in order,
 // skipping lanes with idx[l] < 0, and corner c = 0..3 in order,
@@ -251,10 +268,13 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       // The scalar o += h gives o's NaN where both are NaN (x86 returns
       // its first operand's); the compiler may order the vector add's
       // operands either way (inverted tets' NaN forces changed sign), so
-      // a NaN o is kept as it is (a sum, already quiet) and only the
-      // other lanes take the add.
-      const __mmask8 num = _mm_cmp_ps_mask(ov, ov, _CMP_ORD_Q);
-      _mm_storeu_ps(o, _mm_mask_add_ps(ov, num, ov, hv));
+      // the add is written out with o first: vaddps returns o's NaN (a
+      // sum, already quiet: unchanged) where o is NaN, else o + h, the
+      // same results as the compare and masked add it replaces, with two
+      // instructions fewer on each row's load-add-store chain.
+      __m128 sum;
+      __asm__("vaddps %2, %1, %0" : "=v"(sum) : "v"(ov), "v"(hv));
+      _mm_storeu_ps(o, sum);
     }
   }
 }
