@@ -192,6 +192,28 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   __m256i i = _mm256_loadu_si256((const __m256i *)idx);
   return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_setzero_si256(), i));
 }
+// vscatter_add_rows4's adds of the rows (below); nan_rule (a constant at
+// each call) keeps a NaN o as it is (avx512.h says why).
+static inline __attribute__((always_inline)) void
+vscatter_rows4_f32x8(real *out, const int32_t *idx, int stride, const __m256 rows[4][4],
+                     const int nan_rule) {
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m128 hv =
+          l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
+      __m128 ov = _mm_loadu_ps(o);
+      if (nan_rule)
+        _mm_storeu_ps(o, _mm_blendv_ps(ov, _mm_add_ps(ov, hv), _mm_cmpord_ps(ov, ov)));
+      else
+        _mm_storeu_ps(o, _mm_add_ps(ov, hv));
+    }
+  }
+}
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 static inline __attribute__((always_inline)) void
 vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
@@ -208,19 +230,15 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     rows[c][2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
     rows[c][3] = _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3));
   }
-#pragma GCC unroll 8
-  for (int l = 0; l < 8; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++) {
-      real *o = out + (size_t)idx[c * stride + l] * 4;
-      __m128 hv =
-          l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
-      __m128 ov = _mm_loadu_ps(o);
-      _mm_storeu_ps(o, _mm_blendv_ps(ov, _mm_add_ps(ov, hv), _mm_cmpord_ps(ov, ov)));
-    }
-  }
+  // avx512.h's test: the NaN rule only where h has a NaN lane.
+  __m256 num = _mm256_cmp_ps(h[0], h[0], _CMP_ORD_Q);
+#pragma GCC unroll 11
+  for (int k = 1; k < 12; k++)
+    num = _mm256_and_ps(num, _mm256_cmp_ps(h[k], h[k], _CMP_ORD_Q));
+  if (_mm256_movemask_ps(num) == 0xff)
+    vscatter_rows4_f32x8(out, idx, stride, rows, 0);
+  else
+    vscatter_rows4_f32x8(out, idx, stride, rows, 1);
 }
 #else
 // f64, 4 lanes: a point or a row of 4 doubles is one register (vmaskmovpd
@@ -244,6 +262,26 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   __m128i i = _mm_loadu_si128((const __m128i *)idx);
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(_mm_setzero_si128(), i)));
 }
+// vscatter_add_rows4's adds of the rows (below); nan_rule as in f32.
+static inline __attribute__((always_inline)) void
+vscatter_rows4_f64x4(real *out, const int32_t *idx, int stride, const __m256d rows[4][4],
+                     const int nan_rule) {
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m256d ov = _mm256_loadu_pd(o);
+      if (nan_rule)
+        _mm256_storeu_pd(o, _mm256_blendv_pd(ov, _mm256_add_pd(ov, rows[c][l]),
+                                             _mm256_cmp_pd(ov, ov, _CMP_ORD_Q)));
+      else
+        _mm256_storeu_pd(o, _mm256_add_pd(ov, rows[c][l]));
+    }
+  }
+}
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 static inline __attribute__((always_inline)) void
 vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
@@ -260,18 +298,15 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     rows[c][2] = _mm256_permute2f128_pd(t0, t2, 0x31);
     rows[c][3] = _mm256_permute2f128_pd(t1, t3, 0x31);
   }
-#pragma GCC unroll 4
-  for (int l = 0; l < 4; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++) {
-      real *o = out + (size_t)idx[c * stride + l] * 4;
-      __m256d ov = _mm256_loadu_pd(o);
-      _mm256_storeu_pd(o, _mm256_blendv_pd(ov, _mm256_add_pd(ov, rows[c][l]),
-                                           _mm256_cmp_pd(ov, ov, _CMP_ORD_Q)));
-    }
-  }
+  // avx512.h's test: the NaN rule only where h has a NaN lane.
+  __m256d num = _mm256_cmp_pd(h[0], h[0], _CMP_ORD_Q);
+#pragma GCC unroll 11
+  for (int k = 1; k < 12; k++)
+    num = _mm256_and_pd(num, _mm256_cmp_pd(h[k], h[k], _CMP_ORD_Q));
+  if (_mm256_movemask_pd(num) == 0xf)
+    vscatter_rows4_f64x4(out, idx, stride, rows, 0);
+  else
+    vscatter_rows4_f64x4(out, idx, stride, rows, 1);
 }
 #endif
 

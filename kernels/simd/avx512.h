@@ -206,22 +206,11 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
 // row (store-to-load forwarding); with 12-byte masked rows (rows of 3)
 // the next load of a row waited for the store to leave (Zen 5: the FVM
 // force 5-6 ns per tet slower than the scalar scatter).
-#define EK_HAVE_VSCATTER_ADD_ROWS4
+// vscatter_add_rows4's adds of the rows (below); nan_rule (a constant at
+// each call) keeps a NaN o as it is.
 static inline __attribute__((always_inline)) void
-vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
-  __m512 rows[4][4];
-  const __m512 zero = _mm512_setzero_ps();
-#pragma GCC unroll 4
-  for (int c = 0; c < 4; c++) {
-    __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c], h[3 * c + 1])); // x0 y0 x1 y1
-    __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c], h[3 * c + 1])); // x2 y2 x3 y3
-    __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c + 2], zero));     // z0 0 z1 0
-    __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c + 2], zero));     // z2 0 z3 0
-    rows[c][0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
-    rows[c][1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
-    rows[c][2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-    rows[c][3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
-  }
+vscatter_rows4_f32x16(real *out, const int32_t *idx, int stride, const __m512 rows[4][4],
+                      const int nan_rule) {
 #pragma GCC unroll 16
   for (int l = 0; l < 16; l++) {
     if (idx[l] < 0)
@@ -253,10 +242,40 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       // operands either way (inverted tets' NaN forces changed sign), so
       // a NaN o is kept as it is (a sum, already quiet) and only the
       // other lanes take the add.
-      const __mmask8 num = _mm_cmp_ps_mask(ov, ov, _CMP_ORD_Q);
-      _mm_storeu_ps(o, _mm_mask_add_ps(ov, num, ov, hv));
+      if (nan_rule)
+        _mm_storeu_ps(o, _mm_mask_add_ps(ov, _mm_cmp_ps_mask(ov, ov, _CMP_ORD_Q), ov, hv));
+      else
+        _mm_storeu_ps(o, _mm_add_ps(ov, hv));
     }
   }
+}
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m512 rows[4][4];
+  const __m512 zero = _mm512_setzero_ps();
+#pragma GCC unroll 4
+  for (int c = 0; c < 4; c++) {
+    __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c], h[3 * c + 1])); // x0 y0 x1 y1
+    __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c], h[3 * c + 1])); // x2 y2 x3 y3
+    __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c + 2], zero));     // z0 0 z1 0
+    __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c + 2], zero));     // z2 0 z3 0
+    rows[c][0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+    rows[c][1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+    rows[c][2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+    rows[c][3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+  }
+  // The NaN rule below matters only where both o and h are NaN: when no
+  // lane of h is NaN (the usual case, one test per vector), the plain add
+  // gives the same bits whichever operand the compiler puts first.
+  __mmask16 num = 0xffff;
+#pragma GCC unroll 12
+  for (int k = 0; k < 12; k++)
+    num = _mm512_mask_cmp_ps_mask(num, h[k], h[k], _CMP_ORD_Q);
+  if (num == 0xffff)
+    vscatter_rows4_f32x16(out, idx, stride, rows, 0);
+  else
+    vscatter_rows4_f32x16(out, idx, stride, rows, 1);
 }
 #else
 // f64: the same contracts on 8 lanes, a point or a row of 4 doubles being
@@ -287,6 +306,29 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[2] = _mm512_permutex2var_pd(t0, hi, t2);
   return _mm256_cmplt_epi32_mask(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
 }
+// vscatter_add_rows4's adds of the rows (below); nan_rule as in f32.
+static inline __attribute__((always_inline)) void
+vscatter_rows4_f64x8(real *out, const int32_t *idx, int stride, const __m512d rows[4][4],
+                     const int nan_rule) {
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      // Lane l: register (l & 1) * 2 + l / 4, half (l / 2) & 1.
+      const __m512d rv = rows[c][(l & 1) * 2 + l / 4];
+      __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
+      __m256d ov = _mm256_loadu_pd(o);
+      // The NaN rule of the f32 version above.
+      if (nan_rule)
+        _mm256_storeu_pd(o, _mm256_mask_add_pd(ov, _mm256_cmp_pd_mask(ov, ov, _CMP_ORD_Q), ov, hv));
+      else
+        _mm256_storeu_pd(o, _mm256_add_pd(ov, hv));
+    }
+  }
+}
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 static inline __attribute__((always_inline)) void
 vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
@@ -305,22 +347,15 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     rows[c][2] = _mm512_permutex2var_pd(t1, lo, t3);
     rows[c][3] = _mm512_permutex2var_pd(t1, hi, t3);
   }
-#pragma GCC unroll 8
-  for (int l = 0; l < 8; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++) {
-      real *o = out + (size_t)idx[c * stride + l] * 4;
-      // Lane l: register (l & 1) * 2 + l / 4, half (l / 2) & 1.
-      const __m512d rv = rows[c][(l & 1) * 2 + l / 4];
-      __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
-      __m256d ov = _mm256_loadu_pd(o);
-      // The NaN rule of the f32 version above.
-      const __mmask8 num = _mm256_cmp_pd_mask(ov, ov, _CMP_ORD_Q);
-      _mm256_storeu_pd(o, _mm256_mask_add_pd(ov, num, ov, hv));
-    }
-  }
+  // The f32 version's test: the NaN rule only where h has a NaN lane.
+  __mmask8 num = 0xff;
+#pragma GCC unroll 12
+  for (int k = 0; k < 12; k++)
+    num = _mm512_mask_cmp_pd_mask(num, h[k], h[k], _CMP_ORD_Q);
+  if (num == 0xff)
+    vscatter_rows4_f64x8(out, idx, stride, rows, 0);
+  else
+    vscatter_rows4_f64x8(out, idx, stride, rows, 1);
 }
 #endif
 
