@@ -53,19 +53,26 @@ static void run_colored(const scatter_job *j, real *out) {
   }
 }
 
-// Slot 0 holds THREAD_BUFFERS' buffers, kept all zero between calls: zeroed
-// when (re)allocated, and run_buffers' sum zeroes every row it reads (the
-// rows a call's kernels add into lie inside the rows its sum reads). That
-// replaces a memset pass over the buffers before each call (4 parts x
-// nverts rows: 11 MB at 998 250 tets in f32, written with a read for
-// ownership) by stores into lines the sum has just read.
+// Slot 0 holds THREAD_BUFFERS' buffers. Padded rows (st > ncomp: the
+// force's rows of 4, whose kernel prefetches the rows it adds into on big
+// meshes, fvm_vec.h) keep them all zero between calls: the sum zeroes
+// every row it reads (the rows a call's kernels add into lie inside them),
+// which replaces a memset pass before each call (4 parts x nverts rows:
+// 11 MB at 998 250 tets in f32, written with a read for ownership) by
+// stores into lines the sum has just read (neo-Hookean f32 at 998 250
+// tets, Zen 5: ~1 ns per tet of 10). Unpadded rows (the Hessian passes)
+// memset each part before its kernel as before: there the memset warms the
+// part for a kernel that does not prefetch its rows, and the fused zeroing
+// made the Hessian product 4% slower at 998 250 tets. buffers_zero says
+// whether slot 0 is all zero now (per calling thread, as the slot).
+static _Thread_local int buffers_zero;
+
 static real *buffers_get(size_t bytes) {
   if (scratch[0].bytes < bytes) {
     ek_free(scratch[0].p);
     scratch[0].p = ek_alloc(bytes);
     scratch[0].bytes = scratch[0].p ? bytes : 0;
-    if (scratch[0].p)
-      memset(scratch[0].p, 0, bytes);
+    buffers_zero = 0;
   }
   return scratch[0].p;
 }
@@ -95,6 +102,17 @@ reduce_rows(real *buf, size_t n, size_t v0, size_t v1, size_t st, size_t nc, rea
   }
 }
 
+// The sum for rows without a pad (st == nc: the Hessian passes), buffers
+// left as they are: the rows of [v0, v1) are one run of values.
+static void reduce_flat(const real *buf, size_t n, size_t i0, size_t i1, real *restrict out) {
+  for (size_t i = i0; i < i1; i++) {
+    real s = buf[i];
+    for (int p = 1; p < EK_FVM_PARTS; p++)
+      s += buf[(size_t)p * n + i];
+    out[i] = s;
+  }
+}
+
 // THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one buffer
 // each; threads take parts round-robin, then out = sum of the buffers in
 // part order (parallel over vertices).
@@ -108,23 +126,30 @@ static int run_buffers(const scatter_job *j, real *out) {
   real *buf = buffers_get(EK_FVM_PARTS * n * sizeof(real));
   if (!buf)
     return EK_ENOMEM;
+  const int keep_zero = st != nc, zeroed = keep_zero && buffers_zero;
 #pragma omp parallel if (j->parallel)
   {
     int t = omp_get_thread_num(), nt = omp_get_num_threads();
     for (int p = t; p < EK_FVM_PARTS; p += nt) {
+      real *b = buf + (size_t)p * n;
+      if (!zeroed)
+        memset(b, 0, n * sizeof(real));
       size_t lo, hi;
       scatter_share(0, nb, p, EK_FVM_PARTS, &lo, &hi);
       if (lo < hi)
-        j->range(j->ctx, lo, hi, buf + (size_t)p * n, NULL);
+        j->range(j->ctx, lo, hi, b, NULL);
     }
 #pragma omp barrier
     size_t v0, v1;
     scatter_share(0, nv, t, nt, &v0, &v1);
-    if (st == 4 && nc == 3)
+    if (!keep_zero)
+      reduce_flat(buf, n, v0 * st, v1 * st, out);
+    else if (st == 4 && nc == 3)
       reduce_rows(buf, n, v0, v1, 4, 3, out);
     else
       reduce_rows(buf, n, v0, v1, st, nc, out);
   }
+  buffers_zero = keep_zero;
   return EK_OK;
 }
 
