@@ -60,10 +60,11 @@ static void run_colored(const scatter_job *j, real *out) {
 // which replaces a memset pass before each call (4 parts x nverts rows:
 // 11 MB at 998 250 tets in f32, written with a read for ownership) by
 // stores into lines the sum has just read (neo-Hookean f32 at 998 250
-// tets, Zen 5: ~1 ns per tet of 10). Unpadded rows (the Hessian passes)
+// tets, Zen 5, perf: memset and sum 6.3% of the samples before, 3.8%
+// after). Unpadded rows (the Hessian passes)
 // memset each part before its kernel as before: there the memset warms the
 // part for a kernel that does not prefetch its rows, and the fused zeroing
-// made the Hessian product 4% slower at 998 250 tets. buffers_zero says
+// made the Hessian product ~5% slower at 998 250 tets. buffers_zero says
 // whether slot 0 is all zero now (per calling thread, as the slot).
 static _Thread_local int buffers_zero;
 
@@ -102,17 +103,6 @@ reduce_rows(real *buf, size_t n, size_t v0, size_t v1, size_t st, size_t nc, rea
   }
 }
 
-// The sum for rows without a pad (st == nc: the Hessian passes), buffers
-// left as they are: the rows of [v0, v1) are one run of values.
-static void reduce_flat(const real *buf, size_t n, size_t i0, size_t i1, real *restrict out) {
-  for (size_t i = i0; i < i1; i++) {
-    real s = buf[i];
-    for (int p = 1; p < EK_FVM_PARTS; p++)
-      s += buf[(size_t)p * n + i];
-    out[i] = s;
-  }
-}
-
 // THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one buffer
 // each; threads take parts round-robin, then out = sum of the buffers in
 // part order (parallel over vertices).
@@ -142,9 +132,19 @@ static int run_buffers(const scatter_job *j, real *out) {
 #pragma omp barrier
     size_t v0, v1;
     scatter_share(0, nv, t, nt, &v0, &v1);
-    if (!keep_zero)
-      reduce_flat(buf, n, v0 * st, v1 * st, out);
-    else if (st == 4 && nc == 3)
+    if (!keep_zero) {
+      // Unpadded rows: the sum as it was (a flat loop over the same values
+      // with the share above ran the Hessian product ~4% slower at 998 250
+      // tets), buffers left as they are.
+#pragma omp for schedule(static)
+      for (size_t v = 0; v < nv; v++)
+        for (size_t k = 0; k < nc; k++) {
+          real s = buf[v * st + k];
+          for (int p = 1; p < EK_FVM_PARTS; p++)
+            s += buf[(size_t)p * n + v * st + k];
+          out[v * nc + k] = s;
+        }
+    } else if (st == 4 && nc == 3)
       reduce_rows(buf, n, v0, v1, 4, 3, out);
     else
       reduce_rows(buf, n, v0, v1, st, nc, out);
