@@ -54,7 +54,11 @@
 // sixth of a vertex per tet on these box meshes): 60 bytes per tet in f32
 // on the 1e6 mesh. Scratch traffic a strategy adds (force buffers, corner
 // arrays) is not counted: %bw is the fraction of the triad bandwidth the
-// row would need if it moved only what it must. No flop count: P's cost
+// row would need if it moved only what it must. Thread buffers (the
+// default) add EK_FVM_PARTS rows of 4 reals per vertex: 11.3 B per tet in
+// f32 on the 1e6 mesh, read and dirtied by the kernel and read again by
+// the sum, so up to ~45 B per tet more where they leave the L3
+// (docs/perf.md, memory-bound paths). No flop count: P's cost
 // depends on the model and its SVD.
 #include <ek/fvm.h>
 #include <ek/hessian.h>

@@ -168,7 +168,7 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 // lanes, f32: rows[k] holds points k and 4 + k, the same 4x4 transposes
 // inside each 128-bit lane. The loads are vmaskmovps (12 bytes: no read
 // past the array); rows of 4 need no masked store, and the NaN rule of the
-// scalar add is a blend.
+// scalar add is the add's operand order.
 #if defined(EK_REAL_F32)
 #define EK_HAVE_VLOAD_POINTS
 static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
@@ -218,7 +218,11 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       __m128 hv =
           l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
       __m128 ov = _mm_loadu_ps(o);
-      _mm_storeu_ps(o, _mm_blendv_ps(ov, _mm_add_ps(ov, hv), _mm_cmpord_ps(ov, ov)));
+      // o first (avx512.h's vscatter_add_rows4): vaddps returns o's NaN
+      // where o is NaN, as the compare and blend it replaces did.
+      __m128 sum;
+      __asm__("vaddps %2, %1, %0" : "=x"(sum) : "x"(ov), "x"(hv));
+      _mm_storeu_ps(o, sum);
     }
   }
 }
@@ -268,8 +272,10 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     for (int c = 0; c < 4; c++) {
       real *o = out + (size_t)idx[c * stride + l] * 4;
       __m256d ov = _mm256_loadu_pd(o);
-      _mm256_storeu_pd(o, _mm256_blendv_pd(ov, _mm256_add_pd(ov, rows[c][l]),
-                                           _mm256_cmp_pd(ov, ov, _CMP_ORD_Q)));
+      // o first, as in the f32 version above.
+      __m256d sum;
+      __asm__("vaddpd %2, %1, %0" : "=x"(sum) : "x"(ov), "x"(rows[c][l]));
+      _mm256_storeu_pd(o, sum);
     }
   }
 }

@@ -336,9 +336,10 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       const __m512d rv = rows[c][(l & 1) * 2 + l / 4];
       __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
       __m256d ov = _mm256_loadu_pd(o);
-      // The NaN rule of the f32 version above.
-      const __mmask8 num = _mm256_cmp_pd_mask(ov, ov, _CMP_ORD_Q);
-      _mm256_storeu_pd(o, _mm256_mask_add_pd(ov, num, ov, hv));
+      // o first, as in the f32 version above (a NaN o is kept).
+      __m256d sum;
+      __asm__("vaddpd %2, %1, %0" : "=v"(sum) : "v"(ov), "v"(hv));
+      _mm256_storeu_pd(o, sum);
     }
   }
 }
