@@ -17,6 +17,8 @@
 //   7. the assembled K (check_assembly): entries = the plain assembly of
 //      the double reference, CSR K p = the product, symmetric to the bit,
 //      projected PSD (LAPACK eigenvalues); same bits at 1 and 2 threads;
+//   8. the force's thread buffers reused across meshes after a diagonal
+//      pass give a fresh call's bits (check_buffer_reuse);
 //   6. neo-Hookean with an inverted tet: energy +inf; bad arguments are
 //      refused (products before a caching gradient, wrong precision,
 //      corotated linear without R); ISAs the CPU lacks are reported as
@@ -543,6 +545,54 @@ static void check_errors(void) {
   ek_tets_destroy(el);
 }
 
+// 8. The force's thread buffers are kept zero between calls (scatter.c):
+// a diagonal pass (rows of 6) on a mesh A leaves its rows beyond the
+// force's extent on A; a force on A, then on a mesh B whose extent reaches
+// past A's (nv_A < nv_B < 1.5 nv_A), must still give the bits of B's force
+// taken before (the same strategy and thread count). Zeroing only A's
+// extent before setting the "zero" flag failed this (and twist in
+// test_scenes_hold blew up).
+static void check_buffer_reuse(ek_rng *rng) {
+  test_mesh ta = test_mesh_random(rng, 6, 5, 4, 0.2), tb = test_mesh_random(rng, 7, 5, 4, 0.2);
+  ek_tets *ea = ek_tets_create(ta.nverts, ta.X, ta.ntets, ta.T);
+  ek_tets *eb = ek_tets_create(tb.nverts, tb.X, tb.ntets, tb.T);
+  double *xa = malloc(ta.nverts * 3 * sizeof(double)), *xb = malloc(tb.nverts * 3 * sizeof(double));
+  double *fa = malloc(ta.nverts * 3 * sizeof(double)),
+         *diag = malloc(ta.nverts * 6 * sizeof(double));
+  double *fb = malloc(tb.nverts * 3 * sizeof(double)),
+         *fb_ref = malloc(tb.nverts * 3 * sizeof(double));
+  test_deform(rng, &ta, 0.2, 0.1, xa);
+  test_deform(rng, &tb, 0.2, 0.1, xb);
+  const ek_material mat = {EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0};
+  ek_fvm_opts buffers = {.scatter = EK_SCATTER_THREAD_BUFFERS};
+  int rc = ek_fvm_tet_forces_ex_f64(eb, &mat, xb, fb_ref, &buffers);
+  ek_fvm_hessian_opts ho = {.scatter = EK_SCATTER_THREAD_BUFFERS};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(ea, &mat, &ho);
+  rc |= !h || ek_fvm_hessian_gradient_f64(h, xa, NULL, fa, NULL, 1);
+  rc |= !h || ek_fvm_hessian_diagonal_f64(h, diag);
+  rc |= ek_fvm_tet_forces_ex_f64(ea, &mat, xa, fa, &buffers);
+  rc |= ek_fvm_tet_forces_ex_f64(eb, &mat, xb, fb, &buffers);
+  const int same = memcmp(fb, fb_ref, tb.nverts * 3 * sizeof(double)) == 0;
+  printf("thread buffers reused across meshes (%zu then %zu vertices, a diagonal pass "
+         "between): %s\n",
+         ta.nverts, tb.nverts,
+         rc     ? "call failed"
+         : same ? "same bits as before"
+                : "differ");
+  fail_if(rc || !same, "thread buffers reused across meshes");
+  ek_fvm_hessian_destroy(h);
+  ek_tets_destroy(ea);
+  ek_tets_destroy(eb);
+  free(xa);
+  free(xb);
+  free(fa);
+  free(diag);
+  free(fb);
+  free(fb_ref);
+  test_mesh_free(&ta);
+  test_mesh_free(&tb);
+}
+
 int main(int argc, char **argv) {
   uint64_t seed = ek_cli_test_args(argc, argv, 2026, NULL);
   printf("test_hessian: seed %llu\n", (unsigned long long)seed);
@@ -567,6 +617,7 @@ int main(int argc, char **argv) {
     check_assembly(tm, &t, &s, x, &rng);
   }
   check_threads(&rng);
+  check_buffer_reuse(&rng);
   ek_tet_state_destroy(Rs);
   ek_tets_destroy(el);
   free(R);
