@@ -113,11 +113,11 @@ static inline __attribute__((always_inline)) void reduce_rows(real *buf, size_t 
 // THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one buffer
 // each; threads take parts round-robin, then out = sum of the buffers in
 // part order (parallel over vertices). Part p's tets touch only the
-// vertices [vlo[p], vhi[p]) (tets.h, part_vlo): its buffer is zeroed there
-// alone, and a vertex outside adds the 0 the buffer would have held (x + 0
-// is x but for x = -0, so the sums keep their bits) without reading it.
-// About half the vertices per part on a box mesh: half the zeroing and the
-// reads of the sum.
+// vertices [vlo[p], vhi[p]) (tets.h, part_vlo): the sums read its buffer
+// there alone (the Hessian passes zero it there alone), and a vertex
+// outside adds the 0 the buffer would have held (x + 0 is x but for x =
+// -0, so the sums keep their bits). About half the vertices per part on a
+// box mesh: half the reads of the sum (and of the Hessian's zeroing).
 static int run_buffers(const scatter_job *j, real *out) {
   const size_t nc = (size_t)j->ncomp, st = j->buf_stride ? (size_t)j->buf_stride : nc;
   size_t nv = j->el->nverts, n = nv * st, nb = j->el->morton.nslots / L;
