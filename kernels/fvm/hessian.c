@@ -137,26 +137,22 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
   hess_args a = args_for(h, HESS_ELEMENT);
   a.cache = h->cache;
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
-  int nomem = 0;
+  // The groups' element Hessians, 72 KB per thread, on the heap (not on a
+  // caller's thread stack, which may be small), one block for the team.
+  const size_t group = (size_t)HESS_GROUP * EK_LANES * 144;
+  real *bufs = ek_alloc((size_t)nt * group * sizeof(real));
+  if (!bufs) {
+    ek_set_error("ek_fvm_hessian_assemble: out of memory for the element Hessians' buffers");
+    return EK_ENOMEM;
+  }
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    // The group's element Hessians (72 KB) on the heap, not on a caller's
-    // thread stack, which may be small; every thread skips the work if one
-    // could not get its buffer (all of them reach the barriers below).
-    real *buf = ek_alloc(HESS_GROUP * EK_LANES * 144 * sizeof(real));
-    if (!buf) {
-#pragma omp atomic write
-      nomem = 1;
-    }
-#pragma omp barrier
-    int skip;
-#pragma omp atomic read
-    skip = nomem;
+    real *buf = bufs + (size_t)omp_get_thread_num() * group;
     hess_args la = a;
     la.values = values;
     la.asm_h = h;
-    const int team = skip ? 0 : omp_get_num_threads();
-    for (int t = omp_get_thread_num(); team && t < nt; t += team)
+    const int team = omp_get_num_threads();
+    for (int t = omp_get_thread_num(); t < nt; t += team)
       for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
         const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
         const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
@@ -177,9 +173,8 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
       // (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
       // slot order, so the copy has the bits that summing would give.
 #pragma omp barrier
-    ek_free(buf);
     const ek_tets *el = h->el;
-    for (int t = omp_get_thread_num(); team && t < nt; t += team)
+    for (int t = omp_get_thread_num(); t < nt; t += team)
       for (size_t v = 0; v < el->nverts; v++) {
         if (h->row_own[v] != t)
           continue;
@@ -196,10 +191,7 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
         }
       }
   }
-  if (nomem) {
-    ek_set_error("ek_fvm_hessian_assemble: out of memory for the element Hessians' buffers");
-    return EK_ENOMEM;
-  }
+  ek_free(bufs);
   return EK_OK;
 }
 
