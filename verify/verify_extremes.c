@@ -230,10 +230,10 @@ static int snh_point(const ext_variant *v, const ext_case *c) {
 // equilibrium of neo-Hookean itself, and it stays: leaving it flattens
 // some tet, and neo-Hookean's energy at the clamp (sigma = (1, 1, 0.05), nu
 // = 0.3) is 9.2 mu above rest (its log J terms), against 1.0 mu for stable
-// neo-Hookean and 1.6 mu for fixed corotated. The implicit rows end the
-// same way (V/V0 0.87, shape error 0.62, seed 1, sim/implicit.c), so they
-// expect no recovery (xfail); the plane crushes recover (PASS) and keep
-// SURVIVE.
+// neo-Hookean and 1.6 mu for fixed corotated. The implicit rows end
+// unrestored too (seed 1: V/V0 0.87, shape error 0.62, one tet inverted
+// where Newton stops at max_newton, sim/implicit.c), so they expect no
+// recovery (xfail); the plane crushes recover (PASS) and keep SURVIVE.
 #define NH_CLAMP_POINT_SOURCE                                                                      \
   "neo-Hookean + clamp from a point crush settles into a tangled, uninverted equilibrium of "      \
   "neo-Hookean itself (explicit at 0.01-0.1x CFL, seeds 1-5, f32/f64: V/V0 0.87-0.93, shape "      \
