@@ -51,7 +51,24 @@
 //      rows; 8 recover, test_sim_implicit 10.). Accepting a clamped trial
 //      from an unclamped x on the residual (stable neo-Hookean + clamp, nu
 //      = 0.499: step 1 took |dx| = 176 at alpha 1/64 into the clamp, r 4045
-//      -> 542, then stalled) left 2 of the 8;
+//      -> 542, then stalled) left 2 of the 8. From a clamped x where no
+//      trial passes the residual test, the largest trial that passed
+//      Armijo on Phi (with grad.dx, as above) is taken instead of stopping
+//      the step: dx still descends Phi there (Phi's slope along dx, by
+//      differences, was 0.36-1.1x grad.dx at every such iteration until
+//      Phi's change reached its rounding), while the residual rose for
+//      every alpha (its slope along dx > 0: the Hessian at F_hat is not the
+//      Jacobian of P(F_hat)). Measured (ek-verify --extremes, neo-Hookean +
+//      clamp 0.05 crushed to a point, f64, seed 1): every step stalled at r
+//      33-110 after 1-33 iterations (step 0 at iteration 11, r 33.3) until
+//      step 22's state turned the body inside out (refused); with the
+//      fallback every step runs to newton_tol or max_newton, step 0 ends at
+//      r 6.0 and from step 5 on r <= 2.6e-4, one tet left inverted (not
+//      restored: where a singular value is clamped P(F_hat) is not the
+//      gradient of Phi, so neither merit reaches r = 0 there; Stomakhin et
+//      al. 2012, "Energetically consistent invertible elasticity", extend
+//      the energy instead). A step whose residual test passes takes the
+//      same trials as before;
 //   3. v_{n+1} = (x_{n+1} - x_n) / dt; then the ground as in the explicit
 //      loop.
 // The stopping rule (issue 26). The residual r (ek_scene_implicit) is an
@@ -836,6 +853,9 @@ static int implicit_step(ek_sim *s, void *data) {
     const double slope = dot(d, d->g, d->dx);
     double alpha = 1, phi_t = INFINITY, res_t = INFINITY;
     int accepted = 0, trial_clamped = 1;
+    // From a clamped x: the first (largest) alpha whose trial passed Armijo
+    // on Phi but not the residual test (the fallback, above).
+    double alpha_phi = 0;
     s->times.line_search += sim_now() - t0;
     for (int bt = 0; bt < (forced ? 1 : MAX_BACKTRACKS); bt++) {
       if ((rc = sim_stop_requested(s, "line-search trial", bt + 1, MAX_BACKTRACKS)))
@@ -868,6 +888,8 @@ static int implicit_step(ek_sim *s, void *data) {
       if (isfinite(phi_t) && use_residual) {
         res_t = residual(d, s, d->gt, free_mass);
         accepted = res_t <= (1 - ARMIJO_C1 * alpha) * res;
+        if (!accepted && x_clamped && alpha_phi == 0 && phi_t <= phi + ARMIJO_C1 * alpha * slope)
+          alpha_phi = alpha;
       } else if (isfinite(phi_t)) {
         if (phi_t <= phi + ARMIJO_C1 * alpha * slope) {
           accepted = 1;
@@ -881,6 +903,22 @@ static int implicit_step(ek_sim *s, void *data) {
         break;
       alpha *= 0.5;
       s->times.backtracks++;
+    }
+    if (!accepted && alpha_phi > 0) {
+      // No trial decreased the residual from a clamped x: the fallback
+      // trial, evaluated again (its gradient and eigensystems, so the state
+      // and the next Hessian are its own).
+      alpha = alpha_phi;
+      t0 = sim_now();
+#pragma omp parallel for schedule(static) if (d->par)
+      for (size_t i = 0; i < d->n3; i++)
+        d->xt[i] = x[i] + alpha * d->dx[i];
+      s->times.line_search += sim_now() - t0;
+      if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
+        return rc;
+      trial_clamped = any_clamped(s, d, d->xt);
+      res_t = residual(d, s, d->gt, free_mass);
+      accepted = isfinite(phi_t);
     }
     if (!accepted) {
       stalled = 1;

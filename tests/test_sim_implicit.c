@@ -28,15 +28,26 @@
 //   9. a clamped model near incompressibility whose unconverged step turns
 //      the body inside out fails with EK_SIM_EUNCONVERGED, state kept
 //      (was: a mirrored body, V/V0 -4.4e6, reported as a finite state):
-//      neo-Hookean + clamp crushed to a point, ek-verify --extremes' start
-//      state (its stable neo-Hookean + clamp plane crushes at nu = 0.49
-//      and 0.499, used here before, now converge: 10.);
+//      neo-Hookean + clamp crushed to a point at nu = 0.49 from ek-verify
+//      --extremes' start state (step 1 stops at max_newton, r 2e4; its
+//      stable neo-Hookean + clamp plane crushes at nu = 0.49 and 0.499,
+//      used here before, now converge: 10.; the same crush at nu = 0.3,
+//      used next, now runs: 11.);
 //  10. the clamped plane crush at nu = 0.49 (stable neo-Hookean + clamp):
 //      every step runs and the body recovers its volume within
 //      EK_SIM_VOLUME_TOL (was: step 1 stopped at max_newton on a residual
 //      line search that crawled, alpha 1/128, 0.1-1% per iteration, and
 //      step 2 turned the body inside out; the line search now uses Armijo
-//      on Phi where no singular value is clamped, sim/implicit.c).
+//      on Phi where no singular value is clamped, sim/implicit.c);
+//  11. ek-verify --extremes' neo-Hookean + clamp point crush (nu = 0.3,
+//      its start state, f64): no Newton iteration gives up while the
+//      clamped energy Phi still decreases along dx (each step ends at
+//      newton_tol or max_newton), every step runs and the body is not
+//      inside out (was: from a clamped x the line search took the residual
+//      only, which rose for every alpha: step 0 stalled at iteration 11,
+//      r 33.3, and so did every step until step 22's state turned the
+//      body inside out, refused; sim/implicit.c's fallback to Armijo on
+//      Phi).
 #include <ek/sim/sim.h>
 #include <math.h>
 #include <omp.h>
@@ -486,7 +497,7 @@ static void stopping_rule_test(void) {
 // 9.
 static void inside_out_test(void) {
   run r;
-  if (crushed_from(&r, "neo_hookean", 1, 0.3, 0.05, 1e-6, "crush_point"))
+  if (crushed_from(&r, "neo_hookean", 1, 0.49, 0.05, 1e-6, "crush_point"))
     return;
   int rc = 0;
   long n = 0;
@@ -524,6 +535,39 @@ static void clamped_merit_test(void) {
   finish(&r);
 }
 
+// 11.
+static void clamped_fallback_test(void) {
+  run r;
+  if (crushed_from(&r, "neo_hookean", 1, 0.3, 0.05, 1e-6, "crush_point"))
+    return;
+  const ek_scene_implicit *im = &r.scene.implicit;
+  int rc = 0, stalls = 0;
+  long n = 0, first_stall = -1;
+  double stall_res = 0;
+  for (; n < r.scene.steps && rc == 0; n++) {
+    rc = ek_sim_step(r.sim);
+    const ek_sim_newton_trace *t = ek_sim_last_newton(r.sim);
+    const double res =
+        t->residual[t->iterations < EK_SIM_NEWTON_TRACE ? t->iterations : EK_SIM_NEWTON_TRACE];
+    // Stopped early above newton_tol: the line search found no decrease.
+    if (res > im->newton_tol && t->iterations < im->max_newton) {
+      if (stalls++ == 0)
+        first_stall = n, stall_res = res;
+    }
+  }
+  const double V0 = 0.2 * 0.2 * 0.2, V = ek_sim_volume(r.sim);
+  const ek_sim_times *t = ek_sim_timings(r.sim);
+  checkf("clamped point crush: no line search gives up while Phi descends", stalls == 0,
+         "%d of %ld steps stopped early above newton_tol (first: step %ld, r %.3g)", stalls, n,
+         first_stall, stall_res);
+  checkf("clamped point crush: every step runs, not inside out", rc == 0 && V > 0,
+         "rc %d after %ld of %ld steps, V/V0 %.4g, %ld steps above newton_tol, %ld Newton "
+         "iterations%s%s",
+         rc, n, r.scene.steps, V / V0, t->unconverged_steps, t->newton_iterations, rc ? ": " : "",
+         rc ? ek_last_error() : "");
+  finish(&r);
+}
+
 int main(int argc, char **argv) {
   scenes_dir_init(argc, argv);
   printf("test_sim_implicit (scenes from %s)\n", scenes_dir);
@@ -539,6 +583,7 @@ int main(int argc, char **argv) {
   stopping_rule_test();
   inside_out_test();
   clamped_merit_test();
+  clamped_fallback_test();
   printf("%s\n", failures ? "FAILED" : "ALL PASSED");
   return failures ? 1 : 0;
 }
