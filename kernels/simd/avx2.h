@@ -174,10 +174,19 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
                                                                 vreal p[3]) {
   const __m128i m3 = _mm_setr_epi32(-1, -1, -1, 0);
+  const __m256i pad =
+      _mm256_cmpgt_epi32(_mm256_setzero_si256(), _mm256_loadu_si256((const __m256i *)idx));
   __m128 r[8];
+  // No padding lane: each row address straight from its index (avx512.h).
+  if (__builtin_expect(_mm256_testz_si256(pad, pad), 1)) {
 #pragma GCC unroll 8
-  for (int l = 0; l < 8; l++)
-    r[l] = _mm_maskload_ps(x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3, m3);
+    for (int l = 0; l < 8; l++)
+      r[l] = _mm_maskload_ps(x + (ptrdiff_t)idx[l] * 3, m3);
+  } else {
+#pragma GCC unroll 8
+    for (int l = 0; l < 8; l++)
+      r[l] = _mm_maskload_ps(x + (size_t)(idx[l] < 0 ? 0 : idx[l]) * 3, m3);
+  }
   __m256 rows[4];
 #pragma GCC unroll 4
   for (int k = 0; k < 4; k++)
@@ -189,8 +198,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
   p[1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
   p[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
-  __m256i i = _mm256_loadu_si256((const __m256i *)idx);
-  return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_setzero_si256(), i));
+  return _mm256_castsi256_ps(pad);
 }
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 static inline __attribute__((always_inline)) void
