@@ -859,7 +859,8 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
   size_t text_len = replay + grid_len + sizeof xmf_tail - 1;
   char *text = grid ? malloc(text_len) : NULL;
   if (text) {
-    memcpy(text, fr->last_grid, replay);
+    if (replay > 0) // last_grid is NULL before the first frame
+      memcpy(text, fr->last_grid, replay);
     memcpy(text + replay, grid, grid_len + sizeof xmf_tail - 1);
   }
 

@@ -449,11 +449,18 @@ static int file_contains(const char *path, const char *needle) {
   return found;
 }
 
+// 1 while the child pid has not ended (it is not reaped here).
+static int running(pid_t pid) {
+  siginfo_t info;
+  info.si_pid = 0;
+  return waitid(P_PID, (id_t)pid, &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == 0;
+}
+
 // Wait until out holds at least `frames` frames (polling it read-only, as a
-// viewer would), at most ~60 s.
-static long wait_for_frames(const char *out, long frames) {
+// viewer would), at most ~60 s and while the run pid goes on.
+static long wait_for_frames(const char *out, long frames, pid_t pid) {
   long n = -1;
-  for (int i = 0; i < 6000 && n < frames; ++i) {
+  for (int i = 0; i < 6000 && n < frames && running(pid); ++i) {
     sleep_ms(10);
     n = frames_in(out);
   }
@@ -476,7 +483,7 @@ static void kill_case(int index, double ms, long frames) {
   if (ms >= 0)
     sleep_ms(ms);
   else
-    seen = wait_for_frames(out, frames);
+    seen = wait_for_frames(out, frames, pid);
   kill(pid, SIGKILL);
   int status = 0;
   waitpid(pid, &status, 0);
@@ -556,7 +563,7 @@ static int random_kill_case(int index, double ms, int after_first) {
   snprintf(log, sizeof log, "%s/rkill%d", dir, index);
   pid_t pid = start_sim(out, log, -1, 0);
   if (after_first)
-    wait_for_frames(out, 1);
+    wait_for_frames(out, 1, pid);
   sleep_ms(ms);
   kill(pid, SIGKILL);
   int status = 0;
@@ -621,7 +628,7 @@ static void stop_case(int sig) {
   ek_frames_xdmf_path(out, xmf_scratch, sizeof xmf_scratch - 8);
   strcat(xmf_scratch, ".scratch");
   pid_t pid = start_sim(out, log, -1, 0);
-  long seen = wait_for_frames(out, 3);
+  long seen = wait_for_frames(out, 3, pid);
   kill(pid, sig);
   int status = 0;
   waitpid(pid, &status, 0);
@@ -657,8 +664,8 @@ static void stop_inside_step_case(const char *long_scene) {
   snprintf(scene, sizeof scene, "%s", long_scene);
   pid_t pid = start_sim(out, log, -1, 0);
   snprintf(scene, sizeof scene, "%s", saved);
-  long seen = wait_for_frames(out, 1); // frame 0, then the first step runs
-  sleep_ms(300);                       // well inside it
+  long seen = wait_for_frames(out, 1, pid); // frame 0, then the first step runs
+  sleep_ms(300);                            // well inside it
   // The step is hours of sweeps: a run that ends within STOP_LIMIT_S of
   // the signal looked at it inside the step. A generous limit (no timing
   // claim: a busy machine may deschedule ek-sim for a while); a run still
