@@ -8,8 +8,8 @@
 // (two files in turn, no new file per frame, no scratch left after close)
 // and names the HDF5 file XML-escaped; a name the XDMF cannot hold is refused;
 // an existing output is never overwritten without force (and is left
-// untouched), force does overwrite it, and a scratch file a killed run left
-// does not block a new one.
+// untouched), force does overwrite it, and scratch files a killed run left
+// do not block a new one (nor are written into: they are replaced).
 #include <ek/sim/sim.h>
 
 #include "cli.h"
@@ -630,8 +630,10 @@ int main(int argc, char **argv) {
   snprintf(detail, sizeof detail, "xdmf lists %ld", grids);
   verdict("force overwrites (3 frames now)", ok && grids == 3, detail);
 
-  // 4. A scratch file a killed run left (here 48 bytes of junk) does not
-  // block a new run without force.
+  // 4. Scratch files a killed run left (here 48 bytes of junk for the
+  // HDF5 file, and for the XDMF a hard link to another file, which must
+  // stay as it was: the scratch name is replaced, never written into) do
+  // not block a new run without force, and are gone after it.
   snprintf(path, sizeof path, "%s/stale.h5", dir);
   snprintf(scratch, sizeof scratch, "%s.scratch", path);
   fx = fopen(scratch, "wb");
@@ -639,6 +641,16 @@ int main(int argc, char **argv) {
     fwrite("\x89HDF\r\n\x1a\n0123456789abcdef0123456789abcdef0123456789", 1, 48, fx);
     fclose(fx);
   }
+  char other[600], xscratch[700];
+  snprintf(other, sizeof other, "%s/other.txt", dir);
+  ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
+  snprintf(xscratch, sizeof xscratch, "%s.scratch", xdmf);
+  fx = fopen(other, "wb");
+  if (fx) {
+    fputs("not ek's\n", fx);
+    fclose(fx);
+  }
+  int linked = link(other, xscratch) == 0;
   ok = writer(path, 0, nv, nt, X, tets, 2, -1) == 0;
   hid_t f = -1;
   long stored = frames_in(path, &f);
@@ -646,10 +658,18 @@ int main(int argc, char **argv) {
     ok = ok && check_file(f, nv, nt, X, tets, 2) == 0;
     H5Fclose(f);
   }
-  snprintf(detail, sizeof detail, "file holds %ld frames; scratch %s", stored,
-           stat(scratch, &st) == 0 ? "left" : "removed");
-  verdict("stale scratch file does not block a new run",
-          ok && stored == 2 && stat(scratch, &st) != 0, detail);
+  char *kept = slurp(other);
+  int other_same = kept && strcmp(kept, "not ek's\n") == 0;
+  free(kept);
+  grids = count_in_file(xdmf, "<Grid Name=\"frame_");
+  int left = stat(scratch, &st) == 0 || stat(xscratch, &st) == 0;
+  snprintf(detail, sizeof detail,
+           "file holds %ld frames, xdmf lists %ld%s; scratch files %s; linked file %s", stored,
+           grids, xdmf_closed(xdmf) ? "" : " (not closed)", left ? "left" : "removed",
+           other_same ? "unchanged" : "CHANGED");
+  verdict("stale scratch files do not block a new run",
+          ok && linked && stored == 2 && grids == 2 && xdmf_closed(xdmf) && !left && other_same,
+          detail);
 
   // 5. The XDMF names the file XML-escaped; names it cannot hold are
   // refused before any file is made (and their bytes are not echoed).
