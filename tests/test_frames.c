@@ -671,6 +671,23 @@ int main(int argc, char **argv) {
           ok && linked && stored == 2 && grids == 2 && xdmf_closed(xdmf) && !left && other_same,
           detail);
 
+  // 4b. The XDMF's scratch name is renamed over at every frame: a
+  // directory there is refused before any file is made.
+  {
+    snprintf(path, sizeof path, "%s/xs.h5", dir);
+    ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
+    snprintf(xscratch, sizeof xscratch, "%s.scratch", xdmf);
+    int made = mkdir(xscratch, 0700) == 0;
+    fr = ek_frames_create(path, 1, nv, X, nt, tets);
+    ok = made && !fr && strstr(ek_last_error(), ".xmf.scratch: is a directory") &&
+         stat(path, &st) != 0 && stat(xdmf, &st) != 0;
+    snprintf(detail, sizeof detail, "message: %s", fr ? "(none: created)" : ek_last_error());
+    verdict("XDMF scratch name a directory: refused (force)", ok, detail);
+    if (fr)
+      ek_frames_close(fr);
+    rmdir(xscratch);
+  }
+
   // 5. The XDMF names the file XML-escaped; names it cannot hold are
   // refused before any file is made (and their bytes are not echoed).
   snprintf(path, sizeof path, "%s/R&D<1>'\".h5", dir);
