@@ -19,13 +19,25 @@
 // still points to) where a kill corrupts the file; SWMR avoids that but
 // leaves a file every reader refuses until `h5clear -s`.
 //
-// The XDMF is written once with an empty collection and then appended to: a
-// frame's grid and the fixed closing tail go in one write at the end of the
-// body, overwriting the previous tail, so the XDMF is valid after every
-// frame and each frame costs one grid's text (no rewrite of the whole file,
-// whose cost would grow with the square of the frame count). A frame's grid
-// is appended after its HDF5 commit, so the XDMF never lists a frame the
-// HDF5 file lacks (after a kill it may list one frame fewer).
+// The XDMF is committed the same way, as text: two copies, the committed
+// file at its name and a scratch copy (that name + ".scratch") one frame
+// behind. A frame appends the grid the scratch copy lacks, its own grid and
+// the fixed closing tail at the scratch copy's end of body (one write over
+// its old tail), and the two then swap names atomically. The file at the
+// XDMF's name is therefore never written to: a writer killed at any
+// moment, even inside a write (a SIGKILL cuts a write to a file between
+// pages: CI once found an appended-in-place XDMF cut at 73728 bytes),
+// leaves it whole and closed. Each frame costs two grids' text, so the
+// cost grows linearly with the frame count (a rewrite of the whole file
+// per frame would grow with its square; measured on a busy machine: 1000
+// frames of an 81-vertex beam, wall minimum 1.35 s with the XDMF appended
+// in place and 1.35 s this way: the HDF5 commits dominate). A frame's grid
+// is committed after its HDF5 commit, so the XDMF never lists a frame the
+// HDF5 file lacks (after a kill it may list one frame fewer). There is no
+// XDMF only while the HDF5 file has no frame (between the HDF5 file's
+// creation and the XDMF's; with force the old XDMF is replaced by an empty
+// one first, atomically). No fsync: like the HDF5 side this is safe
+// against the process dying, not the machine.
 //
 // The XDMF's data items are plain whole-dataset HDF references, one dataset
 // per frame and field: meshio's TimeSeriesReader (5.3) reads only those
@@ -38,6 +50,7 @@
 #include <fcntl.h>
 #include <hdf5.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -73,13 +86,18 @@ struct ek_frames {
   double *last_f[NFIELDS]; // copy (its fields; NaN when not given)
   double last_time;
   int64_t last_step;
-  int xmf_fd;         // the XDMF, open for the appends
-  off_t xmf_body_end; // where the closing tail starts
-  char *h5name_xml;   // the HDF5 file's base name, XML-escaped
+  int xmf_fd[2];        // the committed XDMF (xdmf_path) and its scratch copy
+  off_t xmf_end[2];     // where each one's closing tail starts
+  char *last_grid;      // the last committed frame's grid (no tail), replayed
+  size_t last_grid_len; // into the scratch XDMF
+  long test_kill_frame; // EK_FRAMES_TEST_KILL_XMF (tests only), else -1
+  char *h5name_xml;     // the HDF5 file's base name, XML-escaped
   char h5path[EK_SCENE_PATH_MAX];
   char scratch_path[EK_SCENE_PATH_MAX + 16];
   char swap_path[EK_SCENE_PATH_MAX + 16]; // the hard-link fallback's third name
   char xdmf_path[EK_SCENE_PATH_MAX];
+  char xmf_scratch_path[EK_SCENE_PATH_MAX + 16];
+  char xmf_swap_path[EK_SCENE_PATH_MAX + 16];
 };
 
 // Values of field i in one frame.
@@ -125,9 +143,8 @@ static const char *not_regular(const char *path) {
 // would remove them. A symbolic link is refused too: the rename replaces
 // the link, not the file it names. Returns 0, or -1 with the reason in err.
 static int check_output_names(const ek_frames *fr, char *err, size_t errlen) {
-  char xmf_tmp[EK_SCENE_PATH_MAX + 8];
-  snprintf(xmf_tmp, sizeof xmf_tmp, "%s.tmp", fr->xdmf_path);
-  const char *names[] = {fr->h5path, fr->xdmf_path, fr->scratch_path, fr->swap_path, xmf_tmp};
+  const char *names[] = {fr->h5path,    fr->xdmf_path,        fr->scratch_path,
+                         fr->swap_path, fr->xmf_scratch_path, fr->xmf_swap_path};
   for (size_t i = 0; i < sizeof names / sizeof *names; ++i) {
     const char *what = not_regular(names[i]);
     if (what) {
@@ -463,23 +480,28 @@ static int write_frame(const ek_frames *fr, hid_t file, long k, double time, int
   return append_scalar(file, "/frames/time", H5T_NATIVE_DOUBLE, k + 1, &time);
 }
 
-// Swap the names of the scratch copy and the committed file: one atomic
-// rename where the file system supports it; otherwise a hard link keeps
-// the committed file reachable at h5path throughout (link, rename over,
-// rename the link).
-static int swap_files(const ek_frames *fr) {
+// Swap the names of a scratch copy and its committed file: one atomic
+// rename where the file system supports it; otherwise a hard link (at
+// `swap`) keeps the committed file reachable at its name throughout (link,
+// rename over, rename the link). The files keep their inodes, so open
+// descriptors follow them.
+static int swap_names(const char *scratch, const char *committed, const char *swap) {
 #ifdef RENAME_EXCHANGE
-  if (renameat2(AT_FDCWD, fr->scratch_path, AT_FDCWD, fr->h5path, RENAME_EXCHANGE) == 0)
+  if (renameat2(AT_FDCWD, scratch, AT_FDCWD, committed, RENAME_EXCHANGE) == 0)
     return 0;
   if (errno != EINVAL && errno != ENOSYS && errno != EOPNOTSUPP)
     return -1;
 #endif
-  unlink(fr->swap_path);
-  if (link(fr->h5path, fr->swap_path) != 0)
+  unlink(swap);
+  if (link(committed, swap) != 0)
     return -1;
-  if (rename(fr->scratch_path, fr->h5path) != 0)
+  if (rename(scratch, committed) != 0)
     return -1;
-  return rename(fr->swap_path, fr->scratch_path);
+  return rename(swap, scratch);
+}
+
+static int swap_files(const ek_frames *fr) {
+  return swap_names(fr->scratch_path, fr->h5path, fr->swap_path);
 }
 
 // Write all of buf at offset off (one call in practice: a grid is small).
@@ -592,46 +614,66 @@ static char *xmf_grid(const ek_frames *fr, long k, double time, size_t *grid_len
   return buf;
 }
 
-// Create the XDMF with an empty collection (through a temporary file and a
-// rename, so a kill never leaves half a header) and open it for appends.
-static int xmf_create(ek_frames *fr, char *err, size_t errlen) {
-  char tmp[EK_SCENE_PATH_MAX + 8];
-  snprintf(tmp, sizeof tmp, "%s.tmp", fr->xdmf_path);
-  FILE *f = fopen(tmp, "w");
-  if (!f) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: cannot write: %s", tmp, strerror(errno));
+static const char xmf_head[] =
+    "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+    "<Xdmf Version=\"3.0\">\n <Domain>\n"
+    "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+
+// Copy i (0: committed, 1: scratch) of the XDMF with an empty collection.
+// Built under the scratch name (a new file: one a killed run left is
+// unlinked, never written into); copy 0 is then renamed to the XDMF's name,
+// so a kill never leaves half a header there. Returns 0, or -1 with errno
+// set and nothing left at the scratch name.
+static int xmf_empty(ek_frames *fr, int i) {
+  unlink(fr->xmf_scratch_path);
+  int fd = open(fr->xmf_scratch_path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+  if (fd < 0)
+    return -1;
+  const off_t head_len = (off_t)(sizeof xmf_head - 1);
+  if (pwrite_all(fd, xmf_head, sizeof xmf_head - 1, 0) != 0 ||
+      pwrite_all(fd, xmf_tail, sizeof xmf_tail - 1, head_len) != 0 ||
+      (i == 0 && rename(fr->xmf_scratch_path, fr->xdmf_path) != 0)) {
+    int e = errno;
+    close(fd);
+    unlink(fr->xmf_scratch_path);
+    errno = e;
     return -1;
   }
-  static const char head[] =
-      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-      "<Xdmf Version=\"3.0\">\n <Domain>\n"
-      "  <Grid Name=\"frames\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  fputs(head, f);
-  fputs(xmf_tail, f);
-  int bad = ferror(f);
-  bad |= fclose(f) != 0;
-  if (bad || rename(tmp, fr->xdmf_path) != 0) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: write failed: %s", fr->xdmf_path, strerror(errno));
-    remove(tmp);
-    return -1;
-  }
-  fr->xmf_fd = open(fr->xdmf_path, O_WRONLY | O_CLOEXEC);
-  if (fr->xmf_fd < 0) {
-    if (err && errlen)
-      snprintf(err, errlen, "%s: cannot open for appending: %s", fr->xdmf_path, strerror(errno));
-    return -1;
-  }
-  fr->xmf_body_end = (off_t)(sizeof head - 1);
+  fr->xmf_fd[i] = fd;
+  fr->xmf_end[i] = head_len;
   return 0;
+}
+
+// Create both copies of the XDMF (the committed one may already be there:
+// with force it replaced the old XDMF before the HDF5 commit).
+static int xmf_create(ek_frames *fr, char *err, size_t errlen) {
+  for (int i = 0; i < 2; ++i)
+    if (fr->xmf_fd[i] < 0 && xmf_empty(fr, i) != 0) {
+      if (err && errlen)
+        snprintf(err, errlen, "%s: cannot write: %s", i == 0 ? fr->xdmf_path : fr->xmf_scratch_path,
+                 strerror(errno));
+      return -1;
+    }
+  return 0;
+}
+
+// Write the XDMF text of frame k at offset `at` of the scratch copy.
+// EK_FRAMES_TEST_KILL_XMF=k (tests/test_frames_sim.c only) makes the writer
+// SIGKILL itself halfway through this write: the moment that tore the XDMF
+// when it was appended to in place, which a timed kill hits only by chance.
+static int xmf_write(const ek_frames *fr, const char *text, size_t len, off_t at, long k) {
+  if (k == fr->test_kill_frame && pwrite_all(fr->xmf_fd[1], text, len / 2, at) == 0)
+    raise(SIGKILL);
+  return pwrite_all(fr->xmf_fd[1], text, len, at);
 }
 
 static void destroy(ek_frames *fr) {
   if (!fr)
     return;
-  if (fr->xmf_fd >= 0)
-    close(fr->xmf_fd);
+  for (int i = 0; i < 2; ++i)
+    if (fr->xmf_fd[i] >= 0)
+      close(fr->xmf_fd[i]);
+  free(fr->last_grid);
   free(fr->last_x);
   for (int i = 0; i < NFIELDS; ++i)
     free(fr->last_f[i]);
@@ -671,7 +713,9 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
   ek_frames *fr = calloc(1, sizeof *fr);
   if (!fr)
     return NULL;
-  fr->xmf_fd = -1;
+  fr->xmf_fd[0] = fr->xmf_fd[1] = -1;
+  const char *kill_at = getenv("EK_FRAMES_TEST_KILL_XMF");
+  fr->test_kill_frame = kill_at && kill_at[0] ? strtol(kill_at, NULL, 10) : -1;
   fr->nverts = nverts;
   fr->ntets = ntets;
   fr->nodes = nodes;
@@ -681,6 +725,8 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
   snprintf(fr->scratch_path, sizeof fr->scratch_path, "%s.scratch", path);
   snprintf(fr->swap_path, sizeof fr->swap_path, "%s.swap", path);
   ek_frames_xdmf_path(path, fr->xdmf_path, sizeof fr->xdmf_path);
+  snprintf(fr->xmf_scratch_path, sizeof fr->xmf_scratch_path, "%s.scratch", fr->xdmf_path);
+  snprintf(fr->xmf_swap_path, sizeof fr->xmf_swap_path, "%s.swap", fr->xdmf_path);
   if (check_output_names(fr, err, errlen) != 0) {
     destroy(fr);
     return NULL;
@@ -722,9 +768,13 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
   const char *what = "create";
   errno = 0;
   ok = create_base(fr, fr->scratch_path, X, tets, &what) == 0;
+  // With force the old XDMF lists frames the new file lacks: an empty one
+  // replaces it (a rename, so that an XDMF is there throughout).
+  if (ok && force && xmf_empty(fr, 0) != 0) {
+    ok = 0;
+    what = "xdmf";
+  }
   if (ok) {
-    if (force)
-      unlink(fr->xdmf_path); // the old XDMF lists frames the new file lacks
     what = "commit";
     ok = force ? rename(fr->scratch_path, fr->h5path) == 0
                : link(fr->scratch_path, fr->h5path) == 0 && unlink(fr->scratch_path) == 0;
@@ -742,16 +792,22 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
       if (strcmp(what, "commit") == 0)
         snprintf(err, errlen, "%s: cannot create: %s%s", path, strerror(e),
                  e == EEXIST ? " (refusing to overwrite; use --force)" : "");
+      else if (strcmp(what, "xdmf") == 0)
+        snprintf(err, errlen, "%s: cannot write: %s", fr->xdmf_path, strerror(e));
       else
         snprintf(err, errlen, "%s: cannot %s the HDF5 file %s%s%s%s", path, what, fr->scratch_path,
                  e ? " (" : "", e ? strerror(e) : "", e ? ")" : "");
     }
     unlink(fr->scratch_path);
+    if (fr->xmf_fd[0] >= 0)
+      unlink(fr->xdmf_path); // the empty XDMF that replaced the old one
     destroy(fr);
     return NULL;
   }
   if (xmf_create(fr, err, errlen) != 0) {
     unlink(fr->h5path);
+    if (fr->xmf_fd[0] >= 0)
+      unlink(fr->xdmf_path);
     unlink(fr->scratch_path);
     destroy(fr);
     return NULL;
@@ -799,14 +855,23 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
     for (size_t e = 0; e < count; ++e)
       fields[i][e] = given[i] ? given[i][e] : NAN;
   }
-  size_t grid_len = 0;
+  // The XDMF text for the scratch copy (it lists k - 1 frames, or none
+  // when k = 0): the last committed frame's grid, this frame's, the tail.
+  size_t grid_len = 0, replay = k > 0 ? fr->last_grid_len : 0;
   char *grid = xmf_grid(fr, k, time, &grid_len);
+  size_t text_len = replay + grid_len + sizeof xmf_tail - 1;
+  char *text = grid ? malloc(text_len) : NULL;
+  if (text) {
+    if (replay > 0) // last_grid is NULL before the first frame
+      memcpy(text, fr->last_grid, replay);
+    memcpy(text + replay, grid, grid_len + sizeof xmf_tail - 1);
+  }
 
   // The scratch copy: replay the frame it lacks, add this one, close.
   h5_quiet q;
   quiet_on(&q);
   errno = 0;
-  int ok = grid != NULL;
+  int ok = text != NULL;
   const char *what = "write";
   if (ok) {
     hid_t file = H5Fopen(fr->scratch_path, H5F_ACC_RDWR, H5P_DEFAULT);
@@ -836,6 +901,7 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
     for (int i = 0; i < NFIELDS; ++i)
       free(fields[i]);
     free(grid);
+    free(text);
     return EK_EIO;
   }
   // Committed: the old file is now the scratch copy, one frame behind.
@@ -849,16 +915,31 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
     }
   fr->last_time = time;
   fr->last_step = step64;
-  // The grid and the tail after it, in one write over the old tail.
-  ok = pwrite_all(fr->xmf_fd, grid, grid_len + sizeof xmf_tail - 1, fr->xmf_body_end) == 0;
-  free(grid);
+  // The XDMF: the text into the scratch copy over its old tail, then the
+  // copies swap names (the committed copy is never written to).
+  const off_t at = fr->xmf_end[1];
+  errno = 0;
+  ok = xmf_write(fr, text, text_len, at, k) == 0 &&
+       swap_names(fr->xmf_scratch_path, fr->xdmf_path, fr->xmf_swap_path) == 0;
+  free(text);
   if (!ok) {
+    free(grid);
     fr->failed = 1;
     if (err && errlen)
-      snprintf(err, errlen, "%s: cannot append frame %ld: %s", fr->xdmf_path, k, strerror(errno));
+      snprintf(err, errlen, "%s: cannot add frame %ld: %s", fr->xdmf_path, k,
+               errno ? strerror(errno) : "short write");
     return EK_EIO;
   }
-  fr->xmf_body_end += (off_t)grid_len;
+  // The old committed copy, one frame behind, is the scratch copy now.
+  const int fd = fr->xmf_fd[0];
+  const off_t end = fr->xmf_end[0];
+  fr->xmf_fd[0] = fr->xmf_fd[1];
+  fr->xmf_end[0] = at + (off_t)(replay + grid_len);
+  fr->xmf_fd[1] = fd;
+  fr->xmf_end[1] = end;
+  free(fr->last_grid);
+  fr->last_grid = grid;
+  fr->last_grid_len = grid_len;
   return 0;
 }
 
@@ -868,12 +949,15 @@ int ek_frames_close_errbuf(ek_frames *fr, char *err, size_t errlen) {
   if (!fr)
     return 0;
   int rc = 0;
-  if (fr->xmf_fd >= 0) {
-    rc |= close(fr->xmf_fd) != 0;
-    fr->xmf_fd = -1;
-  }
-  // Every frame is committed at h5path; the scratch copy is no longer needed.
+  for (int i = 0; i < 2; ++i)
+    if (fr->xmf_fd[i] >= 0) {
+      rc |= close(fr->xmf_fd[i]) != 0;
+      fr->xmf_fd[i] = -1;
+    }
+  // Every frame is committed at h5path and xdmf_path; the scratch copies
+  // are no longer needed.
   unlink(fr->scratch_path);
+  unlink(fr->xmf_scratch_path);
   if (rc && err && errlen)
     snprintf(err, errlen, "%s: closing failed: %s", fr->xdmf_path, strerror(errno));
   destroy(fr);

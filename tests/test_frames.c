@@ -4,11 +4,12 @@
 // leaves a file that opens that way (no h5clear, no SWMR) and holds at least
 // every frame it reported complete, each intact, and an XDMF that lists
 // them (at most the last one missing) and ends with its closing tags; the
-// XDMF grows by appending (same inode, no temporary file per frame) and
-// names the HDF5 file XML-escaped; a name the XDMF cannot hold is refused;
+// XDMF is committed by swapping names with a scratch copy one frame behind
+// (two files in turn, no new file per frame, no scratch left after close)
+// and names the HDF5 file XML-escaped; a name the XDMF cannot hold is refused;
 // an existing output is never overwritten without force (and is left
-// untouched), force does overwrite it, and a scratch file a killed run left
-// does not block a new one.
+// untouched), force does overwrite it, and scratch files a killed run left
+// do not block a new one (nor are written into: they are replaced).
 #include <ek/sim/sim.h>
 
 #include "cli.h"
@@ -498,46 +499,52 @@ int main(int argc, char **argv) {
             set && wrote && good == nwant && described == 8 && v[0] && late == EK_EINVAL, detail);
   }
 
-  // 2. The XDMF grows in place: the same file (inode) after the first and
-  // the last frame, no temporary file beside it, whole after every frame.
+  // 2. The XDMF is never written in place: each frame goes into a scratch
+  // copy one frame behind, which then swaps names with it (sim/frames.c).
+  // After every frame the XDMF is whole and lists every frame, the scratch
+  // copy is whole and lists one fewer, the two files take turns at the
+  // XDMF's name (the inode after frame k is the one after frame k - 2: no
+  // new file per frame), and close removes the scratch copy.
   {
     snprintf(path, sizeof path, "%s/append.h5", dir);
     ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
+    char sxmf[700];
+    snprintf(sxmf, sizeof sxmf, "%s.scratch", xdmf);
     ek_frames *fr = ek_frames_create(path, 0, nv, X, nt, tets);
     double *x = malloc(3 * nv * sizeof(double)), *J = malloc(nt * sizeof(double));
     double *sm = malloc(nt * sizeof(double)), *ps = malloc(nt * sizeof(double));
-    ino_t first = 0;
-    long whole = 0, n = 12, listed = 0;
-    int same = fr != NULL, tmp_seen = 0;
-    char tmp[700];
-    snprintf(tmp, sizeof tmp, "%s.tmp", xdmf);
+    ino_t ino[2] = {0, 0};
+    long whole = 0, n = 12, listed = 0, behind = 0, turns = 0;
+    int wrote = fr != NULL;
     for (long k = 0; fr && k < n; ++k) {
       fill_frame(k, nv, nt, x, J, sm, ps);
       if (ek_frames_write(fr, 0.125 * (double)k, 10 * k, x, J, sm, ps) != 0) {
         printf("  ek_frames_write: %s\n", ek_last_error());
-        same = 0;
+        wrote = 0;
         break;
       }
-      if (stat(xdmf, &st) != 0)
-        same = 0;
-      else if (k == 0)
-        first = st.st_ino;
-      else
-        same &= st.st_ino == first;
-      tmp_seen |= stat(tmp, &st) == 0;
-      whole += xdmf_closed(xdmf);
       listed = count_in_file(xdmf, "<Grid Name=\"frame_");
+      whole += xdmf_closed(xdmf) && listed == k + 1;
+      behind += xdmf_closed(sxmf) && count_in_file(sxmf, "<Grid Name=\"frame_") == k;
+      if (stat(xdmf, &st) == 0) {
+        turns += k < 2 ? st.st_ino != ino[(k + 1) % 2] : st.st_ino == ino[k % 2];
+        ino[k % 2] = st.st_ino;
+      }
     }
     if (fr)
       ek_frames_close(fr);
+    int scratch_left = stat(sxmf, &st) == 0;
     free(x);
     free(J);
     free(sm);
     free(ps);
-    snprintf(detail, sizeof detail, "%ld frames: same inode %d, whole after %ld, lists %ld%s", n,
-             same, whole, listed, tmp_seen ? ", a .tmp file appeared" : "");
-    verdict("XDMF appended in place, whole after each frame",
-            same && !tmp_seen && whole == n && listed == n, detail);
+    snprintf(detail, sizeof detail,
+             "%ld frames: whole and listing all after %ld, scratch one behind after %ld, two "
+             "files in turn after %ld, lists %ld%s",
+             n, whole, behind, turns, listed, scratch_left ? ", scratch XDMF left" : "");
+    verdict("XDMF swapped with a scratch copy, whole after each frame",
+            wrote && whole == n && behind == n && turns == n && listed == n && !scratch_left,
+            detail);
   }
 
   // 2b. A reader that holds the file open across frames (HDF5 locks it)
@@ -623,8 +630,10 @@ int main(int argc, char **argv) {
   snprintf(detail, sizeof detail, "xdmf lists %ld", grids);
   verdict("force overwrites (3 frames now)", ok && grids == 3, detail);
 
-  // 4. A scratch file a killed run left (here 48 bytes of junk) does not
-  // block a new run without force.
+  // 4. Scratch files a killed run left (here 48 bytes of junk for the
+  // HDF5 file, and for the XDMF a hard link to another file, which must
+  // stay as it was: the scratch name is replaced, never written into) do
+  // not block a new run without force, and are gone after it.
   snprintf(path, sizeof path, "%s/stale.h5", dir);
   snprintf(scratch, sizeof scratch, "%s.scratch", path);
   fx = fopen(scratch, "wb");
@@ -632,6 +641,16 @@ int main(int argc, char **argv) {
     fwrite("\x89HDF\r\n\x1a\n0123456789abcdef0123456789abcdef0123456789", 1, 48, fx);
     fclose(fx);
   }
+  char other[600], xscratch[700];
+  snprintf(other, sizeof other, "%s/other.txt", dir);
+  ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
+  snprintf(xscratch, sizeof xscratch, "%s.scratch", xdmf);
+  fx = fopen(other, "wb");
+  if (fx) {
+    fputs("not ek's\n", fx);
+    fclose(fx);
+  }
+  int linked = link(other, xscratch) == 0;
   ok = writer(path, 0, nv, nt, X, tets, 2, -1) == 0;
   hid_t f = -1;
   long stored = frames_in(path, &f);
@@ -639,10 +658,35 @@ int main(int argc, char **argv) {
     ok = ok && check_file(f, nv, nt, X, tets, 2) == 0;
     H5Fclose(f);
   }
-  snprintf(detail, sizeof detail, "file holds %ld frames; scratch %s", stored,
-           stat(scratch, &st) == 0 ? "left" : "removed");
-  verdict("stale scratch file does not block a new run",
-          ok && stored == 2 && stat(scratch, &st) != 0, detail);
+  char *kept = slurp(other);
+  int other_same = kept && strcmp(kept, "not ek's\n") == 0;
+  free(kept);
+  grids = count_in_file(xdmf, "<Grid Name=\"frame_");
+  int left = stat(scratch, &st) == 0 || stat(xscratch, &st) == 0;
+  snprintf(detail, sizeof detail,
+           "file holds %ld frames, xdmf lists %ld%s; scratch files %s; linked file %s", stored,
+           grids, xdmf_closed(xdmf) ? "" : " (not closed)", left ? "left" : "removed",
+           other_same ? "unchanged" : "CHANGED");
+  verdict("stale scratch files do not block a new run",
+          ok && linked && stored == 2 && grids == 2 && xdmf_closed(xdmf) && !left && other_same,
+          detail);
+
+  // 4b. The XDMF's scratch name is renamed over at every frame: a
+  // directory there is refused before any file is made.
+  {
+    snprintf(path, sizeof path, "%s/xs.h5", dir);
+    ek_frames_xdmf_path(path, xdmf, sizeof xdmf);
+    snprintf(xscratch, sizeof xscratch, "%s.scratch", xdmf);
+    int made = mkdir(xscratch, 0700) == 0;
+    fr = ek_frames_create(path, 1, nv, X, nt, tets);
+    ok = made && !fr && strstr(ek_last_error(), ".xmf.scratch: is a directory") &&
+         stat(path, &st) != 0 && stat(xdmf, &st) != 0;
+    snprintf(detail, sizeof detail, "message: %s", fr ? "(none: created)" : ek_last_error());
+    verdict("XDMF scratch name a directory: refused (force)", ok, detail);
+    if (fr)
+      ek_frames_close(fr);
+    rmdir(xscratch);
+  }
 
   // 5. The XDMF names the file XML-escaped; names it cannot hold are
   // refused before any file is made (and their bytes are not echoed).

@@ -46,7 +46,9 @@ typedef struct ek_frames ek_frames;
 // scratch copy (`path`.scratch, one frame behind) that then swaps names
 // with `path` atomically, so a writer killed at any moment leaves every
 // frame it completed readable with plain read-only access. The XDMF is
-// appended to after each commit (it may lack the last frame after a kill).
+// committed the same way after each HDF5 commit (its scratch copy is the
+// XDMF's name + ".scratch"; swap names ".swap"), so after a kill at any
+// moment it is whole and lists the file's frames or all but the last.
 // A write that fails (a full disk) is reported and the file keeps its
 // frames; with HDF5 before 1.14.1 the failed close leaves an ID that
 // HDF5's own exit handler then crashes on, so a program that may hit a full
@@ -78,8 +80,8 @@ typedef struct {
 int ek_frames_write_fields(ek_frames *fr, double time, long step, const double *x,
                            const ek_frame_fields *fields);
 long ek_frames_count(const ek_frames *fr);
-// Close the XDMF and remove the scratch copy (every frame is already in
-// `path`). 0 on success.
+// Close the XDMF and remove the scratch copies (every frame is already in
+// `path` and the XDMF). 0 on success.
 int ek_frames_close(ek_frames *fr);
 // The run, as string attributes on the file's root (docs/outputs.md; the
 // units and description of every dataset are written at creation). NULL
