@@ -75,12 +75,14 @@ static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
 // HESS_ELEMENT: the 12x12 element Hessians of blocks [b0, b1) into
 // a->corner (144 planes per block from b0: hessian_vec.h, elem_store). The 9 unit
 // columns' U^T dF V are rank one, a b^T (a = U^T e_k, b = V^T g_c), but
-// mat_frame_apply on the full dF keeps this the product's arithmetic.
+// mat_frame_apply's arithmetic on the full dF keeps this the product's
+// bits; frame_apply_unit skips only the products of dF's structural
+// zeros (hessian_vec.h says why the bits stay).
 static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L, *cb = cache_block(a, b);
     for (int o = 0; o < L; o += EK_W) {
-      vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o), zero = vzero();
+      vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o);
       for (int k = 0; k < 9; k++)
         Dmi[k] = vload(dmi + k * L + o);
       corner_dirs(Dmi, g);
@@ -88,10 +90,8 @@ static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
       load_frame(cb, o, &fr);
       for (int c = 1; c < 4; c++)
         for (int k = 0; k < 3; k++) {
-          vreal dF[9], dP[9];
-          for (int i = 0; i < 9; i++)
-            dF[i] = i / 3 == k ? g[c][i % 3] : zero;
-          mat_frame_apply(&fr, dF, dP);
+          vreal dP[9];
+          frame_apply_unit(&fr, k, g[c], dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
       elem_store(H, (size_t)o, a->corner + (b - b0) * 144 * L);
@@ -125,6 +125,9 @@ void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
   const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
   const ek_hess_run *end = h->runs + h->krun[h->tgrp[h->plan_threads]];
   const uint16_t *off = h->run_e + h->kcon[a->asm_k];
+  const int32_t *mir = h->mir + 2 * (size_t)h->kmir[a->asm_k], *mira = mir;
+  for (int k = 0; k < RUN_AHEAD && r + k < end; k++)
+    mira += r[k].first & HESS_RUN_MIRROR;
   for (; r < r1; r++) {
     if (r + RUN_AHEAD < end) {
       const double *q = a->values + r[RUN_AHEAD].p;
@@ -132,8 +135,23 @@ void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
       __builtin_prefetch(q, 1, 3);
       __builtin_prefetch(q + rs, 1, 3);
       __builtin_prefetch(q + 2 * rs, 1, 3);
+      if (r[RUN_AHEAD].first & HESS_RUN_MIRROR) {
+        const double *m = a->values + mira[0];
+        const size_t mrs = (size_t)mira[1];
+        __builtin_prefetch(m, 1, 3);
+        __builtin_prefetch(m + mrs, 1, 3);
+        __builtin_prefetch(m + 2 * mrs, 1, 3);
+        mira += 2;
+      }
     }
-    vsum_run3(a->values + r->p, (size_t)r->rs, a->corner, L, off, r->n, r->first);
+    double *mo = NULL;
+    size_t mrs = 0;
+    if (r->first & HESS_RUN_MIRROR) {
+      mo = a->values + mir[0];
+      mrs = (size_t)mir[1];
+      mir += 2;
+    }
+    vsum_run3m(a->values + r->p, (size_t)r->rs, mo, mrs, a->corner, L, off, r->n, r->first & 1);
     off += r->n;
   }
 }
