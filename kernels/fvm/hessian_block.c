@@ -113,11 +113,14 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 // thread's plan group asm_k, each the group's element blocks that add
 // into one 3x3 block of K, in ascending slot order, summed in registers
 // and stored once (vsum_run3: masked 3-wide rows where the target has
-// them). The rows of the run RUN_AHEAD runs on (the next entry's past the
-// last) are prefetched: K's rows are scattered over ~20 MB, and a
-// prefetch of a whole block's rows before its element Hessians was
-// dropped or evicted (no gain; docs/perf.md, "Hessian assembly").
-#define RUN_AHEAD 6
+// them; vsum_run3m: and the transpose into the mirror block below the
+// diagonal where the run ends an off-diagonal sum). The rows of the run
+// RUN_AHEAD runs on (the next entry's past the last), and its mirror's,
+// are prefetched: K's rows are scattered over ~20 MB, and a prefetch of a
+// whole block's rows before its element Hessians was dropped or evicted
+// (no gain); 32 runs on (~11 tets' runs, 2.9 per tet in f32) was a
+// few % faster than 6 or 16 (docs/perf.md, "Hessian assembly").
+#define RUN_AHEAD 32
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
   (void)b0, (void)b1; // the plan group's blocks
