@@ -122,13 +122,9 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
 // the plan's runs (hessian_sum: per K block, the slot block's contributions
 // summed in registers in ascending slot order onto the block's partial sum,
 // loaded and stored once; a block's first contribution written as 0 + e:
-// the sum from 0 in ascending slot order, as a plain assembly). A block
-// below the diagonal, (v, w) with w < v, is the transpose of (w, v), whose
-// sum has the same contributions (each element block (c, d) is (d, c)^T
-// to the bit: elem_store symmetrises) in the same slot order: the run
-// that ends (w, v)'s sum writes it from its registers (HESS_RUN_MIRROR),
-// not a pass over the rows after a barrier (docs/perf.md, "Hessian
-// assembly"). Each nonzero is
+// the sum from 0 in ascending slot order, as a plain assembly); then,
+// after a barrier, the
+// blocks below the diagonal copied from their mirrors. Each nonzero is
 // summed by one thread in ascending slot order, so any thread count gives
 // the same bits; a block touching rows of two threads is computed by both
 // (the Morton order keeps those few). Why this order (docs/perf.md,
@@ -171,6 +167,28 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
         la.asm_k = g;
         la.corner = buf;
         h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
+      }
+      // The blocks below the diagonal, (v, w) with w < v: the transpose of
+      // (w, v), whose sum has the same contributions (each element block
+      // (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
+      // slot order, so the copy has the bits that summing would give.
+#pragma omp barrier
+    const ek_tets *el = h->el;
+    for (int t = omp_get_thread_num(); t < nt; t += team)
+      for (size_t v = 0; v < el->nverts; v++) {
+        if (h->row_own[v] != t)
+          continue;
+        const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+        double *row = values + 9 * (size_t)b0;
+        for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
+          const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
+          const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
+          double *dst = row + 3 * (size_t)(q - b0);
+          for (int i = 0; i < 3; i++)
+            for (int m = 0; m < 3; m++)
+              dst[(size_t)i * 3 * (size_t)nb + (size_t)m] =
+                  src[(size_t)m * 3 * (size_t)nw + (size_t)i];
+        }
       }
   }
   ek_free(bufs);

@@ -36,10 +36,8 @@ static void plan_free(ek_fvm_hessian *h) {
   free(h->kcon);
   free(h->runs);
   free(h->run_e);
-  free(h->kmir);
-  free(h->mir);
   h->slot_own = NULL;
-  h->tptr = h->tblk = h->tgrp = h->krun = h->kcon = h->kmir = h->mir = NULL;
+  h->tptr = h->tblk = h->tgrp = h->krun = h->kcon = NULL;
   h->runs = NULL;
   h->run_e = NULL;
   h->plan_threads = 0;
@@ -292,13 +290,9 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   h->kcon = malloc((ng + 1) * sizeof(int32_t));
   h->runs = malloc((ncon + 1) * sizeof(ek_hess_run));
   h->run_e = malloc((ncon + 1) * sizeof(uint16_t));
-  h->kmir = malloc((ng + 1) * sizeof(int32_t));
   run_entry *ent = malloc(HESS_GROUP * lanes * 16 * sizeof *ent);
-  int32_t *rw = malloc((ncon + 1) * 2 * sizeof(int32_t)); // per run: its row and column vertex
-  if (!h->krun || !h->kcon || !h->runs || !h->run_e || !h->kmir || !ent || !rw ||
-      ncon > INT32_MAX) {
+  if (!h->krun || !h->kcon || !h->runs || !h->run_e || !ent || ncon > INT32_MAX) {
     free(ent);
-    free(rw);
     return EK_ENOMEM;
   }
   size_t nr = 0, nc = 0;
@@ -317,13 +311,9 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
         const size_t j = ent[i].l / lanes, l = ent[i].l % lanes;
         const size_t s = (size_t)h->tblk[k0 + (int32_t)j] * lanes + l;
         const int dc = ent[i].dc;
-        if (i == 0 || ent[i].p != ent[i - 1].p) {
-          const int32_t *tv = h->el->tets + 4 * (size_t)slot_tet[s];
-          rw[2 * nr] = tv[dc >> 2];
-          rw[2 * nr + 1] = tv[dc & 3];
+        if (i == 0 || ent[i].p != ent[i - 1].p)
           h->runs[nr++] = (ek_hess_run){ent[i].p, h->slot_rs[4 * s + (size_t)(dc >> 2)], 0,
                                         (uint16_t)(h->slot_first[s] >> dc & 1)};
-        }
         h->runs[nr - 1].n++;
         h->run_e[nc++] = (uint16_t)((144 * j + (size_t)dc * 9) * lanes + l);
       }
@@ -331,42 +321,6 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   h->krun[ng] = (int32_t)nr;
   h->kcon[ng] = (int32_t)nc;
   free(ent);
-  // The run that ends each off-diagonal block's sum (the last in plan
-  // order: one thread sums a block, group after group) writes its mirror.
-  uint8_t *done = calloc(3 * h->nblocks + 1, 1);
-  size_t nm = 0;
-  if (!done) {
-    free(rw);
-    return EK_ENOMEM;
-  }
-  for (size_t r = nr; r-- > 0;) {
-    const int32_t q = h->runs[r].p / 3; // 3 bptr[v] + j: unique per block
-    if (!done[q] && rw[2 * r] != rw[2 * r + 1]) {
-      h->runs[r].first |= HESS_RUN_MIRROR;
-      nm++;
-    }
-    done[q] = 1;
-  }
-  free(done);
-  h->mir = malloc((2 * nm + 1) * sizeof(int32_t));
-  if (!h->mir) {
-    free(rw);
-    return EK_ENOMEM;
-  }
-  nm = 0;
-  for (size_t g = 0; g < ng; g++) {
-    h->kmir[g] = (int32_t)nm;
-    for (int32_t r = h->krun[g]; r < h->krun[g + 1]; r++)
-      if (h->runs[r].first & HESS_RUN_MIRROR) {
-        const int32_t v = rw[2 * r], w = rw[2 * r + 1], w0 = h->bptr[w];
-        const int32_t q = h->bptr[v] + (h->runs[r].p - 9 * h->bptr[v]) / 3;
-        h->mir[2 * nm] = 9 * w0 + 3 * (h->mirror[q] - w0);
-        h->mir[2 * nm + 1] = 3 * (h->bptr[w + 1] - w0);
-        nm++;
-      }
-  }
-  h->kmir[ng] = (int32_t)nm;
-  free(rw);
   return EK_OK;
 }
 

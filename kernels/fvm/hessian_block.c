@@ -113,13 +113,12 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 // thread's plan group asm_k, each the group's element blocks that add
 // into one 3x3 block of K, in ascending slot order, summed in registers
 // and stored once (vsum_run3: masked 3-wide rows where the target has
-// them; vsum_run3m: and the transpose into the mirror block below the
-// diagonal where the run ends an off-diagonal sum). The rows of the run
-// RUN_AHEAD runs on (the next entry's past the last), and its mirror's,
-// are prefetched: K's rows are scattered over ~20 MB, and a prefetch of a
-// whole block's rows before its element Hessians was dropped or evicted
-// (no gain); 32 runs on (~11 tets' runs, 2.9 per tet in f32) was a
-// few % faster than 6 or 16 (docs/perf.md, "Hessian assembly").
+// them). The rows of the run RUN_AHEAD runs on (the next entry's past the
+// last) are prefetched: K's rows are scattered over ~20 MB, and a
+// prefetch of a whole block's rows before its element Hessians was
+// dropped or evicted (no gain); 32 runs on (~11 tets' runs, 2.9 per tet
+// in f32) was a few % faster than 6 or 16 (docs/perf.md, "Hessian
+// assembly").
 #define RUN_AHEAD 32
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
@@ -128,9 +127,6 @@ void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
   const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
   const ek_hess_run *end = h->runs + h->krun[h->tgrp[h->plan_threads]];
   const uint16_t *off = h->run_e + h->kcon[a->asm_k];
-  const int32_t *mir = h->mir + 2 * (size_t)h->kmir[a->asm_k], *mira = mir;
-  for (int k = 0; k < RUN_AHEAD && r + k < end; k++)
-    mira += r[k].first & HESS_RUN_MIRROR;
   for (; r < r1; r++) {
     if (r + RUN_AHEAD < end) {
       const double *q = a->values + r[RUN_AHEAD].p;
@@ -138,23 +134,8 @@ void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
       __builtin_prefetch(q, 1, 3);
       __builtin_prefetch(q + rs, 1, 3);
       __builtin_prefetch(q + 2 * rs, 1, 3);
-      if (r[RUN_AHEAD].first & HESS_RUN_MIRROR) {
-        const double *m = a->values + mira[0];
-        const size_t mrs = (size_t)mira[1];
-        __builtin_prefetch(m, 1, 3);
-        __builtin_prefetch(m + mrs, 1, 3);
-        __builtin_prefetch(m + 2 * mrs, 1, 3);
-        mira += 2;
-      }
     }
-    double *mo = NULL;
-    size_t mrs = 0;
-    if (r->first & HESS_RUN_MIRROR) {
-      mo = a->values + mir[0];
-      mrs = (size_t)mir[1];
-      mir += 2;
-    }
-    vsum_run3m(a->values + r->p, (size_t)r->rs, mo, mrs, a->corner, L, off, r->n, r->first & 1);
+    vsum_run3(a->values + r->p, (size_t)r->rs, a->corner, L, off, r->n, r->first);
     off += r->n;
   }
 }

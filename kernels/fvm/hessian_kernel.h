@@ -81,12 +81,8 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
-// them, in ascending slot order; first: bit 0, the run starts the block's
-// sum (its first contribution: written as 0 + e); bit 1 (HESS_RUN_MIRROR),
-// the run ends the sum of a block off the block diagonal: its transpose
-// is then written to the mirror block below the diagonal (the plan's
-// next mirror entry of the group: hessian_kernel.h, mir).
-#define HESS_RUN_MIRROR 2
+// them, in ascending slot order; first: the run starts the block's sum
+// (its first contribution: written as 0 + e).
 typedef struct {
   int32_t p, rs;
   uint16_t n, first;
@@ -139,10 +135,6 @@ struct ek_fvm_hessian {
   int32_t *krun, *kcon;
   ek_hess_run *runs;
   uint16_t *run_e;
-  // Per group g: the mirrors of its runs flagged HESS_RUN_MIRROR, in run
-  // order, from mir[2 kmir[g]]: the offset in the values of the mirror
-  // block's entry (0, 0) and its row stride.
-  int32_t *kmir, *mir;
 };
 
 void ek_hessian_assembly_free(ek_fvm_hessian *h);

@@ -486,11 +486,8 @@ static inline __m256d vsum_elem3_(const real *ei, size_t es) {
   return _mm256_setr_pd(ei[0], ei[es], ei[2 * es], 0);
 #endif
 }
-// vsum_run3m: with the block's transpose also written at mo (rows mrs
-// apart) unless mo is NULL, from the sums in registers: row m of the
-// transpose is lane m of the 3 rows (two permutes).
-static inline void vsum_run3m(double *o, size_t rs, double *mo, size_t mrs, const real *e,
-                              size_t es, const uint16_t *off, int n, int first) {
+static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
+                             int n, int first) {
   const __m256d zero = _mm256_setzero_pd();
   __m256d acc0[3], acc[3];
   for (int i = 0; i < 3; i++)
@@ -513,17 +510,6 @@ static inline void vsum_run3m(double *o, size_t rs, double *mo, size_t mrs, cons
   }
   for (int i = 0; i < 3; i++)
     _mm256_mask_storeu_pd(o + (size_t)i * rs, 7, acc[i]);
-  if (mo)
-    for (int m = 0; m < 3; m++) {
-      const __m256i ix = _mm256_setr_epi64x(m, 4 + m, m, m);
-      __m256d t = _mm256_permutex2var_pd(acc[0], ix, acc[1]);
-      t = _mm256_mask_permutexvar_pd(t, 4, _mm256_set1_epi64x(m), acc[2]);
-      _mm256_mask_storeu_pd(mo + (size_t)m * mrs, 7, t);
-    }
-}
-static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
-                             int n, int first) {
-  vsum_run3m(o, rs, NULL, 0, e, es, off, n, first);
 }
 
 #endif

@@ -272,18 +272,6 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
     }
 }
 #endif
-// vsum_run3m: vsum_run3, and the block's transpose written at mo (rows
-// mrs apart) unless mo is NULL (an assembled symmetric matrix's mirror).
-#ifndef EK_HAVE_VSUM_RUN3
-static inline void vsum_run3m(double *o, size_t rs, double *mo, size_t mrs, const real *e,
-                              size_t es, const uint16_t *off, int n, int first) {
-  vsum_run3(o, rs, e, es, off, n, first);
-  if (mo)
-    for (int m = 0; m < 3; m++)
-      for (int i = 0; i < 3; i++)
-        mo[(size_t)m * mrs + (size_t)i] = o[(size_t)i * rs + (size_t)m];
-}
-#endif
 
 EK_AI void vload_records(const real *p, int np, vreal *planes) {
 #ifdef EK_HAVE_VREC_PERM
