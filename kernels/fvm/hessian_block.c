@@ -75,12 +75,14 @@ static void frame_diag_blocks(const hess_args *a, size_t b0, size_t b1) {
 // HESS_ELEMENT: the 12x12 element Hessians of blocks [b0, b1) into
 // a->corner (144 planes per block from b0: hessian_vec.h, elem_store). The 9 unit
 // columns' U^T dF V are rank one, a b^T (a = U^T e_k, b = V^T g_c), but
-// mat_frame_apply on the full dF keeps this the product's arithmetic.
+// mat_frame_apply's arithmetic on the full dF keeps this the product's
+// bits; frame_apply_unit skips only the products of dF's structural
+// zeros (hessian_vec.h says why the bits stay).
 static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
   for (size_t b = b0; b < b1; b++) {
     const real *dmi = a->dm_inv + b * 9 * L, *cb = cache_block(a, b);
     for (int o = 0; o < L; o += EK_W) {
-      vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o), zero = vzero();
+      vreal Dmi[9], g[4][3], H[144], v0 = vload(a->v0 + b * L + o);
       for (int k = 0; k < 9; k++)
         Dmi[k] = vload(dmi + k * L + o);
       corner_dirs(Dmi, g);
@@ -88,10 +90,8 @@ static void frame_element_blocks(const hess_args *a, size_t b0, size_t b1) {
       load_frame(cb, o, &fr);
       for (int c = 1; c < 4; c++)
         for (int k = 0; k < 3; k++) {
-          vreal dF[9], dP[9];
-          for (int i = 0; i < 9; i++)
-            dF[i] = i / 3 == k ? g[c][i % 3] : zero;
-          mat_frame_apply(&fr, dF, dP);
+          vreal dP[9];
+          frame_apply_unit(&fr, k, g[c], dP);
           elem_column(dP, g, v0, 3 * c + k, H);
         }
       elem_store(H, (size_t)o, a->corner + (b - b0) * 144 * L);
@@ -116,8 +116,10 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 // them). The rows of the run RUN_AHEAD runs on (the next entry's past the
 // last) are prefetched: K's rows are scattered over ~20 MB, and a
 // prefetch of a whole block's rows before its element Hessians was
-// dropped or evicted (no gain; docs/perf.md, "Hessian assembly").
-#define RUN_AHEAD 6
+// dropped or evicted (no gain); 32 runs on (~11 tets' runs, 2.9 per tet
+// in f32) was a few % faster than 6 or 16 (docs/perf.md, "Hessian
+// assembly").
+#define RUN_AHEAD 32
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
   (void)b0, (void)b1; // the plan group's blocks

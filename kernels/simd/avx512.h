@@ -470,27 +470,44 @@ static inline __attribute__((always_inline)) void vstore_records_masked(real *p,
 // 256-bit register, 3 doubles wide (the element's 3 values gathered from
 // their planes and widened), with one masked load and one masked store of
 // K per run: the same adds in the same order as the scalar body, so the
-// same bits. The NaN rule as a blend: where the partial sum is NaN the
-// result is that sum + 0 (quieted; 0 is not NaN, so either operand order
-// of the add gives it).
+// same bits. The NaN rule: plain adds first; they give the rule's bits
+// unless two NaNs meet in one add (the compiler may order a commutative
+// add's operands either way, and x86 returns the first operand's NaN), so
+// a run whose sum ends NaN anywhere is summed again with the rule as a
+// blend (where the partial sum is NaN the result is that sum + 0, quieted;
+// 0 is not NaN, so either operand order gives it). The blend in every add
+// cost its compare and masked add on the sum's dependency chain
+// (docs/perf.md, "Hessian assembly").
 #define EK_HAVE_VSUM_RUN3
+static inline __m256d vsum_elem3_(const real *ei, size_t es) {
+#if defined(EK_REAL_F32)
+  return _mm256_cvtps_pd(_mm_setr_ps(ei[0], ei[es], ei[2 * es], 0));
+#else
+  return _mm256_setr_pd(ei[0], ei[es], ei[2 * es], 0);
+#endif
+}
 static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
                              int n, int first) {
   const __m256d zero = _mm256_setzero_pd();
-  __m256d acc[3];
+  __m256d acc0[3], acc[3];
   for (int i = 0; i < 3; i++)
-    acc[i] = first ? zero : _mm256_maskz_loadu_pd(7, o + (size_t)i * rs);
+    acc[i] = acc0[i] = first ? zero : _mm256_maskz_loadu_pd(7, o + (size_t)i * rs);
   for (int j = 0; j < n; j++)
-    for (int i = 0; i < 3; i++) {
-      const real *ei = e + off[j] + (size_t)(3 * i) * es;
-#if defined(EK_REAL_F32)
-      const __m256d ev = _mm256_cvtps_pd(_mm_setr_ps(ei[0], ei[es], ei[2 * es], 0));
-#else
-      const __m256d ev = _mm256_setr_pd(ei[0], ei[es], ei[2 * es], 0);
-#endif
-      const __mmask8 nan = _mm256_cmp_pd_mask(acc[i], acc[i], _CMP_UNORD_Q);
-      acc[i] = _mm256_mask_add_pd(_mm256_add_pd(acc[i], ev), nan, acc[i], zero);
-    }
+    for (int i = 0; i < 3; i++)
+      acc[i] = _mm256_add_pd(acc[i], vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es));
+  const __mmask8 nan = _mm256_cmp_pd_mask(acc[0], acc[0], _CMP_UNORD_Q) |
+                       _mm256_cmp_pd_mask(acc[1], acc[1], _CMP_UNORD_Q) |
+                       _mm256_cmp_pd_mask(acc[2], acc[2], _CMP_UNORD_Q);
+  if (__builtin_expect((nan & 7) != 0, 0)) {
+    for (int i = 0; i < 3; i++)
+      acc[i] = acc0[i];
+    for (int j = 0; j < n; j++)
+      for (int i = 0; i < 3; i++) {
+        const __m256d ev = vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es);
+        const __mmask8 m = _mm256_cmp_pd_mask(acc[i], acc[i], _CMP_UNORD_Q);
+        acc[i] = _mm256_mask_add_pd(_mm256_add_pd(acc[i], ev), m, acc[i], zero);
+      }
+  }
   for (int i = 0; i < 3; i++)
     _mm256_mask_storeu_pd(o + (size_t)i * rs, 7, acc[i]);
 }
