@@ -649,8 +649,9 @@ static void check_gathers(ek_simd_tally *t) {
 // Inlined into each call so that np is a constant there, as in the kernels
 // (avx512.h's register transpose relies on it).
 static inline __attribute__((always_inline)) void check_records_np(int np, op_check *cl,
-                                                                   op_check *cs) {
-  real out[EK_RECORD_MAX * EK_W + EK_W];
+                                                                   op_check *cs, op_check *cn) {
+  // 64-byte aligned, as vstore_records_nt's streaming stores need.
+  real out[EK_RECORD_MAX * EK_W + EK_W] __attribute__((aligned(64)));
   const real guard = (real)-12345.5;
   for (int base = 0; base + np * EK_W <= NL; base += 7 * np * EK_W + 3) {
     const real *p = a + base;
@@ -677,22 +678,37 @@ static inline __attribute__((always_inline)) void check_records_np(int np, op_ch
       }
     for (int i = np * EK_W; i < np * EK_W + EK_W; i++)
       lane_result(cs, out[i] == guard, 0, "np %d: wrote past the records at %d", np, i);
+    // The same through the streaming stores.
+    for (int i = 0; i < np * EK_W + EK_W; i++)
+      out[i] = guard;
+    vstore_records_nt(out, np, planes);
+    vstream_fence();
+    for (int l = 0; l < EK_W; l++)
+      for (int k = 0; k < np; k++) {
+        real e = c[base + k * EK_W + l];
+        lane_result(cn, same(e, out[l * np + k], 0), l, "np %d record field %d: expected %a got %a",
+                    np, k, e, out[l * np + k]);
+      }
+    for (int i = np * EK_W; i < np * EK_W + EK_W; i++)
+      lane_result(cn, out[i] == guard, 0, "np %d: wrote past the records at %d", np, i);
   }
 }
 
 static void check_records(ek_simd_tally *t) {
-  op_check cl = {"vload_records", 0, 0}, cs = {"vstore_records", 0, 0};
-  check_records_np(1, &cl, &cs);
-  check_records_np(2, &cl, &cs);
-  check_records_np(3, &cl, &cs);
-  check_records_np(4, &cl, &cs);
-  check_records_np(5, &cl, &cs);
-  check_records_np(6, &cl, &cs);
-  check_records_np(7, &cl, &cs);
-  check_records_np(8, &cl, &cs);
-  check_records_np(9, &cl, &cs);
+  op_check cl = {"vload_records", 0, 0}, cs = {"vstore_records", 0, 0},
+           cn = {"vstore_records_nt", 0, 0};
+  check_records_np(1, &cl, &cs, &cn);
+  check_records_np(2, &cl, &cs, &cn);
+  check_records_np(3, &cl, &cs, &cn);
+  check_records_np(4, &cl, &cs, &cn);
+  check_records_np(5, &cl, &cs, &cn);
+  check_records_np(6, &cl, &cs, &cn);
+  check_records_np(7, &cl, &cs, &cn);
+  check_records_np(8, &cl, &cs, &cn);
+  check_records_np(9, &cl, &cs, &cn);
   op_done(&cl, t, "np = 1..9: plane k lane l = record l field k");
   op_done(&cs, t, "np = 1..9: the inverse, nothing past the records");
+  op_done(&cn, t, "np = 1..9: vstore_records with streaming stores (64-byte aligned), the same");
 }
 
 // vsum_run3: a 3x3 block of doubles (rows rs apart, a guard after each

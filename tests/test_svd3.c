@@ -526,6 +526,70 @@ static void invalid_options(void) {
   failures += nbad;
 }
 
+// ---- Streamed outputs ----
+// A batch whose arrays pass 32 MiB takes streaming stores for its AoS
+// outputs (kernels/svd3/svd3.c, nt_for), with the row's chains where all of
+// them are streamed: its results must have the bits of the same matrices
+// in calls of 4096 (plain stores). Three layouts: every array on 64 bytes
+// (all streamed), the outputs one record past it (a head, S then off its
+// line: U and V alone streamed), and the polar (R, Ssym). The inputs: the
+// random set, repeated; n leaves a partial last vector.
+static void streamed(int bits, ek_isa isa, const ek_svd3_set *s) {
+  const size_t n = (bits == 32 ? 300000 : 150000) + 5, es = bits == 32 ? 4 : 8, piece = 4096;
+  char *A = ek_alloc(9 * n * es), *o[2][3];
+  int ok = A != NULL;
+  for (int c = 0; c < 2; c++)
+    for (int k = 0; k < 3; k++)
+      ok &= (o[c][k] = ek_alloc(((k == 1 ? 3 : 9) * n + 9) * es)) != NULL;
+  if (!ok) {
+    printf("streamed: out of memory\n");
+    exit(1);
+  }
+  for (size_t i = 0; i < 9 * n; i++)
+    if (bits == 32)
+      ((float *)A)[i] = (float)s->A[i % (9 * s->n)];
+    else
+      ((double *)A)[i] = s->A[i % (9 * s->n)];
+  ek_svd3_opts opt = {.isa = isa};
+  for (int layout = 0; layout < 3; layout++) {
+    int polar = layout == 2;
+    size_t off = layout == 1 ? 1 : 0;
+    for (int c = 0; c < 2; c++) {
+      char *u = o[c][0] + 9 * off * es, *sv = o[c][1] + 3 * off * es, *v = o[c][2] + 9 * off * es;
+      for (int k = 0; k < 3; k++)
+        memset(o[c][k], 0, ((k == 1 ? 3 : 9) * n + 9) * es);
+      for (size_t i0 = 0; i0 < n; i0 += c ? piece : n) {
+        size_t m = c ? (n - i0 < piece ? n - i0 : piece) : n;
+        const char *a = A + 9 * i0 * es;
+        char *ui = u + 9 * i0 * es, *si = sv + 3 * i0 * es, *vi = v + 9 * i0 * es;
+        int rc =
+            bits == 32
+                ? (polar ? ek_polar3_f32(m, (const float *)a, (float *)ui, (float *)vi, &opt)
+                         : ek_svd3_f32(m, (const float *)a, (float *)ui, (float *)si, (float *)vi,
+                                       &opt))
+                : (polar ? ek_polar3_f64(m, (const double *)a, (double *)ui, (double *)vi, &opt)
+                         : ek_svd3_f64(m, (const double *)a, (double *)ui, (double *)si,
+                                       (double *)vi, &opt));
+        ok &= rc == 0;
+      }
+    }
+    for (int k = 0; k < 3; k++)
+      if (memcmp(o[0][k], o[1][k], ((k == 1 ? 3 : 9) * n + 9) * es) != 0) {
+        printf("streamed %s f%d: layout %d output %d differs from calls of %zu\n", ek_isa_name(isa),
+               bits, layout, k, piece);
+        ok = 0;
+      }
+  }
+  printf("streamed %s f%d: n=%zu (arrays past 32 MiB, streamed stores) bit-identical to calls of "
+         "%zu (aligned, one record off, polar): %s\n",
+         ek_isa_name(isa), bits, n, piece, ok ? "PASS" : "FAIL");
+  failures += !ok;
+  for (int c = 0; c < 2; c++)
+    for (int k = 0; k < 3; k++)
+      ek_free(o[c][k]);
+  ek_free(A);
+}
+
 // ---- Thread count ----
 static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
   size_t n = N_THREADS_TEST < s->n ? N_THREADS_TEST : s->n;
@@ -559,28 +623,35 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
 // side by side; every lane's operations stay the same, so 2 and 4 chains
 // must agree bit for bit. n is no multiple of 4 vectors, so the odd
 // vectors after the 4-wide loop are covered; the AoSoA pass reads the same
-// numbers as blocks (other matrices, as valid as any).
+// numbers as blocks (other matrices, as valid as any). A third pass takes 4
+// chains with the AoS outputs streamed (k.nt, the drivers' choice for
+// batches beyond the caches; the arrays from ek_alloc, 64-byte aligned):
+// the same bits again.
 static void chains(int bits, ek_isa isa, const ek_svd3_set *s) {
   const ek_kernel_table *t = ek_kernels_for(isa);
   size_t lanes = block_lanes(bits), n = s->n < 3 * 4 * lanes + 37 ? s->n : 3 * 4 * lanes + 37;
   size_t nb = n / lanes, es = bits == 32 ? sizeof(float) : sizeof(double);
-  char *A = ek_check_malloc(9 * n * es), *out[2][3];
+  char *A = ek_check_malloc(9 * n * es), *out[3][3];
   for (size_t i = 0; i < 9 * n; i++)
     if (bits == 32)
       ((float *)A)[i] = (float)s->A[i];
     else
       ((double *)A)[i] = s->A[i];
   int ok = 1;
-  for (int c = 0; c < 2; c++)
+  for (int c = 0; c < 3; c++)
     for (int k = 0; k < 3; k++)
-      out[c][k] = ek_check_malloc((k == 1 ? 3 : 9) * n * es);
+      if (!(out[c][k] = ek_alloc((k == 1 ? 3 : 9) * n * es))) {
+        printf("chains: out of memory\n");
+        exit(1);
+      }
   for (int variant = 0; variant < 8; variant++) {
     int aos = variant & 1, polar = (variant >> 1) & 1, exact = (variant >> 2) & 1;
     ek_svd3_knobs k = bits == 32 ? ek_svd3_default_knobs_f32() : ek_svd3_default_knobs_f64();
     k.aos = aos, k.polar = polar, k.exact_rsqrt = exact;
     size_t count = aos ? n : nb;
-    for (int c = 0; c < 2; c++) {
+    for (int c = 0; c < 3; c++) {
       k.chains = c ? 4 : 2;
+      k.nt = c == 2 ? EK_SVD3_NT_U | EK_SVD3_NT_V | EK_SVD3_NT_S : 0;
       for (int j = 0; j < 3; j++)
         memset(out[c][j], 0, (j == 1 ? 3 : 9) * n * es);
       if (bits == 32)
@@ -590,21 +661,23 @@ static void chains(int bits, ek_isa isa, const ek_svd3_set *s) {
         t->svd3_block_f64(count, (const double *)A, (double *)out[c][0], (double *)out[c][1],
                           (double *)out[c][2], &k);
     }
-    for (int j = 0; j < 3; j++)
-      if (memcmp(out[0][j], out[1][j], (j == 1 ? 3 : 9) * n * es) != 0) {
-        printf("chains %s f%d: %s %s rsqrt %s: output %d differs between 2 and 4 chains\n",
-               ek_isa_name(isa), bits, aos ? "AoS" : "AoSoA", polar ? "polar" : "SVD",
-               exact ? "exact" : "approx", j);
-        ok = 0;
-      }
+    for (int c = 1; c < 3; c++)
+      for (int j = 0; j < 3; j++)
+        if (memcmp(out[0][j], out[c][j], (j == 1 ? 3 : 9) * n * es) != 0) {
+          printf("chains %s f%d: %s %s rsqrt %s: output %d differs between 2 and 4 chains%s\n",
+                 ek_isa_name(isa), bits, aos ? "AoS" : "AoSoA", polar ? "polar" : "SVD",
+                 exact ? "exact" : "approx", j, c == 2 ? " (streamed stores)" : "");
+          ok = 0;
+        }
   }
-  printf("chains %s f%d: 2 and 4 vectors in flight bit-identical (n=%zu; AoS, AoSoA, SVD, "
-         "polar, both rsqrt; this CPU's row takes %d): %s\n",
+  printf("chains %s f%d: 2 and 4 vectors in flight, and 4 with streamed AoS stores, "
+         "bit-identical (n=%zu; AoS, AoSoA, SVD, polar, both rsqrt; this CPU's row takes %d): "
+         "%s\n",
          ek_isa_name(isa), bits, n, t->svd3_chains, ok ? "PASS" : "FAIL");
   failures += !ok;
-  for (int c = 0; c < 2; c++)
+  for (int c = 0; c < 3; c++)
     for (int k = 0; k < 3; k++)
-      free(out[c][k]);
+      ek_free(out[c][k]);
   free(A);
 }
 
@@ -681,6 +754,7 @@ int main(int argc, char **argv) {
       nan_isolation(bits, (ek_isa)isa, &sets[0]);
       threads(bits, (ek_isa)isa, &sets[0]);
       chains(bits, (ek_isa)isa, &sets[0]);
+      streamed(bits, (ek_isa)isa, &sets[0]);
     }
     for (int k = 0; k < nsets; k++)
       ek_svd3_set_free(&sets[k]), free(S_scalar[k]);

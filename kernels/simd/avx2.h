@@ -17,6 +17,7 @@ static inline vreal vset(real x) { return _mm256_set1_ps(x); }
 static inline vreal vzero(void) { return _mm256_setzero_ps(); }
 static inline vreal vload(const real *p) { return _mm256_loadu_ps(p); }
 static inline void vstore(real *p, vreal v) { _mm256_storeu_ps(p, v); }
+static inline void vstream(real *p, vreal v) { _mm256_stream_ps(p, v); }
 static inline vreal vadd(vreal a, vreal b) { return _mm256_add_ps(a, b); }
 static inline vreal vsub(vreal a, vreal b) { return _mm256_sub_ps(a, b); }
 static inline vreal vmul(vreal a, vreal b) { return _mm256_mul_ps(a, b); }
@@ -56,6 +57,7 @@ static inline vreal vset(real x) { return _mm256_set1_pd(x); }
 static inline vreal vzero(void) { return _mm256_setzero_pd(); }
 static inline vreal vload(const real *p) { return _mm256_loadu_pd(p); }
 static inline void vstore(real *p, vreal v) { _mm256_storeu_pd(p, v); }
+static inline void vstream(real *p, vreal v) { _mm256_stream_pd(p, v); }
 static inline vreal vadd(vreal a, vreal b) { return _mm256_add_pd(a, b); }
 static inline vreal vsub(vreal a, vreal b) { return _mm256_sub_pd(a, b); }
 static inline vreal vmul(vreal a, vreal b) { return _mm256_mul_pd(a, b); }

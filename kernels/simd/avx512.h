@@ -21,6 +21,7 @@ static inline vreal vset(real x) { return _mm512_set1_ps(x); }
 static inline vreal vzero(void) { return _mm512_setzero_ps(); }
 static inline vreal vload(const real *p) { return _mm512_loadu_ps(p); }
 static inline void vstore(real *p, vreal v) { _mm512_storeu_ps(p, v); }
+static inline void vstream(real *p, vreal v) { _mm512_stream_ps(p, v); }
 static inline vreal vadd(vreal a, vreal b) { return _mm512_add_ps(a, b); }
 static inline vreal vsub(vreal a, vreal b) { return _mm512_sub_ps(a, b); }
 static inline vreal vmul(vreal a, vreal b) { return _mm512_mul_ps(a, b); }
@@ -51,6 +52,7 @@ static inline vreal vset(real x) { return _mm512_set1_pd(x); }
 static inline vreal vzero(void) { return _mm512_setzero_pd(); }
 static inline vreal vload(const real *p) { return _mm512_loadu_pd(p); }
 static inline void vstore(real *p, vreal v) { _mm512_storeu_pd(p, v); }
+static inline void vstream(real *p, vreal v) { _mm512_stream_pd(p, v); }
 static inline vreal vadd(vreal a, vreal b) { return _mm512_add_pd(a, b); }
 static inline vreal vsub(vreal a, vreal b) { return _mm512_sub_pd(a, b); }
 static inline vreal vmul(vreal a, vreal b) { return _mm512_mul_pd(a, b); }

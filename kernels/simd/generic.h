@@ -185,7 +185,15 @@ EK_AI void vrec_load_factored(const real *p, int np, vreal *planes) {
     }
 }
 
-EK_AI void vrec_store_factored(real *p, int np, const vreal *planes) {
+// The stores of the transposes, plain or non-temporal (nt a constant).
+EK_AI void vrec_put(real *p, vreal v, int nt) {
+  if (nt)
+    vstream(p, v);
+  else
+    vstore(p, v);
+}
+
+EK_AI void vrec_store_factored(real *p, int np, const vreal *planes, int nt) {
   const int q = vrec_q(np), s = np / q;
   vreal b[EK_RECORD_MAX];
 #pragma GCC unroll 16
@@ -239,14 +247,14 @@ EK_AI void vrec_store_factored(real *p, int np, const vreal *planes) {
 #pragma GCC unroll 16
         for (int j = 0; j < EK_W; j++)
           idx[j] = (EK_W * t + j) % 2 * EK_W + (EK_W * t + j) / 2;
-        vstore(p + (2 * g + t) * EK_W, vrec_perm2(b[2 * g], b[2 * g + 1], idx));
+        vrec_put(p + (2 * g + t) * EK_W, vrec_perm2(b[2 * g], b[2 * g + 1], idx), nt);
         continue;
       }
       vreal acc = b[g * q];
 #pragma GCC unroll 16
       for (int c = 1; c < q; c++)
         acc = vrec_blend(vrec_class_mask(q, t, c), acc, b[g * q + c]);
-      vstore(p + (q * g + t) * EK_W, acc);
+      vrec_put(p + (q * g + t) * EK_W, acc, nt);
     }
 }
 #endif
@@ -297,7 +305,7 @@ EK_AI void vstore_records(real *p, int np, const vreal *planes) {
     return;
   }
   if (vrec_factored(np)) {
-    vrec_store_factored(p, np, planes);
+    vrec_store_factored(p, np, planes, 0);
     return;
   }
 #endif
@@ -305,6 +313,28 @@ EK_AI void vstore_records(real *p, int np, const vreal *planes) {
   vstore_records_masked(p, np, planes);
 #else
   vstore_records_tile(p, np, planes);
+#endif
+}
+// The factored sizes stream their stores; the others (np 4, 8: the
+// masked permutes, and the scalar target's tile) store plainly.
+EK_AI void vstore_records_nt(real *p, int np, const vreal *planes) {
+#ifdef EK_HAVE_VREC_PERM
+  if (np == 1) {
+    vstream(p, planes[0]);
+    return;
+  }
+  if (vrec_factored(np)) {
+    vrec_store_factored(p, np, planes, 1);
+    return;
+  }
+#endif
+  vstore_records(p, np, planes);
+}
+// Orders the streaming stores before what follows (an OpenMP barrier's
+// plain stores and loads do not order them).
+static inline void vstream_fence(void) {
+#ifndef EK_NO_VSTREAM
+  _mm_sfence();
 #endif
 }
 #undef EK_AI

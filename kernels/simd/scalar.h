@@ -14,6 +14,9 @@ static inline vreal vset(real x) { return x; }
 static inline vreal vzero(void) { return 0; }
 static inline vreal vload(const real *p) { return *p; }
 static inline void vstore(real *p, vreal v) { *p = v; }
+// No streaming store on the scalar target: a plain one (simd.h).
+static inline void vstream(real *p, vreal v) { *p = v; }
+#define EK_NO_VSTREAM
 
 static inline vreal vadd(vreal a, vreal b) { return a + b; }
 static inline vreal vsub(vreal a, vreal b) { return a - b; }

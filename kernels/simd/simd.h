@@ -38,6 +38,12 @@
 //                 consecutive records of np reals (AoS, np <= 9) from / to
 //                 np vectors, one per field (the AoS <-> AoSoA transpose of
 //                 one vector of records, through L1)
+//   vstream(p, v)  a non-temporal store (p aligned to the vector's bytes)
+//                 past the caches, weakly ordered: vstream_fence() after
+//                 the last one before another thread reads them; the
+//                 scalar target stores plainly
+//   vstore_records_nt(p, np, planes): vstore_records with vstream (p
+//                 aligned to the vector's bytes)
 //
 // EK_SYM(name) names a kernel for this build: ek_<name>_<isa>_<prec>.
 #ifndef EK_SIMD_H

@@ -114,6 +114,29 @@ static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real
   }
 }
 
+// Streaming stores of the AoS outputs (k->nt) on a batch whose arrays pass
+// this many bytes: nothing of a batch that size is still in the caches
+// when the call returns (32 MiB: Zen 5's L3 per CCD; a choice, not a
+// measurement), so its outputs would only have been read from memory
+// before being overwritten (write-allocate: 84 B more per f32 matrix on
+// top of its 120) and evicted again. Each output array is streamed only
+// where its vectors start on 64 bytes (after the head, ek_aos_head; a
+// chunk and a vector are whole lines). With all of them streamed, the
+// kernel keeps its row's chains (4 on Zen 5): the 4-chain loop's spills
+// no longer queue behind stores that miss. Zen 5, AVX-512 f32 default,
+// 2^20 matrices, 1 thread, process CPU time on a busy machine, 30 rounds
+// interleaved, min / median ns per matrix: plain stores 2 chains 11.36 /
+// 11.62, 4 chains 14.16 / 14.40; streamed 2 chains 11.43 / 11.68, 4
+// chains 10.38 / 10.55 (docs/perf.md). Same bits.
+#define NT_MIN_BYTES ((size_t)32 << 20)
+static int aligned64(const void *p) { return (uintptr_t)p % 64 == 0; }
+static int nt_for(size_t n, const real *U, const real *S, const real *V) {
+  if (n * 30 * sizeof(real) <= NT_MIN_BYTES)
+    return 0;
+  return (U && aligned64(U) ? EK_SVD3_NT_U : 0) | (V && aligned64(V) ? EK_SVD3_NT_V : 0) |
+         (S && aligned64(S) ? EK_SVD3_NT_S : 0);
+}
+
 // AoS path: the kernel reads and writes the AoS arrays itself, transposing
 // in registers (svd3_block.c, k->aos), so nothing is staged or copied.
 // Chunks of whole blocks (a multiple of EK_W): every vector of a chunk is
@@ -131,6 +154,12 @@ static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real 
     block(head, A, U, S && !k->polar ? S : NULL, V, &ka);
   A += 9 * head, n -= head;
   U = U ? U + 9 * head : NULL, V = V ? V + 9 * head : NULL, S = S ? S + 3 * head : NULL;
+  // S is not written in polar mode (nor streamed).
+  const real *Sw = k->polar ? NULL : S;
+  ka.nt = nt_for(n, U, Sw, V);
+  const int all = (U ? EK_SVD3_NT_U : 0) | (V ? EK_SVD3_NT_V : 0) | (Sw ? EK_SVD3_NT_S : 0);
+  if (ka.nt && ka.nt == all)
+    ka.chains = k->chains;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
 #pragma omp parallel for schedule(static) if (nchunks > 1)

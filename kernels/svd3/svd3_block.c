@@ -103,8 +103,17 @@ EK_INLINE void svd3_blocks(int il, size_t nblocks, const real *A, real *U, real 
 // AoS: the n * EK_W matrices from m0 on, transposed to and from registers
 // on the way in and out (vload_records, vstore_records). U, V (R, Ssym) may
 // be NULL; S is written in SVD mode only.
+// nt (k->nt): which outputs take streaming stores (EK_SVD3_NT_*), a
+// run-time flag: only the stores are duplicated, not the SVD.
+EK_INLINE void svd3_aos_put(real *p, int np, const vreal *planes, int nt) {
+  if (nt)
+    vstore_records_nt(p, np, planes);
+  else
+    vstore_records(p, np, planes);
+}
+
 EK_INLINE void svd3_aos_vectors(int n, size_t m0, const real *A, real *U, real *S, real *V,
-                                int sweeps, int refine, int exact, int polar) {
+                                int sweeps, int refine, int exact, int polar, int nt) {
   vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
   for (int j = 0; j < n; j++)
     vload_records(A + 9 * (m0 + (size_t)j * EK_W), 9, a[j]);
@@ -112,23 +121,23 @@ EK_INLINE void svd3_aos_vectors(int n, size_t m0, const real *A, real *U, real *
   for (int j = 0; j < n; j++) {
     size_t m = m0 + (size_t)j * EK_W;
     if (U)
-      vstore_records(U + 9 * m, 9, u[j]);
+      svd3_aos_put(U + 9 * m, 9, u[j], nt & EK_SVD3_NT_U);
     if (V)
-      vstore_records(V + 9 * m, 9, w[j]);
+      svd3_aos_put(V + 9 * m, 9, w[j], nt & EK_SVD3_NT_V);
     if (!polar)
-      vstore_records(S + 3 * m, 3, s[j]);
+      svd3_aos_put(S + 3 * m, 3, s[j], nt & EK_SVD3_NT_S);
   }
 }
 
 // AoS: n matrices; a last partial vector goes through a local copy padded
 // with the identity (so no lane reads or writes past the arrays).
 EK_INLINE void svd3_aos(int il, size_t n, const real *A, real *U, real *S, real *V, int sweeps,
-                        int refine, int exact, int polar) {
+                        int refine, int exact, int polar, int nt) {
   size_t m = 0, step = (size_t)il * EK_W;
   for (; m + step <= n; m += step)
-    svd3_aos_vectors(il, m, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_aos_vectors(il, m, A, U, S, V, sweeps, refine, exact, polar, nt);
   for (; m + EK_W <= n; m += EK_W)
-    svd3_aos_vectors(1, m, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_aos_vectors(1, m, A, U, S, V, sweeps, refine, exact, polar, nt);
   if (m == n)
     return;
   size_t tail = n - m;
@@ -136,7 +145,7 @@ EK_INLINE void svd3_aos(int il, size_t n, const real *A, real *U, real *S, real 
   for (size_t l = 0; l < EK_W; l++)
     for (int i = 0; i < 9; i++)
       a[9 * l + i] = l < tail ? A[9 * (m + l) + i] : (real)(i % 4 == 0);
-  svd3_aos_vectors(1, 0, a, u, s, v, sweeps, refine, exact, polar);
+  svd3_aos_vectors(1, 0, a, u, s, v, sweeps, refine, exact, polar, 0);
   for (size_t l = 0; l < tail; l++) {
     for (int i = 0; i < 9; i++) {
       if (U)
@@ -151,9 +160,9 @@ EK_INLINE void svd3_aos(int il, size_t n, const real *A, real *U, real *S, real 
 }
 
 EK_INLINE void svd3_any(int il, size_t count, const real *A, real *U, real *S, real *V, int sweeps,
-                        int refine, int exact, int polar, int aos) {
+                        int refine, int exact, int polar, int aos, int nt) {
   if (aos)
-    svd3_aos(il, count, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_aos(il, count, A, U, S, V, sweeps, refine, exact, polar, nt);
   else
     svd3_blocks(il, count, A, U, S, V, sweeps, refine, exact, polar);
 }
@@ -166,20 +175,22 @@ void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
   // accuracy knob whose time matters less.
   if (k->chains == SVD3_IL_WIDE && !k->exact_rsqrt) {
     if (k->polar)
-      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
+      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos, k->nt);
     else
-      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
+      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos, k->nt);
   } else if (k->polar) {
     if (k->exact_rsqrt)
-      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos, k->nt);
     else
-      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos, k->nt);
   } else {
     if (k->exact_rsqrt)
-      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 0, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 0, k->aos, k->nt);
     else
-      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos);
+      svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos, k->nt);
   }
+  if (k->nt)
+    vstream_fence();
   ek_fpmode_leave(mode);
 }
 
