@@ -123,10 +123,11 @@
 // itself (r_k / r_{k-1} near 1 gives eta near the cap). Measured (busy
 // 2-core Zen 5, 1 thread, CPU time; sim/README.md): the bracket's 30 steps
 // 84.7 -> 44.9 CG iterations per step (5.43 -> 5.47 Newton iterations),
-// CPU 41.0 -> 25.3 s; a cap of 0.5-0.9 (EW's first value 0.5) broke the
-// small scenes (the cantilever 2 and the crush 55 of their steps above
-// newton_tol instead of 0 and 19); without FORCING_STALL the bracket
-// and twist_implicit crawled at r_k / r_{k-1} ~ 0.999 up to max_newton.
+// CPU 41.0 -> 25.3 s; on 2 MPI ranks 14.9 -> 7.7 CG iterations per Newton
+// iteration. EW's own eta_0 = 0.5 and cap 0.9 left crush_implicit (amg)
+// 55 of its 120 steps above newton_tol (main: 19; with 0.1: 14); without
+// FORCING_STALL the bracket and twist_implicit crawled at r_k / r_{k-1} ~
+// 0.999 up to max_newton.
 #define FORCING_MAX 0.1
 #define FORCING_GAMMA 0.9
 #define FORCING_STALL 0.5
@@ -752,11 +753,13 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
     return sim_fail(s, "step %ld: %s", s->n, err);
   // Held dofs stay put: their rows are identity rows with a zero
   // right-hand side, but an inexact solve leaves dx nonzero there (AMG's
-  // aggregates couple them to free dofs), and the residual, over free
-  // dofs only, never saw it. Measured (cantilever_implicit, amg, one
-  // step): the pinned end drifted and the step ended 4.4e-7 body sizes
-  // from the matrix-free path's at cg_tol 1e-4 (7.9e-4 with CG to 0.1);
-  // with dx zeroed there 7.7e-11 at either.
+  // aggregates couple them to free dofs). The residual, over free dofs
+  // only, never saw it, and step 3 puts held vertices back, but the free
+  // ones had converged against the moved clamp. Measured
+  // (cantilever_implicit, amg, one step): 4.4e-7 body sizes from the
+  // matrix-free path's step at cg_tol 1e-4, 7.9e-4 with CG to 0.1; with
+  // dx zeroed there 7.7e-11 at either (test_sim_implicit's amg vs
+  // matrix_free gap, 5 steps: 1.25e-4 without this, budget 1e-5).
   for (size_t i = 0; i < d->n3; i++)
     d->dx[i] *= d->is_free[i];
   s->times.cg_iterations += *iters;

@@ -134,9 +134,10 @@ struct implicit_petsc {
   // their tolerance add up to excess_max (excess: that sum so far). That
   // solve's rate: fresh_rate iterations per decade of its rtol (the
   // tolerance varies from solve to solve: implicit_petsc_set_rtol); 0:
-  // none yet. rtol, max_its: the next solve's; forcing:
+  // none yet. rtol, atol, dtol, max_its: the next solve's; forcing:
   // implicit_petsc_forcing.
   double fresh_rate, excess, rtol;
+  PetscReal atol, dtol;
   PetscInt excess_max, max_its;
   int forcing;
   // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
@@ -323,7 +324,9 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     // A looser CG tolerance (scene cg_tol 1e-3): the bracket 10.6 CG
     // iterations at the same 4.40 Newton iterations, 18% less CPU, but
     // twist_implicit 12.9 Newton iterations per step and 12 of its 60
-    // steps above newton_tol (4.55 and 1 at 1e-4), so no forcing term.
+    // steps above newton_tol (4.55 and 1 at 1e-4), so no fixed looser
+    // tolerance. Seventh round: implicit.c's forcing term (with held dofs'
+    // dx zeroed and its stall safeguard) varies it per Newton iteration.
     static const char *const defaults[][2] = {{"-mg_levels_ksp_type", "chebyshev"},
                                               {"-mg_levels_pc_type", "jacobi"},
                                               {"-mg_levels_ksp_max_it", "2"},
@@ -359,9 +362,19 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     PCHK(PetscOptionsGetBool(NULL, NULL, "-ek_newton_forcing", &forcing, NULL));
     p->forcing = forcing == PETSC_TRUE;
   }
-  p->rtol = rtol;
-  p->max_its = (PetscInt)max_its;
   PCHK(KSPSetFromOptions(p->ksp));
+  // The tolerances each solve sets again (implicit_petsc_solve): those
+  // after PETSC_OPTIONS, which win; a -ksp_rtol there also fixes CG's
+  // tolerance for every solve (no forcing term).
+  PetscReal r;
+  PetscInt m;
+  PetscBool fixed = PETSC_FALSE;
+  PCHK(KSPGetTolerances(p->ksp, &r, &p->atol, &p->dtol, &m));
+  PCHK(PetscOptionsHasName(NULL, NULL, "-ksp_rtol", &fixed));
+  p->rtol = p->direct ? rtol : (double)r;
+  p->max_its = p->direct ? (PetscInt)max_its : m;
+  if (fixed)
+    p->forcing = 0;
   return 0;
 }
 
@@ -894,7 +907,7 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   int keep = !p->direct && p->fresh_rate > 0 && p->excess < p->excess_max;
   const double decades = -log10(p->rtol);
   if (!p->direct)
-    PCHK(KSPSetTolerances(p->ksp, p->rtol, 1e-300, PETSC_DEFAULT, p->max_its));
+    PCHK(KSPSetTolerances(p->ksp, p->rtol, p->atol, p->dtol, p->max_its));
   PC pc;
   PCHK(KSPGetPC(p->ksp, &pc));
   KSPConvergedReason why;
