@@ -122,9 +122,9 @@
 // cg_tol (as without the forcing term): with loose solves a stall feeds
 // itself (r_k / r_{k-1} near 1 gives eta near the cap). Measured (busy
 // 2-core Zen 5, 1 thread, CPU time; sim/README.md): the bracket's 30 steps
-// 84.7 -> 44.9 CG iterations per step (5.43 -> 5.47 Newton iterations),
-// CPU 41.0 -> 25.3 s; on 2 MPI ranks 14.9 -> 7.7 CG iterations per Newton
-// iteration. EW's own eta_0 = 0.5 and cap 0.9 left crush_implicit (amg)
+// 84.7 -> 46.5 CG iterations per step (5.43 -> 5.47 Newton iterations),
+// CPU 32.6 -> 22.4 s; on 2 MPI ranks 14.9 -> 7.7 CG iterations per Newton
+// iteration, wall 46.0 -> 30.7 s. EW's own eta_0 = 0.5 and cap 0.9 left crush_implicit (amg)
 // 55 of its 120 steps above newton_tol (main: 19; with 0.1: 14); without
 // FORCING_STALL the bracket and twist_implicit crawled at r_k / r_{k-1} ~
 // 0.999 up to max_newton.
