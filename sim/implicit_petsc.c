@@ -26,6 +26,7 @@
 // as one process does by SBAIJ (setup_mpisbaij); GAMG builds from A.
 #include "implicit_petsc.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,6 +54,11 @@ implicit_petsc *implicit_petsc_create_mpi(int direct, const ek_csr_pattern *loca
   return NULL;
 }
 void implicit_petsc_destroy(implicit_petsc *p) { (void)p; }
+void implicit_petsc_set_rtol(implicit_petsc *p, double rtol) { (void)p, (void)rtol; }
+int implicit_petsc_forcing(const implicit_petsc *p) {
+  (void)p;
+  return 0;
+}
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
                          const double *b, const double *pos, double *x, long *its, double *rel,
                          double *t_setup, double *t_solve, char *err, size_t errlen) {
@@ -124,10 +130,16 @@ struct implicit_petsc {
   PetscInt n, nnz;
   int direct;
   // AMG: the hierarchy is kept across solves until the iterations they
-  // took beyond the solve after its rebuild (fresh_its) add up to
-  // excess_max (excess: that sum so far); fresh_its 0: none yet.
-  long fresh_its, excess;
-  PetscInt excess_max;
+  // took beyond what the solve after its rebuild would have taken for
+  // their tolerance add up to excess_max (excess: that sum so far). That
+  // solve's rate: fresh_rate iterations per decade of its rtol (the
+  // tolerance varies from solve to solve: implicit_petsc_set_rtol); 0:
+  // none yet. rtol, atol, dtol, max_its: the next solve's; forcing:
+  // implicit_petsc_forcing.
+  double fresh_rate, excess, rtol;
+  PetscReal atol, dtol;
+  PetscInt excess_max, max_its;
+  int forcing;
   // Across ranks: this rank's rows [rstart, rend) (PETSc's numbering),
   // PETSc's row of each of the body's rows (newrow) and the body's row of
   // each owned row (oldrow), the values in the order of the COO pattern
@@ -312,7 +324,9 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     // A looser CG tolerance (scene cg_tol 1e-3): the bracket 10.6 CG
     // iterations at the same 4.40 Newton iterations, 18% less CPU, but
     // twist_implicit 12.9 Newton iterations per step and 12 of its 60
-    // steps above newton_tol (4.55 and 1 at 1e-4), so no forcing term.
+    // steps above newton_tol (4.55 and 1 at 1e-4), so no fixed looser
+    // tolerance. Seventh round: implicit.c's forcing term (with held dofs'
+    // dx zeroed and its stall safeguard) varies it per Newton iteration.
     static const char *const defaults[][2] = {{"-mg_levels_ksp_type", "chebyshev"},
                                               {"-mg_levels_pc_type", "jacobi"},
                                               {"-mg_levels_ksp_max_it", "2"},
@@ -344,8 +358,23 @@ static int setup_solver(implicit_petsc *p, const double *X, double rtol, long ma
     PCHK(PetscOptionsGetInt(NULL, NULL, "-ek_amg_rebuild_excess", &p->excess_max, NULL));
     PCHK(KSPSetNormType(p->ksp, KSP_NORM_UNPRECONDITIONED));
     PCHK(KSPSetTolerances(p->ksp, rtol, 1e-300, PETSC_DEFAULT, (PetscInt)max_its));
+    PetscBool forcing = PETSC_TRUE;
+    PCHK(PetscOptionsGetBool(NULL, NULL, "-ek_newton_forcing", &forcing, NULL));
+    p->forcing = forcing == PETSC_TRUE;
   }
   PCHK(KSPSetFromOptions(p->ksp));
+  // The tolerances each solve sets again (implicit_petsc_solve): those
+  // after PETSC_OPTIONS, which win; a -ksp_rtol there also fixes CG's
+  // tolerance for every solve (no forcing term).
+  PetscReal r;
+  PetscInt m;
+  PetscBool fixed = PETSC_FALSE;
+  PCHK(KSPGetTolerances(p->ksp, &r, &p->atol, &p->dtol, &m));
+  PCHK(PetscOptionsHasName(NULL, NULL, "-ksp_rtol", &fixed));
+  p->rtol = p->direct ? rtol : (double)r;
+  p->max_its = p->direct ? (PetscInt)max_its : m;
+  if (fixed)
+    p->forcing = 0;
   return 0;
 }
 
@@ -830,6 +859,9 @@ static int set_values(implicit_petsc *p, const double *values, const double *dia
   return 0;
 }
 
+void implicit_petsc_set_rtol(implicit_petsc *p, double rtol) { p->rtol = rtol; }
+int implicit_petsc_forcing(const implicit_petsc *p) { return p->forcing; }
+
 // GAMG's near-null space for its next rebuild: the rigid-body modes of
 // pos (this rank's rows), through PCSetCoordinates (PETSc's smoothed
 // aggregation then builds the three translations and the three rotations
@@ -868,11 +900,14 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
   PCHK(VecRestoreArrayWrite(p->b, &bv));
   // AMG: keep the last hierarchy (a preconditioner of a nearby matrix; CG
   // still solves with the new one to rtol) until the iterations the kept
-  // solves took beyond the fresh one add up to excess_max, then rebuild
-  // it, its near-null space the rigid-body modes of the current positions
-  // pos; rebuild also after a kept one failed (AMG_REBUILD_EXCESS says
-  // why).
-  int keep = !p->direct && p->fresh_its > 0 && p->excess < p->excess_max;
+  // solves took beyond the fresh one's rate add up to excess_max, then
+  // rebuild it, its near-null space the rigid-body modes of the current
+  // positions pos; rebuild also after a kept one failed
+  // (AMG_REBUILD_EXCESS says why).
+  int keep = !p->direct && p->fresh_rate > 0 && p->excess < p->excess_max;
+  const double decades = -log10(p->rtol);
+  if (!p->direct)
+    PCHK(KSPSetTolerances(p->ksp, p->rtol, p->atol, p->dtol, p->max_its));
   PC pc;
   PCHK(KSPGetPC(p->ksp, &pc));
   KSPConvergedReason why;
@@ -894,10 +929,10 @@ int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *
       continue;
     }
     if (!keep) {
-      p->fresh_its = (long)n;
+      p->fresh_rate = n > 0 ? (double)n / decades : 0;
       p->excess = 0;
-    } else if ((long)n > p->fresh_its) {
-      p->excess += (long)n - p->fresh_its;
+    } else if ((double)n > p->fresh_rate * decades) {
+      p->excess += (double)n - p->fresh_rate * decades;
     }
     break;
   }

@@ -62,5 +62,12 @@ void implicit_petsc_destroy(implicit_petsc *p);
 int implicit_petsc_solve(implicit_petsc *p, const double *values, const double *diag,
                          const double *b, const double *pos, double *x, long *its, double *rel,
                          double *t_setup, double *t_solve, char *err, size_t errlen);
+// The Krylov solver's relative tolerance (|b - A x|_2 <= rtol |b|_2) for
+// the next solves (the loop's forcing term: implicit.c); the direct
+// solver ignores it. Whether the loop should vary it: 1 for AMG unless
+// PETSC_OPTIONS says -ek_newton_forcing 0, else 0 (the scene's cg_tol
+// throughout).
+void implicit_petsc_set_rtol(implicit_petsc *p, double rtol);
+int implicit_petsc_forcing(const implicit_petsc *p);
 
 #endif
