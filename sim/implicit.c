@@ -589,6 +589,17 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
   return 0;
 }
 
+// A line-search trial: xt = x + alpha dx, its Phi and gradient (gt) and
+// the body's eigensystems at xt.
+static int trial(ek_sim *s, implicit_data *d, const double *x, double alpha, double *phi) {
+  const double t0 = sim_now();
+#pragma omp parallel for schedule(static) if (d->par)
+  for (size_t i = 0; i < d->n3; i++)
+    d->xt[i] = x[i] + alpha * d->dx[i];
+  s->times.line_search += sim_now() - t0;
+  return objective(s, d, d->xt, d->gt, phi);
+}
+
 // The preconditioner at the current eigensystems: inverse diagonal or
 // inverse 3x3 vertex blocks of M (1 + c dt) / dt^2 + K, 0 at held dofs.
 // blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
@@ -930,12 +941,7 @@ static int implicit_step(ek_sim *s, void *data) {
       if ((rc = sim_stop_requested(s, "line-search trial", bt + 1, MAX_BACKTRACKS)))
         return rc;
       res_t = INFINITY; // computed below only when a test needs it
-      t0 = sim_now();
-#pragma omp parallel for schedule(static) if (d->par)
-      for (size_t i = 0; i < d->n3; i++)
-        d->xt[i] = x[i] + alpha * d->dx[i];
-      s->times.line_search += sim_now() - t0;
-      if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
+      if ((rc = trial(s, d, x, alpha, &phi_t)))
         return rc;
       // Clamped models: Phi is the potential of the gradient on a segment
       // whose ends have no clamped singular value (their psi and P are the
@@ -983,12 +989,7 @@ static int implicit_step(ek_sim *s, void *data) {
       // trial, evaluated again (its gradient and eigensystems, so the state
       // and the next Hessian are its own).
       alpha = alpha_phi;
-      t0 = sim_now();
-#pragma omp parallel for schedule(static) if (d->par)
-      for (size_t i = 0; i < d->n3; i++)
-        d->xt[i] = x[i] + alpha * d->dx[i];
-      s->times.line_search += sim_now() - t0;
-      if ((rc = objective(s, d, d->xt, d->gt, &phi_t)))
+      if ((rc = trial(s, d, x, alpha, &phi_t)))
         return rc;
       trial_clamped = any_clamped(s, d, d->xt);
       res_t = residual(d, s, d->gt, free_mass);

@@ -66,31 +66,21 @@ static inline void store_block6(const vreal B[9], int c, int o, real *dst) {
 }
 
 // ---- Element Hessians (HESS_ELEMENT) ----
-// mat_frame_apply (material_math.h; keep the two in step) for the unit
-// column dF = e_k g^T: its first product U^T dF has the terms of rows
+// mat_frame_apply (material_math.h) for the unit column dF = e_k g^T: its
+// first product U^T dF has the terms of rows
 // m != k zero, and vm3_mul_tn's fma(x, 0, y) is y exactly, x * 0 + y is y
 // for y != 0, so U^T dF = U[k][i] g_j, one product per entry instead of
 // three; only the sign of an exact zero can differ, and the assembly's
 // sums (0 + e first) make every zero of K +0 either way (x86's invalid-
 // operation NaN has one sign, whatever the operands'; a NaN frame (a
 // state outside the domain) is in A, h, q, never in the rotations U, V).
-// The rest is mat_frame_apply's arithmetic in its order.
+// The rest is mat_frame_apply's (mat_frame_apply_ut).
 EK_INLINE void frame_apply_unit(const mat_frame *fr, int k, const vreal g[3], vreal dP[9]) {
-  vreal T[9], D[9], Y[9];
+  vreal T[9];
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++)
       T[3 * i + j] = vmul(fr->U[3 * k + i], g[j]);
-  vm3_mul(T, fr->V, D);
-  for (int i = 0; i < 3; i++)
-    Y[4 * i] = vmla(fr->A[i][0], D[0], vmla(fr->A[i][1], D[4], vmul(fr->A[i][2], D[8])));
-  for (int p = 0; p < 3; p++) {
-    const int i = mat_pair_i[p], j = mat_pair_j[p];
-    vreal x = D[3 * i + j], y = D[3 * j + i];
-    Y[3 * i + j] = vmla(fr->h[p], x, vmul(fr->q[p], y));
-    Y[3 * j + i] = vmla(fr->q[p], x, vmul(fr->h[p], y));
-  }
-  vm3_mul(fr->U, Y, T);
-  vm3_mul_nt(T, fr->V, dP);
+  mat_frame_apply_ut(fr, T, dP);
 }
 
 // The 12x12 projected Hessian of a tet, H[(d, i), (c, k)] = V0 g_d^T

@@ -201,9 +201,10 @@ static inline void mat_frame_prepare(mat_frame *fr, const mat_sigma_terms *t, in
     mat_project_psd3(fr->A, project == 2);
 }
 
-EK_INLINE void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[9]) {
-  vreal T[9], D[9], Y[9];
-  vm3_mul_tn(fr->U, dF, T);
+// mat_frame_apply from T = U^T dF (the Hessian assembly forms T of a unit
+// column by itself: hessian_vec.h, frame_apply_unit); T is overwritten.
+EK_INLINE void mat_frame_apply_ut(const mat_frame *fr, vreal T[9], vreal dP[9]) {
+  vreal D[9], Y[9];
   vm3_mul(T, fr->V, D);
   for (int i = 0; i < 3; i++)
     Y[4 * i] = vmla(fr->A[i][0], D[0], vmla(fr->A[i][1], D[4], vmul(fr->A[i][2], D[8])));
@@ -215,6 +216,12 @@ EK_INLINE void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[
   }
   vm3_mul(fr->U, Y, T);
   vm3_mul_nt(T, fr->V, dP);
+}
+
+EK_INLINE void mat_frame_apply(const mat_frame *fr, const vreal dF[9], vreal dP[9]) {
+  vreal T[9];
+  vm3_mul_tn(fr->U, dF, T);
+  mat_frame_apply_ut(fr, T, dP);
 }
 
 #endif
