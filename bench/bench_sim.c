@@ -29,13 +29,16 @@
 //
 // sim/<scene>/solver:<s>/<isa>/<prec>/tets:<N>/threads:<T>: an implicit
 // scene with integrator.linear_solver set to each solver this build has
-// (matrix_free; amg and direct with PETSc), one step per call from the
-// scene's start, at the largest thread count only; after each row a note
-// with Newton iterations per step, CG iterations per Newton iteration and
-// ms per step by phase. cantilever_implicit is in the default suite (~0.1
-// to 1 s per step); the bracket (scenes/bracket.json, 120 273 tets: ~10 s
-// per matrix-free step) only when --filter names its rows (e.g. --filter
-// 'bracket/solver').
+// (matrix_free; amg and direct with PETSc), at the largest thread count
+// only: each call runs the scene's first SOLVER_WINDOW steps from its start
+// state (ek_sim_set_state), an item is a step, so every solver is timed on
+// the same steps (a run of consecutive calls drifts to the settled beam's
+// cheap steps, and a fast solver took more of them: amg 1.46 Newton
+// iterations per step over 63 steps against direct's 3.29 over 7, 5 from
+// the start); after each row a note with Newton iterations per step, CG
+// iterations per Newton iteration and ms per step by phase. cantilever_implicit is in the default
+// suite (~0.1 to 1 s per step); the bracket (scenes/bracket.json, 120 273 tets: ~10 s per
+// matrix-free step) only when --filter names its rows (e.g. --filter 'bracket/solver').
 //
 // sim/cantilever_1s/...: not a timed row but one run of each loop over 1 s
 // of simulated time on the cantilever (explicit at the scene's CFL-bound
@@ -55,7 +58,7 @@
 #include <math.h>
 #include <omp.h>
 
-enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20, FORCE_CALLS = 21 };
+enum { STEPS_PER_CALL = 10, PHASE_STEPS = 20, FORCE_CALLS = 21, SOLVER_WINDOW = 3 };
 // Phase-timed steps behind the cantilever_xpbd it:N/sub:K note: a step
 // profiles one sweep (ek_xpbd_profile_*), so a few steps average a few.
 enum { XPBD_PHASE_STEPS = 5 };
@@ -64,10 +67,15 @@ typedef struct {
   ek_sim *sim;
   ek_bench *b;
   int failed, steps;
+  double *x0, *v0; // a call's start state, or NULL: go on from the last
 } sim_ctx;
 
 static void run_steps(void *p) {
   sim_ctx *c = p;
+  if (c->x0 && !c->failed && ek_sim_set_state(c->sim, c->x0, c->v0) != 0) {
+    c->failed = 1;
+    ek_bench_fail(c->b, "sim: resetting the state failed: %s", ek_last_error());
+  }
   for (int i = 0; i < c->steps && !c->failed; ++i) {
     int rc = ek_sim_step(c->sim);
     if (rc != 0) {
@@ -243,7 +251,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
                xpbd_grid[g].iterations, xpbd_grid[g].substeps, counts[t]);
       if (!ek_bench_wants(b, name))
         continue;
-      sim_ctx ctx = {NULL, b, 0, 1};
+      sim_ctx ctx = {NULL, b, 0, 1, NULL, NULL};
       if (!ek_bench_listing(b)) {
         if (!loaded) {
           if (load_shipped(scene_name, &scene, err, sizeof err) != 0 ||
@@ -421,7 +429,7 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts) {
         continue;
       }
       scene.implicit.linear_solver = (ek_linear_solver)ls;
-      sim_ctx ctx = {NULL, b, 0, 1};
+      sim_ctx ctx = {NULL, b, 0, SOLVER_WINDOW, NULL, NULL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
           ek_bench_fail(b, "sim: %s: %s", cases[k].scene, ek_last_error());
@@ -434,18 +442,30 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts) {
           rc = -1;
           continue;
         }
+        const size_t n3 = 3 * ek_mesh_nverts(mesh);
+        ctx.x0 = malloc(n3 * sizeof(double));
+        ctx.v0 = malloc(n3 * sizeof(double));
+        if (!ctx.x0 || !ctx.v0) {
+          ek_bench_fail(b, "sim: %s: out of memory for the start state", name);
+          free(ctx.x0), free(ctx.v0), ek_sim_destroy(ctx.sim);
+          rc = -1;
+          continue;
+        }
+        memcpy(ctx.x0, ek_sim_positions(ctx.sim), n3 * sizeof(double));
+        memcpy(ctx.v0, ek_sim_velocities(ctx.sim), n3 * sizeof(double));
       }
       snprintf(knobs, sizeof knobs,
-               "scene=%s;model=%s;integrator=implicit;linear_solver=%s;steps_per_call=1;dt=%g",
+               "scene=%s;model=%s;integrator=implicit;linear_solver=%s;steps_per_call=%d;"
+               "from=start;dt=%g",
                cases[k].scene, scene.model_name, ek_linear_solver_name((ek_linear_solver)ls),
-               scene.dt);
+               SOLVER_WINDOW, scene.dt);
       ek_bench_row row = {.name = name,
                           .family = "sim",
                           .isa = isa,
                           .precision = prec,
                           .threads = threads,
                           .knobs = knobs,
-                          .items = 1,
+                          .items = SOLVER_WINDOW,
                           .fn = run_steps,
                           .ctx = &ctx};
       if (ek_bench_run(b, &row) != 0)
@@ -456,17 +476,20 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts) {
         const double n = (double)t->steps;
         ek_bench_note(
             b,
-            "%s: %.2f Newton iterations per step, %.1f CG iterations per Newton "
+            "%s (steps 1-%d from the start state): %.2f Newton iterations per step, %.1f CG "
+            "iterations per Newton "
             "iteration (%s); ms per step: gradient+eigensystems %.3f, Hessian "
             "products %.3f, preconditioner %.3f, assembly %.3f, solver setup %.3f, "
             "solve %.3f; %ld steps",
-            name, (double)t->newton_iterations / n,
+            name, SOLVER_WINDOW, (double)t->newton_iterations / n,
             t->newton_iterations ? (double)t->cg_iterations / (double)t->newton_iterations : 0,
             ls == EK_LINSOLVE_DIRECT ? "a factorisation counts 1" : "CG", 1e3 * t->gradient / n,
             1e3 * t->matvec / n, 1e3 * t->preconditioner / n, 1e3 * t->assembly / n,
             1e3 * t->solver_setup / n, 1e3 * t->solver_solve / n, t->steps);
       }
       ek_sim_destroy(ctx.sim);
+      free(ctx.x0);
+      free(ctx.v0);
     }
     ek_mesh_destroy(mesh);
   }
@@ -517,7 +540,7 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
                  CELLS, CELLS, models[mi], prec);
         static ek_scene scene;
         ek_trimesh *mesh = NULL;
-        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL};
+        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL, NULL, NULL};
         if (!ek_bench_listing(b)) {
           if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene) != 0 ||
               !(mesh = ek_scene_trimesh(&scene)) ||
@@ -706,7 +729,7 @@ int bench_sim(ek_bench *b) {
         continue;
       const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT,
                 xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
-      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL};
+      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL, NULL, NULL};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
           ek_bench_fail(b, "sim: %s: %s", scenes[k], ek_last_error());
