@@ -65,18 +65,8 @@ static void run_colored(const scatter_job *j, real *out) {
 // kernel as before: there the memset warms the part for a kernel that
 // does not prefetch its rows, and the fused zeroing made the Hessian
 // product ~5% slower at 998 250 tets. buffers_zero says whether slot 0 is
-// all zero now (per calling thread, as the slot).
+// all zero now (per calling thread, as the slot; a new allocation is not).
 static _Thread_local int buffers_zero;
-
-static real *buffers_get(size_t bytes) {
-  if (scratch[0].bytes < bytes) {
-    ek_free(scratch[0].p);
-    scratch[0].p = ek_alloc(bytes);
-    scratch[0].bytes = scratch[0].p ? bytes : 0;
-    buffers_zero = 0;
-  }
-  return scratch[0].p;
-}
 
 // out[v] = the parts' rows of v summed in part order (((b0 + b1) + b2) +
 // b3, each part's row starting from +0 as before; a part whose vertex
@@ -126,17 +116,20 @@ static int run_buffers(const scatter_job *j, real *out) {
     ek_set_error("scatter: rows of %zu values per vertex (at most 8)", st);
     return EK_EINVAL; // reduce_rows' row; scatter.h: ncomp is 3 or 6
   }
-  real *buf = buffers_get(EK_FVM_PARTS * n * sizeof(real));
+  const size_t had = scratch[0].bytes;
+  real *buf = EK_P(scratch_get)(0, EK_FVM_PARTS * n * sizeof(real));
   if (!buf)
     return EK_ENOMEM;
+  if (scratch[0].bytes != had)
+    buffers_zero = 0;
   // Kept zero: the first call (or one after the Hessian passes) zeroes
   // the whole allocation, not only this call's 4 x nv x st: a Hessian
   // pass with rows of 6 leaves its rows beyond that extent, and a later
   // mesh's extent (or ranges) may reach them (test_scenes_hold, every
   // shipped scene in one process: twist blew up at step 3 when only the
   // extent was zeroed).
-  const int keep_zero = st != nc, zeroed = keep_zero && buffers_zero;
-  if (keep_zero && !zeroed)
+  const int keep_zero = st != nc;
+  if (keep_zero && !buffers_zero)
     memset(buf, 0, scratch[0].bytes);
 #pragma omp parallel if (j->parallel)
   {

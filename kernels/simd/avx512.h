@@ -75,6 +75,16 @@ static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm512_mask_blend_p
 static inline int vall(vmask m) { return m == 0xff; }
 #endif
 
+// a + b with a's NaN kept where a is NaN (x86 returns the first operand's
+// NaN, quieted; a plain add lets the compiler order the operands either
+// way): the NaN rule of the scalar sums, s = s + x keeping a NaN s, in one
+// add (vscatter_add_rows4 f64, vsum_run3).
+static inline __m256d vadd_pd_nan_first(__m256d a, __m256d b) {
+  __m256d s;
+  __asm__("vaddpd %2, %1, %0" : "=v"(s) : "v"(a), "v"(b));
+  return s;
+}
+
 #if defined(EK_REAL_F32)
 static inline vreal vmls(vreal a, vreal b, vreal c) { return _mm512_fmsub_ps(a, b, c); }
 static inline vreal vnmla(vreal a, vreal b, vreal c) { return _mm512_fnmadd_ps(a, b, c); }
@@ -339,9 +349,7 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
       __m256d ov = _mm256_loadu_pd(o);
       // o first, as in the f32 version above (a NaN o is kept).
-      __m256d sum;
-      __asm__("vaddpd %2, %1, %0" : "=v"(sum) : "v"(ov), "v"(hv));
-      _mm256_storeu_pd(o, sum);
+      _mm256_storeu_pd(o, vadd_pd_nan_first(ov, hv));
     }
   }
 }
@@ -472,14 +480,10 @@ static inline __attribute__((always_inline)) void vstore_records_masked(real *p,
 // 256-bit register, 3 doubles wide (the element's 3 values gathered from
 // their planes and widened), with one masked load and one masked store of
 // K per run: the same adds in the same order as the scalar body, so the
-// same bits. The NaN rule: plain adds first; they give the rule's bits
-// unless two NaNs meet in one add (the compiler may order a commutative
-// add's operands either way, and x86 returns the first operand's NaN), so
-// a run whose sum ends NaN anywhere is summed again with the rule as a
-// blend (where the partial sum is NaN the result is that sum + 0, quieted;
-// 0 is not NaN, so either operand order gives it). The blend in every add
-// cost its compare and masked add on the sum's dependency chain
-// (docs/perf.md, "Hessian assembly").
+// same bits. The NaN rule (a NaN partial sum is kept, quieted) by the
+// add's operand order, partial sum first (vadd_pd_nan_first): the blend
+// it replaced (compare and masked add on the sum's dependency chain) cost
+// time (docs/perf.md, "Hessian assembly").
 #define EK_HAVE_VSUM_RUN3
 static inline __m256d vsum_elem3_(const real *ei, size_t es) {
 #if defined(EK_REAL_F32)
@@ -491,25 +495,12 @@ static inline __m256d vsum_elem3_(const real *ei, size_t es) {
 static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
                              int n, int first) {
   const __m256d zero = _mm256_setzero_pd();
-  __m256d acc0[3], acc[3];
+  __m256d acc[3];
   for (int i = 0; i < 3; i++)
-    acc[i] = acc0[i] = first ? zero : _mm256_maskz_loadu_pd(7, o + (size_t)i * rs);
+    acc[i] = first ? zero : _mm256_maskz_loadu_pd(7, o + (size_t)i * rs);
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 3; i++)
-      acc[i] = _mm256_add_pd(acc[i], vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es));
-  const __mmask8 nan = _mm256_cmp_pd_mask(acc[0], acc[0], _CMP_UNORD_Q) |
-                       _mm256_cmp_pd_mask(acc[1], acc[1], _CMP_UNORD_Q) |
-                       _mm256_cmp_pd_mask(acc[2], acc[2], _CMP_UNORD_Q);
-  if (__builtin_expect((nan & 7) != 0, 0)) {
-    for (int i = 0; i < 3; i++)
-      acc[i] = acc0[i];
-    for (int j = 0; j < n; j++)
-      for (int i = 0; i < 3; i++) {
-        const __m256d ev = vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es);
-        const __mmask8 m = _mm256_cmp_pd_mask(acc[i], acc[i], _CMP_UNORD_Q);
-        acc[i] = _mm256_mask_add_pd(_mm256_add_pd(acc[i], ev), m, acc[i], zero);
-      }
-  }
+      acc[i] = vadd_pd_nan_first(acc[i], vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es));
   for (int i = 0; i < 3; i++)
     _mm256_mask_storeu_pd(o + (size_t)i * rs, 7, acc[i]);
 }

@@ -298,14 +298,18 @@ EK_AI void vload_records(const real *p, int np, vreal *planes) {
   vload_records_tile(p, np, planes);
 #endif
 }
-EK_AI void vstore_records(real *p, int np, const vreal *planes) {
+// nt (a constant): streaming stores for the factored sizes; the others
+// (np 4, 8: the masked permutes, and the scalar target's tile) store
+// plainly.
+EK_AI void vstore_records_as(real *p, int np, const vreal *planes, int nt) {
+  (void)nt; // no streaming store without the permutes
 #ifdef EK_HAVE_VREC_PERM
   if (np == 1) {
-    vstore(p, planes[0]);
+    vrec_put(p, planes[0], nt);
     return;
   }
   if (vrec_factored(np)) {
-    vrec_store_factored(p, np, planes, 0);
+    vrec_store_factored(p, np, planes, nt);
     return;
   }
 #endif
@@ -315,20 +319,11 @@ EK_AI void vstore_records(real *p, int np, const vreal *planes) {
   vstore_records_tile(p, np, planes);
 #endif
 }
-// The factored sizes stream their stores; the others (np 4, 8: the
-// masked permutes, and the scalar target's tile) store plainly.
+EK_AI void vstore_records(real *p, int np, const vreal *planes) {
+  vstore_records_as(p, np, planes, 0);
+}
 EK_AI void vstore_records_nt(real *p, int np, const vreal *planes) {
-#ifdef EK_HAVE_VREC_PERM
-  if (np == 1) {
-    vstream(p, planes[0]);
-    return;
-  }
-  if (vrec_factored(np)) {
-    vrec_store_factored(p, np, planes, 1);
-    return;
-  }
-#endif
-  vstore_records(p, np, planes);
+  vstore_records_as(p, np, planes, 1);
 }
 // Orders the streaming stores before what follows (an OpenMP barrier's
 // plain stores and loads do not order them).
