@@ -91,6 +91,7 @@ struct ek_frames {
   char *last_grid;      // the last committed frame's grid (no tail), replayed
   size_t last_grid_len; // into the scratch XDMF
   long test_kill_frame; // EK_FRAMES_TEST_KILL_XMF (tests only), else -1
+  int test_no_exchange; // EK_FRAMES_TEST_NO_EXCHANGE (tests only): the fallback swap
   char *h5name_xml;     // the HDF5 file's base name, XML-escaped
   char h5path[EK_SCENE_PATH_MAX];
   char scratch_path[EK_SCENE_PATH_MAX + 16];
@@ -484,13 +485,16 @@ static int write_frame(const ek_frames *fr, hid_t file, long k, double time, int
 // rename where the file system supports it; otherwise a hard link (at
 // `swap`) keeps the committed file reachable at its name throughout (link,
 // rename over, rename the link). The files keep their inodes, so open
-// descriptors follow them.
-static int swap_names(const char *scratch, const char *committed, const char *swap) {
+// descriptors follow them. `exchange` 0 (a test's EK_FRAMES_TEST_NO_EXCHANGE)
+// takes the fallback on any file system.
+static int swap_names(const char *scratch, const char *committed, const char *swap, int exchange) {
 #ifdef RENAME_EXCHANGE
-  if (renameat2(AT_FDCWD, scratch, AT_FDCWD, committed, RENAME_EXCHANGE) == 0)
+  if (exchange && renameat2(AT_FDCWD, scratch, AT_FDCWD, committed, RENAME_EXCHANGE) == 0)
     return 0;
-  if (errno != EINVAL && errno != ENOSYS && errno != EOPNOTSUPP)
+  if (exchange && errno != EINVAL && errno != ENOSYS && errno != EOPNOTSUPP)
     return -1;
+#else
+  (void)exchange;
 #endif
   unlink(swap);
   if (link(committed, swap) != 0)
@@ -501,7 +505,7 @@ static int swap_names(const char *scratch, const char *committed, const char *sw
 }
 
 static int swap_files(const ek_frames *fr) {
-  return swap_names(fr->scratch_path, fr->h5path, fr->swap_path);
+  return swap_names(fr->scratch_path, fr->h5path, fr->swap_path, !fr->test_no_exchange);
 }
 
 // Write all of buf at offset off (one call in practice: a grid is small).
@@ -716,6 +720,8 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
   fr->xmf_fd[0] = fr->xmf_fd[1] = -1;
   const char *kill_at = getenv("EK_FRAMES_TEST_KILL_XMF");
   fr->test_kill_frame = kill_at && kill_at[0] ? strtol(kill_at, NULL, 10) : -1;
+  const char *no_exchange = getenv("EK_FRAMES_TEST_NO_EXCHANGE");
+  fr->test_no_exchange = no_exchange && no_exchange[0] == '1';
   fr->nverts = nverts;
   fr->ntets = ntets;
   fr->nodes = nodes;
@@ -920,7 +926,8 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
   const off_t at = fr->xmf_end[1];
   errno = 0;
   ok = xmf_write(fr, text, text_len, at, k) == 0 &&
-       swap_names(fr->xmf_scratch_path, fr->xdmf_path, fr->xmf_swap_path) == 0;
+       swap_names(fr->xmf_scratch_path, fr->xdmf_path, fr->xmf_swap_path, !fr->test_no_exchange) ==
+           0;
   free(text);
   if (!ok) {
     free(grid);
