@@ -190,10 +190,11 @@ typedef struct {
   double *diag;
   int32_t *perm;
   // Assembled solvers: the last step's acceleration (v_{n+1} - v_n) / dt
-  // per dof and the velocities it produced (vlast: the start point uses
-  // acc only while s->v is still those, i.e. no ek_sim_set_state since).
-  double *acc, *vlast;
+  // per dof, and the state epoch it belongs to (the start point uses it
+  // only if no ek_sim_set_state came since).
+  double *acc;
   int have_acc;
+  unsigned long acc_epoch;
   // Clamped models (hes.residual_merit, tets): each element's rest inverse
   // D_m^-1 (row-major 3x3), to tell whether a state has a clamped singular
   // value (any_clamped), i.e. whether the energy is the force's potential
@@ -217,7 +218,6 @@ static void data_free(implicit_data *d) {
   free(d->diag);
   free(d->perm);
   free(d->acc);
-  free(d->vlast);
   free(d->dm_inv);
   implicit_petsc_destroy(d->ps);
   free(d);
@@ -466,12 +466,11 @@ static int implicit_create(ek_sim *s, void **data) {
     if (ops->hessian_pattern(d->H, &d->pat) < 0)
       return create_failed(s, d, sim_fail(s, "the Hessian's pattern: %s", ek_last_error()));
     d->acc = calloc(d->n3, sizeof(double));
-    d->vlast = calloc(d->n3, sizeof(double));
     d->kvals = malloc((d->pat.nnz + 1) * sizeof(double));
     d->svals = malloc((d->pat.nnz + 1) * sizeof(double));
     if (d->mpi)
       d->diag = malloc(d->n3 * sizeof(double));
-    if (!d->kvals || !d->svals || (d->mpi && !d->diag) || !d->acc || !d->vlast)
+    if (!d->kvals || !d->svals || (d->mpi && !d->diag) || !d->acc)
       return create_failed(
           s, d, sim_fail(s, "out of memory for the assembled Hessian (%zu nonzeros)", d->pat.nnz));
     int rc;
@@ -832,7 +831,7 @@ static int implicit_step(ek_sim *s, void *data) {
   // (assembled solvers: dt^2 a_n, above).
   double t0 = sim_now();
   const double am = (1 + sc->damping * dt) / (dt * dt);
-  const int predict = d->acc && d->have_acc && memcmp(d->vlast, s->v, d->n3 * sizeof(double)) == 0;
+  const int predict = d->acc && d->have_acc && d->acc_epoch == s->state_epoch;
   for (size_t i = 0; i < s->nv; i++) {
     const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
     double vdummy[3];
@@ -1066,7 +1065,7 @@ static int implicit_step(ek_sim *s, void *data) {
   if (d->acc) {
     for (size_t i = 0; i < d->n3; i++)
       d->acc[i] = (s->v_next[i] - s->v[i]) / dt;
-    memcpy(d->vlast, s->v_next, d->n3 * sizeof(double));
+    d->acc_epoch = s->state_epoch;
     d->have_acc = 1;
   }
   s->times.integration += sim_now() - t0;

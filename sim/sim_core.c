@@ -554,6 +554,7 @@ int ek_sim_set_state(ek_sim *s, const double *x, const double *v) {
   memcpy(s->x, x, n3 * sizeof(double));
   if (v)
     memcpy(s->v, v, n3 * sizeof(double));
+  s->state_epoch++;
   // What the body kept from the old state (rotations) restarts here.
   return s->body->ops->set_state(s);
 }

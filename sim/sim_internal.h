@@ -90,6 +90,9 @@ struct ek_sim {
   ek_sim_newton_trace newton; // filled by the implicit integrator
   const sim_integrator *integrator;
   void *integrator_data;
+  // Counts ek_sim_set_state calls: what an integrator keeps from one step
+  // for the next (implicit.c's last acceleration) holds within one epoch.
+  unsigned long state_epoch;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
   char warning[512];     // pending, for ek_sim_warning; "" when none
