@@ -120,9 +120,45 @@ void EK_SYM(hessian_frame_block)(const hess_args *a, size_t b0, size_t b1) {
 // in f32) was a few % faster than 6 or 16 (docs/perf.md, "Hessian
 // assembly").
 #define RUN_AHEAD 32
+
+// The upper block triangle's sums (ek_fvm_hessian_assemble_upper_*): the
+// same runs, each into its K block's 9 contiguous values (row-major) at
+// uvalues + run_up, summed in this precision in ascending slot order from
+// 0 (a run with first set ignores the old values). A block is one or two
+// cache lines, so one prefetch covers it where the CSR's 3 rows need 3.
+static void sum_upper(const hess_args *a) {
+  const struct ek_fvm_hessian *h = a->asm_h;
+  const int32_t i0 = h->krun[a->asm_k], i1 = h->krun[a->asm_k + 1];
+  const int32_t end = h->krun[h->tgrp[h->plan_threads]];
+  const uint16_t *off = h->run_e + h->kcon[a->asm_k];
+  for (int32_t i = i0; i < i1; i++) {
+    const ek_hess_run *r = h->runs + i;
+    if (i + RUN_AHEAD < end) {
+      const real *q = a->uvalues + h->run_up[i + RUN_AHEAD];
+      __builtin_prefetch(q, 1, 3);
+      __builtin_prefetch(q + 8, 1, 3);
+    }
+    real *o = a->uvalues + h->run_up[i], acc[9];
+    for (int m = 0; m < 9; m++)
+      acc[m] = r->first ? 0 : o[m];
+    for (int j = 0; j < r->n; j++) {
+      const real *e = a->corner + off[j];
+      for (int m = 0; m < 9; m++)
+        acc[m] += e[(size_t)m * L];
+    }
+    for (int m = 0; m < 9; m++)
+      o[m] = acc[m];
+    off += r->n;
+  }
+}
+
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1);
 void EK_SYM(hessian_sum)(const hess_args *a, size_t b0, size_t b1) {
   (void)b0, (void)b1; // the plan group's blocks
+  if (a->uvalues) {
+    sum_upper(a);
+    return;
+  }
   const struct ek_fvm_hessian *h = a->asm_h;
   const ek_hess_run *r = h->runs + h->krun[a->asm_k], *r1 = h->runs + h->krun[a->asm_k + 1];
   const ek_hess_run *end = h->runs + h->krun[h->tgrp[h->plan_threads]];
