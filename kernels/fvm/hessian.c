@@ -138,9 +138,11 @@ static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
                         uvalues ? (const void *)uvalues : (const void *)values);
   if (rc < 0)
     return rc;
-  hess_args a = args_for(h, HESS_ELEMENT);
-  a.cache = h->cache;
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
+  // The upper triangle's element Hessians from the frame's rank-one
+  // columns (HESS_ELEMENT_R1, isotropic models); the CSR's keep theirs.
+  hess_args a = args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT);
+  a.cache = h->cache;
   // The groups' element Hessians, 72 KB per thread, on the heap (not on a
   // caller's thread stack, which may be small), one block for the team.
   const size_t group = (size_t)HESS_GROUP * EK_LANES * 144;

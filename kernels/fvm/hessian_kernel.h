@@ -18,6 +18,9 @@
 //     as 144 planes per block from b0: corner[((b - b0) * 144 + (d * 4 +
 //     c) * 9 + i * 3 + k) * LANES + l], rows (d, i), columns (c, k); out is
 //     not used;
+//   HESS_ELEMENT_R1 (isotropic models, the frame kernel only): HESS_ELEMENT's
+//     matrices and layout from the frame's rank-one columns (hessian_block.c,
+//     frame_element_r1_blocks; other bits: the upper-triangle assembly's);
 //   hessian_sum (its own table entry, after HESS_ELEMENT on each block of
 //     a group): the element Hessians in corner added into values through
 //     the runs of asm_h's plan group asm_k (hessian.c,
@@ -40,7 +43,7 @@
 
 #include "../kernels.h"
 
-enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
+enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT, HESS_ELEMENT_R1 };
 #define HESS_FRAME_PLANES 20
 
 #define EK_HESS_ARGS(T, NAME)                                                                      \
