@@ -33,7 +33,9 @@
 //     and the assembly of the projected Hessian (hessian/<model>/assemble/
 //     ...: element Hessians in the row's precision + the gather into CSR,
 //     ek_fvm_hessian_assemble; the speed-up column is force / assembly, so
-//     the "assembly <= 3x one force evaluation" reads as >= 0.33).
+//     the "assembly <= 3x one force evaluation" reads as >= 0.33),
+//     and its upper block triangle in the row's precision (hessian/<model>/
+//     assemble_upper/..., ek_fvm_hessian_assemble_upper_*, same column).
 //   - XPBD (include/ek/xpbd.h), best ISA, ~1e5 tets (the mesh of the
 //     StVK force rows), tets and clusters x Gauss-Seidel and Jacobi x
 //     f32/f64: ONE sweep over every constraint (ek_xpbd_iterate_* with 1
@@ -257,8 +259,9 @@ static int one_row(ek_bench *b, int model, ek_scatter s, ek_isa isa, int f32, in
 typedef struct {
   fvm_mesh_case *mc;
   ek_fvm_hessian *h;
-  int f32, gradient; // gradient: 0 product, 1 caching gradient, 2 assembly
+  int f32, gradient; // gradient: 0 product, 1 caching gradient, 2 assembly, 3 upper
   double *values;    // the assembled K (assembly rows)
+  void *uvalues;     // K's upper block triangle (assemble_upper rows)
   ek_tet_state *R;
   ek_bench *b;
   int failed;
@@ -269,7 +272,9 @@ static hess_ctx hess_row_ctx;
 
 static void run_hessian(void *p) {
   hess_ctx *c = p;
-  int rc = c->gradient == 2 ? ek_fvm_hessian_assemble(c->h, c->values)
+  int rc = c->gradient == 3   ? (c->f32 ? ek_fvm_hessian_assemble_upper_f32(c->h, c->uvalues)
+                                        : ek_fvm_hessian_assemble_upper_f64(c->h, c->uvalues))
+           : c->gradient == 2 ? ek_fvm_hessian_assemble(c->h, c->values)
            : c->gradient ? ek_fvm_hessian_gradient_f64(c->h, c->mc->x64, c->R, c->mc->f64, NULL, 1)
            : c->f32      ? ek_fvm_hessian_apply_f32(c->h, c->mc->x32, c->mc->f32)
                          : ek_fvm_hessian_apply_f64(c->h, c->mc->x64, c->mc->f64);
@@ -282,7 +287,7 @@ static void run_hessian(void *p) {
 // One Hessian row (product or caching gradient pass) of a model at ~1e5
 // tets, thread buffers; its baseline is the force row of the same model.
 static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient, int threads) {
-  static const char *const op_name[3] = {"apply", "gradient", "assemble"};
+  static const char *const op_name[4] = {"apply", "gradient", "assemble", "assemble_upper"};
   fvm_mesh_case *mc = &sizes[1];
   size_t ntets = case_tets(mc);
   char name[EK_BENCH_NAME_MAX], base[EK_BENCH_NAME_MAX], knobs[128];
@@ -299,6 +304,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
       return -1;
     ek_fvm_hessian_destroy(c->h);
     free(c->values);
+    free(c->uvalues);
     memset(c, 0, sizeof *c);
     ek_fvm_hessian_opts o = {
         .scatter = EK_SCATTER_THREAD_BUFFERS, .isa = isa, .precision = f32 ? 32 : 64};
@@ -317,6 +323,12 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
     if (gradient == 2 && (ek_fvm_hessian_pattern(c->h, &pat) < 0 ||
                           !(c->values = malloc(pat.nnz * sizeof(double))))) {
       ek_bench_fail(b, "fvm: ek_fvm_hessian_pattern: %s", ek_last_error());
+      return -1;
+    }
+    ek_bsr_pattern up;
+    if (gradient == 3 && (ek_fvm_hessian_pattern_upper(c->h, &up) < 0 ||
+                          !(c->uvalues = malloc(9 * up.nblocks * (f32 ? 4 : 8))))) {
+      ek_bench_fail(b, "fvm: ek_fvm_hessian_pattern_upper: %s", ek_last_error());
       return -1;
     }
   }
@@ -338,7 +350,7 @@ static int hessian_row(ek_bench *b, int model, ek_isa isa, int f32, int gradient
                       .flops_per_item = 0,
                       // assembly: + the element Hessians written and
                       // read (2 x 144 values) and the map's 16 codes.
-                      .bytes_per_item = gradient == 2
+                      .bytes_per_item = gradient >= 2
                                             ? 4 * 4 + 10 * r + planes * r + 288 * r + 16 * 4
                                             : 4 * 4 + 10 * (gradient ? 8 : r) + planes * r +
                                                   6 * (gradient ? 8 : r) * verts_per_tet,
@@ -583,6 +595,7 @@ int bench_fvm(ek_bench *b) {
         rc |= hessian_row(b, (int)m, best, f32, 0, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 1, counts[t]);
         rc |= hessian_row(b, (int)m, best, f32, 2, counts[t]);
+        rc |= hessian_row(b, (int)m, best, f32, 3, counts[t]);
       }
     // XPBD: one sweep per constraint x elements x solver x precision.
     for (int snh = 0; snh < 2; snh++)
@@ -598,6 +611,8 @@ int bench_fvm(ek_bench *b) {
     hess_row_ctx.h = NULL;
     free(hess_row_ctx.values);
     hess_row_ctx.values = NULL;
+    free(hess_row_ctx.uvalues);
+    hess_row_ctx.uvalues = NULL;
     xpbd_ctx_free(&xpbd_row_ctx);
   }
   if (!ek_bench_listing(b))

@@ -17,6 +17,9 @@
 //   7. the assembled K (check_assembly): entries = the plain assembly of
 //      the double reference, CSR K p = the product, symmetric to the bit,
 //      projected PSD (LAPACK eigenvalues); same bits at 1 and 2 threads;
+//      its upper block triangle in the cache's precision
+//      (ek_fvm_hessian_assemble_upper_*): entries = the same reference
+//      within the same budgets, same bits at 1 and 2 threads;
 //   8. the force's thread buffers reused across meshes after a diagonal
 //      pass give a fresh call's bits (check_buffer_reuse);
 //   6. neo-Hookean with an inverted tet: energy +inf; bad arguments are
@@ -322,7 +325,8 @@ static void check_assembly(const test_model *tm, const test_mesh *t, const setup
     p[i] = 0.1 * (2 * ek_rng_uniform(rng) - 1);
   static const ek_scatter orders[2] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED};
   static const ek_projection projs[3] = {EK_PROJECT_NONE, EK_PROJECT_CLAMP, EK_PROJECT_ABS};
-  double worst_ref[2] = {0}, worst_kp[2] = {0}, worst_eig = INFINITY;
+  double worst_ref[2] = {0}, worst_kp[2] = {0}, worst_up[2] = {0}, worst_eig = INFINITY;
+  double *Ku = malloc(n3 * n3 * sizeof(double));
   int cases = 0, asym = 0;
   for (int proj = 0; proj < 3; proj++) {
     ek_fvm_hessian_assemble_ref(nv, t->X, t->ntets, t->T, &mref, s->R, x, proj, Kref, Ks);
@@ -386,6 +390,43 @@ static void check_assembly(const test_model *tm, const test_mesh *t, const setup
           }
           worst_ref[prec == 64] = fmax(worst_ref[prec == 64], eref);
           worst_kp[prec == 64] = fmax(worst_kp[prec == 64], ekp);
+          // The upper block triangle (ek_fvm_hessian_assemble_upper_*), in
+          // the cache's precision, mirrored into a dense K: the same budget
+          // against the reference.
+          ek_bsr_pattern up;
+          rc = ek_fvm_hessian_pattern_upper(h, &up);
+          void *uv = rc == 0 ? malloc(9 * up.nblocks * (prec == 32 ? 4 : 8)) : NULL;
+          if (rc == 0)
+            rc = prec == 32 ? ek_fvm_hessian_assemble_upper_f32(h, uv)
+                            : ek_fvm_hessian_assemble_upper_f64(h, uv);
+          double eup = INFINITY;
+          if (rc == 0 && up.nbrows == nv) {
+            memset(Ku, 0, n3 * n3 * sizeof(double));
+            int shape = 1;
+            for (size_t v = 0; v < nv; v++)
+              for (int32_t q = up.bptr[v]; q < up.bptr[v + 1]; q++) {
+                const size_t w = (size_t)up.bcol[q];
+                shape &= w >= v && (q > up.bptr[v] || w == v);
+                for (int i = 0; i < 3; i++)
+                  for (int m = 0; m < 3; m++) {
+                    const size_t k = 9 * (size_t)q + (size_t)(3 * i + m);
+                    const double e = prec == 32 ? ((float *)uv)[k] : ((double *)uv)[k];
+                    Ku[(3 * v + i) * n3 + 3 * w + m] = e;
+                    Ku[(3 * w + m) * n3 + 3 * v + i] = e;
+                  }
+              }
+            eup = 0;
+            for (size_t i = 0; i < n3 * n3; i++)
+              eup = fmax(eup, fabs(Ku[i] - Kref[i]));
+            eup = shape ? eup / kscale : INFINITY;
+          }
+          if (!(eup <= tol)) {
+            printf("%s: upper triangle: rc %d (%s), entries vs reference %.3g > %g\nFAIL\n", label,
+                   rc, rc ? ek_last_error() : "", eup, tol);
+            failures++;
+          }
+          worst_up[prec == 64] = fmax(worst_up[prec == 64], eup);
+          free(uv);
           if (projs[proj] != EK_PROJECT_NONE) {
             double me = min_eig_rel((int)n3, K);
             if (!(me >= -tol)) {
@@ -404,7 +445,12 @@ static void check_assembly(const test_model *tm, const test_mesh *t, const setup
          "%.3g f64 %.3g; asymmetric entries %d; projected min eig / max %.3g: %s\n",
          tm->name, cases, worst_ref[0], worst_ref[1], worst_kp[0], worst_kp[1], asym, worst_eig,
          asym ? "FAIL" : "PASS");
+  printf("%-17s upper block triangle (%d cases): entries vs ref f32 %.3g (/ budget %.3g) f64 "
+         "%.3g (/ budget %.3g)\n",
+         tm->name, cases, worst_up[0], worst_up[0] / EK_HESSIAN_TOL_F32, worst_up[1],
+         worst_up[1] / EK_HESSIAN_TOL_F64);
   failures += asym != 0;
+  free(Ku);
   free(K);
   free(Kref);
   free(Ks);
@@ -464,7 +510,7 @@ static void check_threads(ek_rng *rng) {
       cases++;
     }
   // The assembled matrix (f64 and f32 element kernels, both slot orders).
-  int asame = 1;
+  int asame = 1, usame = 1;
   for (int oi = 0; oi < 2; oi++)
     for (int prec = 32; prec <= 64; prec += 32) {
       double *v[2] = {NULL, NULL};
@@ -487,7 +533,32 @@ static void check_threads(ek_rng *rng) {
       asame &= v[0] && v[1] && memcmp(v[0], v[1], nnz * sizeof(double)) == 0;
       free(v[0]);
       free(v[1]);
+      // The upper block triangle, in the cache's precision.
+      void *u[2] = {NULL, NULL};
+      size_t ub = 0;
+      for (int r = 0; r < 2; r++) {
+        omp_set_num_threads(r + 1);
+        ek_fvm_hessian_opts o = {.scatter = oi ? EK_SCATTER_COLORED : EK_SCATTER_AUTO,
+                                 .precision = prec};
+        ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[0], &o);
+        ek_bsr_pattern up;
+        ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], NULL, 1);
+        if (ek_fvm_hessian_pattern_upper(h, &up) == 0) {
+          ub = 9 * up.nblocks * (prec == 32 ? 4 : 8);
+          u[r] = malloc(ub);
+          if ((prec == 32 ? ek_fvm_hessian_assemble_upper_f32(h, u[r])
+                          : ek_fvm_hessian_assemble_upper_f64(h, u[r])) != 0)
+            usame = 0;
+        }
+        ek_fvm_hessian_destroy(h);
+      }
+      usame &= u[0] && u[1] && memcmp(u[0], u[1], ub) == 0;
+      free(u[0]);
+      free(u[1]);
     }
+  printf("1 and 2 threads: same bits for the upper block triangle (f32, f64; both orders): %s\n",
+         usame ? "PASS" : "FAIL");
+  failures += !usame;
   printf("1 and 2 threads: same bits for the assembled K (f32, f64 elements; both orders): %s\n",
          asame ? "PASS" : "FAIL");
   failures += !asame;

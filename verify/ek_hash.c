@@ -766,6 +766,21 @@ static void hash_hessian(int s, const ek_material *m, ek_projection pr, ek_scatt
                : 0;
   out(rc, hh, base, "assembled");
   free(K);
+  // K's upper block triangle (ek_fvm_hessian_assemble_upper_*): pattern and
+  // values in the cache's precision.
+  ek_bsr_pattern up;
+  rc = ek_fvm_hessian_pattern_upper(h, &up);
+  const size_t ub = rc == 0 ? 9 * up.nblocks * (prec32 ? 4 : 8) : 0;
+  void *U = rc == 0 ? malloc(ub ? ub : 1) : NULL;
+  if (rc == 0)
+    rc = !U       ? EK_ENOMEM
+         : prec32 ? ek_fvm_hessian_assemble_upper_f32(h, U)
+                  : ek_fvm_hessian_assemble_upper_f64(h, U);
+  hh = rc == 0
+           ? fnv(fnv(fnv(FNV_OFFSET, up.bptr, (up.nbrows + 1) * 4), up.bcol, up.nblocks * 4), U, ub)
+           : 0;
+  out(rc, hh, base, "assembled_upper");
+  free(U);
   ek_fvm_hessian_destroy(h);
 }
 

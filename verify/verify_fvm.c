@@ -15,6 +15,8 @@
 //     projection against the plain dense assembly of the reference's
 //     element Hessians: max entry error / max entry scale (the sum of the
 //     contributions' absolute values).
+//   hessian_assembly_upper rows: the same for K's upper block triangle in
+//     the cache's precision (ek_fvm_hessian_assemble_upper_*), mirrored.
 #include <ek/ek.h>
 #include <ek/sim/sim.h>
 #include <math.h>
@@ -142,9 +144,10 @@ static int hessian(fvm_case *c, const ek_material *m, ek_isa isa, int f32, ek_pr
   return rc;
 }
 
-// max |K - Kref| / max Kscale of the assembled K with projection pr.
+// max |K - Kref| / max Kscale of the assembled K with projection pr: the
+// scalar CSR, or (upper) the upper block triangle mirrored.
 static double assembly_error(fvm_case *c, const ek_material *m, const ek_material_ref *mr,
-                             ek_isa isa, int f32, ek_projection pr, long *bad) {
+                             ek_isa isa, int f32, ek_projection pr, int upper, long *bad) {
   const size_t n3 = 3 * c->nv;
   ek_fvm_hessian_opts o = {.isa = isa, .precision = f32 ? 32 : 64, .projection = pr};
   ek_fvm_hessian *h = ek_fvm_hessian_create(ek_mesh_elements(c->mesh), m, &o);
@@ -152,13 +155,21 @@ static double assembly_error(fvm_case *c, const ek_material *m, const ek_materia
          *Ks = ek_check_malloc(n3 * n3 * sizeof(double));
   double err = INFINITY;
   ek_csr_pattern pat;
+  ek_bsr_pattern up;
   const ek_tet_state *R = ek_model_need(m->model, 0) == EK_NEEDS_R_INPUT ? c->R_state : NULL;
   int rc = h ? ek_fvm_hessian_gradient_f64(h, c->x, R, c->out, NULL, 1) : -1;
   if (rc == 0)
-    rc = ek_fvm_hessian_pattern(h, &pat);
-  double *v = rc == 0 ? ek_check_malloc(pat.nnz * sizeof(double)) : NULL;
-  if (rc == 0)
+    rc = upper ? ek_fvm_hessian_pattern_upper(h, &up) : ek_fvm_hessian_pattern(h, &pat);
+  const size_t nv = rc ? 0 : upper ? 9 * up.nblocks : pat.nnz;
+  double *v = rc == 0 ? ek_check_malloc((nv ? nv : 1) * sizeof(double)) : NULL;
+  float *vf = rc == 0 && upper && f32 ? ek_check_malloc((nv ? nv : 1) * sizeof(float)) : NULL;
+  if (rc == 0 && !upper)
     rc = ek_fvm_hessian_assemble(h, v);
+  else if (rc == 0 && f32) {
+    rc = ek_fvm_hessian_assemble_upper_f32(h, vf);
+    ek_check_from_f32(nv, vf, v);
+  } else if (rc == 0)
+    rc = ek_fvm_hessian_assemble_upper_f64(h, v);
   if (rc == 0) {
     ek_fvm_hessian_assemble_ref(c->nv, c->X, c->nt, c->T, mr, c->R, c->x,
                                 pr == EK_PROJECT_NONE    ? 0
@@ -166,9 +177,20 @@ static double assembly_error(fvm_case *c, const ek_material *m, const ek_materia
                                                          : 2,
                                 K, Ks);
     double e = 0, s = 0;
-    for (size_t r = 0; r < n3; r++)
-      for (int32_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1]; k++)
-        K[r * n3 + (size_t)pat.col[k]] -= v[k];
+    if (upper)
+      for (size_t b = 0; b < c->nv; b++)
+        for (int32_t q = up.bptr[b]; q < up.bptr[b + 1]; q++)
+          for (size_t i = 0; i < 3; i++)
+            for (size_t j = 0; j < 3; j++) {
+              const size_t w = (size_t)up.bcol[q], r = 3 * b + i, col = 3 * w + j;
+              K[r * n3 + col] -= v[9 * (size_t)q + 3 * i + j];
+              if (w != b)
+                K[col * n3 + r] -= v[9 * (size_t)q + 3 * i + j];
+            }
+    else
+      for (size_t r = 0; r < n3; r++)
+        for (int32_t k = pat.row_ptr[r]; k < pat.row_ptr[r + 1]; k++)
+          K[r * n3 + (size_t)pat.col[k]] -= v[k];
     for (size_t i = 0; i < n3 * n3; i++) {
       e = fmax(e, fabs(K[i]));
       s = fmax(s, Ks[i]);
@@ -176,6 +198,7 @@ static double assembly_error(fvm_case *c, const ek_material *m, const ek_materia
     err = s > 0 ? e / s : e;
   }
   *bad += rc != 0 || !isfinite(err);
+  free(vf);
   free(v);
   free(K);
   free(Ks);
@@ -270,15 +293,17 @@ int verify_fvm(ek_verify_ctx *ctx) {
             hr.budget = tol;
             ek_verify_emit(ctx, &hr);
           }
-          ek_verify_row ar = {.kernel = "hessian_assembly"};
-          snprintf(ar.variant, sizeof ar.variant, "%s", fr.variant);
-          snprintf(ar.inputs, sizeof ar.inputs, "mesh %zu tets", c.nt);
-          if (ek_verify_selected(ctx, ar.kernel, ar.variant, ar.inputs)) {
+          for (int upper = 0; upper < 2; upper++) {
+            ek_verify_row ar = {.kernel = upper ? "hessian_assembly_upper" : "hessian_assembly"};
+            snprintf(ar.variant, sizeof ar.variant, "%s", fr.variant);
+            snprintf(ar.inputs, sizeof ar.inputs, "mesh %zu tets", c.nt);
+            if (!ek_verify_selected(ctx, ar.kernel, ar.variant, ar.inputs))
+              continue;
             static const char *const kmetric[3] = {"K_none", "K_clamp", "K_abs"};
             for (int k = 0; k < 3; k++) {
               ar.metric[k] = kmetric[k];
-              ar.value[k] =
-                  assembly_error(&c, &m, &mr, (ek_isa)isa, f32, projections[k], &ar.nonfinite);
+              ar.value[k] = assembly_error(&c, &m, &mr, (ek_isa)isa, f32, projections[k], upper,
+                                           &ar.nonfinite);
               ar.worst = fmax(ar.worst, ar.value[k]);
             }
             ar.nmetrics = 3;

@@ -134,6 +134,33 @@ int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *pattern);
 // contributions).
 int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values);
 
+// ---- The assembled Hessian, upper block triangle ----
+// K's blocks (v, w) with w >= v only (K is symmetric: block (w, v) is
+// block (v, w)^T), each 3x3 block's 9 values contiguous and row-major
+// (value 3 i + m: row 3 v + i, column 3 w + m), in the cache's precision:
+// the layout of a block symmetric matrix (PETSc's SBAIJ with bs = 3, whose
+// MatSetValuesBlocked takes row-oriented blocks by default). Per block row
+// v (one per vertex), its blocks bptr[v] .. bptr[v + 1] - 1, the diagonal
+// first, columns ascending. Owned by the Hessian (alive until destroy),
+// built with ek_fvm_hessian_pattern's.
+typedef struct {
+  size_t nbrows, nblocks;
+  const int32_t *bptr, *bcol;
+} ek_bsr_pattern;
+int ek_fvm_hessian_pattern_upper(ek_fvm_hessian *h, ek_bsr_pattern *pattern);
+
+// values (9 nblocks, the upper pattern's order) = K's upper block
+// triangle at the x of the last caching gradient pass: the element
+// Hessians of ek_fvm_hessian_assemble (the same kernel and bits), summed
+// per value in the cache's precision (float for f32: half the bytes of
+// the double CSR) in the mesh's slot order from 0: the same bits for any
+// thread count, not ek_fvm_hessian_assemble's (its sums are in double).
+// The function of the cache's precision (opts.precision). Error budgets
+// against the double reference as EK_HESSIAN_TOL_* (entry-wise, scaled by
+// the sum of the absolute contributions).
+int ek_fvm_hessian_assemble_upper_f32(ek_fvm_hessian *h, float *values);
+int ek_fvm_hessian_assemble_upper_f64(ek_fvm_hessian *h, double *values);
+
 // The cache's size in bytes and planes per tet (20 for the isotropic
 // models' eigensystem, 9 for corotated linear's R, 0 for linear).
 size_t ek_fvm_hessian_cache_bytes(const ek_fvm_hessian *h);

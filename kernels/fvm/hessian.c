@@ -130,13 +130,19 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
 // (the Morton order keeps those few). Why this order (docs/perf.md,
 // "Hessian assembly"): the old gather per nonzero read a 58 MB element
 // buffer at random, ~70% of its time.
-int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
-  int rc = check_cached(h, "ek_fvm_hessian_assemble", values, values);
+// values (the scalar CSR, double) or uvalues (the upper block triangle in
+// this precision: no mirror copy, ek_fvm_hessian_assemble_upper_*).
+static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
+  int rc = check_cached(h, uvalues ? "ek_fvm_hessian_assemble_upper" : "ek_fvm_hessian_assemble",
+                        uvalues ? (const void *)uvalues : (const void *)values,
+                        uvalues ? (const void *)uvalues : (const void *)values);
   if (rc < 0)
     return rc;
-  hess_args a = args_for(h, HESS_ELEMENT);
-  a.cache = h->cache;
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
+  // The upper triangle's element Hessians from the frame's rank-one
+  // columns (HESS_ELEMENT_R1, isotropic models); the CSR's keep theirs.
+  hess_args a = args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT);
+  a.cache = h->cache;
   // The groups' element Hessians, 72 KB per thread, on the heap (not on a
   // caller's thread stack, which may be small), one block for the team.
   const size_t group = (size_t)HESS_GROUP * EK_LANES * 144;
@@ -150,6 +156,7 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
     real *buf = bufs + (size_t)omp_get_thread_num() * group;
     hess_args la = a;
     la.values = values;
+    la.uvalues = uvalues;
     la.asm_h = h;
     const int team = omp_get_num_threads();
     for (int t = omp_get_thread_num(); t < nt; t += team)
@@ -168,31 +175,45 @@ int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
         la.corner = buf;
         h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
       }
+    if (!uvalues) {
       // The blocks below the diagonal, (v, w) with w < v: the transpose of
       // (w, v), whose sum has the same contributions (each element block
       // (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
       // slot order, so the copy has the bits that summing would give.
 #pragma omp barrier
-    const ek_tets *el = h->el;
-    for (int t = omp_get_thread_num(); t < nt; t += team)
-      for (size_t v = 0; v < el->nverts; v++) {
-        if (h->row_own[v] != t)
-          continue;
-        const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
-        double *row = values + 9 * (size_t)b0;
-        for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
-          const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
-          const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
-          double *dst = row + 3 * (size_t)(q - b0);
-          for (int i = 0; i < 3; i++)
-            for (int m = 0; m < 3; m++)
-              dst[(size_t)i * 3 * (size_t)nb + (size_t)m] =
-                  src[(size_t)m * 3 * (size_t)nw + (size_t)i];
+      const ek_tets *el = h->el;
+      for (int t = omp_get_thread_num(); t < nt; t += team)
+        for (size_t v = 0; v < el->nverts; v++) {
+          if (h->row_own[v] != t)
+            continue;
+          const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+          double *row = values + 9 * (size_t)b0;
+          for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
+            const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
+            const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
+            double *dst = row + 3 * (size_t)(q - b0);
+            for (int i = 0; i < 3; i++)
+              for (int m = 0; m < 3; m++)
+                dst[(size_t)i * 3 * (size_t)nb + (size_t)m] =
+                    src[(size_t)m * 3 * (size_t)nw + (size_t)i];
+          }
         }
-      }
+    }
   }
   ek_free(bufs);
   return EK_OK;
+}
+
+int EK_P(fvm_hessian_assemble)(const ek_fvm_hessian *h, double *values) {
+  return assemble(h, values, NULL);
+}
+
+// The upper block triangle (ek_fvm_hessian_assemble_upper_*): the same
+// element Hessians and runs, each run summed in this precision into its
+// block's 9 contiguous values (hessian_sum with uvalues); no lower blocks,
+// so no mirror copy and no barrier.
+int EK_P(fvm_hessian_assemble_upper_run)(const ek_fvm_hessian *h, real *values) {
+  return assemble(h, NULL, values);
 }
 
 #if defined(EK_REAL_F64)

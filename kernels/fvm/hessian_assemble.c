@@ -36,6 +36,8 @@ static void plan_free(ek_fvm_hessian *h) {
   free(h->kcon);
   free(h->runs);
   free(h->run_e);
+  free(h->run_up);
+  h->run_up = NULL;
   h->slot_own = NULL;
   h->tptr = h->tblk = h->tgrp = h->krun = h->kcon = NULL;
   h->runs = NULL;
@@ -55,6 +57,10 @@ void ek_hessian_assembly_free(ek_fvm_hessian *h) {
   free(h->slot_lower);
   free(h->mirror);
   free(h->isolated);
+  free(h->ubptr);
+  free(h->ubcol);
+  free(h->udiag);
+  h->ubptr = h->ubcol = h->udiag = NULL;
   h->bptr = h->bcol = h->row_ptr = h->col = h->slot_p = h->slot_rs = h->mirror = h->isolated = NULL;
   h->slot_first = h->slot_lower = NULL;
 }
@@ -210,6 +216,37 @@ static int build_pattern(ek_fvm_hessian *h) {
     }
   }
   h->row_ptr[3 * nv] = (int32_t)(9 * nblocks);
+  // The upper block triangle: row v's blocks from its diagonal on (the
+  // pattern holds every diagonal block).
+  h->ubptr = malloc((nv + 1) * sizeof(int32_t));
+  h->udiag = malloc((nv + 1) * sizeof(int32_t));
+  size_t nu = 0;
+  for (size_t v = 0; v < nv; v++) {
+    int32_t q = h->bptr[v];
+    while (h->bcol[q] < (int32_t)v)
+      q++;
+    nu += (size_t)(h->bptr[v + 1] - q);
+  }
+  h->ubcol = malloc((nu + 1) * sizeof(int32_t));
+  if (!h->ubptr || !h->udiag || !h->ubcol) {
+    ek_hessian_assembly_free(h);
+    free(rstart);
+    free(e);
+    ek_set_error("%s: out of memory for the pattern of %zu vertices", fn, nv);
+    return EK_ENOMEM;
+  }
+  nu = 0;
+  for (size_t v = 0; v < nv; v++) {
+    int32_t q = h->bptr[v];
+    while (h->bcol[q] < (int32_t)v)
+      q++;
+    h->udiag[v] = q;
+    h->ubptr[v] = (int32_t)nu;
+    for (; q < h->bptr[v + 1]; q++)
+      h->ubcol[nu++] = h->bcol[q];
+  }
+  h->ubptr[nv] = (int32_t)nu;
+  h->nublocks = nu;
   free(rstart);
   free(e);
   return EK_OK;
@@ -290,8 +327,9 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   h->kcon = malloc((ng + 1) * sizeof(int32_t));
   h->runs = malloc((ncon + 1) * sizeof(ek_hess_run));
   h->run_e = malloc((ncon + 1) * sizeof(uint16_t));
+  h->run_up = malloc((ncon + 1) * sizeof(int32_t));
   run_entry *ent = malloc(HESS_GROUP * lanes * 16 * sizeof *ent);
-  if (!h->krun || !h->kcon || !h->runs || !h->run_e || !ent || ncon > INT32_MAX) {
+  if (!h->krun || !h->kcon || !h->runs || !h->run_e || !h->run_up || !ent || ncon > INT32_MAX) {
     free(ent);
     return EK_ENOMEM;
   }
@@ -311,9 +349,15 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
         const size_t j = ent[i].l / lanes, l = ent[i].l % lanes;
         const size_t s = (size_t)h->tblk[k0 + (int32_t)j] * lanes + l;
         const int dc = ent[i].dc;
-        if (i == 0 || ent[i].p != ent[i - 1].p)
+        if (i == 0 || ent[i].p != ent[i - 1].p) {
+          // The block's row v (corner dc >> 2's vertex) and its index q in
+          // the block pattern; in the upper triangle: ubptr[v] + q - udiag[v].
+          const int32_t v = h->el->tets[4 * (size_t)slot_tet[s] + (size_t)(dc >> 2)];
+          const int32_t q = h->bptr[v] + (ent[i].p - 9 * h->bptr[v]) / 3;
+          h->run_up[nr] = 9 * (h->ubptr[v] + q - h->udiag[v]);
           h->runs[nr++] = (ek_hess_run){ent[i].p, h->slot_rs[4 * s + (size_t)(dc >> 2)], 0,
                                         (uint16_t)(h->slot_first[s] >> dc & 1)};
+        }
         h->runs[nr - 1].n++;
         h->run_e[nc++] = (uint16_t)((144 * j + (size_t)dc * 9) * lanes + l);
       }
@@ -410,8 +454,8 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
   return EK_OK;
 }
 
-int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
-  static const char *fn = "ek_fvm_hessian_assemble";
+// The pattern and the plan for the threads a parallel region would get.
+static int prepare(ek_fvm_hessian *h, const void *values, const char *fn) {
   if (!h || !values) {
     ek_set_error("%s: NULL argument", fn);
     return EK_EINVAL;
@@ -431,8 +475,15 @@ int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
     if (rc < 0)
       return rc;
   }
-  int rc = h->precision == 32 ? ek_fvm_hessian_assemble_f32(h, values)
-                              : ek_fvm_hessian_assemble_f64(h, values);
+  return EK_OK;
+}
+
+int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
+  int rc = prepare(h, values, "ek_fvm_hessian_assemble");
+  if (rc < 0)
+    return rc;
+  rc = h->precision == 32 ? ek_fvm_hessian_assemble_f32(h, values)
+                          : ek_fvm_hessian_assemble_f64(h, values);
   if (rc < 0)
     return rc;
   // A vertex in no tet: its diagonal block (the pattern holds it) is 0.
@@ -442,5 +493,51 @@ int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values) {
       for (int m = 0; m < 3; m++)
         values[9 * h->bptr[v] + r * 3 * nb + m] = 0;
   }
+  return EK_OK;
+}
+
+int ek_fvm_hessian_pattern_upper(ek_fvm_hessian *h, ek_bsr_pattern *p) {
+  if (!h || !p) {
+    ek_set_error("ek_fvm_hessian_pattern_upper: NULL argument");
+    return EK_EINVAL;
+  }
+  if (!h->bptr) {
+    int rc = build_pattern(h);
+    if (rc < 0)
+      return rc;
+  }
+  p->nbrows = h->el->nverts;
+  p->nblocks = h->nublocks;
+  p->bptr = h->ubptr;
+  p->bcol = h->ubcol;
+  return EK_OK;
+}
+
+// A vertex in no tet: its diagonal block (the pattern holds it, the first
+// of its row) is 0; f or d, the values of the cache's precision.
+static void zero_isolated_upper(const ek_fvm_hessian *h, float *f, double *d) {
+  for (size_t i = 0; i < h->nisolated; i++)
+    for (size_t m = 0; m < 9; m++) {
+      const size_t k = 9 * (size_t)h->ubptr[h->isolated[i]] + m;
+      if (f)
+        f[k] = 0;
+      else
+        d[k] = 0;
+    }
+}
+
+int ek_fvm_hessian_assemble_upper_f32(ek_fvm_hessian *h, float *values) {
+  int rc = prepare(h, values, "ek_fvm_hessian_assemble_upper_f32");
+  if (rc < 0 || (rc = ek_fvm_hessian_assemble_upper_run_f32(h, values)) < 0)
+    return rc;
+  zero_isolated_upper(h, values, NULL);
+  return EK_OK;
+}
+
+int ek_fvm_hessian_assemble_upper_f64(ek_fvm_hessian *h, double *values) {
+  int rc = prepare(h, values, "ek_fvm_hessian_assemble_upper_f64");
+  if (rc < 0 || (rc = ek_fvm_hessian_assemble_upper_run_f64(h, values)) < 0)
+    return rc;
+  zero_isolated_upper(h, NULL, values);
   return EK_OK;
 }

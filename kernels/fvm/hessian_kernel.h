@@ -18,6 +18,9 @@
 //     as 144 planes per block from b0: corner[((b - b0) * 144 + (d * 4 +
 //     c) * 9 + i * 3 + k) * LANES + l], rows (d, i), columns (c, k); out is
 //     not used;
+//   HESS_ELEMENT_R1 (isotropic models, the frame kernel only): HESS_ELEMENT's
+//     matrices and layout from the frame's rank-one columns (hessian_block.c,
+//     frame_element_r1_blocks; other bits: the upper-triangle assembly's);
 //   hessian_sum (its own table entry, after HESS_ELEMENT on each block of
 //     a group): the element Hessians in corner added into values through
 //     the runs of asm_h's plan group asm_k (hessian.c,
@@ -40,7 +43,7 @@
 
 #include "../kernels.h"
 
-enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
+enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT, HESS_ELEMENT_R1 };
 #define HESS_FRAME_PLANES 20
 
 #define EK_HESS_ARGS(T, NAME)                                                                      \
@@ -66,6 +69,8 @@ enum { HESS_GRADIENT = 0, HESS_APPLY, HESS_DIAG, HESS_ELEMENT };
     T *corner;                                                                                     \
     /* assembly (hessian_sum): K's values, the map and plan, the thread */                         \
     double *values;                                                                                \
+    /* the upper-triangle assembly: K's upper blocks in this precision */                          \
+    T *uvalues;                                                                                    \
     const struct ek_fvm_hessian *asm_h;                                                            \
     int asm_k; /* the plan group (hessian_kernel.h, tgrp) */                                       \
   }
@@ -117,6 +122,12 @@ struct ek_fvm_hessian {
   int32_t *bptr, *bcol, *row_ptr, *col, *slot_p, *slot_rs, *mirror, *isolated;
   uint16_t *slot_first, *slot_lower;
   size_t nblocks, nisolated;
+  // The upper block triangle (ek_fvm_hessian_pattern_upper): per vertex row
+  // the blocks (v, w), w >= v, ascending (ubptr nverts + 1, ubcol); udiag:
+  // the index of row v's diagonal block in bcol (its upper blocks are
+  // bcol[udiag[v] .. bptr[v + 1]), upper block ubptr[v] + q - udiag[v]).
+  int32_t *ubptr, *ubcol, *udiag;
+  size_t nublocks;
   // The threads' plan for plan_threads threads: vertex rows owned per
   // thread (slot_own, 4 per slot: the owner of corner d's row, 0xff
   // padding), and per thread t the slot blocks touching its rows,
@@ -135,6 +146,10 @@ struct ek_fvm_hessian {
   int32_t *krun, *kcon;
   ek_hess_run *runs;
   uint16_t *run_e;
+  // Per run: its K block's offset 9 u in the upper triangle's values
+  // (block u of ek_fvm_hessian_pattern_upper; the run's p and rs are the
+  // scalar CSR's).
+  int32_t *run_up;
 };
 
 void ek_hessian_assembly_free(ek_fvm_hessian *h);
@@ -146,5 +161,9 @@ int ek_fvm_hessian_diag_f64(const ek_fvm_hessian *h, double *blocks);
 // through the map and plan above (hessian.c, per precision).
 int ek_fvm_hessian_assemble_f32(const ek_fvm_hessian *h, double *values);
 int ek_fvm_hessian_assemble_f64(const ek_fvm_hessian *h, double *values);
+// The upper block triangle in the cache's precision (hessian.c, per
+// precision; ek_fvm_hessian_assemble_upper_f32/f64 check and call them).
+int ek_fvm_hessian_assemble_upper_run_f32(const ek_fvm_hessian *h, float *values);
+int ek_fvm_hessian_assemble_upper_run_f64(const ek_fvm_hessian *h, double *values);
 
 #endif
