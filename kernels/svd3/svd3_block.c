@@ -167,6 +167,18 @@ EK_INLINE void svd3_any(int il, size_t count, const real *A, real *U, real *S, r
     svd3_blocks(il, count, A, U, S, V, sweeps, refine, exact, polar);
 }
 
+// The wide copies (SVD3_IL_WIDE vectors in flight) in a function of their
+// own, so that the compiler's choices in them (register allocation, loop
+// structure: svd3_core_n keeps the wide Jacobi and one-sided sweeps as
+// loops over the vectors) leave the 2-vector copies' code as it was.
+__attribute__((noinline)) static void svd3_any_wide(size_t count, const real *A, real *U, real *S,
+                                                    real *V, const ek_svd3_knobs *k) {
+  if (k->polar)
+    svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos, k->nt);
+  else
+    svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos, k->nt);
+}
+
 void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
                         const ek_svd3_knobs *k) {
   ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
@@ -174,10 +186,7 @@ void EK_SYM(svd3_block)(size_t count, const real *A, real *U, real *S, real *V,
   // both precisions): each copy inlines whole SVDs, and the exact one is an
   // accuracy knob whose time matters less.
   if (k->chains == SVD3_IL_WIDE && !k->exact_rsqrt) {
-    if (k->polar)
-      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 1, k->aos, k->nt);
-    else
-      svd3_any(SVD3_IL_WIDE, count, A, U, S, V, k->sweeps, k->refine, 0, 0, k->aos, k->nt);
+    svd3_any_wide(count, A, U, S, V, k);
   } else if (k->polar) {
     if (k->exact_rsqrt)
       svd3_any(SVD3_IL, count, A, U, S, V, k->sweeps, k->refine, 1, 1, k->aos, k->nt);
