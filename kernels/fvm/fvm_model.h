@@ -23,7 +23,7 @@
 EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args *a, size_t b0,
                           size_t b1) {
   _Alignas(64) real Rb[GROUP_BLOCKS_MAX][9 * L];
-  _Alignas(64) real hb[GROUP_BLOCKS_MAX][12 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS_MAX][16 * L]; // corner_forces' rows of 4 or planes
   const ek_material_lanes mp =
       material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   const int gb = nc == 4 ? GROUP_BLOCKS_WIDE : GROUP_BLOCKS;
@@ -84,9 +84,7 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
       }
       for (int j = 0; j < nv; j++) {
         const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
-        const size_t bg = b + (size_t)g;
-        corner_forces(P[j], a->dm_inv + bg * 9 * L, a->v0 + bg * L, o,
-                      a->corner ? a->corner + bg * 12 * L : hb[g]);
+        corner_forces(a, P[j], b + (size_t)g, o, hb[g]);
       }
     }
     if (warm && !a->R_direct)

@@ -80,18 +80,54 @@ static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, i
   }
 }
 
-// tet_scatter_block's adds into rows of 4 (3 components and a pad the
-// sums leave alone but for adding 0: out is a thread buffer of nverts x 4,
-// scatter.c), through vscatter_add_rows4 where the target has it.
-static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real *hb, real *out) {
-#if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
-  for (int o = 0; o < EK_LANES; o += EK_W) {
-    vreal h[12];
-    for (int k = 0; k < 12; k++)
-      h[k] = vload(hb + k * EK_LANES + o);
-    vscatter_add_rows4(out, idx_block + o, EK_LANES, h);
+// The force's rows of 4 (the thread buffers' padded rows, scatter.c) where
+// the target has them (vstore_rows4, vadd_row4: kernels/simd/avx512.h):
+// tet_corner_values' values, the same operations, stored as rows of 4
+// (lane l's row of corner c at rows + 16 o + vrow4_at(l, c); 16 L reals
+// per block, 64-byte aligned) right where they are made, so the scatter
+// adds rows from memory with no transpose of its own.
+#if defined(EK_HAVE_VROWS4)
+EK_INLINE void tet_corner_rows4(const vreal P[9], const real *dmi_block, vreal s, int o,
+                                real *rows) {
+  vreal Dmi[9], h[12];
+  for (int k = 0; k < 9; k++)
+    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  for (int i = 0; i < 3; i++) {
+    for (int c = 0; c < 3; c++) {
+      vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
+      t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
+      t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
+      h[(c + 1) * 3 + i] = vmul(s, t);
+    }
+    h[i] = vneg(vadd(vadd(h[3 + i], h[6 + i]), h[9 + i]));
   }
+  vstore_rows4(rows + o * 16, h);
+}
+
+// tet_scatter_block's adds (lane order, corners inner, o's NaN first) of a
+// block's rows of 4 (tet_corner_rows4 of each of its vectors) into out
+// (nverts x 4, a thread buffer).
+static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows, real *out) {
+  for (int o = 0; o < EK_LANES; o += EK_W) {
+#pragma GCC unroll 1
+    for (unsigned j = 0; j < EK_W; j += 4) {
+      const int32_t *ix = idx_block + o + j;
+      const real *r = rows + o * 16 + vrow4_at(j, 0);
+#pragma GCC unroll 4
+      for (unsigned q = 0; q < 4; q++) {
+        if (ix[q] < 0)
+          continue;
+#pragma GCC unroll 4
+        for (unsigned c = 0; c < 4; c++)
+          vadd_row4(out + (size_t)ix[c * EK_LANES + q] * 4, r + vrow4_at(q, c));
+      }
+    }
+  }
+}
 #else
+// tet_scatter_block's adds into rows of 4 (3 components and a pad the sums
+// leave alone), for a target without vstore_rows4.
+static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real *hb, real *out) {
   for (int l = 0; l < EK_LANES; l++) {
     if (idx_block[l] < 0)
       continue;
@@ -101,7 +137,7 @@ static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real 
         o[i] += hb[(c * 3 + i) * EK_LANES + l];
     }
   }
-#endif
 }
+#endif
 
 #endif
