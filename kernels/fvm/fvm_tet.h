@@ -16,21 +16,12 @@
 #define tet_points vgather_points
 #endif
 
-// Gather the 4 corners of the EK_W lanes at offset o of block b from the
-// points x (vgather_points, straight into registers) and form
-// D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
-// positions, dF for a displacement. Padding lanes (index -1) get `pad`
-// (the identity for F, zero for dF) so every model stays finite there.
-EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block, int o,
-                            real pad, vreal D[9]) {
-  const int32_t *idx = idx_block + o;
-  vreal x0[3], xc[3], Ds[9], Dmi[9];
-  vmask is_pad = tet_points(x, idx, x0);
-  for (int c = 0; c < 3; c++) {
-    tet_points(x, idx + (c + 1) * EK_LANES, xc);
-    for (int i = 0; i < 3; i++)
-      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
-  }
+// D = Ds Dm^-1 from Ds = [x1-x0, x2-x0, x3-x0] (row i, column c: Ds[3 i +
+// c]) and the block's Dm^-1 planes at offset o; lanes in is_pad get `pad`
+// on the diagonal and zero elsewhere.
+EK_INLINE void tet_ds_dm_inv(const vreal Ds[9], vmask is_pad, const real *dmi_block, int o,
+                             real pad, vreal D[9]) {
+  vreal Dmi[9];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dmi_block + k * EK_LANES + o);
   for (int i = 0; i < 3; i++)
@@ -40,6 +31,41 @@ EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real 
       s = vfma(Ds[i * 3 + 2], Dmi[2 * 3 + j], s);
       D[i * 3 + j] = vsel(is_pad, vset(i == j ? pad : 0), s);
     }
+}
+
+// Gather the 4 corners of the EK_W lanes at offset o of block b from the
+// points x (vgather_points, straight into registers) and form
+// D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
+// positions, dF for a displacement. Padding lanes (index -1) get `pad`
+// (the identity for F, zero for dF) so every model stays finite there.
+EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block, int o,
+                            real pad, vreal D[9]) {
+  const int32_t *idx = idx_block + o;
+  vreal x0[3], xc[3], Ds[9];
+  vmask is_pad = tet_points(x, idx, x0);
+  for (int c = 0; c < 3; c++) {
+    tet_points(x, idx + (c + 1) * EK_LANES, xc);
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
+  }
+  tet_ds_dm_inv(Ds, is_pad, dmi_block, o, pad, D);
+}
+
+// tet_gradient with the 4 corners' loads in one loop that is not unrolled
+// (one copy of tet_points' code instead of two; the same values): the FVM
+// force's (fvm_vec.h; the Hessian passes keep tet_gradient).
+EK_INLINE void tet_gradient_rolled(const real *x, const int32_t *idx_block, const real *dmi_block,
+                                   int o, real pad, vreal D[9]) {
+  const int32_t *idx = idx_block + o;
+  vreal p[4][3], Ds[9];
+  vmask m[4];
+#pragma GCC unroll 1
+  for (int c = 0; c < 4; c++)
+    m[c] = tet_points(x, idx + c * EK_LANES, p[c]);
+  for (int c = 0; c < 3; c++)
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(p[c + 1][i], p[0][i]);
+  tet_ds_dm_inv(Ds, m[0], dmi_block, o, pad, D);
 }
 
 // H = s P Dm^-T: H[i][c] = s sum_k P[i][k] Dm^-1[c][k], with s = -V0 for
@@ -106,7 +132,11 @@ EK_INLINE void tet_corner_rows4(const vreal P[9], const real *dmi_block, vreal s
 
 // tet_scatter_block's adds (lane order, corners inner, o's NaN first) of a
 // block's rows of 4 (tet_corner_rows4 of each of its vectors) into out
-// (nverts x 4, a thread buffer).
+// (nverts x 4, a thread buffer). Four lanes per turn of a loop that is not
+// unrolled (vrow4_at(j + q, c) = vrow4_at(j, 0) + vrow4_at(q, c) for j a
+// multiple of 4, q < 4, on every target): the fully unrolled 16 lanes
+// were 64 load-add-stores of code per vector beside the SVD's (the fixed
+// corotated force on Zen 5, docs/perf.md: smaller code was faster).
 static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows, real *out) {
   for (int o = 0; o < EK_LANES; o += EK_W) {
 #pragma GCC unroll 1
@@ -124,6 +154,7 @@ static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows,
     }
   }
 }
+
 #else
 // tet_scatter_block's adds into rows of 4 (3 components and a pad the sums
 // leave alone), for a target without vstore_rows4.
