@@ -157,8 +157,20 @@ static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows,
 
 #else
 // tet_scatter_block's adds into rows of 4 (3 components and a pad the sums
-// leave alone), for a target without vstore_rows4.
+// leave alone but for adding 0: out is a thread buffer of nverts x 4,
+// scatter.c) from the corner planes, through vscatter_add_rows4 where the
+// target has it (AVX2: the rows made from the planes in registers; rows
+// stored where the corner values are made, as AVX-512 does, were slower
+// there, docs/perf.md).
 static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real *hb, real *out) {
+#if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
+  for (int o = 0; o < EK_LANES; o += EK_W) {
+    vreal h[12];
+    for (int k = 0; k < 12; k++)
+      h[k] = vload(hb + k * EK_LANES + o);
+    vscatter_add_rows4(out, idx_block + o, EK_LANES, h);
+  }
+#else
   for (int l = 0; l < EK_LANES; l++) {
     if (idx_block[l] < 0)
       continue;
@@ -168,7 +180,7 @@ static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real 
         o[i] += hb[(c * 3 + i) * EK_LANES + l];
     }
   }
+#endif
 }
 #endif
-
 #endif

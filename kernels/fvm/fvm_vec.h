@@ -114,7 +114,11 @@ static inline void prefetch_planes(const fvm_args *a, size_t b) {
 // Steps 1-2 (gather, F = Ds Dm^-1) and 4-5 (H = -V0 P Dm^-T, scatter) are
 // fvm_tet.h's, shared with the Hessian kernels.
 static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
+#if defined(EK_TARGET_AVX512)
   tet_gradient_rolled(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
+#else
+  tet_gradient(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
+#endif
 }
 
 // The corner forces of the vector at o of block b: rows of 4 into hb

@@ -166,7 +166,7 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(zero, i)));
 }
 #endif
-// vload_points and the rows of 4 (avx512.h says why and how) on 8
+// vload_points and vscatter_add_rows4 (avx512.h says why and how) on 8
 // lanes, f32: rows[k] holds points k and 4 + k, the same 4x4 transposes
 // inside each 128-bit lane. The loads are vmaskmovps (12 bytes: no read
 // past the array); rows of 4 need no masked store, and the NaN rule of the
@@ -202,11 +202,10 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
   return _mm256_castsi256_ps(pad);
 }
-// Rows of 4 (avx512.h's vstore_rows4, vadd_row4): register rows[c][q]
-// holds lanes q and 4 + q.
-#define EK_HAVE_VROWS4
-static inline unsigned vrow4_at(unsigned l, unsigned c) { return (c * 4 + l % 4) * 8 + l / 4 * 4; }
-static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m256 rows[4][4];
   const __m256 zero = _mm256_setzero_ps();
 #pragma GCC unroll 4
   for (int c = 0; c < 4; c++) {
@@ -214,18 +213,28 @@ static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const
     __m256d t1 = _mm256_castps_pd(_mm256_unpackhi_ps(h[3 * c], h[3 * c + 1]));
     __m256d t2 = _mm256_castps_pd(_mm256_unpacklo_ps(h[3 * c + 2], zero));
     __m256d t3 = _mm256_castps_pd(_mm256_unpackhi_ps(h[3 * c + 2], zero));
-    real *r = rows + c * 4 * 8;
-    _mm256_store_ps(r, _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2)));
-    _mm256_store_ps(r + 8, _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2)));
-    _mm256_store_ps(r + 16, _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3)));
-    _mm256_store_ps(r + 24, _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3)));
+    rows[c][0] = _mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
+    rows[c][1] = _mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
+    rows[c][2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
+    rows[c][3] = _mm256_castpd_ps(_mm256_unpackhi_pd(t1, t3));
   }
-}
-static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
-  // o first (avx512.h's vadd_row4): vaddps returns o's NaN where o is NaN.
-  __m128 ov = _mm_loadu_ps(o), sum;
-  __asm__("vaddps %2, %1, %0" : "=x"(sum) : "x"(ov), "m"(*(const __m128 *)row));
-  _mm_storeu_ps(o, sum);
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m128 hv =
+          l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
+      __m128 ov = _mm_loadu_ps(o);
+      // o first (avx512.h's vadd_row4): vaddps returns o's NaN
+      // where o is NaN, as the compare and blend it replaces did.
+      __m128 sum;
+      __asm__("vaddps %2, %1, %0" : "=x"(sum) : "x"(ov), "x"(hv));
+      _mm_storeu_ps(o, sum);
+    }
+  }
 }
 #else
 // f64, 4 lanes: a point or a row of 4 doubles is one register (vmaskmovpd
@@ -249,9 +258,10 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   __m128i i = _mm_loadu_si128((const __m128i *)idx);
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(_mm_setzero_si128(), i)));
 }
-#define EK_HAVE_VROWS4
-static inline unsigned vrow4_at(unsigned l, unsigned c) { return (c * 4 + l) * 4; }
-static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+static inline __attribute__((always_inline)) void
+vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  __m256d rows[4][4];
   const __m256d zero = _mm256_setzero_pd();
 #pragma GCC unroll 4
   for (int c = 0; c < 4; c++) {
@@ -259,18 +269,25 @@ static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const
     __m256d t1 = _mm256_unpackhi_pd(h[3 * c], h[3 * c + 1]); // x1 y1 x3 y3
     __m256d t2 = _mm256_unpacklo_pd(h[3 * c + 2], zero);     // z0 0 z2 0
     __m256d t3 = _mm256_unpackhi_pd(h[3 * c + 2], zero);     // z1 0 z3 0
-    real *r = rows + c * 4 * 4;
-    _mm256_store_pd(r, _mm256_permute2f128_pd(t0, t2, 0x20));
-    _mm256_store_pd(r + 4, _mm256_permute2f128_pd(t1, t3, 0x20));
-    _mm256_store_pd(r + 8, _mm256_permute2f128_pd(t0, t2, 0x31));
-    _mm256_store_pd(r + 12, _mm256_permute2f128_pd(t1, t3, 0x31));
+    rows[c][0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    rows[c][1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    rows[c][2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    rows[c][3] = _mm256_permute2f128_pd(t1, t3, 0x31);
   }
-}
-static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
-  // o first, as in the f32 version above.
-  __m256d ov = _mm256_loadu_pd(o), sum;
-  __asm__("vaddpd %2, %1, %0" : "=x"(sum) : "x"(ov), "m"(*(const __m256d *)row));
-  _mm256_storeu_pd(o, sum);
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++) {
+      real *o = out + (size_t)idx[c * stride + l] * 4;
+      __m256d ov = _mm256_loadu_pd(o);
+      // o first, as in the f32 version above.
+      __m256d sum;
+      __asm__("vaddpd %2, %1, %0" : "=x"(sum) : "x"(ov), "x"(rows[c][l]));
+      _mm256_storeu_pd(o, sum);
+    }
+  }
 }
 #endif
 
