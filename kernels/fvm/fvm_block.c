@@ -10,15 +10,14 @@
 // Phase-split pass: H and scatter from a stored P (9 planes per block).
 void EK_SYM(fvm_P_block)(const fvm_args *a, size_t b0, size_t b1);
 void EK_SYM(fvm_P_block)(const fvm_args *a, size_t b0, size_t b1) {
-  _Alignas(64) real hb[12 * L];
+  _Alignas(64) real hb[16 * L];       // corner_forces' rows of 4 or planes
   ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
   for (size_t b = b0; b < b1; b++) {
     for (int o = 0; o < L; o += EK_W) {
       vreal P[9];
       for (int k = 0; k < 9; k++)
         P[k] = vload(a->P_in + (b * 9 + k) * L + o);
-      corner_forces(P, a->dm_inv + b * 9 * L, a->v0 + b * L, o,
-                    a->corner ? a->corner + b * 12 * L : hb);
+      corner_forces(a, P, b, o, hb);
     }
     if (!a->corner)
       scatter_block(a, b, hb);

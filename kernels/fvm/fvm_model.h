@@ -15,6 +15,13 @@
 #include "../polar/polar_warm_core.h"
 #include "fvm_vec.h"
 
+// The SVD models' corner forces right after each vector's P (fvm_blocks).
+#if defined(EK_TARGET_AVX512)
+#define FVM_FUSED_CORNERS 1
+#else
+#define FVM_FUSED_CORNERS 0
+#endif
+
 // Blocks [b0, b1), group by group: gather, F of every vector, P (through the SVD for
 // `sigma`, two vectors at a time; or through `warm` iterations of the warm
 // polar when warm > 0), corner forces, scatter.
@@ -23,7 +30,7 @@
 EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args *a, size_t b0,
                           size_t b1) {
   _Alignas(64) real Rb[GROUP_BLOCKS_MAX][9 * L];
-  _Alignas(64) real hb[GROUP_BLOCKS_MAX][12 * L];
+  _Alignas(64) real hb[GROUP_BLOCKS_MAX][16 * L]; // corner_forces' rows of 4 or planes
   const ek_material_lanes mp =
       material_lanes_make(a->mat->mu, a->mat->lambda, a->mat->clamp, a->svd);
   const int gb = nc == 4 ? GROUP_BLOCKS_WIDE : GROUP_BLOCKS;
@@ -69,8 +76,17 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
           EK_SYM(svd3_quad_est)(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine);
         else
           svd3_pair(nv, (const vreal(*)[9])F, U, S, V, mp.svd.sweeps, mp.svd.refine, exact);
-        for (int j = 0; j < nv; j++)
+        // AVX-512: P and the corner forces of one vector after the other
+        // (P stays in registers; the same operations per vector; fixed
+        // corotated f32 ~1% faster on Zen 5, equal or slower with AVX2:
+        // docs/perf.md).
+        for (int j = 0; j < nv; j++) {
           material_pk1_svd(&mp, U[j], S[j], V[j], P[j]);
+          if (FVM_FUSED_CORNERS) {
+            const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
+            corner_forces(a, P[j], b + (size_t)g, o, hb[g]);
+          }
+        }
       } else {
         // Step 3b: P in F (R read for corotated linear only).
         for (int j = 0; j < nv; j++) {
@@ -82,11 +98,9 @@ EK_INLINE void fvm_blocks(int sigma, int exact, int warm, int nc, const fvm_args
           material_pk1(&mp, F[j], R, P[j]);
         }
       }
-      for (int j = 0; j < nv; j++) {
+      for (int j = 0; j < nv && !(FVM_FUSED_CORNERS && sigma && !warm); j++) {
         const int g = (v0 + j) / EK_VPB, o = (v0 + j) % EK_VPB * EK_W;
-        const size_t bg = b + (size_t)g;
-        corner_forces(P[j], a->dm_inv + bg * 9 * L, a->v0 + bg * L, o,
-                      a->corner ? a->corner + bg * 12 * L : hb[g]);
+        corner_forces(a, P[j], b + (size_t)g, o, hb[g]);
       }
     }
     if (warm && !a->R_direct)

@@ -16,21 +16,12 @@
 #define tet_points vgather_points
 #endif
 
-// Gather the 4 corners of the EK_W lanes at offset o of block b from the
-// points x (vgather_points, straight into registers) and form
-// D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
-// positions, dF for a displacement. Padding lanes (index -1) get `pad`
-// (the identity for F, zero for dF) so every model stays finite there.
-EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block, int o,
-                            real pad, vreal D[9]) {
-  const int32_t *idx = idx_block + o;
-  vreal x0[3], xc[3], Ds[9], Dmi[9];
-  vmask is_pad = tet_points(x, idx, x0);
-  for (int c = 0; c < 3; c++) {
-    tet_points(x, idx + (c + 1) * EK_LANES, xc);
-    for (int i = 0; i < 3; i++)
-      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
-  }
+// D = Ds Dm^-1 from Ds = [x1-x0, x2-x0, x3-x0] (row i, column c: Ds[3 i +
+// c]) and the block's Dm^-1 planes at offset o; lanes in is_pad get `pad`
+// on the diagonal and zero elsewhere.
+EK_INLINE void tet_ds_dm_inv(const vreal Ds[9], vmask is_pad, const real *dmi_block, int o,
+                             real pad, vreal D[9]) {
+  vreal Dmi[9];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dmi_block + k * EK_LANES + o);
   for (int i = 0; i < 3; i++)
@@ -40,6 +31,41 @@ EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real 
       s = vfma(Ds[i * 3 + 2], Dmi[2 * 3 + j], s);
       D[i * 3 + j] = vsel(is_pad, vset(i == j ? pad : 0), s);
     }
+}
+
+// Gather the 4 corners of the EK_W lanes at offset o of block b from the
+// points x (vgather_points, straight into registers) and form
+// D = [x1-x0, x2-x0, x3-x0] Dm^-1 (Teran et al. 2003 sec. 4): F for
+// positions, dF for a displacement. Padding lanes (index -1) get `pad`
+// (the identity for F, zero for dF) so every model stays finite there.
+EK_INLINE void tet_gradient(const real *x, const int32_t *idx_block, const real *dmi_block, int o,
+                            real pad, vreal D[9]) {
+  const int32_t *idx = idx_block + o;
+  vreal x0[3], xc[3], Ds[9];
+  vmask is_pad = tet_points(x, idx, x0);
+  for (int c = 0; c < 3; c++) {
+    tet_points(x, idx + (c + 1) * EK_LANES, xc);
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(xc[i], x0[i]);
+  }
+  tet_ds_dm_inv(Ds, is_pad, dmi_block, o, pad, D);
+}
+
+// tet_gradient with the 4 corners' loads in one loop that is not unrolled
+// (one copy of tet_points' code instead of two; the same values): the FVM
+// force's (fvm_vec.h; the Hessian passes keep tet_gradient).
+EK_INLINE void tet_gradient_rolled(const real *x, const int32_t *idx_block, const real *dmi_block,
+                                   int o, real pad, vreal D[9]) {
+  const int32_t *idx = idx_block + o;
+  vreal p[4][3], Ds[9];
+  vmask m[4];
+#pragma GCC unroll 1
+  for (int c = 0; c < 4; c++)
+    m[c] = tet_points(x, idx + c * EK_LANES, p[c]);
+  for (int c = 0; c < 3; c++)
+    for (int i = 0; i < 3; i++)
+      Ds[i * 3 + c] = vsub(p[c + 1][i], p[0][i]);
+  tet_ds_dm_inv(Ds, m[0], dmi_block, o, pad, D);
 }
 
 // H = s P Dm^-T: H[i][c] = s sum_k P[i][k] Dm^-1[c][k], with s = -V0 for
@@ -80,9 +106,62 @@ static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, i
   }
 }
 
-// tet_scatter_block's adds into rows of 4 (3 components and a pad the
-// sums leave alone but for adding 0: out is a thread buffer of nverts x 4,
-// scatter.c), through vscatter_add_rows4 where the target has it.
+// The force's rows of 4 (the thread buffers' padded rows, scatter.c) where
+// the target has them (vstore_rows4, vadd_row4: kernels/simd/avx512.h):
+// tet_corner_values' values, the same operations, stored as rows of 4
+// (lane l's row of corner c at rows + 16 o + vrow4_at(l, c); 16 L reals
+// per block, 64-byte aligned) right where they are made, so the scatter
+// adds rows from memory with no transpose of its own.
+#if defined(EK_HAVE_VROWS4)
+EK_INLINE void tet_corner_rows4(const vreal P[9], const real *dmi_block, vreal s, int o,
+                                real *rows) {
+  vreal Dmi[9], h[12];
+  for (int k = 0; k < 9; k++)
+    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  for (int i = 0; i < 3; i++) {
+    for (int c = 0; c < 3; c++) {
+      vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
+      t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
+      t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
+      h[(c + 1) * 3 + i] = vmul(s, t);
+    }
+    h[i] = vneg(vadd(vadd(h[3 + i], h[6 + i]), h[9 + i]));
+  }
+  vstore_rows4(rows + o * 16, h);
+}
+
+// tet_scatter_block's adds (lane order, corners inner, o's NaN first) of a
+// block's rows of 4 (tet_corner_rows4 of each of its vectors) into out
+// (nverts x 4, a thread buffer). Four lanes per turn of a loop that is not
+// unrolled (vrow4_at(j + q, c) = vrow4_at(j, 0) + vrow4_at(q, c) for j a
+// multiple of 4, q < 4, on every target): the fully unrolled 16 lanes
+// were 64 load-add-stores of code per vector beside the SVD's (the fixed
+// corotated force on Zen 5, docs/perf.md: smaller code was faster).
+static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows, real *out) {
+  for (int o = 0; o < EK_LANES; o += EK_W) {
+#pragma GCC unroll 1
+    for (unsigned j = 0; j < EK_W; j += 4) {
+      const int32_t *ix = idx_block + o + j;
+      const real *r = rows + o * 16 + vrow4_at(j, 0);
+#pragma GCC unroll 4
+      for (unsigned q = 0; q < 4; q++) {
+        if (ix[q] < 0)
+          continue;
+#pragma GCC unroll 4
+        for (unsigned c = 0; c < 4; c++)
+          vadd_row4(out + (size_t)ix[c * EK_LANES + q] * 4, r + vrow4_at(q, c));
+      }
+    }
+  }
+}
+
+#else
+// tet_scatter_block's adds into rows of 4 (3 components and a pad the sums
+// leave alone but for adding 0: out is a thread buffer of nverts x 4,
+// scatter.c) from the corner planes, through vscatter_add_rows4 where the
+// target has it (AVX2: the rows made from the planes in registers; rows
+// stored where the corner values are made, as AVX-512 does, were slower
+// there, docs/perf.md).
 static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real *hb, real *out) {
 #if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
   for (int o = 0; o < EK_LANES; o += EK_W) {
@@ -103,5 +182,5 @@ static inline void tet_scatter_block_rows4(const int32_t *idx_block, const real 
   }
 #endif
 }
-
+#endif
 #endif

@@ -114,19 +114,40 @@ static inline void prefetch_planes(const fvm_args *a, size_t b) {
 // Steps 1-2 (gather, F = Ds Dm^-1) and 4-5 (H = -V0 P Dm^-T, scatter) are
 // fvm_tet.h's, shared with the Hessian kernels.
 static inline void deformation_gradient(const fvm_args *a, size_t b, int o, vreal F[9]) {
+#if defined(EK_TARGET_AVX512)
+  tet_gradient_rolled(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
+#else
   tet_gradient(a->x, a->idx + b * 4 * L, a->dm_inv + b * 9 * L, o, 1, F);
+#endif
 }
 
-static inline void corner_forces(const vreal P[9], const real *dm_inv, const real *v0, int o,
-                                 real *hb) {
-  tet_corner_values(P, dm_inv, vneg(vload(v0 + o)), o, hb);
+// The corner forces of the vector at o of block b: rows of 4 into hb
+// (16 L reals per block; tet_corner_rows4) for the padded thread buffers
+// (fstride 4, fvm.c), else planes into a->corner's block or hb (12 L).
+static inline void corner_forces(const fvm_args *a, const vreal P[9], size_t b, int o, real *hb) {
+  const real *dmi = a->dm_inv + b * 9 * L;
+  const vreal s = vneg(vload(a->v0 + b * L + o));
+#if defined(EK_HAVE_VROWS4)
+  if (a->fstride == 4 && !a->corner) {
+    tet_corner_rows4(P, dmi, s, o, hb);
+    return;
+  }
+#endif
+  tet_corner_values(P, dmi, s, o, a->corner ? a->corner + b * 12 * L : hb);
 }
 
+// Add block b's corner forces (corner_forces' hb) into a->f.
 static inline void scatter_block(const fvm_args *a, size_t b, const real *hb) {
+  const int32_t *idx = a->idx + b * 4 * L;
+#if defined(EK_HAVE_VROWS4)
   if (a->fstride == 4)
-    tet_scatter_block_rows4(a->idx + b * 4 * L, hb, a->f);
+    tet_scatter_rows4(idx, hb, a->f);
+#else
+  if (a->fstride == 4)
+    tet_scatter_block_rows4(idx, hb, a->f);
+#endif
   else
-    tet_scatter_block(a->idx + b * 4 * L, hb, 3, a->f);
+    tet_scatter_block(idx, hb, 3, a->f);
 }
 
 #endif

@@ -228,7 +228,7 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
       __m128 hv =
           l < 4 ? _mm256_castps256_ps128(rows[c][l % 4]) : _mm256_extractf128_ps(rows[c][l % 4], 1);
       __m128 ov = _mm_loadu_ps(o);
-      // o first (avx512.h's vscatter_add_rows4): vaddps returns o's NaN
+      // o first (avx512.h's vadd_row4): vaddps returns o's NaN
       // where o is NaN, as the compare and blend it replaces did.
       __m128 sum;
       __asm__("vaddps %2, %1, %0" : "=x"(sum) : "x"(ov), "x"(hv));

@@ -78,7 +78,7 @@ static inline int vall(vmask m) { return m == 0xff; }
 // a + b with a's NaN kept where a is NaN (x86 returns the first operand's
 // NaN, quieted; a plain add lets the compiler order the operands either
 // way): the NaN rule of the scalar sums, s = s + x keeping a NaN s, in one
-// add (vscatter_add_rows4 f64, vsum_run3).
+// add (vsum_run3; vadd_row4 the same with its row in memory).
 static inline __m256d vadd_pd_nan_first(__m256d a, __m256d b) {
   __m256d s;
   __asm__("vaddpd %2, %1, %0" : "=v"(s) : "v"(a), "v"(b));
@@ -223,22 +223,31 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
   return pad;
 }
-// vscatter_add_rows4(out, idx, stride, h): for lane l = 0..W-1 in order,
-// skipping lanes with idx[l] < 0, and corner c = 0..3 in order,
-// out[4 i + k] += lane l of h[3 c + k] (k < 3), i = idx[c stride + l]:
-// the scalar scatter's adds in its order (so the same bits; NaNs below)
-// into rows padded to 4 floats (the thread buffers', scatter.c), one
-// 16-byte load-add-store per row instead of 3 scalar ones. The rows come
-// from the inverse of vload_points' transpose (8 unpacks per corner) and
-// one vextractf32x4 per row. Padded rows, not the caller's 3-float rows:
-// a row's load then takes its data from the one earlier store of the same
-// row (store-to-load forwarding); with 12-byte masked rows (rows of 3)
-// the next load of a row waited for the store to leave (Zen 5: the FVM
-// force 5-6 ns per tet slower than the scalar scatter).
-#define EK_HAVE_VSCATTER_ADD_ROWS4
-static inline __attribute__((always_inline)) void
-vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
-  __m512 rows[4][4];
+// Rows of 4 for the thread buffers (scatter.c), in two steps so that the
+// transpose can run where the corner values are made and the adds later:
+// vstore_rows4(rows, h) writes the 12 corner planes h[3 c + k] (corner c,
+// component k < 3) of the W lanes as W x 4 rows of 4 reals, lane l's row
+// of corner c at rows + vrow4_at(l, c) (component 3 zero), 16 W reals,
+// rows 64-byte aligned; vadd_row4(o, row) adds one such row into a
+// vertex row of 4, o[k] += row[k], o's NaN first (below).
+// vscatter_add_rows4 (generic.h) is the two together: for lane l =
+// 0..W-1 in order, skipping lanes with idx[l] < 0, and corner c = 0..3 in
+// order, out[4 i + k] += lane l of h[3 c + k], i = idx[c stride + l]: the
+// scalar scatter's adds in its order (so the same bits) into rows padded
+// to 4 floats, one 16-byte load-add-store per row instead of 3 scalar
+// ones. The rows come from the inverse of vload_points' transpose (8
+// unpacks per corner), register rows[c][q] holding lanes q, q + 4, q + 8,
+// q + 12, stored whole: each row's add then takes its row as a memory
+// operand instead of a vextractf32x4 of the register (FVM fixed
+// corotated f32, Zen 5: 48 shuffles and the 12 planes' store and reload
+// per 16 tets fewer, docs/perf.md). Padded rows, not the caller's
+// 3-float rows: a row's load then takes its data from the one earlier
+// store of the same row (store-to-load forwarding); with 12-byte masked
+// rows (rows of 3) the next load of a row waited for the store to leave
+// (Zen 5: the FVM force 5-6 ns per tet slower than the scalar scatter).
+#define EK_HAVE_VROWS4
+static inline unsigned vrow4_at(unsigned l, unsigned c) { return (c * 4 + l % 4) * 16 + l / 4 * 4; }
+static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
   const __m512 zero = _mm512_setzero_ps();
 #pragma GCC unroll 4
   for (int c = 0; c < 4; c++) {
@@ -246,49 +255,24 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c], h[3 * c + 1])); // x2 y2 x3 y3
     __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(h[3 * c + 2], zero));     // z0 0 z1 0
     __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(h[3 * c + 2], zero));     // z2 0 z3 0
-    rows[c][0] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
-    rows[c][1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
-    rows[c][2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
-    rows[c][3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+    real *r = rows + c * 4 * 16;
+    _mm512_store_ps(r, _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2)));
+    _mm512_store_ps(r + 16, _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2)));
+    _mm512_store_ps(r + 32, _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3)));
+    _mm512_store_ps(r + 48, _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3)));
   }
-#pragma GCC unroll 16
-  for (int l = 0; l < 16; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++) {
-      real *o = out + (size_t)idx[c * stride + l] * 4;
-      // l / 4 folds to the immediate once the loop is unrolled; the
-      // switch keeps an unoptimised (-O1 sanitizer) build compiling.
-      const __m512 rv = rows[c][l % 4];
-      __m128 hv;
-      switch (l / 4) {
-      case 0:
-        hv = _mm512_castps512_ps128(rv);
-        break;
-      case 1:
-        hv = _mm512_extractf32x4_ps(rv, 1);
-        break;
-      case 2:
-        hv = _mm512_extractf32x4_ps(rv, 2);
-        break;
-      default:
-        hv = _mm512_extractf32x4_ps(rv, 3);
-        break;
-      }
-      __m128 ov = _mm_loadu_ps(o);
-      // The scalar o += h gives o's NaN where both are NaN (x86 returns
-      // its first operand's); the compiler may order the vector add's
-      // operands either way (inverted tets' NaN forces changed sign), so
-      // the add is written out with o first: vaddps returns o's NaN (a
-      // sum, already quiet: unchanged) where o is NaN, else o + h, the
-      // same results as the compare and masked add it replaces, with two
-      // instructions fewer on each row's load-add-store chain.
-      __m128 sum;
-      __asm__("vaddps %2, %1, %0" : "=v"(sum) : "v"(ov), "v"(hv));
-      _mm_storeu_ps(o, sum);
-    }
-  }
+}
+static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
+  // The scalar o += h gives o's NaN where both are NaN (x86 returns its
+  // first operand's); the compiler may order the vector add's operands
+  // either way (inverted tets' NaN forces changed sign), so the add is
+  // written out with o first: vaddps returns o's NaN (a sum, already
+  // quiet: unchanged) where o is NaN, else o + h, the same results as the
+  // compare and masked add it replaced, with two instructions fewer on
+  // each row's load-add-store chain. The row is the memory operand.
+  __m128 ov = _mm_loadu_ps(o), sum;
+  __asm__("vaddps %2, %1, %0" : "=v"(sum) : "v"(ov), "m"(*(const __m128 *)row));
+  _mm_storeu_ps(o, sum);
 }
 #else
 // f64: the same contracts on 8 lanes, a point or a row of 4 doubles being
@@ -319,10 +303,14 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   p[2] = _mm512_permutex2var_pd(t0, hi, t2);
   return _mm256_cmplt_epi32_mask(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
 }
-#define EK_HAVE_VSCATTER_ADD_ROWS4
-static inline __attribute__((always_inline)) void
-vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
-  __m512d rows[4][4]; // rows[c][q]: lanes (0, 2), (4, 6), (1, 3), (5, 7) for q = 0..3
+// Rows of 4 (the f32 comment above): register rows[c][q] holds lanes
+// (0, 2), (4, 6), (1, 3), (5, 7) for q = 0..3, so lane l's row is in
+// register (l & 1) * 2 + l / 4, half (l / 2) & 1.
+#define EK_HAVE_VROWS4
+static inline unsigned vrow4_at(unsigned l, unsigned c) {
+  return (c * 4 + (l & 1) * 2 + l / 4) * 8 + ((l / 2) & 1) * 4;
+}
+static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
   const __m512d zero = _mm512_setzero_pd();
   const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
   const __m512i hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
@@ -332,26 +320,18 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
     __m512d t1 = _mm512_unpackhi_pd(h[3 * c], h[3 * c + 1]); // x1 y1 x3 y3 ...
     __m512d t2 = _mm512_unpacklo_pd(h[3 * c + 2], zero);     // z0 0 z2 0 ...
     __m512d t3 = _mm512_unpackhi_pd(h[3 * c + 2], zero);     // z1 0 z3 0 ...
-    rows[c][0] = _mm512_permutex2var_pd(t0, lo, t2);
-    rows[c][1] = _mm512_permutex2var_pd(t0, hi, t2);
-    rows[c][2] = _mm512_permutex2var_pd(t1, lo, t3);
-    rows[c][3] = _mm512_permutex2var_pd(t1, hi, t3);
+    real *r = rows + c * 4 * 8;
+    _mm512_store_pd(r, _mm512_permutex2var_pd(t0, lo, t2));
+    _mm512_store_pd(r + 8, _mm512_permutex2var_pd(t0, hi, t2));
+    _mm512_store_pd(r + 16, _mm512_permutex2var_pd(t1, lo, t3));
+    _mm512_store_pd(r + 24, _mm512_permutex2var_pd(t1, hi, t3));
   }
-#pragma GCC unroll 8
-  for (int l = 0; l < 8; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++) {
-      real *o = out + (size_t)idx[c * stride + l] * 4;
-      // Lane l: register (l & 1) * 2 + l / 4, half (l / 2) & 1.
-      const __m512d rv = rows[c][(l & 1) * 2 + l / 4];
-      __m256d hv = (l / 2) & 1 ? _mm512_extractf64x4_pd(rv, 1) : _mm512_castpd512_pd256(rv);
-      __m256d ov = _mm256_loadu_pd(o);
-      // o first, as in the f32 version above (a NaN o is kept).
-      _mm256_storeu_pd(o, vadd_pd_nan_first(ov, hv));
-    }
-  }
+}
+static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
+  // o first, as in the f32 version above (a NaN o is kept).
+  __m256d ov = _mm256_loadu_pd(o), sum;
+  __asm__("vaddpd %2, %1, %0" : "=v"(sum) : "v"(ov), "m"(*(const __m256d *)row));
+  _mm256_storeu_pd(o, sum);
 }
 #endif
 

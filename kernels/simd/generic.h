@@ -281,6 +281,29 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
 }
 #endif
 
+// vscatter_add_rows4(out, idx, stride, h): the rows of 4 of the targets
+// that have them (vstore_rows4, vadd_row4: avx512.h) in one call: for lane
+// l = 0..W-1 in order, skipping lanes with idx[l] < 0, and corner c =
+// 0..3 in order, out[4 i + k] += lane l of h[3 c + k] (k < 3), i =
+// idx[c stride + l], o's NaN first: the scalar scatter's adds in its order.
+// (The FVM force makes the rows where it makes the corner values and adds
+// them later: kernels/fvm/fvm_tet.h.)
+#ifdef EK_HAVE_VROWS4
+#define EK_HAVE_VSCATTER_ADD_ROWS4
+EK_AI void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+  _Alignas(64) real rows[16 * EK_W];
+  vstore_rows4(rows, h);
+#pragma GCC unroll 16
+  for (int l = 0; l < EK_W; l++) {
+    if (idx[l] < 0)
+      continue;
+#pragma GCC unroll 4
+    for (int c = 0; c < 4; c++)
+      vadd_row4(out + (size_t)idx[c * stride + l] * 4, rows + vrow4_at(l, c));
+  }
+}
+#endif
+
 EK_AI void vload_records(const real *p, int np, vreal *planes) {
 #ifdef EK_HAVE_VREC_PERM
   if (np == 1) {
