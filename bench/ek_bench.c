@@ -473,6 +473,18 @@ typedef struct {
   int force;
 } outputs;
 
+// The command line's arguments, each followed by a space, for the run's
+// metadata (a text of at most EK_RESULTS_TEXT_MAX - 1 characters: a longer
+// line, e.g. a --filter of thousands of characters, ends in "...").
+static void joined_args(int argc, char **argv, char *buf, size_t len) {
+  size_t n = 0;
+  buf[0] = '\0';
+  for (int i = 1; i < argc && n < len; i++)
+    n += (size_t)snprintf(buf + n, len - n, "%s ", argv[i]);
+  if (n >= len && len > 4)
+    memcpy(buf + len - 4, "...", 4);
+}
+
 static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
@@ -634,10 +646,9 @@ static int run_tradeoff(ek_bench *b, int argc, char **argv, const char *out, con
                        "thread count has both a lower time_median and a lower err_p99 (err_max)");
   ek_results_meta_number(&meta, "elapsed_kernels_s", kernels_s);
   ek_results_meta_number(&meta, "elapsed_s", elapsed_s);
-  buf[0] = 0;
-  for (int i = 1; i < argc; i++)
-    snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s ", argv[i]);
-  ek_results_meta_text(&meta, "arguments", buf);
+  char args[EK_RESULTS_TEXT_MAX];
+  joined_args(argc, argv, args, sizeof args);
+  ek_results_meta_text(&meta, "arguments", args);
   int werr = 0;
   if (rc == 0) {
     werr |= ek_tradeoff_write_h5(t, &meta, out, force) != 0;
@@ -804,12 +815,9 @@ int main(int argc, char **argv) {
   ek_results_meta_text(r, "timer",
                        "CLOCK_MONOTONIC; per-sample overhead subtracted; samples "
                        ">= min_sample_time; stats over per-item sample times");
-  char buf[512] = "";
-  for (int i = 1; i < argc; i++) {
-    strncat(buf, argv[i], sizeof buf - strlen(buf) - 2);
-    strncat(buf, " ", sizeof buf - strlen(buf) - 1);
-  }
-  ek_results_meta_text(r, "arguments", buf);
+  char args[EK_RESULTS_TEXT_MAX];
+  joined_args(argc, argv, args, sizeof args);
+  ek_results_meta_text(r, "arguments", args);
   static const char *const binds[] = {"false", "true", "master", "close", "spread"};
   int bind = (int)omp_get_proc_bind();
   ek_results_meta_text(r, "omp_proc_bind_effective",

@@ -111,6 +111,17 @@ expect "ek-sim --out DIR --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --st
 expect "ek-bench --out FIFO --force" 1 "$bin/ek-bench" --filter nothing --out "$work/fifo.h5" \
   --json "$work/b.json" --force && one_error "ek-bench --out FIFO --force"
 [ -p "$work/fifo.h5" ] || fail "ek-bench --out FIFO --force: the FIFO was replaced"
+# A filter of 10 000 characters (the run's metadata holds a cut copy of the
+# command line: it once overran a 512-byte buffer into the output's name).
+long=$(head -c 10000 /dev/zero | tr '\0' x)
+if expect "ek-bench --filter (10 000 characters)" 0 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+  --filter "^svd3/aosoa/scalar/f32/sweeps:2/rsqrt:approx/threads:1\$|$long" \
+  --out "$work/long.h5" --json "$work/long.json"; then
+  [ -s "$work/long.h5" ] && [ -s "$work/long.json" ] ||
+    fail "ek-bench --filter (10 000 characters): $work/long.h5 or long.json not written"
+  grep -q '"arguments":[[:space:]]*"--threads 1 .*[.][.][.]"' "$work/long.json" ||
+    fail "ek-bench --filter (10 000 characters): the JSON's arguments are not the cut command line"
+fi
 # The input scene as the output.
 cp "$scenes/cantilever.json" "$work/scene.json"
 expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \
