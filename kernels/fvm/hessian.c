@@ -143,8 +143,9 @@ static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
   // columns (HESS_ELEMENT_R1, isotropic models); the CSR's keep theirs.
   hess_args a = args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT);
   a.cache = h->cache;
-  // The groups' element Hessians, 72 KB per thread, on the heap (not on a
-  // caller's thread stack, which may be small), one block for the team.
+  // The groups' element Hessians, 144 KB per thread (f32, 16 blocks), on
+  // the heap (not on a caller's thread stack, which may be small), one
+  // block for the team.
   const size_t group = (size_t)HESS_GROUP * EK_LANES * 144;
   real *bufs = ek_alloc((size_t)nt * group * sizeof(real));
   if (!bufs) {

@@ -314,6 +314,8 @@ static size_t block_entries(const ek_fvm_hessian *h, const int32_t *slot_tet, in
 // group in ascending (entry, lane) order, i.e. ascending slot order (a
 // thread's entries ascend), so a K block is loaded and stored once per
 // group of slot blocks, and its sum has the plain assembly's order.
+_Static_assert(144 * HESS_GROUP * EK_LANES_F32 <= 65536 && 144 * HESS_GROUP * EK_LANES_F64 <= 65536,
+               "run_e's 16-bit element offsets: a group's element Hessians too large");
 static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   const size_t ng = (size_t)h->tgrp[nt];
   const int32_t *slot_tet = cache_blocks(h)->slot_tet;

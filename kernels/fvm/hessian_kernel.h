@@ -80,9 +80,13 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 // Slot blocks per group of the assembly's plan: one run sums a K block's
 // contributions from all of the group's blocks, so a K block is loaded and
 // stored fewer times (docs/perf.md, "Hessian assembly"); the group's
-// element Hessians, 144 planes per block (8 blocks: 72 KB, L1 and L2),
-// sit on the thread's stack; 4 blocks (L1) were slower, 16 little faster.
-#define HESS_GROUP 8
+// element Hessians, 144 planes per block (16 blocks: 144 KB f32, L2), sit
+// in a heap buffer per thread (hessian.c). 4 blocks (L1) were slower than
+// 8; 16 faster than 8 (fewer runs: each K block's loads, prefetch and
+// store shared by twice the tets), since the buffers left the stack (eighth
+// round). The plan's element offsets are 16-bit: (144 j + 9 dc) lanes + l
+// below 144 HESS_GROUP lanes (hessian_assemble.c checks it).
+#define HESS_GROUP 16
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
