@@ -52,8 +52,10 @@ static int amd_family(void) {
 // operations a pair) leave the pipes idle with two chains: 4 chains took
 // 9.0-9.1 ns against 10.2-10.4 ns per matrix (docs/perf.md). Zen 4 (family
 // 0x19, 512-bit ops as two 256-bit halves) keeps the 2 it was tuned with;
-// so do Intel cores until a measurement there says otherwise
-// (EK_SVD3_CHAINS=4 tries it, dispatch.c).
+// so do Intel cores: a Xeon (Emerald Rapids) took 4 chains 14% faster on
+// the f32 SVD once the 4-vector copy kept its loops rolled (docs/perf.md,
+// eighth round), but its f64 rows and the FVM's use (svd3_quad_est) are
+// not measured there yet (EK_SVD3_CHAINS=4 tries it, dispatch.c).
 int ek_cpu_svd3_chains(ek_isa isa) {
   if (isa == EK_ISA_AVX512 && amd_family() >= 0x1a)
     return 4;
