@@ -509,18 +509,22 @@ static void check_threads(ek_rng *rng) {
       same &= memcmp(o32[0], o32[1], n3 * sizeof(float)) == 0;
       cases++;
     }
-  // The assembled matrix (f64 and f32 element kernels, both slot orders).
+  // The assembled matrix (f64 and f32 element kernels, both slot orders)
+  // and the upper block triangle (in the cache's precision), each from one
+  // context per thread count.
   int asame = 1, usame = 1;
   for (int oi = 0; oi < 2; oi++)
     for (int prec = 32; prec <= 64; prec += 32) {
       double *v[2] = {NULL, NULL};
-      size_t nnz = 0;
+      void *u[2] = {NULL, NULL};
+      size_t nnz = 0, ub = 0;
       for (int r = 0; r < 2; r++) {
         omp_set_num_threads(r + 1);
         ek_fvm_hessian_opts o = {.scatter = oi ? EK_SCATTER_COLORED : EK_SCATTER_AUTO,
                                  .precision = prec};
         ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[0], &o);
         ek_csr_pattern pat;
+        ek_bsr_pattern up;
         ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], NULL, 1);
         if (ek_fvm_hessian_pattern(h, &pat) == 0) {
           nnz = pat.nnz;
@@ -528,21 +532,6 @@ static void check_threads(ek_rng *rng) {
           if (ek_fvm_hessian_assemble(h, v[r]) != 0)
             asame = 0;
         }
-        ek_fvm_hessian_destroy(h);
-      }
-      asame &= v[0] && v[1] && memcmp(v[0], v[1], nnz * sizeof(double)) == 0;
-      free(v[0]);
-      free(v[1]);
-      // The upper block triangle, in the cache's precision.
-      void *u[2] = {NULL, NULL};
-      size_t ub = 0;
-      for (int r = 0; r < 2; r++) {
-        omp_set_num_threads(r + 1);
-        ek_fvm_hessian_opts o = {.scatter = oi ? EK_SCATTER_COLORED : EK_SCATTER_AUTO,
-                                 .precision = prec};
-        ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[0], &o);
-        ek_bsr_pattern up;
-        ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], NULL, 1);
         if (ek_fvm_hessian_pattern_upper(h, &up) == 0) {
           ub = 9 * up.nblocks * (prec == 32 ? 4 : 8);
           u[r] = malloc(ub);
@@ -552,9 +541,12 @@ static void check_threads(ek_rng *rng) {
         }
         ek_fvm_hessian_destroy(h);
       }
+      asame &= v[0] && v[1] && memcmp(v[0], v[1], nnz * sizeof(double)) == 0;
       usame &= u[0] && u[1] && memcmp(u[0], u[1], ub) == 0;
-      free(u[0]);
-      free(u[1]);
+      for (int r = 0; r < 2; r++) {
+        free(v[r]);
+        free(u[r]);
+      }
     }
   printf("1 and 2 threads: same bits for the upper block triangle (f32, f64; both orders): %s\n",
          usame ? "PASS" : "FAIL");
