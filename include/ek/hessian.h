@@ -150,11 +150,12 @@ typedef struct {
 int ek_fvm_hessian_pattern_upper(ek_fvm_hessian *h, ek_bsr_pattern *pattern);
 
 // values (9 nblocks, the upper pattern's order) = K's upper block
-// triangle at the x of the last caching gradient pass: the element
-// Hessians of ek_fvm_hessian_assemble (the same kernel and bits), summed
-// per value in the cache's precision (float for f32: half the bytes of
-// the double CSR) in the mesh's slot order from 0: the same bits for any
-// thread count, not ek_fvm_hessian_assemble's (its sums are in double).
+// triangle at the x of the last caching gradient pass: the projected
+// element Hessians of ek_fvm_hessian_assemble (for the isotropic models
+// formed from the eigen-frame's rank-one columns: fewer operations, other
+// roundoff), summed per value in the cache's precision (float for f32:
+// half the bytes of the double CSR) in the mesh's slot order from 0: the
+// same bits for any thread count, not ek_fvm_hessian_assemble's.
 // The function of the cache's precision (opts.precision). Error budgets
 // against the double reference as EK_HESSIAN_TOL_* (entry-wise, scaled by
 // the sum of the absolute contributions).
