@@ -582,12 +582,20 @@ static void check_errors(void) {
   ek_fvm_hessian *h = ek_fvm_hessian_create(el, &nh, NULL);
   int rc = ek_fvm_hessian_apply_f64(h, x, y);
   fail_if(rc != EK_EINVAL, "a product before any caching gradient is refused");
+  double uv[9 * 10]; // the upper pattern of one tet: 10 blocks
+  float uf[9 * 10];
+  fail_if(ek_fvm_hessian_assemble_upper_f64(h, uv) != EK_EINVAL,
+          "the upper assembly before any caching gradient is refused");
   double E = 0;
   rc = ek_fvm_hessian_gradient_f64(h, x, NULL, g, &E, 1);
   printf("neo-Hookean, inverted tet: rc %d, energy %g (expected +inf)\n", rc, E);
   fail_if(rc != 0 || !(isinf(E) && E > 0), "inverted neo-Hookean energy is +inf");
   float pf[12] = {0}, yf[12];
   fail_if(ek_fvm_hessian_apply_f32(h, pf, yf) != EK_EINVAL, "f32 product on an f64 cache refused");
+  fail_if(ek_fvm_hessian_assemble_upper_f32(h, uf) != EK_EINVAL,
+          "f32 upper assembly on an f64 cache refused");
+  fail_if(ek_fvm_hessian_assemble_upper_f64(h, NULL) != EK_EINVAL,
+          "the upper assembly into NULL refused");
   ek_fvm_hessian_destroy(h);
   h = ek_fvm_hessian_create(el, &cl, NULL);
   fail_if(ek_fvm_hessian_gradient_f64(h, X, NULL, g, NULL, 1) != EK_EINVAL,
