@@ -9,7 +9,8 @@
 // 1| within the budget) for every input: guesses up to 180 degrees off,
 // inverted, rank-deficient and zero A, A at 1e+-30; a NaN matrix gives NaN
 // in its own R only; AoS and AoSoA entry points agree bit for bit (tails
-// included), as do 1 and 2 threads; bad options and arguments give
+// included; on the extremes too, where a NaN may differ in sign), as do 1
+// and 2 threads; bad options and arguments give
 // EK_EINVAL and write nothing; the scene key parses; the cantilever and
 // twist with "polar": "warm" (fixed corotated, and corotated linear's R^n)
 // stay within the EK_POLAR_WARM_LOOP_* bounds of "polar": "svd", and give
@@ -142,6 +143,14 @@ static void accuracy(int bits, ek_isa isa, uint64_t seed) {
 }
 
 // ---- Extremes: always a rotation; errors printed where they are not judged ----
+// a and b hold the same bits, or both a NaN (of any sign or payload).
+static int same_bits_or_nan(size_t n, const double *a, const double *b) {
+  for (size_t i = 0; i < n; i++)
+    if (memcmp(a + i, b + i, sizeof *a) != 0 && !(isnan(a[i]) && isnan(b[i])))
+      return 0;
+  return 1;
+}
+
 static void extremes(int bits, ek_isa isa, uint64_t seed) {
   size_t n = 512;
   double *A = ek_check_malloc(n * 9 * sizeof(double)), *G = ek_check_malloc(n * 9 * sizeof(double));
@@ -212,11 +221,19 @@ static void extremes(int bits, ek_isa isa, uint64_t seed) {
   memcpy(R1, G, n * 9 * sizeof(double));
   ek_check_run_polar_warm(bits, 1, n, A, R1, isa, 0);
   double scales[] = {1e30, 1e-30, bits == 64 ? 1e300 : 1e35, bits == 64 ? 1e-300 : 1e-35};
+  // The AoS entry point on the same extreme batches (Raos): the AoSoA
+  // kernel's bits (a NaN compared as a NaN: the two may give it other
+  // signs, docs/perf.md, "Memory-bound paths", eighth round).
+  double *Raos = ek_check_malloc(n * 9 * sizeof(double));
+  int aos_same = 1;
   for (int k = 0; k < 4; k++) {
     for (size_t i = 0; i < n * 9; i++)
       As[i] = A[i] * scales[k];
     memcpy(R, G, n * 9 * sizeof(double));
     ek_check_run_polar_warm(bits, 1, n, As, R, isa, 0);
+    memcpy(Raos, G, n * 9 * sizeof(double));
+    ek_check_run_polar_warm(bits, 0, n, As, Raos, isa, 0);
+    aos_same &= same_bits_or_nan(n * 9, R, Raos);
     double d = 0;
     for (size_t e = 0; e < n; e++)
       d = fmax(d, ek_check_rdiff9(R + e * 9, R1 + e * 9));
@@ -229,17 +246,25 @@ static void extremes(int bits, ek_isa isa, uint64_t seed) {
   memcpy(As, A, n * 9 * sizeof(double));
   memcpy(R, G, n * 9 * sizeof(double));
   As[5 * 9 + 3] = NAN, As[17 * 9] = INFINITY, R[40 * 9 + 8] = NAN;
+  R[23 * 9 + 4] = INFINITY, R[29 * 9 + 1] = -INFINITY; // the guess's infinities
+  memcpy(Raos, R, n * 9 * sizeof(double));
   ek_check_run_polar_warm(bits, 1, n, As, R, isa, 0);
+  ek_check_run_polar_warm(bits, 0, n, As, Raos, isa, 0);
+  aos_same &= same_bits_or_nan(n * 9, R, Raos);
   int ok = 1;
   for (size_t e = 0; e < n; e++) {
-    int bad = e == 5 || e == 17 || e == 40;
+    int bad = e == 5 || e == 17 || e == 23 || e == 29 || e == 40;
     for (int i = 0; i < 9; i++)
       ok &= bad ? isnan(R[e * 9 + i]) : R[e * 9 + i] == R1[e * 9 + i];
   }
   snprintf(label, sizeof label, "warm %s f%d NaN / inf matrices: NaN in their own R only",
            ek_isa_name(isa), bits);
   check(label, ok, "");
-  free(R1), free(As), free(A), free(G), free(R);
+  snprintf(label, sizeof label,
+           "warm %s f%d extremes (A x 1e+-30 and beyond, NaN / inf): AoS = AoSoA bits",
+           ek_isa_name(isa), bits);
+  check(label, aos_same, "NaNs compared as NaNs");
+  free(R1), free(As), free(A), free(G), free(R), free(Raos);
 }
 
 // ---- AoS = AoSoA bits (tails), 1 = 2 threads bits ----
