@@ -72,21 +72,28 @@ EK_INLINE void tet_gradient_rolled(const real *x, const int32_t *idx_block, cons
 // the force (H's columns are the forces on corners 1..3, Teran et al.
 // 2003 sec. 4) and s = V0 for the energy's gradient or its differential;
 // corner 0 gets -(h1 + h2 + h3). Written to hb[(c*3 + i)*L + o].
+// Component i of the four corners' values: h[c] of corner c (h[0] =
+// -(h[1] + h[2] + h[3])), from P and the block's Dm^-1 planes at o.
+EK_INLINE void tet_corner_row(const vreal P[9], const vreal Dmi[9], vreal s, int i, vreal h[4]) {
+  for (int c = 0; c < 3; c++) {
+    vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
+    t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
+    t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
+    h[c + 1] = vmul(s, t);
+  }
+  h[0] = vneg(vadd(vadd(h[1], h[2]), h[3]));
+}
+
 EK_INLINE void tet_corner_values(const vreal P[9], const real *dmi_block, vreal s, int o,
                                  real *hb) {
   vreal Dmi[9];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dmi_block + k * EK_LANES + o);
   for (int i = 0; i < 3; i++) {
-    vreal h[3];
-    for (int c = 0; c < 3; c++) {
-      vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
-      t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
-      t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
-      h[c] = vmul(s, t);
-      vstore(hb + ((c + 1) * 3 + i) * EK_LANES + o, h[c]);
-    }
-    vstore(hb + (0 * 3 + i) * EK_LANES + o, vneg(vadd(vadd(h[0], h[1]), h[2])));
+    vreal h[4];
+    tet_corner_row(P, Dmi, s, i, h);
+    for (int c = 0; c < 4; c++)
+      vstore(hb + (c * 3 + i) * EK_LANES + o, h[c]);
   }
 }
 
@@ -115,44 +122,23 @@ static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, i
 #if defined(EK_HAVE_VROWS4)
 EK_INLINE void tet_corner_rows4(const vreal P[9], const real *dmi_block, vreal s, int o,
                                 real *rows) {
-  vreal Dmi[9], h[12];
+  vreal Dmi[9], h[12], r[4];
   for (int k = 0; k < 9; k++)
     Dmi[k] = vload(dmi_block + k * EK_LANES + o);
   for (int i = 0; i < 3; i++) {
-    for (int c = 0; c < 3; c++) {
-      vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
-      t = vfma(P[i * 3 + 1], Dmi[c * 3 + 1], t);
-      t = vfma(P[i * 3 + 2], Dmi[c * 3 + 2], t);
-      h[(c + 1) * 3 + i] = vmul(s, t);
-    }
-    h[i] = vneg(vadd(vadd(h[3 + i], h[6 + i]), h[9 + i]));
+    tet_corner_row(P, Dmi, s, i, r);
+    for (int c = 0; c < 4; c++)
+      h[c * 3 + i] = r[c];
   }
   vstore_rows4(rows + o * 16, h);
 }
 
 // tet_scatter_block's adds (lane order, corners inner, o's NaN first) of a
 // block's rows of 4 (tet_corner_rows4 of each of its vectors) into out
-// (nverts x 4, a thread buffer). Four lanes per turn of a loop that is not
-// unrolled (vrow4_at(j + q, c) = vrow4_at(j, 0) + vrow4_at(q, c) for j a
-// multiple of 4, q < 4, on every target): the fully unrolled 16 lanes
-// were 64 load-add-stores of code per vector beside the SVD's (the fixed
-// corotated force on Zen 5, docs/perf.md: smaller code was faster).
+// (nverts x 4, a thread buffer), a vector at a time (vadd_rows4).
 static inline void tet_scatter_rows4(const int32_t *idx_block, const real *rows, real *out) {
-  for (int o = 0; o < EK_LANES; o += EK_W) {
-#pragma GCC unroll 1
-    for (unsigned j = 0; j < EK_W; j += 4) {
-      const int32_t *ix = idx_block + o + j;
-      const real *r = rows + o * 16 + vrow4_at(j, 0);
-#pragma GCC unroll 4
-      for (unsigned q = 0; q < 4; q++) {
-        if (ix[q] < 0)
-          continue;
-#pragma GCC unroll 4
-        for (unsigned c = 0; c < 4; c++)
-          vadd_row4(out + (size_t)ix[c * EK_LANES + q] * 4, r + vrow4_at(q, c));
-      }
-    }
-  }
+  for (int o = 0; o < EK_LANES; o += EK_W)
+    vadd_rows4(out, idx_block + o, EK_LANES, rows + o * 16);
 }
 
 #else

@@ -281,26 +281,40 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
 }
 #endif
 
-// vscatter_add_rows4(out, idx, stride, h): the rows of 4 of the targets
-// that have them (vstore_rows4, vadd_row4: avx512.h) in one call: for lane
-// l = 0..W-1 in order, skipping lanes with idx[l] < 0, and corner c =
-// 0..3 in order, out[4 i + k] += lane l of h[3 c + k] (k < 3), i =
-// idx[c stride + l], o's NaN first: the scalar scatter's adds in its order.
-// (The FVM force makes the rows where it makes the corner values and adds
-// them later: kernels/fvm/fvm_tet.h.)
+// vadd_rows4(out, idx, stride, rows): one vector's rows of 4 (vstore_rows4,
+// vadd_row4: avx512.h) added into out: for lane l = 0..W-1 in order,
+// skipping lanes with idx[l] < 0, and corner c = 0..3 in order, out[4 i +
+// k] += rows[vrow4_at(l, c) + k] (k < 3), i = idx[c stride + l], o's NaN
+// first: the scalar scatter's adds in its order. Four lanes per turn of a
+// loop that is not unrolled (vrow4_at(j + q, c) = vrow4_at(j, 0) +
+// vrow4_at(q, c) for j a multiple of 4, q < 4, on every target): fully
+// unrolled, 16 lanes were 64 load-add-stores of code per vector beside
+// the SVD's (the fixed corotated force on Zen 5, docs/perf.md: smaller
+// code was faster). vscatter_add_rows4(out, idx, stride, h): the same from
+// the 12 corner planes h[3 c + k] (the rows made first). The FVM force
+// makes the rows where it makes the corner values and adds them later
+// (kernels/fvm/fvm_tet.h).
 #ifdef EK_HAVE_VROWS4
 #define EK_HAVE_VSCATTER_ADD_ROWS4
+EK_AI void vadd_rows4(real *out, const int32_t *idx, int stride, const real *rows) {
+#pragma GCC unroll 1
+  for (unsigned j = 0; j < EK_W; j += 4) {
+    const int32_t *ix = idx + j;
+    const real *r = rows + vrow4_at(j, 0);
+#pragma GCC unroll 4
+    for (unsigned q = 0; q < 4; q++) {
+      if (ix[q] < 0)
+        continue;
+#pragma GCC unroll 4
+      for (unsigned c = 0; c < 4; c++)
+        vadd_row4(out + (size_t)ix[(size_t)c * (size_t)stride + q] * 4, r + vrow4_at(q, c));
+    }
+  }
+}
 EK_AI void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
   _Alignas(64) real rows[16 * EK_W];
   vstore_rows4(rows, h);
-#pragma GCC unroll 16
-  for (int l = 0; l < EK_W; l++) {
-    if (idx[l] < 0)
-      continue;
-#pragma GCC unroll 4
-    for (int c = 0; c < 4; c++)
-      vadd_row4(out + (size_t)idx[c * stride + l] * 4, rows + vrow4_at(l, c));
-  }
+  vadd_rows4(out, idx, stride, rows);
 }
 #endif
 
