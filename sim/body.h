@@ -109,11 +109,11 @@ struct sim_body_ops {
   void *(*hessian_create)(ek_sim *sim, sim_hessian_info *info);
   // The Hessian context of a part of the elements only, elems[0..count)
   // (indices into the body's order), for one MPI rank of the implicit loop
-  // (sim/README.md "MPI"): gradient, energy, pattern and assembled values
-  // are then those elements' share, over all the body's vertices (the
-  // pattern's rows and columns are the body's vertex numbering). NULL in
-  // the table: the body cannot be split (the loop refuses MPI runs); NULL
-  // returned: the message in sim->error.
+  // (sim/README.md "MPI"): gradient, energy, products, diagonal blocks,
+  // pattern and assembled values are then those elements' share, over all
+  // the body's vertices (the pattern's rows and columns are the body's
+  // vertex numbering). NULL in the table: the body cannot be split (the
+  // loop refuses MPI runs); NULL returned: the message in sim->error.
   void *(*hessian_create_part)(ek_sim *sim, sim_hessian_info *info, const size_t *elems,
                                size_t count);
   void (*hessian_destroy)(void *h);

@@ -470,9 +470,16 @@ static int tets_rate_fields(const ek_sim *s, double *D, double *W, double *rates
 
 typedef struct {
   ek_fvm_hessian *H;
-  ek_tet_state *R64; // corotated linear in an f32 scene: R^n in double for the gradient
+  // Corotated linear: R^n in double for the gradient, refreshed from the
+  // body's R at each step's start, in an f32 scene and in a part (whose
+  // tets are its own, not the mesh's: part_elems maps its tet i to the
+  // mesh's); NULL else (the gradient reads the body's R_state).
+  ek_tet_state *R64;
   int f32;
-  ek_tets *part; // hessian_create_part: the part's elements (H's), owned
+  ek_tets *part;      // hessian_create_part: the part's elements (H's), owned
+  size_t *part_elems; // corotated linear in a part: the part's tets (count), owned
+  double *part_R;     // count x 9: their R^n, gathered
+  size_t count;
 } tets_hessian;
 
 static void tets_hessian_destroy(void *h) {
@@ -482,6 +489,8 @@ static void tets_hessian_destroy(void *h) {
   ek_fvm_hessian_destroy(th->H);
   ek_tet_state_destroy(th->R64);
   ek_tets_destroy(th->part);
+  free(th->part_elems);
+  free(th->part_R);
   free(th);
 }
 
@@ -508,7 +517,7 @@ static void *hessian_create_on(ek_sim *s, sim_hessian_info *info, ek_tets *part)
                            .precision = sc->precision};
   const ek_tets *el = part ? part : ek_mesh_elements(tets_of(s)->mesh);
   if (!(th->H = ek_fvm_hessian_create(el, &s->mat, &o)) ||
-      (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT && th->f32 &&
+      (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT && (th->f32 || part) &&
        !(th->R64 = ek_tet_state_create(el, 9, 1)))) {
     sim_fail(s, "%s", ek_last_error());
     tets_hessian_destroy(th);
@@ -523,15 +532,11 @@ static void *tets_hessian_create(ek_sim *s, sim_hessian_info *info) {
 
 // The part's tets, with every vertex of the mesh (the same rest positions,
 // so each tet's Dm^-1 and V0 have the bits of the whole mesh's).
+// Corotated linear: the part keeps its tets' R^n (R64), gathered from the
+// body's R (every rank refreshes R^n for the whole mesh from the
+// replicated state: tets_begin_step) at each step's start.
 static void *tets_hessian_create_part(ek_sim *s, sim_hessian_info *info, const size_t *elems,
                                       size_t count) {
-  if (ek_model_need(s->mat.model, 0) == EK_NEEDS_R_INPUT) {
-    // R^n is kept per tet of the whole mesh (tets_begin_step); a part
-    // would need its own copy, refreshed each step.
-    sim_fail(s, "model %s across MPI ranks: its per-tet R^n is not split; run it on one rank",
-             ek_model_long_name(s->mat.model));
-    return NULL;
-  }
   const int32_t *all = s->body->elems;
   int32_t *t = malloc((4 * count + 1) * sizeof *t);
   if (!t) {
@@ -546,12 +551,30 @@ static void *tets_hessian_create_part(ek_sim *s, sim_hessian_info *info, const s
     sim_fail(s, "%s", ek_last_error());
     return NULL;
   }
-  return hessian_create_on(s, info, part);
+  tets_hessian *th = hessian_create_on(s, info, part);
+  if (th && th->R64) {
+    th->count = count;
+    th->part_elems = malloc(count * sizeof *th->part_elems);
+    th->part_R = malloc(9 * count * sizeof *th->part_R);
+    if (!th->part_elems || !th->part_R) {
+      tets_hessian_destroy(th);
+      sim_fail(s, "out of memory");
+      return NULL;
+    }
+    memcpy(th->part_elems, elems, count * sizeof *elems);
+  }
+  return th;
 }
 
 static int tets_hessian_begin_step(ek_sim *s, void *h) {
   tets_hessian *th = h;
-  if (th->R64 && ek_tet_state_set_f64(th->R64, tets_of(s)->R) < 0)
+  const double *R = tets_of(s)->R;
+  if (th->part_R) {
+    for (size_t i = 0; i < th->count; i++)
+      memcpy(th->part_R + 9 * i, R + 9 * th->part_elems[i], 9 * sizeof *R);
+    R = th->part_R;
+  }
+  if (th->R64 && ek_tet_state_set_f64(th->R64, R) < 0)
     return sim_fail(s, "%s", ek_last_error());
   return 0;
 }

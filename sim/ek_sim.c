@@ -681,7 +681,7 @@ static void print_implicit_times(const ek_sim_times *tm, long done, size_t nt) {
                          "assembly",
                          "setup",
                          "solve",
-                         "MPI gradient sum"};
+                         "MPI sums over ranks"};
   // The assembled solvers' phases (linear_solver amg, direct) when they
   // ran, and the ranks' sum when there were ranks.
   const int nph = tm->mpi_sum > 0 ? 10 : tm->assembly > 0 ? 9 : 6;

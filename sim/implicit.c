@@ -107,7 +107,9 @@
 // on every rank, so every rank takes the same Newton and line-search
 // decisions), the system matrix assembled into PETSc's parallel matrix
 // (rows owned by the vertex ranges) and solved in parallel, dx gathered
-// whole on every rank. Only the assembled solvers run across ranks.
+// whole on every rank; with "matrix_free", each CG product K p and the
+// preconditioner's diagonal blocks are summed over the ranks the same way
+// as the gradient, so every rank runs the same CG iterations.
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -299,15 +301,8 @@ static int morton_order(const double *X, size_t nv, int32_t *perm) {
 // lowest-placed vertex it owns, so the element cut follows the row cut and
 // a rank's entries fall in its own rows except along the cut.
 static int create_rank_part(ek_sim *s, implicit_data *d) {
-  const ek_scene *sc = &s->scene;
   const sim_body *b = s->body;
   const int size = implicit_mpi_size(), rank = implicit_mpi_rank();
-  if (sc->implicit.linear_solver == EK_LINSOLVE_MATRIX_FREE)
-    return sim_fail(s,
-                    "%d MPI ranks: the implicit loop runs across ranks with an assembled solver "
-                    "only; set integrator.linear_solver to \"amg\" or \"direct\", or run on "
-                    "one rank",
-                    size);
   if (!b->ops->hessian_create_part)
     return sim_fail(s,
                     "%d MPI ranks: this body (%s) cannot be split across ranks; run on one "
@@ -607,6 +602,16 @@ static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
   int rc = d->body->ops->hessian_diagonal(d->H, blocks);
   if (rc < 0)
     return sim_fail(s, "diagonal blocks: %s", ek_last_error());
+  if (d->mpi) {
+    // This rank's elements' blocks, summed over the ranks (the same bits on
+    // every rank, as the gradient).
+    char err[256];
+    const double t0 = sim_now();
+    rc = implicit_mpi_sum(blocks, 2 * d->n3, err, sizeof err);
+    s->times.mpi_sum += sim_now() - t0;
+    if (rc < 0)
+      return sim_fail(s, "diagonal blocks: %s", err);
+  }
   const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
   long nv = (long)s->nv;
 #pragma omp parallel for schedule(static) if (d->par)
@@ -683,7 +688,23 @@ static int system_product(ek_sim *s, implicit_data *d, const double *p, double *
     return sim_fail(s, "Hessian product: %s", ek_last_error());
   const double *w = d->is_free, *md = d->mdiag;
   const float *q32 = d->q32;
-  if (d->hes.f32) {
+  if (d->mpi) {
+    // This rank's elements' K p at the free dofs, summed over the ranks
+    // (the same bits on every rank: every rank then runs the same CG
+    // iterations and stops at the same one), then the mass term.
+#pragma omp parallel for schedule(static) if (d->par)
+    for (size_t i = 0; i < d->n3; i++)
+      q[i] = w[i] * (d->hes.f32 ? (double)q32[i] : q[i]);
+    char err[256];
+    const double t1 = sim_now();
+    rc = implicit_mpi_sum(q, d->n3, err, sizeof err);
+    const double t2 = sim_now();
+    s->times.mpi_sum += t2 - t1;
+    t0 += t2 - t1;
+    if (rc < 0)
+      return sim_fail(s, "Hessian product: %s", err);
+    CHUNK_LOOP(d, q[i] += md[i] * p[i]; acc_[i & 3] += p[i] * q[i];)
+  } else if (d->hes.f32) {
     CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * (double)q32[i]; acc_[i & 3] += p[i] * q[i];)
   } else {
     CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * q[i]; acc_[i & 3] += p[i] * q[i];)
@@ -909,9 +930,10 @@ static int implicit_step(ek_sim *s, void *data) {
         return rc;
     } else {
       t0 = sim_now();
+      const double summed = s->times.mpi_sum; // the ranks' sum is its own phase
       if ((rc = build_preconditioner(s, d, blocks)))
         return rc;
-      s->times.preconditioner += sim_now() - t0;
+      s->times.preconditioner += sim_now() - t0 - (s->times.mpi_sum - summed);
       if ((rc = solve(s, d, blocks, &cg_its, &cg_rel)))
         return rc;
     }

@@ -26,9 +26,10 @@ void implicit_mpi_finish(int rc);
 // This process's rank and the number of ranks (0 and 1 without a session).
 int implicit_mpi_rank(void);
 int implicit_mpi_size(void);
-// v[0..n) = the sum over ranks of v, the same bits on every rank (reduced
-// on rank 0, then broadcast; the replicated Newton loop then takes the same
-// decisions everywhere). 0, or -1 with the message in err.
+// v[0..n) = the sum over ranks of v, the same bits on every rank (every
+// rank adds all the ranks' values in rank order; the replicated Newton loop
+// then takes the same decisions everywhere). Collective. 0, or -1 with the
+// message in err.
 int implicit_mpi_sum(double *v, size_t n, char *err, size_t errlen);
 
 // ---- The solver ----

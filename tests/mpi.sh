@@ -2,11 +2,12 @@
 # ek-sim across MPI ranks (sim/README.md "MPI"): shipped implicit scenes
 # with integrator.linear_solver "amg", a few steps, run plainly (one
 # process), under mpirun with 1 rank, 2 ranks, and 4 ranks oversubscribed;
-# and "direct" on 2 ranks.
+# "direct" on 2 ranks; "matrix_free" (twist_implicit as shipped, and its
+# corotated linear variant) on 1, 2 and 4 ranks, the variant with "amg" on 2.
 # Each run exits 0; the 1-rank run has the plain run's bits; the 2- and
 # 4-rank runs' last frame is within EK_SIM_MPI_GAP_PER_STEP newton_tol per
 # step of the plain run's (tests/frames_gap.c); only rank 0 writes (the
-# output folder holds the one frames file and its XDMF); matrix_free is
+# output folder holds the one frames file and its XDMF); the cloth is
 # refused across ranks; a rank that fails ends the job with its status.
 #   mpi.sh BIN_DIR SCENES_DIR PETSC_FOUND
 # Exit 77 (ctest: skipped) without PETSc or mpirun.
@@ -100,16 +101,42 @@ if run "twist_implicit direct plain" "$tmp/direct.plain" "$bin/ek-sim" "$scene" 
   "$bin/frames_gap" "$scene" "$tmp/direct.plain/f.h5" "$tmp/direct.2/f.h5" ||
     fail "twist_implicit direct -n 2: the trajectory"
 fi
-# Across ranks the loop needs an assembled solver: the matrix-free scene is
-# refused with a message, and every rank ends.
-if "${mpirun[@]}" -n 2 "$bin/ek-sim" "$scenes/twist_implicit.json" --steps 1 --no-output \
-  >"$tmp/mf.log" 2>&1 </dev/null; then
-  fail "matrix_free on 2 ranks: exit 0, expected a refusal"
-elif ! grep -q 'linear_solver to "amg"' "$tmp/mf.log"; then
-  fail "matrix_free on 2 ranks: no message naming linear_solver"
-  sed 's/^/  | /' "$tmp/mf.log" | head -5
+# matrix_free across ranks (each CG product and the preconditioner's blocks
+# summed over the ranks): twist_implicit as shipped, and with corotated
+# linear (each rank keeps its tets' R^n; twisted, so a wrong R^n shows),
+# also with "amg" on 2 ranks; against the plain run.
+sed 's/"stable_neo_hookean"/"corotated_linear"/' "$scenes/twist_implicit.json" \
+  >"$tmp/twist_corot.json"
+sed 's/"type": *"implicit"/"type": "implicit", "linear_solver": "amg"/' \
+  "$tmp/twist_corot.json" >"$tmp/twist_corot_amg.json"
+if ! grep -q '"corotated_linear"' "$tmp/twist_corot.json" ||
+  ! grep -q '"linear_solver": "amg"' "$tmp/twist_corot_amg.json"; then
+  fail "twist_implicit: no model or integrator.type to replace"
+fi
+for case in "twist_mf:$scenes/twist_implicit.json:1 2 4" "twist_corot:$tmp/twist_corot.json:1 2 4" \
+  "twist_corot_amg:$tmp/twist_corot_amg.json:2"; do
+  IFS=: read -r name scene ranks <<<"$case"
+  run "$name plain" "$tmp/$name.plain" "$bin/ek-sim" "$scene" --steps 3 || continue
+  for n in $ranks; do
+    if run "$name mpirun -n $n" "$tmp/$name.$n" "${mpirun[@]}" -n $n "$bin/ek-sim" "$scene" \
+      --steps 3; then
+      exact=()
+      [ "$n" -eq 1 ] && exact=(exact)
+      "$bin/frames_gap" "$scene" "$tmp/$name.plain/f.h5" "$tmp/$name.$n/f.h5" "${exact[@]}" ||
+        fail "$name -n $n: the trajectory"
+    fi
+  done
+done
+# What cannot be split is refused with a message, and every rank ends: the
+# cloth (its body has no part Hessian).
+if "${mpirun[@]}" -n 2 "$bin/ek-sim" "$scenes/cloth_hang_implicit.json" --steps 1 --no-output \
+  >"$tmp/cloth.log" 2>&1 </dev/null; then
+  fail "cloth on 2 ranks: exit 0, expected a refusal"
+elif ! grep -q 'cannot be split across ranks' "$tmp/cloth.log"; then
+  fail "cloth on 2 ranks: no message saying it cannot be split"
+  sed 's/^/  | /' "$tmp/cloth.log" | head -5
 else
-  echo "ok   matrix_free on 2 ranks refused"
+  echo "ok   cloth on 2 ranks refused"
 fi
 # A rank that fails (rank 0 cannot create its frames) ends every rank with
 # its exit status (1), instead of leaving the others in a collective call.

@@ -97,8 +97,9 @@ typedef struct {
   // assembly of K and the system matrix, the solver's setup (AMG
   // hierarchy or Cholesky factorisation) and its solve.
   double assembly, solver_setup, solver_solve;
-  // Across MPI ranks (ek-sim under mpirun): the gradient's and energy's sum
-  // over the ranks, each rank's wait for the others included.
+  // Across MPI ranks (ek-sim under mpirun): the sums over the ranks (the
+  // gradient and energy; with "matrix_free" also the Hessian products and
+  // the preconditioner's blocks), each rank's wait for the others included.
   double mpi_sum;
   // XPBD integrator (0 otherwise): `xpbd_solve` the solver sweeps; per sweep, measured once per
   // phase-timed step at the step's end (ek_xpbd_profile_*), summed over
