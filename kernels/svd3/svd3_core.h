@@ -482,13 +482,21 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
     for (int j = 0; j < n; j++)
       svd3_refine_angle(st[j].B, 2, 0, exact, &c[2][j], &s[2][j]);
   }
-  for (int sweep = 0; sweep < refine; sweep++) {
-    vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
-    for (int j = 0; j < n; j++) {
-      svd3_rotate_cols(st[j].V, 0, 1, c[0][j], s[0][j]);
-      svd3_rotate_cols(st[j].V, 1, 2, c[1][j], s[1][j]);
-      svd3_rotate_cols(st[j].V, 2, 0, c[2][j], s[2][j]);
+  // V's rotations vector by vector, all sweeps on a local copy: V is
+  // stored once per vector, not after every sweep (the same rotations in
+  // the same order on every entry).
+  for (int j = 0; j < n; j++) {
+    vreal v[9];
+    for (int i = 0; i < 9; i++)
+      v[i] = st[j].V[i];
+    for (int sweep = 0; sweep < refine; sweep++) {
+      vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
+      svd3_rotate_cols(v, 0, 1, c[0][j], s[0][j]);
+      svd3_rotate_cols(v, 1, 2, c[1][j], s[1][j]);
+      svd3_rotate_cols(v, 2, 0, c[2][j], s[2][j]);
     }
+    for (int i = 0; i < 9; i++)
+      st[j].V[i] = v[i];
   }
   for (int j = 0; j < n; j++)
     svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
