@@ -87,15 +87,22 @@ EK_INLINE vreal svd3_rsq_onesided(vreal x, int exact) {
 #endif
 }
 
+// Index of entry (i, j) of the symmetric S of step 3 stored as its 6
+// distinct entries: the diagonal s_ii at i, s_01, s_12, s_20 at 3, 4, 5.
+// Each entry is stored once: with 4 vectors the state lives in memory
+// (svd3_jacobi_sweep), where the full 3x3's mirrored copies were a store
+// each (3 of a pair's 12). The same values, so the same bits.
+EK_INLINE int svd3_sym(int i, int j) { return i == j ? i : i + j == 1 ? 3 : i + j == 3 ? 4 : 5; }
+
 // Step 3, one pair: approximate Givens half-angle (ch, sh) for the (p,q)
 // block of the symmetric S, conjugate S by it and append it to quaternion
 // qt = (w, x, y, z). McAdams et al. 2011 (TR1690), sec. 2.
-EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k, int exact,
+EK_INLINE void svd3_jacobi_pair(vreal s[6], vreal qt[4], int p, int q, int k, int exact,
                                 int rough) {
   const real gamma = (real)5.82842712474619009760; // 3 + 2 sqrt(2) = cot^2(pi/8)
   const real cstar = (real)0.92387953251128675613; // cos(pi/8)
   const real sstar = (real)0.38268343236508977173; // sin(pi/8)
-  vreal a = s[p][p], d = s[q][q], b = s[p][q], e = s[p][k], f = s[q][k];
+  vreal a = s[p], d = s[q], b = s[svd3_sym(p, q)], e = s[svd3_sym(p, k)], f = s[svd3_sym(q, k)];
   vreal ch = vmul(vset(2), vsub(a, d)), sh = b;
   // Use the exact-angle direction unless the angle is beyond pi/8 (then the
   // fixed pi/8 rotation still reduces the off-diagonal); no rotation when
@@ -115,11 +122,11 @@ EK_INLINE void svd3_jacobi_pair(vreal s[3][3], vreal qt[4], int p, int q, int k,
   //   s_pp = c^2 a + 2cs b + s^2 d = a + s w,   s_qq = d - s w (trace kept),
   //   s_pq = (d - a) cs + (c^2 - s^2) b = c w - b.
   vreal w = vmla(vsub(d, a), sn, vmul(vadd(c, c), b));
-  s[p][p] = vmla(sn, w, a);
-  s[q][q] = vnmla(sn, w, d);
-  s[p][q] = s[q][p] = vmls(c, w, b);
-  s[p][k] = s[k][p] = vmla(c, e, vmul(sn, f));
-  s[q][k] = s[k][q] = vmls(c, f, vmul(sn, e));
+  s[p] = vmla(sn, w, a);
+  s[q] = vnmla(sn, w, d);
+  s[svd3_sym(p, q)] = vmls(c, w, b);
+  s[svd3_sym(p, k)] = vmla(c, e, vmul(sn, f));
+  s[svd3_sym(q, k)] = vmls(c, f, vmul(sn, e));
   // qt <- qt (x) (ch, sh e_k), Hamilton product: the rotation is appended
   // on the right (V <- V Q).
   int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
@@ -231,7 +238,7 @@ EK_INLINE void svd3_givens(vreal a1, vreal a2, vreal *c, vreal *s, int exact) {
 
 // Working state of one vector of matrices through the steps below.
 typedef struct {
-  vreal A[9], s[3][3], qt[4], B[9], V[9], amax;
+  vreal A[9], s[6], qt[4], B[9], V[9], amax;
   vmask finite;
 } svd3_state;
 
@@ -259,14 +266,14 @@ EK_INLINE void svd3_start(svd3_state *st, const vreal Ain[9]) {
   st->amax = amax;
   for (int i = 0; i < 3; i++)
     for (int j = i; j < 3; j++)
-      st->s[i][j] = st->s[j][i] = svd3_col_dot(st->A, i, j);
+      st->s[svd3_sym(i, j)] = svd3_col_dot(st->A, i, j);
   st->qt[0] = one, st->qt[1] = st->qt[2] = st->qt[3] = zero;
   // [ek] Step 0 without a test per entry: a finite A has a scaled Gram
   // trace in [0, 9]. A NaN or infinity leaves a NaN or infinity in the
   // scaled A (inf / inf, inf * 0, or the entry itself when max lost a NaN),
   // hence in the trace. Such a lane runs on (lanes never mix) and every
   // output of it is set to NaN at the end.
-  st->finite = visfinite(vadd(vadd(st->s[0][0], st->s[1][1]), st->s[2][2]));
+  st->finite = visfinite(vadd(vadd(st->s[0], st->s[1]), st->s[2]));
 }
 
 // Step 4: V from the quaternion, B = A V.
@@ -475,13 +482,21 @@ EK_INLINE void svd3_core_n(int n, const vreal (*A)[9], vreal (*U)[9], vreal (*S)
     for (int j = 0; j < n; j++)
       svd3_refine_angle(st[j].B, 2, 0, exact, &c[2][j], &s[2][j]);
   }
-  for (int sweep = 0; sweep < refine; sweep++) {
-    vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
-    for (int j = 0; j < n; j++) {
-      svd3_rotate_cols(st[j].V, 0, 1, c[0][j], s[0][j]);
-      svd3_rotate_cols(st[j].V, 1, 2, c[1][j], s[1][j]);
-      svd3_rotate_cols(st[j].V, 2, 0, c[2][j], s[2][j]);
+  // V's rotations vector by vector, all sweeps on a local copy: V is
+  // stored once per vector, not after every sweep (the same rotations in
+  // the same order on every entry).
+  for (int j = 0; j < n; j++) {
+    vreal v[9];
+    for (int i = 0; i < 9; i++)
+      v[i] = st[j].V[i];
+    for (int sweep = 0; sweep < refine; sweep++) {
+      vreal(*c)[SVD3_MAX_N] = rc + 3 * sweep, (*s)[SVD3_MAX_N] = rs + 3 * sweep;
+      svd3_rotate_cols(v, 0, 1, c[0][j], s[0][j]);
+      svd3_rotate_cols(v, 1, 2, c[1][j], s[1][j]);
+      svd3_rotate_cols(v, 2, 0, c[2][j], s[2][j]);
     }
+    for (int i = 0; i < 9; i++)
+      st[j].V[i] = v[i];
   }
   for (int j = 0; j < n; j++)
     svd3_finish(&st[j], U[j], S[j], V[j], &scale[j], exact);
