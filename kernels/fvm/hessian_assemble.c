@@ -372,10 +372,10 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
 }
 
 // The threads' plan for nt threads (hessian_kernel.h): the slot blocks cut
-// into nt runs (of about equal work, below); a vertex row belongs to the thread whose run holds
-// the first block touching it; thread t computes, in ascending order, every
-// block touching one of its rows (its run's, and the few later ones across
-// the Morton cut). Which thread sums a nonzero changes with nt, the order
+// into nt runs (of about equal work, below); a vertex row belongs to the
+// thread whose run holds the first block touching it; thread t computes, in
+// ascending order, every block touching one of its rows (its run's, and the
+// few later ones across the Morton cut). Which thread sums a nonzero changes with nt, the order
 // of its sum does not.
 static int build_plan(ek_fvm_hessian *h, int nt) {
   const ek_tets *el = h->el;
