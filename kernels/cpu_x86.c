@@ -50,14 +50,21 @@ static int amd_family(void) {
 // 278 GFLOP/s f32 AVX-512 against 139 AVX2 at one thread), where the SVD's
 // dependency chains (Jacobi pair -> rsqrt -> rotation, ~40 dependent
 // operations a pair) leave the pipes idle with two chains: 4 chains took
-// 9.0-9.1 ns against 10.2-10.4 ns per matrix (docs/perf.md). Zen 4 (family
-// 0x19, 512-bit ops as two 256-bit halves) keeps the 2 it was tuned with;
-// so do Intel cores: a Xeon (Emerald Rapids) took 4 chains 14% faster on
-// the f32 SVD once the 4-vector copy kept its loops rolled (docs/perf.md,
-// eighth round), but its f64 rows and the FVM's use (svd3_quad_est) are
-// not measured there yet (EK_SVD3_CHAINS=4 tries it, dispatch.c).
+// 9.0-9.1 ns against 10.2-10.4 ns per matrix (docs/perf.md). Family 0x19
+// (Zen 3 and Zen 4, whose 256-bit FP pipes are the same) takes 4 chains
+// for AVX2 since the ninth round's leaner 4-vector copy: on a Zen 4, AVX2
+// f32 SVD 20.7 against 23.4 ns, f64 58.8 against 70.0, polar and the AoS
+// API 0.87x, the FVM level (Zen 3 not measured); its AVX-512 (512-bit ops
+// as two halves) keeps 2: 0.97x at 1 thread but 1.03x at 2 and the AoS API
+// 1.10x (docs/perf.md, ninth round). Intel cores keep 2: a Xeon (Emerald
+// Rapids) took 4 chains 14% faster on the f32 SVD (eighth round), but its
+// f64 rows and the FVM's use (svd3_quad_est) are not measured there yet
+// (EK_SVD3_CHAINS=4 tries it, dispatch.c).
 int ek_cpu_svd3_chains(ek_isa isa) {
-  if (isa == EK_ISA_AVX512 && amd_family() >= 0x1a)
+  const int family = amd_family();
+  if (isa == EK_ISA_AVX512 && family >= 0x1a)
+    return 4;
+  if (isa == EK_ISA_AVX2 && family == 0x19)
     return 4;
   return 2;
 }

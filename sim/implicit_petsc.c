@@ -244,7 +244,7 @@ int implicit_mpi_sum(double *v, size_t n, char *err, size_t errlen) {
   // on rank 0 and its broadcast (until the ninth round) took two: with
   // "matrix_free" a sum runs per CG iteration, and each collective waits
   // for the ranks to meet. Measured (cantilever_implicit, matrix_free, 6
-  // steps, 2 ranks, --mca mpi_yield_when_idle 1, busy 2-core Zen 5, load
+  // steps, 2 ranks, --mca mpi_yield_when_idle 1, busy 2-core Zen 4, load
   // 6.4-6.6, 3 interleaved rounds): step-time medians 8228, 3552, 2669 ms
   // -> 3065, 3184, 1745 ms. It receives mpi_size x n values per rank (the
   // reduction about 2 n): meant for the few ranks of a replicated state.
