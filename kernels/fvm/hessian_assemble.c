@@ -59,7 +59,6 @@ void ek_hessian_assembly_free(ek_fvm_hessian *h) {
   free(h->isolated);
   free(h->ubptr);
   free(h->ubcol);
-
   free(h->udiag);
   h->ubptr = h->ubcol = h->udiag = NULL;
   h->bptr = h->bcol = h->row_ptr = h->col = h->slot_p = h->slot_rs = h->mirror = h->isolated = NULL;
@@ -375,8 +374,8 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
 // into nt runs (of about equal work, below); a vertex row belongs to the
 // thread whose run holds the first block touching it; thread t computes, in
 // ascending order, every block touching one of its rows (its run's, and the
-// few later ones across the Morton cut). Which thread sums a nonzero changes with nt, the order
-// of its sum does not.
+// few later ones across the Morton cut). Which thread sums a nonzero
+// changes with nt, the order of its sum does not.
 static int build_plan(ek_fvm_hessian *h, int nt) {
   const ek_tets *el = h->el;
   const ek_tet_blocks *bl = cache_blocks(h);
