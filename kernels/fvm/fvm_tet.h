@@ -16,14 +16,19 @@
 #define tet_points vgather_points
 #endif
 
+// The block's Dm^-1 planes at lane offset o.
+EK_INLINE void tet_dm_inv(const real *dmi_block, int o, vreal Dmi[9]) {
+  for (int k = 0; k < 9; k++)
+    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+}
+
 // D = Ds Dm^-1 from Ds = [x1-x0, x2-x0, x3-x0] (row i, column c: Ds[3 i +
 // c]) and the block's Dm^-1 planes at offset o; lanes in is_pad get `pad`
 // on the diagonal and zero elsewhere.
 EK_INLINE void tet_ds_dm_inv(const vreal Ds[9], vmask is_pad, const real *dmi_block, int o,
                              real pad, vreal D[9]) {
   vreal Dmi[9];
-  for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  tet_dm_inv(dmi_block, o, Dmi);
   for (int i = 0; i < 3; i++)
     for (int j = 0; j < 3; j++) {
       vreal s = vmul(Ds[i * 3 + 0], Dmi[0 * 3 + j]);
@@ -71,9 +76,8 @@ EK_INLINE void tet_gradient_rolled(const real *x, const int32_t *idx_block, cons
 // H = s P Dm^-T: H[i][c] = s sum_k P[i][k] Dm^-1[c][k], with s = -V0 for
 // the force (H's columns are the forces on corners 1..3, Teran et al.
 // 2003 sec. 4) and s = V0 for the energy's gradient or its differential;
-// corner 0 gets -(h1 + h2 + h3). Written to hb[(c*3 + i)*L + o].
-// Component i of the four corners' values: h[c] of corner c (h[0] =
-// -(h[1] + h[2] + h[3])), from P and the block's Dm^-1 planes at o.
+// corner 0 gets -(h1 + h2 + h3). tet_corner_row: component i of the four
+// corners' values, h[c] of corner c, from P and the Dm^-1 planes.
 EK_INLINE void tet_corner_row(const vreal P[9], const vreal Dmi[9], vreal s, int i, vreal h[4]) {
   for (int c = 0; c < 3; c++) {
     vreal t = vmul(P[i * 3 + 0], Dmi[c * 3 + 0]);
@@ -84,11 +88,11 @@ EK_INLINE void tet_corner_row(const vreal P[9], const vreal Dmi[9], vreal s, int
   h[0] = vneg(vadd(vadd(h[1], h[2]), h[3]));
 }
 
+// tet_corner_values: all of them, written to hb[(c*3 + i)*L + o].
 EK_INLINE void tet_corner_values(const vreal P[9], const real *dmi_block, vreal s, int o,
                                  real *hb) {
   vreal Dmi[9];
-  for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  tet_dm_inv(dmi_block, o, Dmi);
   for (int i = 0; i < 3; i++) {
     vreal h[4];
     tet_corner_row(P, Dmi, s, i, h);
@@ -123,8 +127,7 @@ static inline void tet_scatter_block(const int32_t *idx_block, const real *hb, i
 EK_INLINE void tet_corner_rows4(const vreal P[9], const real *dmi_block, vreal s, int o,
                                 real *rows) {
   vreal Dmi[9], h[12], r[4];
-  for (int k = 0; k < 9; k++)
-    Dmi[k] = vload(dmi_block + k * EK_LANES + o);
+  tet_dm_inv(dmi_block, o, Dmi);
   for (int i = 0; i < 3; i++) {
     tet_corner_row(P, Dmi, s, i, r);
     for (int c = 0; c < 4; c++)
