@@ -114,15 +114,14 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
-// Lower block q of row v, (v, w) with w < v: the transpose of (w, v),
-// whose sum has the same contributions (each element block (c, d) is
-// (d, c)^T to the bit: elem_store symmetrises) in the same slot order, so
-// the copy has the bits that summing would give.
-static void copy_block(const ek_fvm_hessian *h, double *values, size_t v, int32_t q) {
-  const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+// Lower block q of a row of nb blocks, (v, w) with w < v, at dst: the
+// transpose of (w, v), whose sum has the same contributions (each element
+// block (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
+// slot order, so the copy has the bits that summing would give.
+static inline __attribute__((always_inline)) void
+copy_block(const ek_fvm_hessian *h, const double *values, double *dst, int32_t nb, int32_t q) {
   const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
   const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
-  double *dst = values + 9 * (size_t)b0 + 3 * (size_t)(q - b0);
   for (int i = 0; i < 3; i++)
     for (int m = 0; m < 3; m++)
       dst[(size_t)i * 3 * (size_t)nb + (size_t)m] = src[(size_t)m * 3 * (size_t)nw + (size_t)i];
@@ -130,18 +129,30 @@ static void copy_block(const ek_fvm_hessian *h, double *values, size_t v, int32_
 
 // The lower blocks of the rows thread t owns: cross 0, those whose mirror
 // row t owns too (its sums, done); cross 1, the others (rows across the
-// cut, the plan's xlow: after a barrier).
+// cut, the plan's xlow, ascending: after a barrier). Pass 0 skips them by
+// walking xlow alongside.
 static void copy_lower(const ek_fvm_hessian *h, double *values, int t, int cross) {
+  const int32_t *x = h->xlow + 2 * (size_t)h->xptr[t], *xe = h->xlow + 2 * (size_t)h->xptr[t + 1];
   if (cross) {
-    for (int32_t i = h->xptr[t]; i < h->xptr[t + 1]; i++)
-      copy_block(h, values, (size_t)h->xlow[2 * (size_t)i], h->xlow[2 * (size_t)i + 1]);
+    for (; x < xe; x += 2) {
+      const int32_t b0 = h->bptr[x[0]], nb = h->bptr[x[0] + 1] - b0;
+      copy_block(h, values, values + 9 * (size_t)b0 + 3 * (size_t)(x[1] - b0), nb, x[1]);
+    }
     return;
   }
-  for (size_t v = 0; v < h->el->nverts; v++)
-    if (h->row_own[v] == t)
-      for (int32_t q = h->bptr[v]; q < h->bptr[v + 1] && h->bcol[q] < (int32_t)v; q++)
-        if (h->row_own[h->bcol[q]] == t)
-          copy_block(h, values, v, q);
+  for (size_t v = 0; v < h->el->nverts; v++) {
+    if (h->row_own[v] != t)
+      continue;
+    const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+    double *row = values + 9 * (size_t)b0;
+    for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
+      if (x < xe && x[1] == q) {
+        x += 2;
+        continue;
+      }
+      copy_block(h, values, row + 3 * (size_t)(q - b0), nb, q);
+    }
+  }
 }
 
 // K's values (ek_fvm_hessian_assemble): per thread t of the plan

@@ -90,6 +90,7 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 // One thread's element Hessian buffer (abuf below): HESS_GROUP blocks of
 // 144 planes, 16 lanes of float or 8 of double, the same bytes.
 #define HESS_ABUF_BYTES ((size_t)HESS_GROUP * 144 * 64)
+_Static_assert(HESS_ABUF_BYTES % 4096 == 0, "the element Hessian buffers: whole pages");
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
