@@ -140,14 +140,16 @@ static void copy_lower(const ek_fvm_hessian *h, double *values, int t, int cross
     }
     return;
   }
+  int32_t skip = x < xe ? x[1] : -1; // the next cross block (-1: none left)
   for (size_t v = 0; v < h->el->nverts; v++) {
     if (h->row_own[v] != t)
       continue;
     const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
     double *row = values + 9 * (size_t)b0;
     for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
-      if (x < xe && x[1] == q) {
+      if (q == skip) {
         x += 2;
+        skip = x < xe ? x[1] : -1;
         continue;
       }
       copy_block(h, values, row + 3 * (size_t)(q - b0), nb, q);
