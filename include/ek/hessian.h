@@ -128,10 +128,11 @@ int ek_fvm_hessian_pattern(ek_fvm_hessian *h, ek_csr_pattern *pattern);
 // precision's rounding) computed by the vector kernel of the cache's
 // precision and symmetrised ((H + H^T) / 2, so K is symmetric to the bit),
 // then summed per nonzero in double in the mesh's slot order: the same
-// bits for any thread count. Scratch: 144 values of the cache's precision
-// per tet, kept until destroy. Error budgets against the double reference
-// as EK_HESSIAN_TOL_* (entry-wise, scaled by the sum of the absolute
-// contributions).
+// bits for any thread count. Scratch: the plan for the thread count (built
+// on the first call at that count) and 144 KB of element Hessians per
+// thread, kept until destroy (one call at a time per Hessian). Error
+// budgets against the double reference as EK_HESSIAN_TOL_* (entry-wise,
+// scaled by the sum of the absolute contributions).
 int ek_fvm_hessian_assemble(ek_fvm_hessian *h, double *values);
 
 // ---- The assembled Hessian, upper block triangle ----

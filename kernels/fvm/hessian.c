@@ -114,6 +114,49 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   return run(h, &a, 6, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, blocks);
 }
 
+// Lower block q of a row of nb blocks, (v, w) with w < v, at dst: the
+// transpose of (w, v), whose sum has the same contributions (each element
+// block (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
+// slot order, so the copy has the bits that summing would give.
+static inline __attribute__((always_inline)) void
+copy_block(const ek_fvm_hessian *h, const double *values, double *dst, int32_t nb, int32_t q) {
+  const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
+  const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
+  for (int i = 0; i < 3; i++)
+    for (int m = 0; m < 3; m++)
+      dst[(size_t)i * 3 * (size_t)nb + (size_t)m] = src[(size_t)m * 3 * (size_t)nw + (size_t)i];
+}
+
+// The lower blocks of the rows thread t owns: cross 0, those whose mirror
+// row t owns too (its sums, done); cross 1, the others (rows across the
+// cut, the plan's xlow, ascending: after a barrier). Pass 0 skips them by
+// walking xlow alongside.
+static void copy_lower(const ek_fvm_hessian *h, double *values, int t, int cross) {
+  const int32_t *x = h->xlow + 2 * (size_t)h->xptr[t], *xe = h->xlow + 2 * (size_t)h->xptr[t + 1];
+  if (cross) {
+    for (; x < xe; x += 2) {
+      const int32_t b0 = h->bptr[x[0]], nb = h->bptr[x[0] + 1] - b0;
+      copy_block(h, values, values + 9 * (size_t)b0 + 3 * (size_t)(x[1] - b0), nb, x[1]);
+    }
+    return;
+  }
+  int32_t skip = x < xe ? x[1] : -1; // the next cross block (-1: none left)
+  for (size_t v = 0; v < h->el->nverts; v++) {
+    if (h->row_own[v] != t)
+      continue;
+    const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
+    double *row = values + 9 * (size_t)b0;
+    for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
+      if (q == skip) {
+        x += 2;
+        skip = x < xe ? x[1] : -1;
+        continue;
+      }
+      copy_block(h, values, row + 3 * (size_t)(q - b0), nb, q);
+    }
+  }
+}
+
 // K's values (ek_fvm_hessian_assemble): per thread t of the plan
 // (hessian_kernel.h), the slot blocks touching its rows in ascending order;
 // per block, the element Hessians of its lanes (HESS_ELEMENT) into a
@@ -122,12 +165,12 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
 // the plan's runs (hessian_sum: per K block, the slot block's contributions
 // summed in registers in ascending slot order onto the block's partial sum,
 // loaded and stored once; a block's first contribution written as 0 + e:
-// the sum from 0 in ascending slot order, as a plain assembly); then,
-// after a barrier, the
-// blocks below the diagonal copied from their mirrors. Each nonzero is
-// summed by one thread in ascending slot order, so any thread count gives
-// the same bits; a block touching rows of two threads is computed by both
-// (the Morton order keeps those few). Why this order (docs/perf.md,
+// the sum from 0 in ascending slot order, as a plain assembly); then the
+// blocks below the diagonal copied from their mirrors (copy_lower). Each
+// nonzero is summed by one thread in ascending slot order, so any thread
+// count gives the same bits; a block touching rows of two threads is
+// computed by both (the Morton order keeps those few: 8% of the blocks at
+// 2 threads on the bench's box). Why this order (docs/perf.md,
 // "Hessian assembly"): the old gather per nonzero read a 58 MB element
 // buffer at random, ~70% of its time.
 // values (the scalar CSR, double) or uvalues (the upper block triangle in
@@ -143,18 +186,13 @@ static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
   // columns (HESS_ELEMENT_R1, isotropic models); the CSR's keep theirs.
   hess_args a = args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT);
   a.cache = h->cache;
-  // The groups' element Hessians, 144 KB per thread (f32, 16 blocks), on
-  // the heap (not on a caller's thread stack, which may be small), one
-  // block for the team.
-  const size_t group = (size_t)HESS_GROUP * EK_LANES * 144;
-  real *bufs = ek_alloc((size_t)nt * group * sizeof(real));
-  if (!bufs) {
-    ek_set_error("ek_fvm_hessian_assemble: out of memory for the element Hessians' buffers");
-    return EK_ENOMEM;
-  }
+  _Static_assert((size_t)HESS_GROUP * EK_LANES * 144 * sizeof(real) == HESS_ABUF_BYTES,
+                 "the plan's element Hessian buffers");
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    real *buf = bufs + (size_t)omp_get_thread_num() * group;
+    // The groups' element Hessians: the thread's buffer of the plan (on
+    // the heap, not on a caller's thread stack, which may be small).
+    real *buf = (real *)((char *)h->abuf + (size_t)omp_get_thread_num() * HESS_ABUF_BYTES);
     hess_args la = a;
     la.values = values;
     la.uvalues = uvalues;
@@ -177,31 +215,18 @@ static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
         h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
       }
     if (!uvalues) {
-      // The blocks below the diagonal, (v, w) with w < v: the transpose of
-      // (w, v), whose sum has the same contributions (each element block
-      // (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
-      // slot order, so the copy has the bits that summing would give.
-#pragma omp barrier
-      const ek_tets *el = h->el;
+      // The blocks below the diagonal: first those whose mirror row this
+      // thread sums (done), then, after the barrier, those whose mirror
+      // another thread sums (rows across the cut: at 2 threads on the
+      // bench's box 3 of thread 0's 60 589 and 3 418 of thread 1's 63 716),
+      // so a thread copies most of its blocks while the others still sum.
       for (int t = omp_get_thread_num(); t < nt; t += team)
-        for (size_t v = 0; v < el->nverts; v++) {
-          if (h->row_own[v] != t)
-            continue;
-          const int32_t b0 = h->bptr[v], nb = h->bptr[v + 1] - b0;
-          double *row = values + 9 * (size_t)b0;
-          for (int32_t q = b0; q < b0 + nb && h->bcol[q] < (int32_t)v; q++) {
-            const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
-            const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
-            double *dst = row + 3 * (size_t)(q - b0);
-            for (int i = 0; i < 3; i++)
-              for (int m = 0; m < 3; m++)
-                dst[(size_t)i * 3 * (size_t)nb + (size_t)m] =
-                    src[(size_t)m * 3 * (size_t)nw + (size_t)i];
-          }
-        }
+        copy_lower(h, values, t, 0);
+#pragma omp barrier
+      for (int t = omp_get_thread_num(); t < nt; t += team)
+        copy_lower(h, values, t, 1);
     }
   }
-  ek_free(bufs);
   return EK_OK;
 }
 

@@ -38,6 +38,11 @@ static void plan_free(ek_fvm_hessian *h) {
   free(h->run_e);
   free(h->run_up);
   h->run_up = NULL;
+  free(h->abuf);
+  h->abuf = NULL;
+  free(h->xptr);
+  free(h->xlow);
+  h->xptr = h->xlow = NULL;
   h->slot_own = NULL;
   h->tptr = h->tblk = h->tgrp = h->krun = h->kcon = NULL;
   h->runs = NULL;
@@ -370,6 +375,41 @@ static int build_runs(ek_fvm_hessian *h, int nt, size_t lanes) {
   return EK_OK;
 }
 
+// The CSR's lower blocks whose mirror row another thread owns (xptr,
+// xlow: hessian_kernel.h), per thread in ascending row order.
+static int build_cross(ek_fvm_hessian *h, int nt) {
+  h->xptr = calloc((size_t)nt + 1, sizeof(int32_t));
+  if (!h->xptr)
+    return EK_ENOMEM;
+  for (int pass = 0; pass < 2; pass++) {
+    for (size_t v = 0; v < h->el->nverts; v++) {
+      const int t = h->row_own[v];
+      if (t >= nt) // a vertex in no tet: its diagonal block only
+        continue;
+      for (int32_t q = h->bptr[v]; q < h->bptr[v + 1] && h->bcol[q] < (int32_t)v; q++)
+        if (h->row_own[h->bcol[q]] != t) {
+          if (pass) {
+            h->xlow[2 * (size_t)h->xptr[t]] = (int32_t)v;
+            h->xlow[2 * (size_t)h->xptr[t]++ + 1] = q;
+          } else
+            h->xptr[t + 1]++;
+        }
+    }
+    if (pass == 0) {
+      for (int t = 0; t < nt; t++)
+        h->xptr[t + 1] += h->xptr[t];
+      h->xlow = malloc((2 * (size_t)h->xptr[nt] + 1) * sizeof(int32_t));
+      if (!h->xlow)
+        return EK_ENOMEM;
+    }
+  }
+  // The fill advanced xptr[t] to thread t's end: shift back.
+  for (int t = nt; t > 0; t--)
+    h->xptr[t] = h->xptr[t - 1];
+  h->xptr[0] = 0;
+  return EK_OK;
+}
+
 // The threads' plan for nt threads (hessian_kernel.h): the slot blocks cut
 // into nt runs (of about equal work, below); a vertex row belongs to the
 // thread whose run holds the first block touching it; thread t computes, in
@@ -476,7 +516,11 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
   h->tgrp[0] = 0;
   for (int t = 0; t < nt; t++)
     h->tgrp[t + 1] = h->tgrp[t] + (h->tptr[t + 1] - h->tptr[t] + HESS_GROUP - 1) / HESS_GROUP;
-  if (build_runs(h, nt, lanes) < 0) {
+  // Page-aligned (HESS_ABUF_BYTES is a multiple of 4096): no thread's
+  // buffer shares a page with another's, and its placement is the same
+  // from run to run.
+  h->abuf = aligned_alloc(4096, (size_t)nt * HESS_ABUF_BYTES);
+  if (!h->abuf || build_cross(h, nt) < 0 || build_runs(h, nt, lanes) < 0) {
     plan_free(h);
     ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");
     return EK_ENOMEM;

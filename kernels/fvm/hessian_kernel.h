@@ -87,6 +87,10 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 // round). The plan's element offsets are 16-bit: (144 j + 9 dc) lanes + l
 // below 144 HESS_GROUP lanes (hessian_assemble.c checks it).
 #define HESS_GROUP 16
+// One thread's element Hessian buffer (abuf below): HESS_GROUP blocks of
+// 144 planes, 16 lanes of float or 8 of double, the same bytes.
+#define HESS_ABUF_BYTES ((size_t)HESS_GROUP * 144 * 64)
+_Static_assert(HESS_ABUF_BYTES % 4096 == 0, "the element Hessian buffers: whole pages");
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
@@ -143,6 +147,16 @@ struct ek_fvm_hessian {
   int plan_threads;
   uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
   int32_t *tptr, *tblk, *tgrp;
+  // The CSR's lower blocks (v, w), w < v, whose mirror row w another thread
+  // owns than row v (copied after the barrier, hessian.c copy_lower): per
+  // thread t the pairs xlow[2 i] = v, xlow[2 i + 1] = the block's index in
+  // bcol, i in xptr[t] .. xptr[t + 1].
+  int32_t *xptr, *xlow;
+  // The groups' element Hessians, HESS_GROUP * 144 * LANES values of the
+  // cache's precision per thread (144 KB in both precisions), thread t's
+  // at t * HESS_ABUF_BYTES: allocated with the plan, kept across calls (no
+  // allocation, page faults or heap trims in the timed call).
+  void *abuf;
   // Per group g: the runs runs[krun[g] .. krun[g + 1]) and their element
   // blocks' plane offsets (144 j + (d * 4 + c) * 9) * LANES + l in the
   // element buffer (entry j of the group, lane l), from run_e[kcon[g]], n
