@@ -137,6 +137,7 @@ void ek_cloth_destroy(ek_cloth *cl) {
   ek_free(cl->hinge_corner_f32);
   ek_free(cl->tri_corner_f64);
   ek_free(cl->hinge_corner_f64);
+  ek_free(cl->energy_buf);
   free(cl);
 }
 
@@ -327,7 +328,9 @@ ek_cloth *ek_cloth_create(size_t nverts, const double *X, size_t ntris, const in
       ek_alloc((cl->nhb_f32 ? cl->nhb_f32 : 1) * 12 * EK_LANES_F32 * sizeof(float));
   cl->hinge_corner_f64 =
       ek_alloc((cl->nhb_f64 ? cl->nhb_f64 : 1) * 12 * EK_LANES_F64 * sizeof(double));
-  if (!cl->tri_corner_f32 || !cl->tri_corner_f64 || !cl->hinge_corner_f32 || !cl->hinge_corner_f64)
+  cl->energy_buf = ek_alloc((cl->nh + 3 * nverts + 1) * sizeof(double));
+  if (!cl->tri_corner_f32 || !cl->tri_corner_f64 || !cl->hinge_corner_f32 ||
+      !cl->hinge_corner_f64 || !cl->energy_buf)
     goto oom;
   return cl;
 oom:

@@ -33,6 +33,9 @@ struct ek_cloth {
   // cloth serves one force call at a time.
   float *tri_corner_f32, *hinge_corner_f32;
   double *tri_corner_f64, *hinge_corner_f64;
+  // The energy call's hinge energies (nh) and, for f32 positions, the
+  // positions in double (3 nv); its triangle energies go in tri_corner_*.
+  double *energy_buf;
 };
 
 // Below this many triangles a force call runs on the calling thread (as
