@@ -523,6 +523,32 @@ int main(int argc, char **argv) {
                  model_name(model), ek_isa_name((ek_isa)isa));
         check(what, memcmp(fa, fb, nb3 * sizeof(double)) == 0 &&
                         memcmp(fa32, fb32, nb3 * sizeof(float)) == 0);
+        // The energies: one ordered double sum whose adds thread 0 overlaps
+        // with its share (cloth_force.c, energy_sum); 3 threads too.
+        double E[3][3];
+        for (int nt = 1; nt <= 3; ++nt) {
+          omp_set_num_threads(nt);
+          ek_cloth_energy_ex_f64(cb, &p, xb, &E[nt - 1][0], &o);
+          ek_cloth_energy_ex_f32(cb, &p, xbf, &E[nt - 1][1], &o);
+          E[nt - 1][2] = ek_cloth_energy_f64(cb, &p, xb);
+        }
+        snprintf(what, sizeof what,
+                 "f. %s %s: energies (f64, f32, default) same bits at 1, 2 and 3 threads",
+                 model_name(model), ek_isa_name((ek_isa)isa));
+        check(what, memcmp(E[0], E[1], sizeof E[0]) == 0 && memcmp(E[0], E[2], sizeof E[0]) == 0 &&
+                        isfinite(E[0][0]) && isfinite(E[0][1]) && isfinite(E[0][2]));
+        if (isa == EK_ISA_SCALAR) { // the fields (no ISA): per triangle, any partition
+          double *fl = malloc(4 * 2 * big.nt * sizeof(double));
+          for (int nt = 1; nt <= 2 && fl; ++nt) {
+            double *o4 = fl + 4 * (size_t)(nt - 1) * big.nt;
+            omp_set_num_threads(nt);
+            ek_cloth_fields_f64(cb, &p, xb, o4, o4 + big.nt, o4 + 2 * big.nt, o4 + 3 * big.nt);
+          }
+          snprintf(what, sizeof what, "f. %s: fields same bits at 1 and 2 threads",
+                   model_name(model));
+          check(what, fl && memcmp(fl, fl + 4 * big.nt, 4 * big.nt * sizeof(double)) == 0);
+          free(fl);
+        }
         if (model == 0) {
           double *dxb = fa, *qa = malloc(nb3 * sizeof(double)), *qb = malloc(nb3 * sizeof(double));
           for (size_t i = 0; i < nb3; ++i)

@@ -12,6 +12,7 @@
 // the same bits at any thread count.
 #include <math.h>
 #include <omp.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -193,8 +194,52 @@ static double add_tris(double sum, const real *te, size_t t0, size_t t1) {
   return sum;
 }
 
-#define CHUNK 4 // triangle blocks thread 0 computes before adding them
-#define RATE 4  // adds per hinge energy that thread 0 can hide (~3 ns of ~4)
+#define CHUNK 4                      // triangle blocks thread 0 computes before adding them
+#define RATE 4                       // adds per hinge energy that thread 0 can hide (~3 ns of ~4)
+#define HCHUNK EK_CLOTH_ENERGY_CHUNK // hinges per chunk of the hinge phase
+
+// Thread 0's part of the hinge phase: chunks claimed from *next as the
+// others claim theirs; each hinge computed into eh while up to RATE values
+// are added from those ready (the others' triangles [*c, ntri), then
+// hinges [*g, *lim)), or, once the sum has caught up, added as computed.
+// After each chunk *lim grows over the chunks flagged ready (release /
+// acquire); thread 0 never waits for one.
+static double hinge_chunks0(const ek_cloth *cl, double kb, const double *xd, double *eh,
+                            const real *te, size_t ntri, size_t nh, atomic_size_t *next, double s,
+                            size_t *c, size_t *g, size_t *lim) {
+  atomic_uchar *ready = cl->energy_ready;
+  for (;;) {
+    size_t k = atomic_fetch_add_explicit(next, 1, memory_order_relaxed);
+    if (k * HCHUNK >= nh)
+      break;
+    size_t h = k * HCHUNK, h1 = h + HCHUNK < nh ? h + HCHUNK : nh;
+    for (; h < h1 && *c + RATE <= ntri; ++h, *c += RATE) {
+      eh[h] = hinge_energy(cl, kb, xd, h);
+      for (int r = 0; r < RATE; ++r)
+        s += (double)te[*c + r];
+    }
+    if (*c < ntri && h < h1) { // the last few triangles
+      s = add_tris(s, te, *c, ntri);
+      *c = ntri;
+    }
+    for (; h < h1 && *g + RATE <= *lim; ++h, *g += RATE) {
+      eh[h] = hinge_energy(cl, kb, xd, h);
+      for (int r = 0; r < RATE; ++r)
+        s += eh[*g + r];
+    }
+    if (*c == ntri && *g == *lim && *lim == h) { // caught up: add as computed
+      for (; h < h1; ++h)
+        s += eh[h] = hinge_energy(cl, kb, xd, h);
+      *g = *lim = h1;
+    }
+    for (; h < h1; ++h)
+      eh[h] = hinge_energy(cl, kb, xd, h);
+    atomic_store_explicit(&ready[k], 1, memory_order_relaxed); // its own
+    while (*lim < nh && atomic_load_explicit(&ready[*lim / HCHUNK], memory_order_acquire))
+      *lim = *lim + HCHUNK < nh ? *lim + HCHUNK : nh;
+  }
+  return s;
+}
 
 // E = the triangles' energies summed in double in triangle order, then the
 // hinges' in hinge order: the same bits at any thread count. The sum is
@@ -202,10 +247,10 @@ static double add_tris(double sum, const real *te, size_t t0, size_t t1) {
 // Zen 4 against ~4 ns per hinge energy), so thread 0 runs it and adds
 // values while it computes others: (1) thread 0 the first 1/n of the
 // triangle blocks, adding them chunk by chunk; the others the rest, and
-// f32 positions to double (the hinges read them 12 times); (2) thread 0
-// the first 1/n of the hinges, adding up to 4 values per hinge (the
-// others' triangles, then its own hinges); the others the rest of the
-// hinges into energy_buf; (3) thread 0 adds those: the only serial part.
+// f32 positions to double (the hinges read them 12 times); (2) the hinges
+// in chunks claimed in order by whichever thread is free, thread 0 adding
+// the others' triangles and the ready hinges as it goes (hinge_chunks0);
+// (3) after the barrier, thread 0 adds the rest (about a chunk per thread).
 static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, const real *x,
                          int par) {
   double *eh = ((ek_cloth *)cl)->energy_buf, sum = 0;
@@ -216,10 +261,13 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
 #endif
   const size_t nh = kb > 0 ? cl->nh : 0, ntb = j->ntb, ntri = cl->nt;
   const real *te = j->te;
+  atomic_uchar *ready = cl->energy_ready;
+  atomic_size_t next;
+  atomic_init(&next, 0);
 #pragma omp parallel if (par)
   {
     const int t = omp_get_thread_num(), n = omp_get_num_threads();
-    const size_t a = ntb / (size_t)n, ta = a * L < ntri ? a * L : ntri, hb = nh / (size_t)n;
+    const size_t a = ntb / (size_t)n, ta = a * L < ntri ? a * L : ntri;
     double s = 0;
     size_t b0, b1;
     if (t == 0) {
@@ -241,36 +289,30 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
         j->blocks(j->ctx, a + b0, a + b1);
     }
 #pragma omp barrier
+    size_t c = ta, g = 0, lim = 0; // thread 0: the next triangle, hinge to add; hinges ready
     if (t == 0) {
-      // Its hinges with the others' triangles' adds (RATE per hinge), then
-      // with its own first hinges' (two per hinge until caught up), then
-      // each hinge added as computed.
-      size_t c = ta, h = 0, g = 0; // the next triangle, hinge, hinge to add
-      for (; h < hb && c + RATE <= ntri; ++h, c += RATE) {
-        eh[h] = hinge_energy(cl, kb, xd, h);
-        for (int k = 0; k < RATE; ++k)
-          s += (double)te[c + k];
-      }
+      s = hinge_chunks0(cl, kb, xd, eh, te, ntri, nh, &next, s, &c, &g, &lim);
       s = add_tris(s, te, c, ntri);
-      for (; h < hb && g + 2 <= h; ++h, g += 2) {
-        eh[h] = hinge_energy(cl, kb, xd, h);
+      for (; g < lim; ++g)
         s += eh[g];
-        s += eh[g + 1];
-      }
-      for (; g < h; ++g)
-        s += eh[g];
-      for (; h < hb; ++h)
-        s += hinge_energy(cl, kb, xd, h);
     } else {
-      part(nh - hb, t - 1, n - 1, &b0, &b1);
-      for (size_t h = hb + b0; h < hb + b1; ++h)
-        eh[h] = hinge_energy(cl, kb, xd, h);
+      for (;;) {
+        size_t k = atomic_fetch_add_explicit(&next, 1, memory_order_relaxed);
+        if (k * HCHUNK >= nh)
+          break;
+        size_t h1 = (k + 1) * HCHUNK < nh ? (k + 1) * HCHUNK : nh;
+        for (size_t h = k * HCHUNK; h < h1; ++h)
+          eh[h] = hinge_energy(cl, kb, xd, h);
+        atomic_store_explicit(&ready[k], 1, memory_order_release);
+      }
     }
 #pragma omp barrier
     if (t == 0) {
-      for (size_t h = hb; h < nh; ++h)
-        s += eh[h];
+      for (; g < nh; ++g)
+        s += eh[g];
       sum = s;
+      for (size_t k = 0; k * HCHUNK < nh; ++k) // cleared for the next call
+        atomic_store_explicit(&ready[k], 0, memory_order_relaxed);
     }
   }
   return sum;
@@ -638,9 +680,12 @@ int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const doub
     ek_set_error("ek_cloth_fields_f64: NULL x");
     return EK_EINVAL;
   }
-  for (size_t t = 0; t < cl->nt; ++t) {
+  // Each triangle's values alone: any partition gives the same bits.
+  long nt = (long)cl->nt;
+#pragma omp parallel for schedule(static) if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
+  for (long t = 0; t < nt; ++t) {
     double F[6];
-    tri_F(cl, x, t, F);
+    tri_F(cl, x, (size_t)t, F);
     cloth_svd32 d;
     cloth_svd32_of(F, &d);
     if (J)
