@@ -548,6 +548,34 @@ int main(int argc, char **argv) {
                    model_name(model));
           check(what, fl && memcmp(fl, fl + 4 * big.nt, 4 * big.nt * sizeof(double)) == 0);
           free(fl);
+          // The diagonal blocks: per vertex, its corners in element order.
+          double *db = malloc(2 * 9 * big.nv * sizeof(double));
+          for (int nt = 1; nt <= 2 && db; ++nt) {
+            omp_set_num_threads(nt);
+            ek_cloth_hessian_diagonal_f64(cb, &p, xb, db + 9 * (size_t)(nt - 1) * big.nv);
+          }
+          snprintf(what, sizeof what, "f. %s: Hessian diagonal same bits at 1 and 2 threads",
+                   model_name(model));
+          check(what, db && memcmp(db, db + 9 * big.nv, 9 * big.nv * sizeof(double)) == 0);
+          // ... and column j of vertex v's block is vertex v's part of the
+          // projected product with e_vj (the same element products, summed
+          // in the same order): a few vertices, bit for bit.
+          double *ev = calloc(nb3, sizeof(double)), *qv = malloc(nb3 * sizeof(double));
+          int same = db && ev && qv;
+          for (size_t v = 7; same && v < big.nv; v += big.nv / 3)
+            for (int j = 0; j < 3; ++j) {
+              ev[3 * v + (size_t)j] = 1;
+              ek_cloth_hessian_apply_f64(cb, &p, xb, 1, ev, qv);
+              ev[3 * v + (size_t)j] = 0;
+              for (int i = 0; i < 3; ++i)
+                same &= db[9 * v + 3 * (size_t)i + (size_t)j] == qv[3 * v + (size_t)i];
+            }
+          snprintf(what, sizeof what,
+                   "f. %s: Hessian diagonal = the product's columns, bit for bit",
+                   model_name(model));
+          check(what, same);
+          free(ev), free(qv);
+          free(db);
         }
         if (model == 0) {
           double *dxb = fa, *qa = malloc(nb3 * sizeof(double)), *qb = malloc(nb3 * sizeof(double));
