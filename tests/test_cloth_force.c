@@ -523,6 +523,60 @@ int main(int argc, char **argv) {
                  model_name(model), ek_isa_name((ek_isa)isa));
         check(what, memcmp(fa, fb, nb3 * sizeof(double)) == 0 &&
                         memcmp(fa32, fb32, nb3 * sizeof(float)) == 0);
+        // The energies: one ordered double sum whose adds thread 0 overlaps
+        // with its share (cloth_force.c, energy_sum); 3 threads too.
+        double E[3][3];
+        for (int nt = 1; nt <= 3; ++nt) {
+          omp_set_num_threads(nt);
+          ek_cloth_energy_ex_f64(cb, &p, xb, &E[nt - 1][0], &o);
+          ek_cloth_energy_ex_f32(cb, &p, xbf, &E[nt - 1][1], &o);
+          E[nt - 1][2] = ek_cloth_energy_f64(cb, &p, xb);
+        }
+        snprintf(what, sizeof what,
+                 "f. %s %s: energies (f64, f32, default) same bits at 1, 2 and 3 threads",
+                 model_name(model), ek_isa_name((ek_isa)isa));
+        check(what, memcmp(E[0], E[1], sizeof E[0]) == 0 && memcmp(E[0], E[2], sizeof E[0]) == 0 &&
+                        isfinite(E[0][0]) && isfinite(E[0][1]) && isfinite(E[0][2]));
+        if (isa == EK_ISA_SCALAR) { // the fields (no ISA): per triangle, any partition
+          double *fl = malloc(4 * 2 * big.nt * sizeof(double));
+          for (int nt = 1; nt <= 2 && fl; ++nt) {
+            double *o4 = fl + 4 * (size_t)(nt - 1) * big.nt;
+            omp_set_num_threads(nt);
+            ek_cloth_fields_f64(cb, &p, xb, o4, o4 + big.nt, o4 + 2 * big.nt, o4 + 3 * big.nt);
+          }
+          snprintf(what, sizeof what, "f. %s: fields same bits at 1 and 2 threads",
+                   model_name(model));
+          check(what, fl && memcmp(fl, fl + 4 * big.nt, 4 * big.nt * sizeof(double)) == 0);
+          free(fl);
+          // The diagonal blocks: per vertex, its corners in element order.
+          double *db = malloc(2 * 9 * big.nv * sizeof(double));
+          for (int nt = 1; nt <= 2 && db; ++nt) {
+            omp_set_num_threads(nt);
+            ek_cloth_hessian_diagonal_f64(cb, &p, xb, db + 9 * (size_t)(nt - 1) * big.nv);
+          }
+          snprintf(what, sizeof what, "f. %s: Hessian diagonal same bits at 1 and 2 threads",
+                   model_name(model));
+          check(what, db && memcmp(db, db + 9 * big.nv, 9 * big.nv * sizeof(double)) == 0);
+          // ... and column j of vertex v's block is vertex v's part of the
+          // projected product with e_vj (the same element products, summed
+          // in the same order): a few vertices, bit for bit.
+          double *ev = calloc(nb3, sizeof(double)), *qv = malloc(nb3 * sizeof(double));
+          int same = db && ev && qv;
+          for (size_t v = 7; same && v < big.nv; v += big.nv / 3)
+            for (int j = 0; j < 3; ++j) {
+              ev[3 * v + (size_t)j] = 1;
+              ek_cloth_hessian_apply_f64(cb, &p, xb, 1, ev, qv);
+              ev[3 * v + (size_t)j] = 0;
+              for (int i = 0; i < 3; ++i)
+                same &= db[9 * v + 3 * (size_t)i + (size_t)j] == qv[3 * v + (size_t)i];
+            }
+          snprintf(what, sizeof what,
+                   "f. %s: Hessian diagonal = the product's columns, bit for bit",
+                   model_name(model));
+          check(what, same);
+          free(ev), free(qv);
+          free(db);
+        }
         if (model == 0) {
           double *dxb = fa, *qa = malloc(nb3 * sizeof(double)), *qb = malloc(nb3 * sizeof(double));
           for (size_t i = 0; i < nb3; ++i)

@@ -51,8 +51,9 @@
 // Determinism: each triangle (hinge) writes its corners into a buffer, and
 // each vertex sums the corners that touch it in a fixed order (the order of
 // the triangles, then of the hinges): any thread count gives the same bits.
-// The corner buffers belong to the ek_cloth: one force or Hessian call at a
-// time per cloth (calls on different cloths may run concurrently).
+// The corner and energy buffers belong to the ek_cloth: one force, energy
+// or Hessian call at a time per cloth (calls on different cloths may run
+// concurrently).
 #ifndef EK_CLOTH_FORCE_H
 #define EK_CLOTH_FORCE_H
 

@@ -137,6 +137,8 @@ void ek_cloth_destroy(ek_cloth *cl) {
   ek_free(cl->hinge_corner_f32);
   ek_free(cl->tri_corner_f64);
   ek_free(cl->hinge_corner_f64);
+  ek_free(cl->energy_buf);
+  free((void *)cl->energy_ready);
   free(cl);
 }
 
@@ -327,7 +329,10 @@ ek_cloth *ek_cloth_create(size_t nverts, const double *X, size_t ntris, const in
       ek_alloc((cl->nhb_f32 ? cl->nhb_f32 : 1) * 12 * EK_LANES_F32 * sizeof(float));
   cl->hinge_corner_f64 =
       ek_alloc((cl->nhb_f64 ? cl->nhb_f64 : 1) * 12 * EK_LANES_F64 * sizeof(double));
-  if (!cl->tri_corner_f32 || !cl->tri_corner_f64 || !cl->hinge_corner_f32 || !cl->hinge_corner_f64)
+  cl->energy_buf = ek_alloc((cl->nh + 3 * nverts + 1) * sizeof(double));
+  cl->energy_ready = calloc(cl->nh / EK_CLOTH_ENERGY_CHUNK + 1, sizeof(atomic_uchar));
+  if (!cl->tri_corner_f32 || !cl->tri_corner_f64 || !cl->hinge_corner_f32 ||
+      !cl->hinge_corner_f64 || !cl->energy_buf || !cl->energy_ready)
     goto oom;
   return cl;
 oom:

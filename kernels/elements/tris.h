@@ -7,6 +7,7 @@
 #define EK_KERNELS_ELEMENTS_TRIS_H
 
 #include <ek/cloth_force.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -33,11 +34,17 @@ struct ek_cloth {
   // cloth serves one force call at a time.
   float *tri_corner_f32, *hinge_corner_f32;
   double *tri_corner_f64, *hinge_corner_f64;
+  // The energy call's hinge energies (nh) and, for f32 positions, the
+  // positions in double (3 nv); its triangle energies go in tri_corner_*;
+  // a flag per chunk of EK_CLOTH_ENERGY_CHUNK hinges once they are written.
+  double *energy_buf;
+  atomic_uchar *energy_ready;
 };
 
 // Below this many triangles a force call runs on the calling thread (as
 // EK_FVM_PARALLEL_MIN_TETS for tets: a second thread gains too little).
 #define EK_CLOTH_PARALLEL_MIN_TRIS 4096
+#define EK_CLOTH_ENERGY_CHUNK 256
 
 // The triangle rest frame (include/ek/cloth.h, ek_tri_rest_f64): Dm^-1
 // (2x2 row-major) of the rest edges in the triangle's orthonormal frame
