@@ -20,10 +20,10 @@ typedef struct {
   int chains;      // vectors in flight in svd3_block: 4, or 2 otherwise (0,
                    // what the defaults leave); the drivers pass their row's
                    // svd3_chains. The same bits either way (svd3_block.c).
-  int nt;          // AoS only: the outputs written by streaming stores
-                   // (vstream), EK_SVD3_NT_U | _V | _S (U / R, V / Ssym,
-                   // S), each only where that array's vectors start on 64
-                   // bytes; 0 = plain stores (the default). Same bits.
+  int nt;          // the outputs written by streaming stores (vstream),
+                   // EK_SVD3_NT_U | _V | _S (U / R, V / Ssym, S), each only
+                   // where that array's vectors start on 64 bytes (AoS and
+                   // AoSoA); 0 = plain stores (the default). Same bits.
 } ek_svd3_knobs;
 #define EK_SVD3_NT_U 1
 #define EK_SVD3_NT_V 2

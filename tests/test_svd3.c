@@ -527,13 +527,37 @@ static void invalid_options(void) {
 }
 
 // ---- Streamed outputs ----
-// A batch whose arrays pass 32 MiB takes streaming stores for its AoS
-// outputs (kernels/svd3/svd3.c, nt_for), with the row's chains where all of
-// them are streamed: its results must have the bits of the same matrices
-// in calls of 4096 (plain stores). Three layouts: every array on 64 bytes
-// (all streamed), the outputs one record past it (a head, S then off its
-// line: U and V alone streamed), and the polar (R, Ssym). The inputs: the
-// random set, repeated; n leaves a partial last vector.
+// A batch whose arrays pass 32 MiB takes streaming stores for its outputs
+// (kernels/svd3/svd3.c, nt_for: AoS; AoSoA where the row takes more than 2
+// chains), with the row's chains where all of them are streamed: its
+// results must have the bits of the same matrices in calls of 4096 (plain
+// stores). Three layouts: every array on 64 bytes (all streamed), the
+// outputs one record past it (AoS: a head, S then off its line: U and V
+// alone streamed; AoSoA: S one value past it, nothing streamed), and the
+// polar (R, Ssym).
+// The inputs: the random set, repeated (read as blocks by the AoSoA entry
+// points: other matrices, as valid as any); n leaves a partial last vector
+// (AoS).
+static int run_streamed(int bits, int aosoa, int polar, size_t n, const char *a, char *u, char *s,
+                        char *v, const ek_svd3_opts *o) {
+  if (aosoa) {
+    size_t nb = n / block_lanes(bits);
+    return bits == 32
+               ? (polar ? ek_polar3_aosoa_f32(nb, (const float *)a, (float *)u, (float *)v, o)
+                        : ek_svd3_aosoa_f32(nb, (const float *)a, (float *)u, (float *)s,
+                                            (float *)v, o))
+               : (polar ? ek_polar3_aosoa_f64(nb, (const double *)a, (double *)u, (double *)v, o)
+                        : ek_svd3_aosoa_f64(nb, (const double *)a, (double *)u, (double *)s,
+                                            (double *)v, o));
+  }
+  return bits == 32
+             ? (polar ? ek_polar3_f32(n, (const float *)a, (float *)u, (float *)v, o)
+                      : ek_svd3_f32(n, (const float *)a, (float *)u, (float *)s, (float *)v, o))
+             : (polar
+                    ? ek_polar3_f64(n, (const double *)a, (double *)u, (double *)v, o)
+                    : ek_svd3_f64(n, (const double *)a, (double *)u, (double *)s, (double *)v, o));
+}
+
 static void streamed(int bits, ek_isa isa, const ek_svd3_set *s) {
   const size_t n = (bits == 32 ? 300000 : 150000) + 5, es = bits == 32 ? 4 : 8, piece = 4096;
   char *A = ek_alloc(9 * n * es), *o[2][3];
@@ -551,37 +575,32 @@ static void streamed(int bits, ek_isa isa, const ek_svd3_set *s) {
     else
       ((double *)A)[i] = s->A[i % (9 * s->n)];
   ek_svd3_opts opt = {.isa = isa};
-  for (int layout = 0; layout < 3; layout++) {
-    int polar = layout == 2;
-    size_t off = layout == 1 ? 1 : 0;
-    for (int c = 0; c < 2; c++) {
-      char *u = o[c][0] + 9 * off * es, *sv = o[c][1] + 3 * off * es, *v = o[c][2] + 9 * off * es;
+  // AoSoA: whole blocks only (piece is a multiple of the block).
+  const size_t nblk = n / block_lanes(bits) * block_lanes(bits);
+  for (int aosoa = 0; aosoa < 2; aosoa++)
+    for (int layout = 0; layout < 3; layout++) {
+      int polar = layout == 2;
+      size_t off = layout == 1 ? 1 : 0, m_all = aosoa ? nblk : n;
+      for (int c = 0; c < 2; c++) {
+        char *u = o[c][0] + (aosoa ? 0 : 9 * off * es), *sv = o[c][1] + (aosoa ? 1 : 3) * off * es,
+             *v = o[c][2] + (aosoa ? 0 : 9 * off * es);
+        for (int k = 0; k < 3; k++)
+          memset(o[c][k], 0, ((k == 1 ? 3 : 9) * n + 9) * es);
+        for (size_t i0 = 0; i0 < m_all; i0 += c ? piece : m_all) {
+          size_t m = c ? (m_all - i0 < piece ? m_all - i0 : piece) : m_all;
+          ok &= run_streamed(bits, aosoa, polar, m, A + 9 * i0 * es, u + 9 * i0 * es,
+                             sv + 3 * i0 * es, v + 9 * i0 * es, &opt) == 0;
+        }
+      }
       for (int k = 0; k < 3; k++)
-        memset(o[c][k], 0, ((k == 1 ? 3 : 9) * n + 9) * es);
-      for (size_t i0 = 0; i0 < n; i0 += c ? piece : n) {
-        size_t m = c ? (n - i0 < piece ? n - i0 : piece) : n;
-        const char *a = A + 9 * i0 * es;
-        char *ui = u + 9 * i0 * es, *si = sv + 3 * i0 * es, *vi = v + 9 * i0 * es;
-        int rc =
-            bits == 32
-                ? (polar ? ek_polar3_f32(m, (const float *)a, (float *)ui, (float *)vi, &opt)
-                         : ek_svd3_f32(m, (const float *)a, (float *)ui, (float *)si, (float *)vi,
-                                       &opt))
-                : (polar ? ek_polar3_f64(m, (const double *)a, (double *)ui, (double *)vi, &opt)
-                         : ek_svd3_f64(m, (const double *)a, (double *)ui, (double *)si,
-                                       (double *)vi, &opt));
-        ok &= rc == 0;
-      }
+        if (memcmp(o[0][k], o[1][k], ((k == 1 ? 3 : 9) * n + 9) * es) != 0) {
+          printf("streamed %s f%d: %s layout %d output %d differs from calls of %zu\n",
+                 ek_isa_name(isa), bits, aosoa ? "AoSoA" : "AoS", layout, k, piece);
+          ok = 0;
+        }
     }
-    for (int k = 0; k < 3; k++)
-      if (memcmp(o[0][k], o[1][k], ((k == 1 ? 3 : 9) * n + 9) * es) != 0) {
-        printf("streamed %s f%d: layout %d output %d differs from calls of %zu\n", ek_isa_name(isa),
-               bits, layout, k, piece);
-        ok = 0;
-      }
-  }
   printf("streamed %s f%d: n=%zu (arrays past 32 MiB, streamed stores) bit-identical to calls of "
-         "%zu (aligned, one record off, polar): %s\n",
+         "%zu (AoS and AoSoA; aligned, one record off, polar): %s\n",
          ek_isa_name(isa), bits, n, piece, ok ? "PASS" : "FAIL");
   failures += !ok;
   for (int c = 0; c < 2; c++)
@@ -624,9 +643,9 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
 // must agree bit for bit. n is no multiple of 4 vectors, so the odd
 // vectors after the 4-wide loop are covered; the AoSoA pass reads the same
 // numbers as blocks (other matrices, as valid as any). A third pass takes 4
-// chains with the AoS outputs streamed (k.nt, the drivers' choice for
-// batches beyond the caches; the arrays from ek_alloc, 64-byte aligned):
-// the same bits again.
+// chains with the outputs streamed (k.nt, the drivers' choice for batches
+// beyond the caches, AoS and AoSoA; the arrays from ek_alloc, 64-byte
+// aligned): the same bits again.
 static void chains(int bits, ek_isa isa, const ek_svd3_set *s) {
   const ek_kernel_table *t = ek_kernels_for(isa);
   size_t lanes = block_lanes(bits), n = s->n < 3 * 4 * lanes + 37 ? s->n : 3 * 4 * lanes + 37;
@@ -670,7 +689,7 @@ static void chains(int bits, ek_isa isa, const ek_svd3_set *s) {
           ok = 0;
         }
   }
-  printf("chains %s f%d: 2 and 4 vectors in flight, and 4 with streamed AoS stores, "
+  printf("chains %s f%d: 2 and 4 vectors in flight, and 4 with streamed stores, "
          "bit-identical (n=%zu; AoS, AoSoA, SVD, polar, both rsqrt; this CPU's row takes %d): "
          "%s\n",
          ek_isa_name(isa), bits, n, t->svd3_chains, ok ? "PASS" : "FAIL");

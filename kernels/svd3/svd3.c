@@ -94,34 +94,21 @@ static int resolve(const char *fn, const ek_svd3_opts *o, int polar, ek_svd3_kno
 // 10.2 on a 4096-matrix batch (0.5 MB) but 31-39 ns against 22-27 on 2^20
 // matrices (120 MB, AoSoA and AoS alike; docs/perf.md). The bound lies
 // between the two measured sizes; 4 MiB (a few L2s, well inside L3) is a
-// choice, not a measurement. Same bits either way.
+// choice, not a measurement. Same bits either way. (The drivers keep the
+// row's chains past it where they stream the outputs: run_blocks, run_aos.)
 #define WIDE_MAX_BYTES ((size_t)4 << 20)
 static int chains_for(const ek_svd3_knobs *k, size_t matrices) {
   return matrices * 30 * sizeof(real) <= WIDE_MAX_BYTES ? k->chains : 2;
 }
 
-static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real *U, real *S,
-                       real *V, const ek_svd3_knobs *kin) {
-  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-  ek_svd3_knobs kb = *kin;
-  kb.chains = chains_for(kin, nblocks * EK_LANES);
-  const ek_svd3_knobs *k = &kb;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
-    block(nb, A + b0 * 9 * EK_LANES, U + b0 * 9 * EK_LANES, S ? S + b0 * 3 * EK_LANES : NULL,
-          V ? V + b0 * 9 * EK_LANES : NULL, k);
-  }
-}
-
-// Streaming stores of the AoS outputs (k->nt) on a batch whose arrays pass
-// this many bytes: nothing of a batch that size is still in the caches
-// when the call returns (32 MiB: Zen 5's L3 per CCD; a choice, not a
-// measurement), so its outputs would only have been read from memory
-// before being overwritten (write-allocate: 84 B more per f32 matrix on
-// top of its 120) and evicted again. Each output array is streamed only
-// where its vectors start on 64 bytes (after the head, ek_aos_head; a
-// chunk and a vector are whole lines). With all of them streamed, the
+// Streaming stores of the outputs (k->nt; AoS, and AoSoA in run_blocks) on
+// a batch whose arrays pass this many bytes: nothing of a batch that size
+// is still in the caches when the call returns (32 MiB: Zen 5's L3 per
+// CCD; a choice, not a measurement), so its outputs would only have been
+// read from memory before being overwritten (write-allocate: 84 B more per
+// f32 matrix on top of its 120) and evicted again. Each output array is
+// streamed only where its vectors start on 64 bytes (AoS: after the head,
+// ek_aos_head; a chunk and a vector are whole lines). With all of them streamed, the
 // kernel keeps its row's chains (4 on Zen 5): the 4-chain loop's spills
 // no longer queue behind stores that miss. Zen 5, AVX-512 f32 default,
 // 2^20 matrices, 1 thread, process CPU time on a busy machine, 30 rounds
@@ -135,6 +122,37 @@ static int nt_for(size_t n, const real *U, const real *S, const real *V) {
     return 0;
   return (U && aligned64(U) ? EK_SVD3_NT_U : 0) | (V && aligned64(V) ? EK_SVD3_NT_V : 0) |
          (S && aligned64(S) ? EK_SVD3_NT_S : 0);
+}
+
+// AoSoA path: chains_for's 2 chains on a batch beyond the caches, unless
+// the row takes more (svd3_chains: AVX2 on Zen 4, AVX-512 on Zen 5) and
+// all outputs can be streamed (past NT_MIN_BYTES, U, S, V / R, Ssym on 64
+// bytes: every vector of a block plane is then aligned). Then they are
+// streamed, in line order (svd3_put_lines), and the row's chains kept, as
+// in run_aos: the 4-chain loop no longer waits for stores that miss. Zen 4
+// (2 cores, shared), 2^20 f32 / 2^18 f64 matrices, AVX2, 1 thread, process
+// CPU time, medians of 4 rounds' least calls, ns per matrix, plain 2
+// chains -> streamed 4 chains: SVD f32 24.6 -> 22.4, f64 79.9 -> 68.5,
+// polar f32 26.1 -> 23.3, f64 83.2 -> 71.4 (4096-matrix calls: 20.7 and
+// 66.3). Streaming at 2 chains paid nothing (AVX2 f32 26.5 against 26.1;
+// AVX-512 f32 17.9 against 17.4, polar 18.9 against 17.6 in a quiet
+// spell), so the rows that keep 2 chains keep their plain stores
+// (docs/perf.md, "Memory-bound paths", tenth round). Same bits.
+static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real *U, real *S,
+                       real *V, const ek_svd3_knobs *kin) {
+  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+  ek_svd3_knobs kb = *kin;
+  kb.chains = chains_for(kin, nblocks * EK_LANES);
+  const int all = EK_SVD3_NT_U | (V ? EK_SVD3_NT_V : 0) | (S ? EK_SVD3_NT_S : 0);
+  if (kb.chains < kin->chains && nt_for(nblocks * EK_LANES, U, S, V) == all)
+    kb.nt = all, kb.chains = kin->chains;
+  const ek_svd3_knobs *k = &kb;
+#pragma omp parallel for schedule(static) if (nchunks > 1)
+  for (size_t c = 0; c < nchunks; c++) {
+    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
+    block(nb, A + b0 * 9 * EK_LANES, U + b0 * 9 * EK_LANES, S ? S + b0 * 3 * EK_LANES : NULL,
+          V ? V + b0 * 9 * EK_LANES : NULL, k);
+  }
 }
 
 // AoS path: the kernel reads and writes the AoS arrays itself, transposing

@@ -17,9 +17,10 @@
 // traffic goes to the load/store pipes, not the FMA pipes). Measured on
 // Zen 5 (EPYC, AVX-512 float, default knobs, 1 thread): 1 vector 15.5 ns,
 // 2: 10.3, 3: 10.0, 4: 9.0-9.3 ns per matrix; but on a batch far bigger
-// than the caches 4 took 31-39 ns against 22-27 (the drivers keep 2 there,
-// svd3.c), and on an Intel Xeon (Emerald Rapids, full width) 4 gained
-// nothing cache-resident (docs/perf.md).
+// than the caches 4 took 31-39 ns against 22-27 with plain stores (the
+// drivers keep 2 there unless they stream the outputs, svd3.c), and on an
+// Intel Xeon (Emerald Rapids, full width) 4 gained nothing cache-resident
+// (docs/perf.md).
 #define SVD3_IL 2
 #define SVD3_IL_WIDE 4
 
@@ -70,14 +71,44 @@ EK_INLINE void svd3_solve_n(int n, const vreal (*a)[9], vreal (*u)[9], vreal (*s
     svd3_solve(n, a, u, s, w, sweeps, refine, exact, polar);
 }
 
-// AoSoA: vectors j0 .. j0 + n - 1 of the batch.
+// One AoSoA output of vectors j0 .. j0 + n - 1 (v[j * planes + i]: vector
+// j's plane i) where k->nt is set: block by block, plane by plane, a
+// block's EK_VPB vectors side by side, so each array's lines are written
+// whole and in address order (AVX2's two half-line vectors of a line back
+// to back). Streaming stores (`stream`) in the plain stores' order, U and
+// V plane by plane with AVX2's halves 21 stores apart, took 48.5 ns per
+// f32 matrix against 26.1 plain on a Zen 4 (partial lines leave the write
+// combining buffers one half at a time); in this order 26.5 (2 chains).
+EK_INLINE void svd3_put_lines(int n, size_t j0, real *P, int planes, const vreal *v, int stream) {
+  for (int j = 0; j < n; j += EK_VPB)
+    for (int i = 0; i < planes; i++)
+      for (int l = j; l < j + EK_VPB && l < n; l++) {
+        real *p = P + vec_offset(j0 + (size_t)l, planes) + (size_t)i * EK_LANES;
+        if (stream)
+          vstream(p, v[l * planes + i]);
+        else
+          vstore(p, v[l * planes + i]);
+      }
+}
+
+// AoSoA: vectors j0 .. j0 + n - 1 of the batch. nt (k->nt): the outputs
+// written by streaming stores (svd3_put_lines); 0 keeps the plain stores'
+// order below.
 EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, real *V, int sweeps,
-                            int refine, int exact, int polar) {
+                            int refine, int exact, int polar, int nt) {
   vreal a[SVD3_MAX_N][9], u[SVD3_MAX_N][9], s[SVD3_MAX_N][3], w[SVD3_MAX_N][9];
   for (int j = 0; j < n; j++)
     for (int i = 0; i < 9; i++)
       a[j][i] = vload(A + vec_offset(j0 + j, 9) + (size_t)i * EK_LANES);
   svd3_solve_n(n, (const vreal(*)[9])a, u, s, w, sweeps, refine, exact, polar);
+  if (nt) {
+    svd3_put_lines(n, j0, U, 9, u[0], nt & EK_SVD3_NT_U);
+    if (V)
+      svd3_put_lines(n, j0, V, 9, w[0], nt & EK_SVD3_NT_V);
+    if (!polar)
+      svd3_put_lines(n, j0, S, 3, s[0], nt & EK_SVD3_NT_S);
+    return;
+  }
   for (int j = 0; j < n; j++) {
     size_t m9 = vec_offset(j0 + j, 9), m3 = vec_offset(j0 + j, 3);
     for (int i = 0; i < 9; i++) {
@@ -92,12 +123,12 @@ EK_INLINE void svd3_vectors(int n, size_t j0, const real *A, real *U, real *S, r
 }
 
 EK_INLINE void svd3_blocks(int il, size_t nblocks, const real *A, real *U, real *S, real *V,
-                           int sweeps, int refine, int exact, int polar) {
+                           int sweeps, int refine, int exact, int polar, int nt) {
   size_t nvec = nblocks * EK_VPB, j = 0;
   for (; j + (size_t)il <= nvec; j += (size_t)il)
-    svd3_vectors(il, j, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_vectors(il, j, A, U, S, V, sweeps, refine, exact, polar, nt);
   for (; j < nvec; j++)
-    svd3_vectors(1, j, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_vectors(1, j, A, U, S, V, sweeps, refine, exact, polar, nt);
 }
 
 // AoS: the n * EK_W matrices from m0 on, transposed to and from registers
@@ -164,7 +195,7 @@ EK_INLINE void svd3_any(int il, size_t count, const real *A, real *U, real *S, r
   if (aos)
     svd3_aos(il, count, A, U, S, V, sweeps, refine, exact, polar, nt);
   else
-    svd3_blocks(il, count, A, U, S, V, sweeps, refine, exact, polar);
+    svd3_blocks(il, count, A, U, S, V, sweeps, refine, exact, polar, nt);
 }
 
 // The wide copies (SVD3_IL_WIDE vectors in flight) in a function of their
