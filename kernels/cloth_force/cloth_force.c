@@ -82,21 +82,12 @@ static void part(size_t n, int t, int nt, size_t *a, size_t *b) {
   *b = n * (size_t)(t + 1) / (size_t)nt;
 }
 
-int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
-                       const ek_cloth_force_opts *opts) {
-  const char *fn = "ek_cloth_forces";
-  int rc = check_params(fn, cl, p);
-  if (rc)
-    return rc;
-  if (!x || !f) {
-    ek_set_error("%s: NULL x or f", fn);
-    return EK_EINVAL;
-  }
-  const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
-  if (!kt)
-    return EK_EISA;
-  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (tris.h)
-  cloth_args a = {
+// The arguments the cloth kernels share (each reads what it needs): the
+// cloth's arrays in this precision, the parameters, the positions and the
+// cloth's corner buffers (tris.h: one call at a time per cloth).
+static cloth_args base_args(const ek_cloth *cl, const ek_cloth_params *p, const real *x) {
+  ek_cloth *mut = (ek_cloth *)cl;
+  return (cloth_args){
       .tri_idx = SFX(cl->tri_idx),
       .hinge_idx = SFX(cl->hinge_idx),
       .dm_inv = SFX(cl->dm),
@@ -110,6 +101,22 @@ int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real 
       .tri_corner = SFX(mut->tri_corner),
       .hinge_corner = SFX(mut->hinge_corner),
   };
+}
+
+int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
+                       const ek_cloth_force_opts *opts) {
+  const char *fn = "ek_cloth_forces";
+  int rc = check_params(fn, cl, p);
+  if (rc)
+    return rc;
+  if (!x || !f) {
+    ek_set_error("%s: NULL x or f", fn);
+    return EK_EINVAL;
+  }
+  const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
+  if (!kt)
+    return EK_EISA;
+  cloth_args a = base_args(cl, p, x);
   const size_t ntb = SFX(cl->ntb), nhb = p->bending > 0 ? SFX(cl->nhb) : 0;
   if (nhb == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
     memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
@@ -341,18 +348,8 @@ int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const re
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
-  ek_cloth *mut = (ek_cloth *)cl; // the energy buffers (tris.h)
-  kernel_job k = {.energy = MEMBRANE_ENERGY(kt),
-                  .a = {
-                      .tri_idx = SFX(cl->tri_idx),
-                      .dm_inv = SFX(cl->dm),
-                      .area = SFX(cl->area),
-                      .model = p->model,
-                      .mu = (real)p->mu,
-                      .lambda = (real)p->lambda,
-                      .x = x,
-                      .tri_energy = SFX(mut->tri_corner),
-                  }};
+  kernel_job k = {MEMBRANE_ENERGY(kt), base_args(cl, p, x)};
+  k.a.tri_energy = k.a.tri_corner; // the triangles' energies (tris.h)
   energy_job j = {kernel_blocks, &k, k.a.tri_energy, SFX(cl->ntb)};
   *E = energy_sum(cl, &j, p->bending, x, cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS);
   return 0;
@@ -372,20 +369,9 @@ int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, c
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
-  ek_cloth *mut = (ek_cloth *)cl; // the corner buffers (tris.h)
-  cloth_args a = {
-      .tri_idx = SFX(cl->tri_idx),
-      .dm_inv = SFX(cl->dm),
-      .area = SFX(cl->area),
-      .model = p->model,
-      .mu = (real)p->mu,
-      .lambda = (real)p->lambda,
-      .x = x,
-      .tri_corner = SFX(mut->tri_corner),
-      .hinge_corner = SFX(mut->hinge_corner),
-      .dx = dx,
-      .project = project != 0,
-  };
+  cloth_args a = base_args(cl, p, x);
+  a.dx = dx;
+  a.project = project != 0;
   const size_t ntb = SFX(cl->ntb), nh = p->bending > 0 ? cl->nh : 0;
   if (nh == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
     memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
