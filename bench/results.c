@@ -61,39 +61,32 @@ static ek_meta *meta_slot(ek_results *r, const char *key) {
   return m;
 }
 
-int ek_results_meta_text(ek_results *r, const char *key, const char *value) {
-  char *copy = strdup(value ? value : "");
-  ek_meta *m = copy ? meta_slot(r, key) : NULL;
+// Set entry `key` to `kind` with `text` (owned from here on, freed on
+// failure; NULL for a number or bool) or `number`.
+static int meta_set(ek_results *r, const char *key, ek_meta_kind kind, char *text, double number) {
+  ek_meta *m = meta_slot(r, key);
   if (!m) {
-    free(copy);
+    free(text);
     return -1;
   }
   free(m->text);
-  m->kind = EK_META_TEXT;
-  m->text = copy;
+  m->kind = kind;
+  m->text = text;
+  m->number = number;
   return 0;
+}
+
+int ek_results_meta_text(ek_results *r, const char *key, const char *value) {
+  char *copy = strdup(value ? value : "");
+  return copy ? meta_set(r, key, EK_META_TEXT, copy, 0) : -1;
 }
 
 int ek_results_meta_number(ek_results *r, const char *key, double value) {
-  ek_meta *m = meta_slot(r, key);
-  if (!m)
-    return -1;
-  free(m->text);
-  m->text = NULL;
-  m->kind = EK_META_NUMBER;
-  m->number = value;
-  return 0;
+  return meta_set(r, key, EK_META_NUMBER, NULL, value);
 }
 
 int ek_results_meta_bool(ek_results *r, const char *key, int value) {
-  ek_meta *m = meta_slot(r, key);
-  if (!m)
-    return -1;
-  free(m->text);
-  m->text = NULL;
-  m->kind = EK_META_BOOL;
-  m->number = value != 0;
-  return 0;
+  return meta_set(r, key, EK_META_BOOL, NULL, value != 0);
 }
 
 const ek_meta *ek_results_meta_find(const ek_results *r, const char *key) {
