@@ -648,8 +648,7 @@ static void check_gathers(ek_simd_tally *t) {
 // ---- The record transposes, for every np the API allows ----
 // Inlined into each call so that np is a constant there, as in the kernels
 // (avx512.h's register transpose relies on it).
-static inline __attribute__((always_inline)) void check_records_np(int np, op_check *cl,
-                                                                   op_check *cs, op_check *cn) {
+EK_INLINE void check_records_np(int np, op_check *cl, op_check *cs, op_check *cn) {
   // 64-byte aligned, as vstore_records_nt's streaming stores need.
   real out[EK_RECORD_MAX * EK_W + EK_W] __attribute__((aligned(64)));
   const real guard = (real)-12345.5;
