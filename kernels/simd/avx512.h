@@ -229,7 +229,7 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
 // of corner c at rows + vrow4_at(l, c) (component 3 zero), 16 W reals,
 // rows 64-byte aligned; vadd_row4(o, row) adds one such row into a
 // vertex row of 4, o[k] += row[k], o's NaN first (below).
-// vscatter_add_rows4 (generic.h) is the two together: for lane l =
+// vstore_rows4 then vadd_rows4 (generic.h) add, for lane l =
 // 0..W-1 in order, skipping lanes with idx[l] < 0, and corner c = 0..3 in
 // order, out[4 i + k] += lane l of h[3 c + k], i = idx[c stride + l]: the
 // scalar scatter's adds in its order (so the same bits) into rows padded

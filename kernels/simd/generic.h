@@ -289,12 +289,11 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
 // vrow4_at(q, c) for j a multiple of 4, q < 4, on every target): fully
 // unrolled, 16 lanes were 64 load-add-stores of code per vector beside
 // the SVD's (the fixed corotated force on Zen 5, docs/perf.md: smaller
-// code was faster). vscatter_add_rows4(out, idx, stride, h): the same from
-// the 12 corner planes h[3 c + k] (the rows made first). The FVM force
-// makes the rows where it makes the corner values and adds them later
-// (kernels/fvm/fvm_tet.h).
+// code was faster). The FVM force makes the rows where it makes the corner
+// values and adds them later (kernels/fvm/fvm_tet.h); targets without rows
+// of 4 may have vscatter_add_rows4 (avx2.h), the same adds from the corner
+// planes in registers.
 #ifdef EK_HAVE_VROWS4
-#define EK_HAVE_VSCATTER_ADD_ROWS4
 EK_INLINE void vadd_rows4(real *out, const int32_t *idx, int stride, const real *rows) {
 #pragma GCC unroll 1
   for (unsigned j = 0; j < EK_W; j += 4) {
@@ -309,11 +308,6 @@ EK_INLINE void vadd_rows4(real *out, const int32_t *idx, int stride, const real 
         vadd_row4(out + (size_t)ix[(size_t)c * (size_t)stride + q] * 4, r + vrow4_at(q, c));
     }
   }
-}
-EK_INLINE void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
-  _Alignas(64) real rows[16 * EK_W];
-  vstore_rows4(rows, h);
-  vadd_rows4(out, idx, stride, rows);
 }
 #endif
 
