@@ -448,8 +448,10 @@ static void usage(FILE *f) {
              "  -h, --help      this text\n"
              "  --version       print the version\n"
              "OMP_PROC_BIND / OMP_PLACES default to close / cores; EK_ISA is ignored for rows\n"
-             "that force an ISA. The sim/ rows load the shipped scenes from EK_SCENES_DIR if\n"
-             "set, else the installed or the source tree's scenes/.\n");
+             "that force an ISA. The sim/ rows (and the polar/ rows of input:cantilever and\n"
+             "input:twist) load the shipped scenes from EK_SCENES_DIR if set, else the\n"
+             "installed or the source tree's scenes/; a --filter that selects none of them\n"
+             "needs no scenes.\n");
 }
 
 static int bad_arg(const char *opt, const char *value, const char *why) {
@@ -473,16 +475,24 @@ typedef struct {
   int force;
 } outputs;
 
-// The command line's arguments, each followed by a space, for the run's
-// metadata (a text of at most EK_RESULTS_TEXT_MAX - 1 characters: a longer
-// line, e.g. a --filter of thousands of characters, ends in "...").
-static void joined_args(int argc, char **argv, char *buf, size_t len) {
-  size_t n = 0;
-  buf[0] = '\0';
-  for (int i = 1; i < argc && n < len; i++)
-    n += (size_t)snprintf(buf + n, len - n, "%s ", argv[i]);
-  if (n >= len && len > 4)
-    memcpy(buf + len - 4, "...", 4);
+// The run's metadata "arguments": the command line's arguments, each
+// followed by a space, whole (a --filter may be thousands of characters).
+static void record_args(ek_bench *b, ek_results *r, int argc, char **argv) {
+  size_t len = 1;
+  for (int i = 1; i < argc; i++)
+    len += strlen(argv[i]) + 1;
+  char *args = malloc(len), *end = args;
+  for (int i = 1; args && i < argc; i++) {
+    size_t n = strlen(argv[i]);
+    memcpy(end, argv[i], n);
+    end[n] = ' ';
+    end += n + 1;
+  }
+  if (args)
+    *end = '\0';
+  if (!args || ek_results_meta_text(r, "arguments", args) != 0)
+    ek_bench_fail(b, "out of memory recording the arguments");
+  free(args);
 }
 
 static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
@@ -646,9 +656,7 @@ static int run_tradeoff(ek_bench *b, int argc, char **argv, const char *out, con
                        "thread count has both a lower time_median and a lower err_p99 (err_max)");
   ek_results_meta_number(&meta, "elapsed_kernels_s", kernels_s);
   ek_results_meta_number(&meta, "elapsed_s", elapsed_s);
-  char args[EK_RESULTS_TEXT_MAX];
-  joined_args(argc, argv, args, sizeof args);
-  ek_results_meta_text(&meta, "arguments", args);
+  record_args(b, &meta, argc, argv);
   int werr = 0;
   if (rc == 0) {
     werr |= ek_tradeoff_write_h5(t, &meta, out, force) != 0;
@@ -815,9 +823,7 @@ int main(int argc, char **argv) {
   ek_results_meta_text(r, "timer",
                        "CLOCK_MONOTONIC; per-sample overhead subtracted; samples "
                        ">= min_sample_time; stats over per-item sample times");
-  char args[EK_RESULTS_TEXT_MAX];
-  joined_args(argc, argv, args, sizeof args);
-  ek_results_meta_text(r, "arguments", args);
+  record_args(b, r, argc, argv);
   static const char *const binds[] = {"false", "true", "master", "close", "spread"};
   int bind = (int)omp_get_proc_bind();
   ek_results_meta_text(r, "omp_proc_bind_effective",

@@ -30,6 +30,8 @@ void ek_results_free(ek_results *r) {
     free(r->rows[i].sample_cpu_ns);
   }
   free(r->rows);
+  for (size_t i = 0; i < r->nmeta; i++)
+    free(r->meta[i].text);
   free(r->meta);
   memset(r, 0, sizeof *r);
 }
@@ -59,31 +61,32 @@ static ek_meta *meta_slot(ek_results *r, const char *key) {
   return m;
 }
 
-int ek_results_meta_text(ek_results *r, const char *key, const char *value) {
+// Set entry `key` to `kind` with `text` (owned from here on, freed on
+// failure; NULL for a number or bool) or `number`.
+static int meta_set(ek_results *r, const char *key, ek_meta_kind kind, char *text, double number) {
   ek_meta *m = meta_slot(r, key);
-  if (!m)
+  if (!m) {
+    free(text);
     return -1;
-  m->kind = EK_META_TEXT;
-  snprintf(m->text, sizeof m->text, "%s", value ? value : "");
+  }
+  free(m->text);
+  m->kind = kind;
+  m->text = text;
+  m->number = number;
   return 0;
+}
+
+int ek_results_meta_text(ek_results *r, const char *key, const char *value) {
+  char *copy = strdup(value ? value : "");
+  return copy ? meta_set(r, key, EK_META_TEXT, copy, 0) : -1;
 }
 
 int ek_results_meta_number(ek_results *r, const char *key, double value) {
-  ek_meta *m = meta_slot(r, key);
-  if (!m)
-    return -1;
-  m->kind = EK_META_NUMBER;
-  m->number = value;
-  return 0;
+  return meta_set(r, key, EK_META_NUMBER, NULL, value);
 }
 
 int ek_results_meta_bool(ek_results *r, const char *key, int value) {
-  ek_meta *m = meta_slot(r, key);
-  if (!m)
-    return -1;
-  m->kind = EK_META_BOOL;
-  m->number = value != 0;
-  return 0;
+  return meta_set(r, key, EK_META_BOOL, NULL, value != 0);
 }
 
 const ek_meta *ek_results_meta_find(const ek_results *r, const char *key) {
@@ -600,7 +603,13 @@ int ek_results_write_h5_with(const char *who, const char *path, int force, const
   }
   char tmp[4096];
   ek_results_temp_name(tmp, sizeof tmp, path);
-  hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
+  // Formats of HDF5 1.8 and no newer (as sim/frames.c): its dense attribute
+  // storage holds a text of any length (the "arguments" of a long --filter),
+  // where the older object header caps an attribute at 64 KiB.
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18);
+  hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, fapl);
+  H5Pclose(fapl);
   if (f < 0) {
     fprintf(stderr, "%s: cannot create HDF5 file '%s'\n", who, tmp);
     return -1;

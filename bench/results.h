@@ -39,6 +39,8 @@ extern "C" {
 #endif
 
 #define EK_RESULTS_NAME_MAX 192
+// The buffers of the machine facts ek_results_collect_metadata reads (a
+// metadata text itself has any length).
 #define EK_RESULTS_TEXT_MAX 512
 
 typedef enum { EK_META_TEXT, EK_META_NUMBER, EK_META_BOOL } ek_meta_kind;
@@ -46,8 +48,8 @@ typedef enum { EK_META_TEXT, EK_META_NUMBER, EK_META_BOOL } ek_meta_kind;
 typedef struct {
   char key[64];
   ek_meta_kind kind;
-  char text[EK_RESULTS_TEXT_MAX]; // EK_META_TEXT
-  double number;                  // EK_META_NUMBER; EK_META_BOOL: 0 or 1
+  char *text;    // EK_META_TEXT: owned by the results set, whole; else NULL
+  double number; // EK_META_NUMBER; EK_META_BOOL: 0 or 1
 } ek_meta;
 
 typedef struct {

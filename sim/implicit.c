@@ -243,7 +243,8 @@ static int agree(ek_sim *s, int rc) {
 // The Morton (Z-order) code of a point of the cube [lo, lo + side]^3:
 // 21 bits per axis, interleaved x, y, z from the top (Morton 1966; the
 // bit spreading of Raman & Wise 2008, "Converting to and from dilated
-// integers").
+// integers"). kernels/elements/tets.c has the same spread3: this library
+// sees only ek's public API, which has no Morton code.
 static uint64_t spread3(uint64_t v) {
   v &= 0x1fffff;
   v = (v | v << 32) & 0x1f00000000ffffULL;

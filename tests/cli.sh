@@ -111,17 +111,41 @@ expect "ek-sim --out DIR --force" 1 "$bin/ek-sim" "$scenes/cantilever.json" --st
 expect "ek-bench --out FIFO --force" 1 "$bin/ek-bench" --filter nothing --out "$work/fifo.h5" \
   --json "$work/b.json" --force && one_error "ek-bench --out FIFO --force"
 [ -p "$work/fifo.h5" ] || fail "ek-bench --out FIFO --force: the FIFO was replaced"
-# A filter of 10 000 characters (the run's metadata holds a cut copy of the
-# command line: it once overran a 512-byte buffer into the output's name).
+# A filter of 10 000 characters: the run's metadata holds the whole command
+# line (it was once cut at 511 characters, and before that overran a
+# 512-byte buffer into the output's name).
 long=$(head -c 10000 /dev/zero | tr '\0' x)
+filter="^svd3/aosoa/scalar/f32/sweeps:2/rsqrt:approx/threads:1\$|$long"
 if expect "ek-bench --filter (10 000 characters)" 0 "$bin/ek-bench" --threads 1 --min-time 0.1 \
-  --filter "^svd3/aosoa/scalar/f32/sweeps:2/rsqrt:approx/threads:1\$|$long" \
-  --out "$work/long.h5" --json "$work/long.json"; then
+  --filter "$filter" --out "$work/long.h5" --json "$work/long.json"; then
   [ -s "$work/long.h5" ] && [ -s "$work/long.json" ] ||
     fail "ek-bench --filter (10 000 characters): $work/long.h5 or long.json not written"
-  grep -q '"arguments":[[:space:]]*"--threads 1 .*[.][.][.]"' "$work/long.json" ||
-    fail "ek-bench --filter (10 000 characters): the JSON's arguments are not the cut command line"
+  grep -qF "\"--threads 1 --min-time 0.1 --filter $filter --out $work/long.h5 --json $work/long.json \"" \
+    "$work/long.json" ||
+    fail "ek-bench --filter (10 000 characters): the JSON's arguments are not the whole command line"
 fi
+# Run outside its tree, without the shipped scenes (EK_SCENES_DIR naming an
+# empty folder): a filter that selects no row of a scene needs none, listed
+# or timed; one that selects a sim row, or a polar row of a scene's input,
+# fails (1) before anything is timed, naming the scene and the path tried.
+mkdir "$work/noscenes"
+if expect "ek-bench --list, no scenes, filter svd3/aosoa/scalar" 0 \
+  env EK_SCENES_DIR="$work/noscenes" "$bin/ek-bench" --filter svd3/aosoa/scalar --list; then
+  grep -q '^svd3/aosoa/scalar/' "$out" || fail "ek-bench --list, no scenes: no svd3 row listed"
+  grep -q FAILED "$err" && fail "ek-bench --list, no scenes: $(grep FAILED "$err" | head -1)"
+fi
+expect "ek-bench, no scenes, one svd3 row timed" 0 env EK_SCENES_DIR="$work/noscenes" \
+  "$bin/ek-bench" --threads 1 --min-time 0.1 \
+  --filter '^svd3/aosoa/scalar/f32/sweeps:2/rsqrt:approx/threads:1$' \
+  --out "$work/noscenes.h5" --json "$work/noscenes.json"
+for args in "--list --filter ^sim/cantilever/" "--list --filter solver:matrix_free" \
+  "--filter input:twist --out $work/twist.h5"; do
+  # shellcheck disable=SC2086
+  expect "ek-bench $args, no scenes" 1 env EK_SCENES_DIR="$work/noscenes" "$bin/ek-bench" $args &&
+    { grep -q "scene \"[a-z_]*\" not found; tried $work/noscenes/" "$err" ||
+      fail "ek-bench $args, no scenes: no 'scene not found' in: $(head -2 "$err")"; }
+done
+[ -e "$work/twist.h5" ] && fail "ek-bench --filter input:twist, no scenes: wrote results"
 # The input scene as the output.
 cp "$scenes/cantilever.json" "$work/scene.json"
 expect "ek-sim --out SCENE --force" 2 "$bin/ek-sim" "$work/scene.json" --steps 1 \

@@ -611,10 +611,16 @@ static void check_gathers(ek_simd_tally *t) {
   }
   op_done(&cl, t, "vgather_points' values by loads and a transpose");
 #endif
-#if defined(EK_HAVE_VSCATTER_ADD_ROWS4)
+#if defined(EK_HAVE_VSCATTER_ADD_ROWS4) || defined(EK_HAVE_VROWS4)
   // Random rows (repeats in a vector included) against the scalar adds in
-  // lane order, corners inner; lanes whose corner 0 is negative skipped.
+  // lane order, corners inner; lanes whose corner 0 is negative skipped:
+  // vscatter_add_rows4 (AVX2), or the rows of 4 the AVX-512 force makes
+  // (vstore_rows4) and adds (vadd_rows4).
+#if defined(EK_HAVE_VROWS4)
+  op_check cs = {"vstore_rows4+vadd_rows4", 0, 0};
+#else
   op_check cs = {"vscatter_add_rows4", 0, 0};
+#endif
   static real rows[NX * 4], ref[NX * 4];
   for (int i = 0; i < NX * 4; i++)
     rows[i] = ref[i] = a[(7 * i + 3) % NL];
@@ -628,7 +634,13 @@ static void check_gathers(ek_simd_tally *t) {
       h[k] = vload(b + ((v + k) % NV) * EK_W);
       put(hs[k], h[k]);
     }
+#if defined(EK_HAVE_VROWS4)
+    _Alignas(64) real r4[16 * EK_W];
+    vstore_rows4(r4, h);
+    vadd_rows4(rows, ci, EK_W, r4);
+#else
     vscatter_add_rows4(rows, ci, EK_W, h);
+#endif
     for (int l = 0; l < EK_W; l++) {
       if (ci[l] < 0)
         continue;
@@ -648,8 +660,7 @@ static void check_gathers(ek_simd_tally *t) {
 // ---- The record transposes, for every np the API allows ----
 // Inlined into each call so that np is a constant there, as in the kernels
 // (avx512.h's register transpose relies on it).
-static inline __attribute__((always_inline)) void check_records_np(int np, op_check *cl,
-                                                                   op_check *cs, op_check *cn) {
+EK_INLINE void check_records_np(int np, op_check *cl, op_check *cs, op_check *cn) {
   // 64-byte aligned, as vstore_records_nt's streaming stores need.
   real out[EK_RECORD_MAX * EK_W + EK_W] __attribute__((aligned(64)));
   const real guard = (real)-12345.5;

@@ -10,7 +10,9 @@
 // statistics; iteration entries (bit-exact) only when samples are asked
 // for. Writing onto an existing file without force fails and leaves the old
 // file byte-for-byte intact; with force it replaces it; no temporary file is
-// ever left behind.
+// ever left behind. A metadata text is kept whole at any length (one of
+// LONG_TEXT characters: once cut at 511, and an HDF5 attribute of the old
+// object header holds at most 64 KiB).
 #include <cjson/cJSON.h>
 #include <dirent.h>
 #include <hdf5.h>
@@ -36,6 +38,8 @@ static const char *const row_names[NROWS] = {
     "svd3/lapack/f64/threads:1",
 };
 static const int row_samples[NROWS] = {5, 7, 6};
+enum { LONG_TEXT = 100000 };
+static char long_text[LONG_TEXT + 1]; // "long_text": a..z repeated
 
 static unsigned long long lcg;
 static double next_sample(void) {
@@ -49,6 +53,9 @@ static int build(ek_results *r, unsigned long long seed) {
   ek_results_collect_metadata(r, "test_results_io");
   ek_results_meta_number(r, "seed", (double)seed);
   ek_results_meta_text(r, "note", "written by test_results_io");
+  for (int i = 0; i < LONG_TEXT; i++)
+    long_text[i] = (char)('a' + i % 26);
+  ek_results_meta_text(r, "long_text", long_text);
   lcg = seed;
   for (int i = 0; i < NROWS; i++) {
     double ns[16], cpu[16];
@@ -146,6 +153,12 @@ static void check_h5(const ek_results *r, const char *path) {
     check("root text attribute", ok, "%s = '%s' (expected '%s')", text_keys[k], ok ? text : "?",
           m ? m->text : "(not recorded)");
   }
+  char *whole = malloc(LONG_TEXT + 2);
+  ok = whole && read_text_attr(f, "long_text", whole, LONG_TEXT + 2) == 0 &&
+       !strcmp(whole, long_text);
+  check("root text attribute of 100 000 characters whole", ok, "%zu characters read",
+        ok ? strlen(whole) : 0);
+  free(whole);
   double seed = NAN;
   const ek_meta *ms = ek_results_meta_find(r, "seed");
   ok = read_double_attr(f, "seed", &seed) == 0 && ms && same(seed, ms->number);
@@ -379,6 +392,9 @@ static void check_json(const ek_results *r, const char *path, int samples) {
   check("context host_name equal",
         cJSON_IsString(host) && mh && !strcmp(host->valuestring, mh->text), "'%s'",
         cJSON_IsString(host) ? host->valuestring : "?");
+  const char *got_long = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(ctx, "long_text"));
+  check("context text of 100 000 characters whole", got_long && !strcmp(got_long, long_text),
+        "%zu characters", got_long ? strlen(got_long) : 0);
   const ek_meta *seed = ek_results_meta_find(r, "seed");
   char want_seed[40];
   snprintf(want_seed, sizeof want_seed, "%.17g", seed ? seed->number : NAN);

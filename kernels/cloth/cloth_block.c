@@ -22,17 +22,15 @@
 #define EPS DBL_EPSILON
 #endif
 
-#define INLINE static inline __attribute__((always_inline))
-
 // Offset of vector j's entry 0 in a batch of `planes`-plane blocks.
-INLINE size_t vec_offset(size_t j, int planes) {
+EK_INLINE size_t vec_offset(size_t j, int planes) {
   return (j / EK_VPB) * (size_t)planes * EK_LANES + (j % EK_VPB) * EK_W;
 }
 
 // Vector j of an AoSoA batch, or (aos) records j EK_W .. j EK_W + EK_W - 1
 // of an AoS array, transposed in registers (simd.h, vload_records): the
 // AoS entry points need no staging copy. The same lanes either way.
-INLINE void load_planes(const real *p, size_t j, int planes, vreal *out, int aos) {
+EK_INLINE void load_planes(const real *p, size_t j, int planes, vreal *out, int aos) {
   if (aos) {
     vload_records(p + (size_t)planes * EK_W * j, planes, out);
     return;
@@ -42,7 +40,7 @@ INLINE void load_planes(const real *p, size_t j, int planes, vreal *out, int aos
     out[i] = vload(p + o + (size_t)i * EK_LANES);
 }
 
-INLINE void store_planes(real *p, size_t j, int planes, const vreal *in, int aos) {
+EK_INLINE void store_planes(real *p, size_t j, int planes, const vreal *in, int aos) {
   if (aos) {
     vstore_records(p + (size_t)planes * EK_W * j, planes, in);
     return;
@@ -61,8 +59,8 @@ typedef void vectors_fn(size_t nvec, int aos, const real *a, const real *b, real
 // copies (the AoSoA tail's padding, batch.h). planes: a, b, o0, o1, o2
 // (inputs at most EK_RECORD_MAX planes). Inlined with its constant fn, so
 // each layout gets its own straight-line loop.
-INLINE void run_layout(vectors_fn *fn, size_t count, int aos, const int planes[5], const real *a,
-                       const real *b, real *o0, real *o1, real *o2) {
+EK_INLINE void run_layout(vectors_fn *fn, size_t count, int aos, const int planes[5], const real *a,
+                          const real *b, real *o0, real *o1, real *o2) {
   if (!aos) {
     fn(count * EK_VPB, 0, a, b, o0, o1, o2);
     return;
@@ -89,8 +87,8 @@ INLINE void run_layout(vectors_fn *fn, size_t count, int aos, const int planes[5
 // ---- Triangle deformation gradient ----------------------------------------
 // F = [x1 - x0, x2 - x0] Dm^-1 (seed 003 eq. 2 in the rest triangle's own
 // frame); x 9 planes, Dm_inv 4, F 6.
-INLINE void tri_F_vectors(size_t nvec, int aos, const real *x, const real *Dm_inv, real *F,
-                          real *unused1, real *unused2) {
+EK_INLINE void tri_F_vectors(size_t nvec, int aos, const real *x, const real *Dm_inv, real *F,
+                             real *unused1, real *unused2) {
   (void)unused1, (void)unused2;
   for (size_t j = 0; j < nvec; j++) {
     vreal p[9], m[4], f[6];
@@ -114,8 +112,8 @@ void EK_SYM(cloth_tri_F_block)(size_t count, int aos, const real *x, const real 
 }
 
 // F 6 planes, R 6, Uc 4 (may be NULL).
-INLINE void polar32_vectors(size_t nvec, int aos, const real *F, const real *unused, real *R,
-                            real *Uc, real *unused2) {
+EK_INLINE void polar32_vectors(size_t nvec, int aos, const real *F, const real *unused, real *R,
+                               real *Uc, real *unused2) {
   (void)unused, (void)unused2;
   for (size_t j = 0; j < nvec; j++) {
     vreal f[6], r[6], u[4];
@@ -136,7 +134,7 @@ void EK_SYM(cloth_polar32_block)(size_t count, int aos, const real *F, const rea
 
 // L, D = (L + L^T)/2, W = (L - L^T)/2 (seed 003 eqs. 29-31); any may be
 // NULL.
-INLINE void store_LDW(size_t j, const vreal l[9], real *L, real *D, real *W, int aos) {
+EK_INLINE void store_LDW(size_t j, const vreal l[9], real *L, real *D, real *W, int aos) {
   if (L)
     store_planes(L, j, 9, l, aos);
   vreal half = vset((real)0.5), d[9], w[9];
@@ -159,8 +157,8 @@ INLINE void store_LDW(size_t j, const vreal l[9], real *L, real *D, real *W, int
 // Ds^+ = v1 (Ds v1)^T / |Ds v1|^2 (v1 the top eigenvector of Ds^T Ds), so
 // L = (Vs v1)(Ds v1)^T / |Ds v1|^2; Ds = 0 gives L = 0. Edges and
 // velocities are scaled by the largest edge entry first (L is unchanged).
-INLINE void tri_velgrad_vectors(size_t nvec, int aos, const real *x, const real *v, real *L,
-                                real *D, real *W) {
+EK_INLINE void tri_velgrad_vectors(size_t nvec, int aos, const real *x, const real *v, real *L,
+                                   real *D, real *W) {
   vreal zero = vzero(), one = vset(1);
   for (size_t j = 0; j < nvec; j++) {
     vreal p[9], q[9], e[6];

@@ -91,7 +91,9 @@ static double rest_frame(const double *X, const int32_t *t, double Dm_inv[9]) {
 }
 
 // Spread the low 21 bits of v so that there are two zero bits between
-// consecutive bits (3D Morton interleave).
+// consecutive bits (3D Morton interleave). sim/implicit.c has its own copy:
+// libek_sim is built on the public API only (kernels/ is private to libek),
+// and a Morton code is no API of its own.
 static uint64_t spread3(uint64_t v) {
   v &= 0x1fffff;
   v = (v | v << 32) & 0x1f00000000ffffULL;

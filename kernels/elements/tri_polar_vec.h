@@ -25,20 +25,18 @@
 #define EK_TRI_MIN_NORMAL DBL_MIN
 #endif
 
-#define TRI_INLINE static inline __attribute__((always_inline))
-
-TRI_INLINE vreal dot3(const vreal a[3], const vreal b[3]) {
+EK_INLINE vreal dot3(const vreal a[3], const vreal b[3]) {
   return vadd(vadd(vmul(a[0], b[0]), vmul(a[1], b[1])), vmul(a[2], b[2]));
 }
 
-TRI_INLINE void cross3(const vreal a[3], const vreal b[3], vreal c[3]) {
+EK_INLINE void cross3(const vreal a[3], const vreal b[3], vreal c[3]) {
   c[0] = vsub(vmul(a[1], b[2]), vmul(a[2], b[1]));
   c[1] = vsub(vmul(a[2], b[0]), vmul(a[0], b[2]));
   c[2] = vsub(vmul(a[0], b[1]), vmul(a[1], b[0]));
 }
 
 // Largest |entry| of n values, and whether all of them are finite.
-TRI_INLINE vreal max_abs(const vreal *a, int n, vmask *finite) {
+EK_INLINE vreal max_abs(const vreal *a, int n, vmask *finite) {
   vreal s = vabs(a[0]);
   vmask f = visfinite(a[0]);
   for (int i = 1; i < n; i++) {
@@ -55,7 +53,7 @@ TRI_INLINE vreal max_abs(const vreal *a, int n, vmask *finite) {
 // row and v = (b, h - d) from the first; the one without cancellation is
 // taken (d >= 0: h + d >= 2|d|; d < 0: h - d > 0). h + d = 0 only when
 // b = d = 0 (C a multiple of I): every vector is an eigenvector, (1, 0).
-TRI_INLINE void sym2_top_eigvec(vreal a, vreal b, vreal c, vreal v[2]) {
+EK_INLINE void sym2_top_eigvec(vreal a, vreal b, vreal c, vreal v[2]) {
   vreal half = vset((real)0.5);
   vreal d = vmul(vsub(a, c), half);
   vreal h = vsqrt(vadd(vmul(d, d), vmul(b, b)));
@@ -89,7 +87,7 @@ typedef struct {
   vreal sigma1, sigma2; // sigma1 >= sigma2 >= 0, scaled by 1 / s
 } tri_svd_vec;
 
-TRI_INLINE void tri_svd32_vec(const vreal f[6], tri_svd_vec *d) {
+EK_INLINE void tri_svd32_vec(const vreal f[6], tri_svd_vec *d) {
   vreal zero = vzero(), one = vset(1);
   // 1. Scale.
   vmask finite;
@@ -148,7 +146,7 @@ TRI_INLINE void tri_svd32_vec(const vreal f[6], tri_svd_vec *d) {
 }
 
 // R and Uc of F from its SVD form (cloth.h: NaN for a non-finite F).
-TRI_INLINE void polar32_vec(const vreal f[6], vreal R[6], vreal Uc[4]) {
+EK_INLINE void polar32_vec(const vreal f[6], vreal R[6], vreal Uc[4]) {
   tri_svd_vec d;
   tri_svd32_vec(f, &d);
   const vreal s = d.s, sigma1 = d.sigma1, sigma2 = d.sigma2;

@@ -7,7 +7,7 @@
 #ifndef EK_FVM_VEC_H
 #define EK_FVM_VEC_H
 
-#include "../svd3/svd3_core.h" // EK_INLINE
+#include "../svd3/svd3_core.h" // kernels.h, and the SVD of the force kernels
 #include "fvm_kernel.h"
 #include "fvm_tet.h"
 

@@ -11,6 +11,7 @@
 #include <ek/hessian.h>
 
 #include "../elements/tets.h"
+#include "../inline.h"
 #include "../kernels.h"
 #include "../material/models.h"
 #include "../real.h"
@@ -118,8 +119,8 @@ int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
 // transpose of (w, v), whose sum has the same contributions (each element
 // block (c, d) is (d, c)^T to the bit: elem_store symmetrises) in the same
 // slot order, so the copy has the bits that summing would give.
-static inline __attribute__((always_inline)) void
-copy_block(const ek_fvm_hessian *h, const double *values, double *dst, int32_t nb, int32_t q) {
+EK_INLINE void copy_block(const ek_fvm_hessian *h, const double *values, double *dst, int32_t nb,
+                          int32_t q) {
   const int32_t w = h->bcol[q], w0 = h->bptr[w], nw = h->bptr[w + 1] - w0;
   const double *src = values + 9 * (size_t)w0 + 3 * (size_t)(h->mirror[q] - w0);
   for (int i = 0; i < 3; i++)

@@ -14,7 +14,7 @@
 //             (mat_frame_apply's entries contracted with b twice).
 #include "../simd/simd.h"
 
-#include "../svd3/svd3_core.h" // EK_INLINE, svd3_quat_to_matrix
+#include "../svd3/svd3_core.h" // svd3_quat_to_matrix
 #include "hessian_vec.h"
 
 static void frame_apply_blocks(const hess_args *a, size_t b0, size_t b1) {

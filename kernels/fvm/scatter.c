@@ -3,6 +3,7 @@
 #include <omp.h>
 #include <string.h>
 
+#include "../inline.h"
 #include "../kernels.h"
 #include "scatter.h"
 
@@ -73,10 +74,8 @@ static _Thread_local int buffers_zero;
 // range leaves v out adds the 0 its row holds without reading it), and
 // the rows read zeroed, for v in [v0, v1). Inlined with st and nc
 // constants for the force's rows of 4 (one vector add per part and row).
-static inline __attribute__((always_inline)) void reduce_rows(real *buf, size_t n, size_t v0,
-                                                              size_t v1, size_t st, size_t nc,
-                                                              const size_t *vlo, const size_t *vhi,
-                                                              real *out) {
+EK_INLINE void reduce_rows(real *buf, size_t n, size_t v0, size_t v1, size_t st, size_t nc,
+                           const size_t *vlo, const size_t *vhi, real *out) {
   for (size_t v = v0; v < v1; v++) {
     real s[8];
     real *b = buf + v * st;

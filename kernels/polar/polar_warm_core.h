@@ -52,7 +52,7 @@
 #ifndef EK_POLAR_WARM_CORE_H
 #define EK_POLAR_WARM_CORE_H
 
-#include "../svd3/svd3_core.h" // EK_INLINE
+#include "../svd3/svd3_core.h" // kernels.h, and the SVD of the kernels that include this
 
 // Mueller's eps: only keeps 0 / 0 away (tr M = 0 with g = 0); M is of the
 // order of |q|^2 >= 1 after the scaling of A unless A is 0.

@@ -173,8 +173,7 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 // scalar add is the add's operand order.
 #if defined(EK_REAL_F32)
 #define EK_HAVE_VLOAD_POINTS
-static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
-                                                                vreal p[3]) {
+EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   const __m128i m3 = _mm_setr_epi32(-1, -1, -1, 0);
   const __m256i pad =
       _mm256_cmpgt_epi32(_mm256_setzero_si256(), _mm256_loadu_si256((const __m256i *)idx));
@@ -203,8 +202,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   return _mm256_castsi256_ps(pad);
 }
 #define EK_HAVE_VSCATTER_ADD_ROWS4
-static inline __attribute__((always_inline)) void
-vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+EK_INLINE void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
   __m256 rows[4][4];
   const __m256 zero = _mm256_setzero_ps();
 #pragma GCC unroll 4
@@ -241,8 +239,7 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
 // loads of 3 doubles); the transposes are 4x4 ones by unpacks and
 // vperm2f128.
 #define EK_HAVE_VLOAD_POINTS
-static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
-                                                                vreal p[3]) {
+EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   const __m256i m3 = _mm256_setr_epi64x(-1, -1, -1, 0);
   __m256d r[4];
 #pragma GCC unroll 4
@@ -259,8 +256,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(_mm_setzero_si128(), i)));
 }
 #define EK_HAVE_VSCATTER_ADD_ROWS4
-static inline __attribute__((always_inline)) void
-vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
+EK_INLINE void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
   __m256d rows[4][4];
   const __m256d zero = _mm256_setzero_pd();
 #pragma GCC unroll 4
@@ -300,7 +296,7 @@ vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12])
 // two-source one (two permutes and a blend: AVX2 has no vpermt2ps).
 #define EK_HAVE_VREC_PERM
 #if defined(EK_REAL_F32)
-static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+EK_INLINE vreal vrec_blend(unsigned m, vreal a, vreal b) {
   int32_t sel[8];
 #pragma GCC unroll 8
   for (int l = 0; l < 8; l++)
@@ -310,7 +306,7 @@ static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal 
   return _mm256_blendv_ps(a, b, _mm256_castsi256_ps(_mm256_loadu_si256((const __m256i *)sel)));
 }
 #else
-static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+EK_INLINE vreal vrec_blend(unsigned m, vreal a, vreal b) {
   int64_t sel[4];
 #pragma GCC unroll 4
   for (int l = 0; l < 4; l++)
@@ -321,7 +317,7 @@ static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal 
 }
 #endif
 // Lane l = v[idx[l] mod W] (idx constant).
-static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int *idx) {
+EK_INLINE vreal vrec_perm(vreal v, const int *idx) {
   int32_t ix[8];
 #pragma GCC unroll 8
   for (int i = 0; i < 8; i++)
@@ -334,7 +330,7 @@ static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int 
 #endif
 }
 // Lane l = idx[l] < W ? a[idx[l]] : b[idx[l] - W] (idx constant).
-static inline __attribute__((always_inline)) vreal vrec_perm2(vreal a, vreal b, const int *idx) {
+EK_INLINE vreal vrec_perm2(vreal a, vreal b, const int *idx) {
   unsigned m = 0;
 #pragma GCC unroll 8
   for (int l = 0; l < EK_W; l++)

@@ -184,8 +184,7 @@ static inline vmask vgather_points(const real *x, const int32_t *idx, vreal p[3]
 // inside each 128-bit lane put the lanes in order.
 #if defined(EK_REAL_F32)
 #define EK_HAVE_VLOAD_POINTS
-static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
-                                                                vreal p[3]) {
+EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   const __m512i iv = _mm512_loadu_si512(idx);
   const vmask pad = _mm512_cmplt_epi32_mask(iv, _mm512_setzero_si512());
   __m128 r[16];
@@ -230,7 +229,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
 // of corner c at rows + vrow4_at(l, c) (component 3 zero), 16 W reals,
 // rows 64-byte aligned; vadd_row4(o, row) adds one such row into a
 // vertex row of 4, o[k] += row[k], o's NaN first (below).
-// vscatter_add_rows4 (generic.h) is the two together: for lane l =
+// vstore_rows4 then vadd_rows4 (generic.h) add, for lane l =
 // 0..W-1 in order, skipping lanes with idx[l] < 0, and corner c = 0..3 in
 // order, out[4 i + k] += lane l of h[3 c + k], i = idx[c stride + l]: the
 // scalar scatter's adds in its order (so the same bits) into rows padded
@@ -247,7 +246,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
 // (Zen 5: the FVM force 5-6 ns per tet slower than the scalar scatter).
 #define EK_HAVE_VROWS4
 static inline unsigned vrow4_at(unsigned l, unsigned c) { return (c * 4 + l % 4) * 16 + l / 4 * 4; }
-static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
+EK_INLINE void vstore_rows4(real *rows, const vreal h[12]) {
   const __m512 zero = _mm512_setzero_ps();
 #pragma GCC unroll 4
   for (int c = 0; c < 4; c++) {
@@ -262,7 +261,7 @@ static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const
     _mm512_store_ps(r + 48, _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3)));
   }
 }
-static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
+EK_INLINE void vadd_row4(real *o, const real *row) {
   // The scalar o += h gives o's NaN where both are NaN (x86 returns its
   // first operand's); the compiler may order the vector add's operands
   // either way (inverted tets' NaN forces changed sign), so the add is
@@ -282,8 +281,7 @@ static inline __attribute__((always_inline)) void vadd_row4(real *o, const real 
 // 256-bit half (unpacks) and one vpermt2pd per output to put the 128-bit
 // pieces in lane order.
 #define EK_HAVE_VLOAD_POINTS
-static inline __attribute__((always_inline)) vmask vload_points(const real *x, const int32_t *idx,
-                                                                vreal p[3]) {
+EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   __m256d r[8];
 #pragma GCC unroll 8
   for (int l = 0; l < 8; l++)
@@ -310,7 +308,7 @@ static inline __attribute__((always_inline)) vmask vload_points(const real *x, c
 static inline unsigned vrow4_at(unsigned l, unsigned c) {
   return (c * 4 + (l & 1) * 2 + l / 4) * 8 + ((l / 2) & 1) * 4;
 }
-static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const vreal h[12]) {
+EK_INLINE void vstore_rows4(real *rows, const vreal h[12]) {
   const __m512d zero = _mm512_setzero_pd();
   const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
   const __m512i hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
@@ -327,7 +325,7 @@ static inline __attribute__((always_inline)) void vstore_rows4(real *rows, const
     _mm512_store_pd(r + 24, _mm512_permutex2var_pd(t1, hi, t3));
   }
 }
-static inline __attribute__((always_inline)) void vadd_row4(real *o, const real *row) {
+EK_INLINE void vadd_row4(real *o, const real *row) {
   // o first, as in the f32 version above (a NaN o is kept).
   __m256d ov = _mm256_loadu_pd(o), sum;
   __asm__("vaddpd %2, %1, %0" : "=v"(sum) : "v"(ov), "m"(*(const __m256d *)row));
@@ -376,7 +374,7 @@ static inline vreal vrec_perm2_ix(vreal a, vreal b, __m512i i) {
 // but 17.9 ns on 2^20 matrices against 4.4 here (the AoSoA kernel: 3.3);
 // and each blend needs its mask in a k register, a kmov from a general
 // register (too many masks to keep), on port 5 on Intel.
-static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal a, vreal b) {
+EK_INLINE vreal vrec_blend(unsigned m, vreal a, vreal b) {
   vrec_lane sel[EK_W];
 #pragma GCC unroll 16
   for (int l = 0; l < EK_W; l++)
@@ -392,7 +390,7 @@ static inline __attribute__((always_inline)) vreal vrec_blend(unsigned m, vreal 
 #endif
 }
 // Lane l = v[idx[l]] (idx constant).
-static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int *idx) {
+EK_INLINE vreal vrec_perm(vreal v, const int *idx) {
   vrec_lane ix[EK_W];
 #pragma GCC unroll 16
   for (int l = 0; l < EK_W; l++)
@@ -400,7 +398,7 @@ static inline __attribute__((always_inline)) vreal vrec_perm(vreal v, const int 
   return vrec_perm_ix(v, _mm512_loadu_si512(ix));
 }
 // Lane l = idx[l] < W ? a[idx[l]] : b[idx[l] - W] (idx constant).
-static inline __attribute__((always_inline)) vreal vrec_perm2(vreal a, vreal b, const int *idx) {
+EK_INLINE vreal vrec_perm2(vreal a, vreal b, const int *idx) {
   vrec_lane ix[EK_W];
 #pragma GCC unroll 16
   for (int l = 0; l < EK_W; l++)
@@ -408,8 +406,7 @@ static inline __attribute__((always_inline)) vreal vrec_perm2(vreal a, vreal b, 
   return vrec_perm2_ix(a, b, _mm512_loadu_si512(ix));
 }
 #define EK_HAVE_VRECORDS_MASKED
-static inline __attribute__((always_inline)) void vload_records_masked(const real *p, int np,
-                                                                       vreal *planes) {
+EK_INLINE void vload_records_masked(const real *p, int np, vreal *planes) {
   vreal in[EK_RECORD_MAX];
 #pragma GCC unroll 16
   for (int v = 0; v < np; v++)
@@ -434,8 +431,7 @@ static inline __attribute__((always_inline)) void vload_records_masked(const rea
     planes[k] = acc;
   }
 }
-static inline __attribute__((always_inline)) void vstore_records_masked(real *p, int np,
-                                                                        const vreal *planes) {
+EK_INLINE void vstore_records_masked(real *p, int np, const vreal *planes) {
 #pragma GCC unroll 16
   for (int v = 0; v < np; v++) {
     vrec_lane idx[EK_W];

@@ -77,7 +77,6 @@ static inline void vstore_records_tile(real *p, int np, const vreal *planes) {
       p[l * np + k] = tile[k * EK_W + l];
 }
 
-#define EK_AI static inline __attribute__((always_inline))
 #ifdef EK_HAVE_VREC_PERM
 // The record transposes in registers, from the target's vrec_blend (a
 // constant lane mask), vrec_perm and vrec_perm2 (constant lane indices).
@@ -106,11 +105,11 @@ static inline void vstore_records_tile(real *p, int np, const vreal *planes) {
 // in order; np = 8 takes the target's other path. The loops are unrolled
 // fully so that, np being a literal at every call, the masks and indices
 // fold to constants.
-EK_AI int vrec_factored(int np) { return np % 3 == 0 || np % 2 == 1 || np == 2 || np == 4; }
-EK_AI int vrec_q(int np) { return np % 3 == 0 ? 3 : np % 2 == 1 ? np : np / 2; }
+EK_INLINE int vrec_factored(int np) { return np % 3 == 0 || np % 2 == 1 || np == 2 || np == 4; }
+EK_INLINE int vrec_q(int np) { return np % 3 == 0 ? 3 : np % 2 == 1 ? np : np / 2; }
 // Stage 1: lane j of class c's vector holds stream position vrec_pos (of
 // W in the group); position p (< W) is at lane vrec_lane_at.
-EK_AI int vrec_pos(int q, int c, int j) {
+EK_INLINE int vrec_pos(int q, int c, int j) {
   if (q == 2)
     return j;
   int t = 0;
@@ -120,9 +119,9 @@ EK_AI int vrec_pos(int q, int c, int j) {
       t = u;
   return (EK_W * t + j - c) / q;
 }
-EK_AI int vrec_lane_at(int q, int c, int p) { return q == 2 ? p : (q * p + c) % EK_W; }
+EK_INLINE int vrec_lane_at(int q, int c, int p) { return q == 2 ? p : (q * p + c) % EK_W; }
 // Lanes j of group vector t whose element is in class c (mod q).
-EK_AI unsigned vrec_class_mask(int q, int t, int c) {
+EK_INLINE unsigned vrec_class_mask(int q, int t, int c) {
   unsigned m = 0;
 #pragma GCC unroll 16
   for (int j = 0; j < EK_W; j++)
@@ -130,7 +129,7 @@ EK_AI unsigned vrec_class_mask(int q, int t, int c) {
   return m;
 }
 // Lanes j of stream c's group-g vector whose position is in class r (mod s).
-EK_AI unsigned vrec_stream_mask(int q, int s, int c, int g, int r) {
+EK_INLINE unsigned vrec_stream_mask(int q, int s, int c, int g, int r) {
   unsigned m = 0;
 #pragma GCC unroll 16
   for (int j = 0; j < EK_W; j++)
@@ -138,7 +137,7 @@ EK_AI unsigned vrec_stream_mask(int q, int s, int c, int g, int r) {
   return m;
 }
 
-EK_AI void vrec_load_factored(const real *p, int np, vreal *planes) {
+EK_INLINE void vrec_load_factored(const real *p, int np, vreal *planes) {
   const int q = vrec_q(np), s = np / q;
   vreal in[EK_RECORD_MAX], b[EK_RECORD_MAX]; // b[g q + c]: class c of group g
 #pragma GCC unroll 16
@@ -186,14 +185,14 @@ EK_AI void vrec_load_factored(const real *p, int np, vreal *planes) {
 }
 
 // The stores of the transposes, plain or non-temporal (nt a constant).
-EK_AI void vrec_put(real *p, vreal v, int nt) {
+EK_INLINE void vrec_put(real *p, vreal v, int nt) {
   if (nt)
     vstream(p, v);
   else
     vstore(p, v);
 }
 
-EK_AI void vrec_store_factored(real *p, int np, const vreal *planes, int nt) {
+EK_INLINE void vrec_store_factored(real *p, int np, const vreal *planes, int nt) {
   const int q = vrec_q(np), s = np / q;
   vreal b[EK_RECORD_MAX];
 #pragma GCC unroll 16
@@ -290,13 +289,12 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
 // vrow4_at(q, c) for j a multiple of 4, q < 4, on every target): fully
 // unrolled, 16 lanes were 64 load-add-stores of code per vector beside
 // the SVD's (the fixed corotated force on Zen 5, docs/perf.md: smaller
-// code was faster). vscatter_add_rows4(out, idx, stride, h): the same from
-// the 12 corner planes h[3 c + k] (the rows made first). The FVM force
-// makes the rows where it makes the corner values and adds them later
-// (kernels/fvm/fvm_tet.h).
+// code was faster). The FVM force makes the rows where it makes the corner
+// values and adds them later (kernels/fvm/fvm_tet.h); targets without rows
+// of 4 may have vscatter_add_rows4 (avx2.h), the same adds from the corner
+// planes in registers.
 #ifdef EK_HAVE_VROWS4
-#define EK_HAVE_VSCATTER_ADD_ROWS4
-EK_AI void vadd_rows4(real *out, const int32_t *idx, int stride, const real *rows) {
+EK_INLINE void vadd_rows4(real *out, const int32_t *idx, int stride, const real *rows) {
 #pragma GCC unroll 1
   for (unsigned j = 0; j < EK_W; j += 4) {
     const int32_t *ix = idx + j;
@@ -311,14 +309,9 @@ EK_AI void vadd_rows4(real *out, const int32_t *idx, int stride, const real *row
     }
   }
 }
-EK_AI void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
-  _Alignas(64) real rows[16 * EK_W];
-  vstore_rows4(rows, h);
-  vadd_rows4(out, idx, stride, rows);
-}
 #endif
 
-EK_AI void vload_records(const real *p, int np, vreal *planes) {
+EK_INLINE void vload_records(const real *p, int np, vreal *planes) {
 #ifdef EK_HAVE_VREC_PERM
   if (np == 1) {
     planes[0] = vload(p);
@@ -338,7 +331,7 @@ EK_AI void vload_records(const real *p, int np, vreal *planes) {
 // nt (a constant): streaming stores for the factored sizes; the others
 // (np 4, 8: the masked permutes, and the scalar target's tile) store
 // plainly.
-EK_AI void vstore_records_as(real *p, int np, const vreal *planes, int nt) {
+EK_INLINE void vstore_records_as(real *p, int np, const vreal *planes, int nt) {
   (void)nt; // no streaming store without the permutes
 #ifdef EK_HAVE_VREC_PERM
   if (np == 1) {
@@ -356,10 +349,10 @@ EK_AI void vstore_records_as(real *p, int np, const vreal *planes, int nt) {
   vstore_records_tile(p, np, planes);
 #endif
 }
-EK_AI void vstore_records(real *p, int np, const vreal *planes) {
+EK_INLINE void vstore_records(real *p, int np, const vreal *planes) {
   vstore_records_as(p, np, planes, 0);
 }
-EK_AI void vstore_records_nt(real *p, int np, const vreal *planes) {
+EK_INLINE void vstore_records_nt(real *p, int np, const vreal *planes) {
   vstore_records_as(p, np, planes, 1);
 }
 // Orders the streaming stores before what follows (an OpenMP barrier's
@@ -369,6 +362,5 @@ static inline void vstream_fence(void) {
   _mm_sfence();
 #endif
 }
-#undef EK_AI
 
 #endif

@@ -49,6 +49,7 @@
 #ifndef EK_SIMD_H
 #define EK_SIMD_H
 
+#include "../inline.h" // EK_INLINE
 #include "../real.h"
 
 #define EK_RECORD_MAX 9 // fields per record in vload_records / vstore_records

@@ -34,8 +34,6 @@
 
 #include "kernels.h"
 
-#define EK_INLINE static inline __attribute__((always_inline))
-
 // Below TINY (after scaling, relative to the largest entry) a rotation
 // angle is taken as zero. TINY^2 is a normal number of the precision and far
 // below its budget: 1e-36 for float; 1e-300 for double, so a 2x2 block
