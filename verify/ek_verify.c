@@ -174,9 +174,17 @@ static int check_json_path(const char *path, int force) {
   char *slash = strrchr(dir, '/');
   if (slash)
     slash[slash == dir ? 1 : 0] = '\0';
-  if (access(slash ? dir : ".", W_OK) != 0) {
-    fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path,
-            slash ? dir : ".", strerror(errno));
+  // A regular file passes access(W_OK) (as root, always): the folder must
+  // be a directory too, or the rows run before the write fails.
+  const char *folder = slash ? dir : ".";
+  struct stat st;
+  int e = stat(folder, &st) != 0      ? errno
+          : !S_ISDIR(st.st_mode)      ? ENOTDIR
+          : access(folder, W_OK) != 0 ? errno
+                                      : 0;
+  if (e) {
+    fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path, folder,
+            strerror(e));
     return EK_EXIT_FAILED;
   }
   return 0;
@@ -306,9 +314,11 @@ int main(int argc, char **argv) {
       if (parse_count(a, argv[++i], 1, &n_opt))
         return EK_EXIT_USAGE;
       have_n = 1;
-    } else if (strcmp(a, "--json") == 0 && has_value)
+    } else if (strcmp(a, "--json") == 0 && has_value) {
       json_path = argv[++i];
-    else if (strcmp(a, "--filter") == 0 && has_value)
+      if (!*json_path)
+        return ek_cli_usage_error("ek-verify", "--json: empty file name");
+    } else if (strcmp(a, "--filter") == 0 && has_value)
       filter = argv[++i];
     else
       return ek_cli_usage_error("ek-verify", "unknown or incomplete option '%s'", a);
