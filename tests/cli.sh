@@ -139,13 +139,19 @@ expect "ek-verify --json EXISTING" 1 "$bin/ek-verify" --filter nothing --json "$
   one_error "ek-verify --json EXISTING"
 [ "$(cat "$work/v.json")" = keep ] || fail "ek-verify --json EXISTING: overwritten"
 grep -q "ek-verify:.*rows" "$out" && fail "ek-verify --json EXISTING: ran the rows first"
-expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --filter nothing \
-  --json "$work/v.json" --force
+expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --quick --n 100 \
+  --filter '^svd3 scalar f32 sweeps=def rsqrt=exact random$' --json "$work/v.json" --force
 grep -q '"tool"' "$work/v.json" || fail "ek-verify --json --force: not written"
 expect "ek-verify --json DIR" 1 "$bin/ek-verify" --filter nothing --json "$work/dir.h5" &&
   one_error "ek-verify --json DIR"
 expect "ek-verify --json NO/FOLDER" 1 "$bin/ek-verify" --filter nothing \
   --json "$work/none/v.json" && one_error "ek-verify --json NO/FOLDER"
+# A filter that selects no row verified nothing: bad usage, not a PASS.
+expect "ek-verify --filter (no row)" 2 "$bin/ek-verify" --filter nothing &&
+  one_error "ek-verify --filter (no row)"
+grep -q "PASS" "$out" && fail "ek-verify --filter (no row): said PASS"
+expect "ek-verify --extremes --filter (no row)" 2 "$bin/ek-verify" --extremes --filter nothing &&
+  one_error "ek-verify --extremes --filter (no row)"
 # Output folders that are regular files (root's access(W_OK) passes on a
 # file): refused before the first row, not after the run (the audit of
 # round 11); an empty output name is bad usage.

@@ -233,6 +233,15 @@ static int run_extremes(ek_verify_ctx *ctx, const char *json_path, int force, co
   double elapsed = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
   int rc = failures != 0 ? 1 : 0;
   const int nrows = cJSON_GetArraySize(ctx->rows);
+  if (ctx->has_filter && nrows == 0 && failures == 0) {
+    // Nothing verified is no PASS (a mistyped filter exited 0).
+    cJSON_Delete(known);
+    cJSON_Delete(ctx->rows);
+    cJSON_Delete(ctx->notes);
+    regfree(&ctx->filter);
+    return ek_cli_usage_error("ek-verify", "--filter '%s': no row matches; nothing verified",
+                              filter);
+  }
   cJSON *root = cJSON_CreateObject();
   cJSON_AddStringToObject(root, "tool", "ek-verify");
   cJSON_AddStringToObject(root, "mode", "extremes");
@@ -268,7 +277,8 @@ static void usage(FILE *out) {
         "  --n N          size of the random set, >= 1 (default 100000; --quick 10000)\n"
         "  --json FILE    also write the rows as JSON (checked before the first row)\n"
         "  --force        overwrite an existing --json file\n"
-        "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
+        "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE;\n"
+        "                 none matching is bad usage, exit 2)\n"
         "  --quick        fewer matrices and variants (--extremes: a CI-sized subset)\n"
         "  --extremes     stability at the extremes: crush to a plane and a point,\n"
         "                 rest, nu, E and element size sweeps per model and loop;\n"
@@ -363,6 +373,15 @@ int main(int argc, char **argv) {
     setup_errors += families[f].run(&ctx) != 0;
   }
 
+  if (ctx.has_filter && ctx.rows_printed == 0 && !setup_errors) {
+    // Nothing verified is no PASS (a mistyped filter exited 0), as
+    // ek-bench's "no row matches the filter".
+    cJSON_Delete(ctx.rows);
+    cJSON_Delete(ctx.notes);
+    regfree(&ctx.filter);
+    return ek_cli_usage_error("ek-verify", "--filter '%s': no row matches; nothing verified",
+                              filter);
+  }
   int rc = ctx.failures || setup_errors ? 1 : 0;
   int json_failed = 0;
   if (json_path) {
