@@ -170,6 +170,23 @@ for o in --out --json; do
   grep -q "Not a directory" "$err" || fail "ek-bench $o FILE/b: not said: $(head -1 "$err")"
   [ -e "$work/b.h5" ] && fail "ek-bench $o FILE/b: $work/b.h5 written"
 done
+# ek-bench on a full disk (writes fail with EFBIG): exit 1, one line per
+# file, nothing left behind; HDF5's error stack (~180 lines) only under
+# EK_VERBOSE=1. (stderr through a pipe: the limit would cut a file.)
+mkdir "$work/full"
+(
+  ulimit -f 4
+  trap '' XFSZ
+  exec "$bin/ek-bench" --threads 1 --min-time 0.1 --filter "$one_row" --out "$work/full/b.h5"
+) 2>&1 >/dev/null </dev/null | cat >"$err"
+rc=${PIPESTATUS[0]}
+[ "$rc" -eq 1 ] || fail "ek-bench on a full disk: exit $rc, expected 1"
+grep -q "HDF5-DIAG" "$err" && fail "ek-bench on a full disk: HDF5's error stack printed"
+grep -q "writing '$work/full/b.h5' failed; nothing written" "$err" ||
+  fail "ek-bench on a full disk: not said: $(tail -1 "$err")"
+if [ -n "$(ls -A "$work/full")" ]; then
+  fail "ek-bench on a full disk: left $(ls "$work/full")"
+fi
 expect "ek-sim --out ''" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 --out "" &&
   one_error "ek-sim --out ''"
 # SIGHUP (the terminal closed) stops ek-sim as SIGTERM does: the frames
