@@ -744,9 +744,17 @@ int main(int argc, char **argv) {
       char *slash = strrchr(dir, '/');
       if (slash)
         slash[slash == dir ? 1 : 0] = 0;
-      if (access(slash ? dir : ".", W_OK) != 0) {
-        fprintf(stderr, "ek-bench: cannot write '%s': folder '%s': %s\n", path, slash ? dir : ".",
-                strerror(errno));
+      // A regular file passes access(W_OK) (as root, always): the folder
+      // must be a directory too, or the run fails after its last row.
+      const char *folder = slash ? dir : ".";
+      struct stat st;
+      int e = stat(folder, &st) != 0      ? errno
+              : !S_ISDIR(st.st_mode)      ? ENOTDIR
+              : access(folder, W_OK) != 0 ? errno
+                                          : 0;
+      if (e) {
+        fprintf(stderr, "ek-bench: cannot write '%s': folder '%s': %s\n", path, folder,
+                strerror(e));
         return EK_EXIT_FAILED;
       }
       const char *what = ek_results_not_regular(path);

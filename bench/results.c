@@ -603,6 +603,14 @@ int ek_results_write_h5_with(const char *who, const char *path, int force, const
   }
   char tmp[4096];
   ek_results_temp_name(tmp, sizeof tmp, path);
+  // HDF5 prints its error stack for every failed call (a full disk gave
+  // ~180 lines before the message below): shown only with EK_VERBOSE=1.
+  H5E_auto2_t h5_print;
+  void *h5_data;
+  H5Eget_auto2(H5E_DEFAULT, &h5_print, &h5_data);
+  const char *verbose = getenv("EK_VERBOSE");
+  if (!verbose || !verbose[0] || !strcmp(verbose, "0"))
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
   // Formats of HDF5 1.8 and no newer (as sim/frames.c): its dense attribute
   // storage holds a text of any length (the "arguments" of a long --filter),
   // where the older object header caps an attribute at 64 KiB.
@@ -611,6 +619,7 @@ int ek_results_write_h5_with(const char *who, const char *path, int force, const
   hid_t f = H5Fcreate(tmp, H5F_ACC_EXCL, H5P_DEFAULT, fapl);
   H5Pclose(fapl);
   if (f < 0) {
+    H5Eset_auto2(H5E_DEFAULT, h5_print, h5_data);
     fprintf(stderr, "%s: cannot create HDF5 file '%s'\n", who, tmp);
     return -1;
   }
@@ -618,6 +627,7 @@ int ek_results_write_h5_with(const char *who, const char *path, int force, const
   rc |= body(f, ctx);
   if (H5Fclose(f) < 0)
     rc = -1;
+  H5Eset_auto2(H5E_DEFAULT, h5_print, h5_data);
   if (rc) {
     fprintf(stderr, "%s: writing '%s' failed; nothing written\n", who, path);
     unlink(tmp);

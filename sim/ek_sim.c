@@ -18,7 +18,7 @@
 // failed (a bad scene or mesh, an element inverted with a model undefined
 // there, unwritable output), 2 bad usage; 3 a frame held NaN/inf or the
 // positions blew up, 4 the run ended with inverted elements (each unless
-// the scene's "allow" key says so). SIGINT or SIGTERM stops the run
+// the scene's "allow" key says so). SIGINT, SIGTERM or SIGHUP stops the run
 // at the next step: the frames are closed, their count printed, and ek-sim
 // dies of that signal.
 #include <ek/polar.h>
@@ -43,8 +43,10 @@
 #include "omp_env.h"
 #include "scene_find.h"
 
-// SIGINT / SIGTERM: the handler only records the signal (async-signal-safe);
-// the step loop checks it, stops, and the frames are closed as at the end.
+// SIGINT / SIGTERM / SIGHUP: the handler only records the signal (async-
+// signal-safe); the step loop checks it, stops, and the frames are closed as
+// at the end. SIGHUP (the terminal closed) left the frames' scratch files
+// behind; it is caught unless ignored (nohup), as the caller asked then.
 static volatile sig_atomic_t stop_signal = 0;
 static void on_stop_signal(int sig) { stop_signal = sig; }
 
@@ -56,6 +58,9 @@ static void catch_stop_signals(void) {
   sa.sa_flags = SA_RESTART; // file writes in flight are not cut short
   sigaction(SIGINT, &sa, NULL);
   sigaction(SIGTERM, &sa, NULL);
+  struct sigaction hup;
+  if (sigaction(SIGHUP, NULL, &hup) == 0 && hup.sa_handler != SIG_IGN)
+    sigaction(SIGHUP, &sa, NULL);
 }
 
 static double now(void) {
@@ -913,7 +918,7 @@ static int run(int argc, char **argv) {
       if (parse_long(a, i + 1 < argc ? argv[++i] : NULL, 1, 4096, &threads))
         return EK_EXIT_USAGE;
     } else if (strcmp(a, "--out") == 0) {
-      if (i + 1 >= argc)
+      if (i + 1 >= argc || !argv[i + 1][0])
         return ek_cli_usage_error("ek-sim", "--out needs a file name");
       out = argv[++i];
     } else if (strcmp(a, "--no-output") == 0) {
@@ -1205,7 +1210,9 @@ static int run(int argc, char **argv) {
   }
   if (stopped_at >= 0)
     fprintf(stderr, "ek-sim: stopped by %s %s step %ld of %ld; %ld frames written%s%s%s\n",
-            stop_signal == SIGINT ? "SIGINT" : "SIGTERM",
+            stop_signal == SIGINT    ? "SIGINT"
+            : stop_signal == SIGTERM ? "SIGTERM"
+                                     : "SIGHUP",
             stopped_inside ? "inside (not applied)" : "before", stopped_at + stopped_inside, steps,
             nframes, wrote_frames ? " to " : "", wrote_frames ? out : "",
             wrote_frames ? " (file closed, a partial series)" : "");

@@ -172,6 +172,19 @@ static ek_mesh *load_gmsh(const char *path, const ek_mesh_opts *opts, char *err,
   return m;
 }
 
+// Whether BASE.node exists (BASE a TetGen base name).
+static int tetgen_node_exists(const char *base) {
+  size_t n = strlen(base);
+  char *node = malloc(n + 6);
+  if (!node)
+    return 1; // let load_tetgen report it
+  snprintf(node, n + 6, "%s.node", base);
+  struct stat st;
+  int found = stat(node, &st) == 0;
+  free(node);
+  return found;
+}
+
 ek_mesh *ek_mesh_load_ex_errbuf(const char *path, const ek_mesh_opts *opts, char *err,
                                 size_t errlen) {
   if (!path) {
@@ -199,6 +212,16 @@ ek_mesh *ek_mesh_load_ex_errbuf(const char *path, const ek_mesh_opts *opts, char
     base[n - 5] = 0;
   else if (ends_with(base, ".ele"))
     base[n - 4] = 0;
+  else if (stat(path, &st) == 0 && !tetgen_node_exists(path)) {
+    // An existing file of another format (x.vtk) read as a TetGen base
+    // name was reported as "x.vtk.node: cannot open", a file never named.
+    mesh_error(err, errlen,
+               "%s: not a mesh format ek reads (give a .msh file, a TetGen .node or .ele "
+               "file, or a TetGen base name)",
+               path);
+    free(base);
+    return NULL;
+  }
   ek_mesh *m = load_tetgen(base, opts, err, errlen);
   free(base);
   return m;

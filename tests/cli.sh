@@ -163,13 +163,74 @@ expect "ek-verify --json EXISTING" 1 "$bin/ek-verify" --filter nothing --json "$
   one_error "ek-verify --json EXISTING"
 [ "$(cat "$work/v.json")" = keep ] || fail "ek-verify --json EXISTING: overwritten"
 grep -q "ek-verify:.*rows" "$out" && fail "ek-verify --json EXISTING: ran the rows first"
-expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --filter nothing \
-  --json "$work/v.json" --force
+expect "ek-verify --json EXISTING --force" 0 "$bin/ek-verify" --quick --n 100 \
+  --filter '^svd3 scalar f32 sweeps=def rsqrt=exact random$' --json "$work/v.json" --force
 grep -q '"tool"' "$work/v.json" || fail "ek-verify --json --force: not written"
 expect "ek-verify --json DIR" 1 "$bin/ek-verify" --filter nothing --json "$work/dir.h5" &&
   one_error "ek-verify --json DIR"
 expect "ek-verify --json NO/FOLDER" 1 "$bin/ek-verify" --filter nothing \
   --json "$work/none/v.json" && one_error "ek-verify --json NO/FOLDER"
+# A filter that selects no row verified nothing: bad usage, not a PASS.
+expect "ek-verify --filter (no row)" 2 "$bin/ek-verify" --filter nothing &&
+  one_error "ek-verify --filter (no row)"
+grep -q "PASS" "$out" && fail "ek-verify --filter (no row): said PASS"
+expect "ek-verify --extremes --filter (no row)" 2 "$bin/ek-verify" --extremes --filter nothing &&
+  one_error "ek-verify --extremes --filter (no row)"
+# Output folders that are regular files (root's access(W_OK) passes on a
+# file): refused before the first row, not after the run (the audit of
+# round 11); an empty output name is bad usage.
+echo file >"$work/plain"
+expect "ek-verify --json FILE/v.json" 1 "$bin/ek-verify" --filter 'svd3' \
+  --json "$work/plain/v.json" && one_error "ek-verify --json FILE/v.json"
+grep -q "rows" "$out" && fail "ek-verify --json FILE/v.json: ran the rows first"
+expect "ek-verify --json ''" 2 "$bin/ek-verify" --filter nothing --json "" &&
+  one_error "ek-verify --json ''"
+one_row='^svd3/aosoa/scalar/f32/sweeps:2/rsqrt:approx/threads:1$'
+for o in --out --json; do
+  h5=$work/b.h5 json=$work/b.json
+  [ $o = --out ] && h5=$work/plain/b.h5 || json=$work/plain/b.json
+  expect "ek-bench $o FILE/b" 1 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+    --filter "$one_row" --out "$h5" --json "$json" && one_error "ek-bench $o FILE/b"
+  grep -q "Not a directory" "$err" || fail "ek-bench $o FILE/b: not said: $(head -1 "$err")"
+  [ -e "$work/b.h5" ] && fail "ek-bench $o FILE/b: $work/b.h5 written"
+done
+# ek-bench on a full disk (writes fail with EFBIG): exit 1, one line per
+# file, nothing left behind; HDF5's error stack (~180 lines) only under
+# EK_VERBOSE=1. (stderr through a pipe: the limit would cut a file.)
+mkdir "$work/full"
+(
+  ulimit -f 4
+  trap '' XFSZ
+  exec "$bin/ek-bench" --threads 1 --min-time 0.1 --filter "$one_row" --out "$work/full/b.h5"
+) 2>&1 >/dev/null </dev/null | cat >"$err"
+rc=${PIPESTATUS[0]}
+[ "$rc" -eq 1 ] || fail "ek-bench on a full disk: exit $rc, expected 1"
+grep -q "HDF5-DIAG" "$err" && fail "ek-bench on a full disk: HDF5's error stack printed"
+grep -q "writing '$work/full/b.h5' failed; nothing written" "$err" ||
+  fail "ek-bench on a full disk: not said: $(tail -1 "$err")"
+if [ -n "$(ls -A "$work/full")" ]; then
+  fail "ek-bench on a full disk: left $(ls "$work/full")"
+fi
+expect "ek-sim --out ''" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 --out "" &&
+  one_error "ek-sim --out ''"
+# SIGHUP (the terminal closed) stops ek-sim as SIGTERM does: the frames
+# closed and named partial, no scratch file left, death by the signal.
+"$bin/ek-sim" "$scenes/cantilever.json" --steps 100000 --out "$work/hup.h5" \
+  >"$out" 2>"$err" </dev/null &
+pid=$!
+for _ in $(seq 300); do
+  [ -e "$work/hup.h5" ] && break
+  sleep 0.1
+done
+kill -HUP "$pid"
+wait "$pid"
+rc=$?
+[ "$rc" -eq 129 ] || fail "ek-sim SIGHUP: exit $rc, expected 129 (the signal)"
+grep -q "stopped by SIGHUP" "$err" || fail "ek-sim SIGHUP: not said: $(tail -1 "$err")"
+grep -q "partial" "$out" || fail "ek-sim SIGHUP: the frames are not named partial"
+for f in "$work"/hup.*scratch*; do
+  [ -e "$f" ] && fail "ek-sim SIGHUP: left $f"
+done
 # A run whose state goes NaN fails (exit 1) at the step it happens, even
 # the last one, naming a non-finite state.
 printf '%s\n' '{"mesh": {"box": [2, 2, 2], "size": [1, 1, 1]},' \

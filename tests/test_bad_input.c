@@ -5,7 +5,8 @@
 //     are scale-free (a cube at 1e-100 or 1e100 loads, exact to
 //     EK_MESH_TOL); a header declaring 2e9 items is refused at its line
 //     before anything is allocated for it; a directory is reported as one;
-//     NUL and binary bytes are refused and never echoed raw;
+//     NUL and binary bytes are refused and never echoed raw; a file of
+//     another format (x.vtk) is named as one, not as a missing x.vtk.node;
 //   - scenes: a key twice in one object is refused naming the key and both
 //     places; E = 1e308 is refused naming material.E; a directory as the
 //     mesh is reported as one; messages never carry raw control or non-ASCII
@@ -242,6 +243,13 @@ static void meshes(void) {
                "dir.msh: is a directory", NULL, NULL, "truncated");
   mesh_refused("TetGen base whose .node is a directory", load("dir"), ek_last_error(),
                "dir.node: is a directory", NULL, NULL, "truncated");
+
+  // A file of another format (no .msh/.node/.ele suffix, no BASE.node):
+  // named as such, not as the missing "x.vtk.node".
+  write_text("other.vtk", "# vtk DataFile Version 3.0\n");
+  mesh_refused("file of another format (.vtk): 'not a mesh format'", load("other.vtk"),
+               ek_last_error(), "other.vtk: not a mesh format ek reads", NULL, NULL,
+               "other.vtk.node");
 
   // Binary bytes: a NUL, and raw bytes in a number, escaped in the message.
   write_file("nul.node", "2 3 0 0\n1 0 0 0\n2 1\0 0 0\n", 25);
@@ -806,12 +814,13 @@ static void batches(void) {
 }
 
 static void remove_tree(void) {
-  static const char *names[] = {
-      "huge.node",      "huge.ele",      "edge.msh",     "count.node",   "count.ele",
-      "count_ele.node", "count_ele.ele", "count_v2.msh", "count_v4.msh", "count_el.msh",
-      "nul.node",       "nul.ele",       "bytes.node",   "bytes.ele",    "bytes.msh",
-      "nul.json",       "dirmesh.json",  "out_fifo.h5",  "out_link.h5",  "target.txt",
-      "dup.node",       "dup.ele",       "dup.obj",      "blocks.msh",   "blocks2.msh"};
+  static const char *names[] = {"huge.node",    "huge.ele",       "edge.msh",      "count.node",
+                                "count.ele",    "count_ele.node", "count_ele.ele", "count_v2.msh",
+                                "count_v4.msh", "count_el.msh",   "nul.node",      "nul.ele",
+                                "bytes.node",   "bytes.ele",      "bytes.msh",     "nul.json",
+                                "dirmesh.json", "out_fifo.h5",    "out_link.h5",   "target.txt",
+                                "dup.node",     "dup.ele",        "dup.obj",       "blocks.msh",
+                                "blocks2.msh",  "other.vtk"};
   char path[512];
   for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
     snprintf(path, sizeof path, "%s/%s", tmp_dir, names[i]);

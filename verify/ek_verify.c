@@ -174,9 +174,17 @@ static int check_json_path(const char *path, int force) {
   char *slash = strrchr(dir, '/');
   if (slash)
     slash[slash == dir ? 1 : 0] = '\0';
-  if (access(slash ? dir : ".", W_OK) != 0) {
-    fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path,
-            slash ? dir : ".", strerror(errno));
+  // A regular file passes access(W_OK) (as root, always): the folder must
+  // be a directory too, or the rows run before the write fails.
+  const char *folder = slash ? dir : ".";
+  struct stat st;
+  int e = stat(folder, &st) != 0      ? errno
+          : !S_ISDIR(st.st_mode)      ? ENOTDIR
+          : access(folder, W_OK) != 0 ? errno
+                                      : 0;
+  if (e) {
+    fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path, folder,
+            strerror(e));
     return EK_EXIT_FAILED;
   }
   return 0;
@@ -225,6 +233,15 @@ static int run_extremes(ek_verify_ctx *ctx, const char *json_path, int force, co
   double elapsed = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
   int rc = failures != 0 ? 1 : 0;
   const int nrows = cJSON_GetArraySize(ctx->rows);
+  if (ctx->has_filter && nrows == 0 && failures == 0) {
+    // Nothing verified is no PASS (a mistyped filter exited 0).
+    cJSON_Delete(known);
+    cJSON_Delete(ctx->rows);
+    cJSON_Delete(ctx->notes);
+    regfree(&ctx->filter);
+    return ek_cli_usage_error("ek-verify", "--filter '%s': no row matches; nothing verified",
+                              filter);
+  }
   cJSON *root = cJSON_CreateObject();
   cJSON_AddStringToObject(root, "tool", "ek-verify");
   cJSON_AddStringToObject(root, "mode", "extremes");
@@ -260,7 +277,8 @@ static void usage(FILE *out) {
         "  --n N          size of the random set, >= 1 (default 100000; --quick 10000)\n"
         "  --json FILE    also write the rows as JSON (checked before the first row)\n"
         "  --force        overwrite an existing --json file\n"
-        "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE)\n"
+        "  --filter REGEX only rows whose \"kernel variant inputs\" match (POSIX ERE;\n"
+        "                 none matching is bad usage, exit 2)\n"
         "  --quick        fewer matrices and variants (--extremes: a CI-sized subset)\n"
         "  --extremes     stability at the extremes: crush to a plane and a point,\n"
         "                 rest, nu, E and element size sweeps per model and loop;\n"
@@ -306,9 +324,11 @@ int main(int argc, char **argv) {
       if (parse_count(a, argv[++i], 1, &n_opt))
         return EK_EXIT_USAGE;
       have_n = 1;
-    } else if (strcmp(a, "--json") == 0 && has_value)
+    } else if (strcmp(a, "--json") == 0 && has_value) {
       json_path = argv[++i];
-    else if (strcmp(a, "--filter") == 0 && has_value)
+      if (!*json_path)
+        return ek_cli_usage_error("ek-verify", "--json: empty file name");
+    } else if (strcmp(a, "--filter") == 0 && has_value)
       filter = argv[++i];
     else
       return ek_cli_usage_error("ek-verify", "unknown or incomplete option '%s'", a);
@@ -353,6 +373,15 @@ int main(int argc, char **argv) {
     setup_errors += families[f].run(&ctx) != 0;
   }
 
+  if (ctx.has_filter && ctx.rows_printed == 0 && !setup_errors) {
+    // Nothing verified is no PASS (a mistyped filter exited 0), as
+    // ek-bench's "no row matches the filter".
+    cJSON_Delete(ctx.rows);
+    cJSON_Delete(ctx.notes);
+    regfree(&ctx.filter);
+    return ek_cli_usage_error("ek-verify", "--filter '%s': no row matches; nothing verified",
+                              filter);
+  }
   int rc = ctx.failures || setup_errors ? 1 : 0;
   int json_failed = 0;
   if (json_path) {
