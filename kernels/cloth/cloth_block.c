@@ -117,7 +117,22 @@ void EK_SYM(cloth_tri_F_block)(size_t count, int aos, const real *x, const real 
 INLINE void polar32_vectors(size_t nvec, int aos, const real *F, const real *unused, real *R,
                             real *Uc, real *unused2) {
   (void)unused, (void)unused2;
-  for (size_t j = 0; j < nvec; j++) {
+  size_t j = 0;
+  if (aos)
+    for (; j + 2 <= nvec; j += 2) {
+      vreal f[2][6], r[2][6], u[2][4];
+      load_planes(F, j, 6, f[0], aos);
+      load_planes(F, j + 1, 6, f[1], aos);
+      polar32_vec(f[0], r[0], u[0]);
+      polar32_vec(f[1], r[1], u[1]);
+      store_planes(R, j, 6, r[0], aos);
+      store_planes(R, j + 1, 6, r[1], aos);
+      if (Uc) {
+        store_planes(Uc, j, 4, u[0], aos);
+        store_planes(Uc, j + 1, 4, u[1], aos);
+      }
+    }
+  for (; j < nvec; j++) {
     vreal f[6], r[6], u[4];
     load_planes(F, j, 6, f, aos);
     polar32_vec(f, r, u);
