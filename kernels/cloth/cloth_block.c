@@ -146,10 +146,20 @@ INLINE void polar32_vectors(size_t nvec, int aos, const real *F, const real *unu
   }
 }
 
+// The AoS layout in a function of its own: its two-vector loop in the
+// same function changed the AoSoA loop's register allocation, which then
+// ran 4.5% slower (AVX2 f64, Zen 4: 19.35 against 18.5 ns per triangle).
+static __attribute__((noinline)) void polar32_aos(size_t count, const real *F, real *R, real *Uc) {
+  run_layout(polar32_vectors, count, 1, (const int[]){6, 0, 6, 4, 0}, F, NULL, R, Uc, NULL);
+}
+
 void EK_SYM(cloth_polar32_block)(size_t count, int aos, const real *F, const real *unused, real *R,
                                  real *Uc, real *unused2) {
   ek_fpmode mode = ek_fpmode_enter(); // fpmode.h: ek's own mode, whatever the caller's
-  run_layout(polar32_vectors, count, aos, (const int[]){6, 0, 6, 4, 0}, F, unused, R, Uc, unused2);
+  if (aos)
+    polar32_aos(count, F, R, Uc);
+  else
+    run_layout(polar32_vectors, count, 0, (const int[]){6, 0, 6, 4, 0}, F, unused, R, Uc, unused2);
   ek_fpmode_leave(mode);
 }
 
