@@ -366,27 +366,22 @@ static inline vreal vrec_perm2_ix(vreal a, vreal b, __m512i i) {
 }
 #endif
 #define EK_HAVE_VREC_PERM
-// Lane l = bit l of m ? b : a (m a constant at the call). A bitwise select
-// by a constant vector (vpternlog) rather than a masked blend (vblendmps):
-// the compiler folds the records' loads into the blends as masked memory
-// operands, which on Zen 5 (f32, the warm polar's AoS API, 1 thread) cost
-// little on a cache-resident batch (3.5 ns per matrix against 3.7 here)
-// but 17.9 ns on 2^20 matrices against 4.4 here (the AoSoA kernel: 3.3);
-// and each blend needs its mask in a k register, a kmov from a general
-// register (too many masks to keep), on port 5 on Intel.
+// Lane l = bit l of m ? b : a (m a constant at the call): a masked blend
+// (vblendmps), its mask a kmov of the constant. generic.h keeps the
+// records' loads out of the blends (vrec_load_factored): folded into them
+// as masked memory operands they cost 17.9 ns per matrix on Zen 5 (f32,
+// the warm polar's AoS API, 2^20 matrices, 1 thread; 4.4 with a vpternlog
+// select on a constant vector, the AoSoA kernel 3.3). Against that
+// vpternlog select (eleventh round, Zen 4, the same API, process CPU time,
+// min of 3 interleaved rounds): 6.43 against 6.93 ns on 2^20, 6.45
+// against 6.79 on 4096 (the AoSoA kernel 5.5): the select's destination
+// is one of its sources, so each reused stream or constant cost a vector
+// copy, and each constant a vector register or a load (docs/perf.md).
 EK_INLINE vreal vrec_blend(unsigned m, vreal a, vreal b) {
-  vrec_lane sel[EK_W];
-#pragma GCC unroll 16
-  for (int l = 0; l < EK_W; l++)
-    sel[l] = -(vrec_lane)((m >> l) & 1);
-  __m512i x = _mm512_loadu_si512(sel);
-  // (x & b) | (~x & a): truth table 0xd8 for operands (a, b, x).
 #if defined(EK_REAL_F32)
-  return _mm512_castsi512_ps(
-      _mm512_ternarylogic_epi32(_mm512_castps_si512(a), _mm512_castps_si512(b), x, 0xd8));
+  return _mm512_mask_blend_ps((__mmask16)m, a, b);
 #else
-  return _mm512_castsi512_pd(
-      _mm512_ternarylogic_epi64(_mm512_castpd_si512(a), _mm512_castpd_si512(b), x, 0xd8));
+  return _mm512_mask_blend_pd((__mmask8)m, a, b);
 #endif
 }
 // Lane l = v[idx[l]] (idx constant).

@@ -93,7 +93,7 @@ static inline void vstore_records_tile(real *p, int np, const vreal *planes) {
 //     at lane j the positions W g + p_j, g < s, in s different classes mod
 //     s) and put the lanes in record order with one permute; s = 2 (both in
 //     one class) takes one two-source permute, s = 1 one permute.
-// For np = 9 (q = s = 3): 36 selects (vrec_blend: vpternlog on AVX-512,
+// For np = 9 (q = s = 3): 36 selects (vrec_blend: vblendmps on AVX-512,
 // vblendps on AVX2) and 9 permutes per 9 planes, against 81 masked
 // permutes in vload_records_masked (avx512.h) or AVX2's tile through L1;
 // the store is the mirror image. Zen 5, the warm polar's AoS API, f32,
@@ -140,9 +140,14 @@ EK_INLINE unsigned vrec_stream_mask(int q, int s, int c, int g, int r) {
 EK_INLINE void vrec_load_factored(const real *p, int np, vreal *planes) {
   const int q = vrec_q(np), s = np / q;
   vreal in[EK_RECORD_MAX], b[EK_RECORD_MAX]; // b[g q + c]: class c of group g
+  // Each record vector loaded once, into a register (the empty asm): else
+  // the compiler reloads it for each blend that reads it, folded into
+  // AVX-512's masked blends as masked memory operands (avx512.h).
 #pragma GCC unroll 16
-  for (int v = 0; v < np; v++)
+  for (int v = 0; v < np; v++) {
     in[v] = vload(p + v * EK_W);
+    __asm__("" : "+v"(in[v]));
+  }
 #pragma GCC unroll 16
   for (int g = 0; g < s; g++)
 #pragma GCC unroll 16
