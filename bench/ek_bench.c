@@ -781,12 +781,16 @@ int main(int argc, char **argv) {
   for (int f = 0; f < NFAMILIES; f++)
     families[f].fn(b);
   b->listing = 0;
-  if (b->list_only || b->failures) {
+  if (b->failures) {
     ek_results_free(&b->results);
-    return b->failures ? 1 : 0;
+    return 1;
   }
-  if (b->total == 0) {
+  // A listing with no row is the same mistake as a run with none.
+  if (b->total == 0)
     return ek_cli_usage_error("ek-bench", "no row matches the filter; nothing to run");
+  if (b->list_only) {
+    ek_results_free(&b->results);
+    return 0;
   }
 
   // Without --min-time, the default 0.5 s per row is scaled down so the

@@ -176,6 +176,9 @@ expect "ek-verify --filter (no row)" 2 "$bin/ek-verify" --filter nothing &&
 grep -q "PASS" "$out" && fail "ek-verify --filter (no row): said PASS"
 expect "ek-verify --extremes --filter (no row)" 2 "$bin/ek-verify" --extremes --filter nothing &&
   one_error "ek-verify --extremes --filter (no row)"
+# ek-bench: a listing of no row is the mistake a run of none is (exit 2).
+expect "ek-bench --list --filter (no row)" 2 "$bin/ek-bench" --list --filter nothing &&
+  one_error "ek-bench --list --filter (no row)"
 # Output folders that are regular files (root's access(W_OK) passes on a
 # file): refused before the first row, not after the run (the audit of
 # round 11); an empty output name is bad usage.
