@@ -676,6 +676,8 @@ static int run_tradeoff(ek_bench *b, int argc, char **argv, const char *out, con
 int main(int argc, char **argv) {
   // Threads pinned. OMP_WAIT_POLICY stays the user's: the published
   // figures were measured with libgomp's default (spin, then sleep).
+  if (omp_env_check_threads("ek-bench"))
+    return EK_EXIT_USAGE;
   omp_env_defaults("ek-bench", argv);
   ek_results_set_program("ek-bench"); // the harness's messages say who prints them
   // As in ek-sim: HDF5 < 1.14.1 crashes in its exit handler on a file whose

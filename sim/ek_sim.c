@@ -874,6 +874,8 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
 static int run(int argc, char **argv);
 
 int main(int argc, char **argv) {
+  if (omp_env_check_threads("ek-sim"))
+    return EK_EXIT_USAGE;
   omp_env_defaults("ek-sim", argv);
   // HDF5 before 1.14.1 frees a file whose close failed (a full disk) but
   // keeps its ID, and its exit handler then closes that ID again: SIGSEGV

@@ -1,6 +1,8 @@
 // OpenMP environment defaults of ek's programs (omp_env.h).
 #include "omp_env.h"
 
+#include "cli.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,4 +51,18 @@ void omp_env_defaults(const char *program, char **argv) {
             "libgomp's defaults\n",
             program, strerror(errno));
   }
+}
+
+int omp_env_check_threads(const char *program) {
+  const char *v = getenv("OMP_NUM_THREADS");
+  for (const char *p = v; p; p = strchr(p, ',') ? strchr(p, ',') + 1 : NULL) {
+    // Only a number too large is refused here: libgomp warns about other
+    // bad items itself and ignores the variable.
+    char *end;
+    errno = 0;
+    unsigned long long n = strtoull(p, &end, 10);
+    if (end != p && (errno == ERANGE || n > 4096))
+      return ek_cli_usage_error(program, "OMP_NUM_THREADS=%s: at most 4096 threads", v);
+  }
+  return 0;
 }

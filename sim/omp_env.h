@@ -17,4 +17,10 @@
 // stderr names `program`; it then runs with libgomp's defaults).
 void omp_env_defaults(const char *program, char **argv);
 
+// OMP_NUM_THREADS above 4096 (--threads' limit) in any item of its list:
+// libgomp takes it (99999999999 wrapped to 1215752191) and aborts at the
+// first parallel region, "out of memory", never naming the variable.
+// Returns 0, or EK_EXIT_USAGE with a message naming the variable and value.
+int omp_env_check_threads(const char *program);
+
 #endif

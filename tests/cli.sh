@@ -75,6 +75,14 @@ for prog in ek-bench ek-verify; do
   expect "EK_ISA=bogus $prog" 2 env EK_ISA=bogus "$bin/$prog" --filter nothing &&
     one_error "EK_ISA=bogus $prog"
 done
+# OMP_NUM_THREADS past --threads' limit: a usage error naming the variable,
+# not libgomp's "out of memory" at the first parallel region.
+for prog in ek-bench ek-verify; do
+  expect "OMP_NUM_THREADS=99999999999 $prog" 2 env OMP_NUM_THREADS=99999999999 \
+    "$bin/$prog" --filter nothing && one_error "OMP_NUM_THREADS=99999999999 $prog"
+done
+expect "OMP_NUM_THREADS=4,5000 ek-sim" 2 env OMP_NUM_THREADS=4,5000 "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1 && one_error "OMP_NUM_THREADS=4,5000 ek-sim"
 expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantilever.json" \
   --no-output --steps 1 && one_error "EK_ISA=bogus ek-sim"
 # A scene that cannot be read is a failed run (1), not a usage error.

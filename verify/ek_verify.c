@@ -21,6 +21,7 @@
 
 #include "check.h"
 #include "cli.h"
+#include "omp_env.h"
 #include "verify.h"
 
 // The family table: one row per kernel family (FFTW "favor a table").
@@ -301,6 +302,8 @@ static int parse_count(const char *opt, const char *s, unsigned long long lo,
 }
 
 int main(int argc, char **argv) {
+  if (omp_env_check_threads("ek-verify"))
+    return EK_EXIT_USAGE;
   ek_verify_ctx ctx = {.seed = 1, .n_random = 0, .n_family = 0};
   const char *json_path = NULL, *filter = NULL;
   unsigned long long n_opt = 0;
