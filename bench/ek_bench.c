@@ -741,19 +741,8 @@ int main(int argc, char **argv) {
     for (int i = 0; i < 2; i++) {
       const char *path = i ? json : out;
       // The folder must exist and be writable now, not after the run.
-      char dir[sizeof json];
-      snprintf(dir, sizeof dir, "%s", path);
-      char *slash = strrchr(dir, '/');
-      if (slash)
-        slash[slash == dir ? 1 : 0] = 0;
-      // A regular file passes access(W_OK) (as root, always): the folder
-      // must be a directory too, or the run fails after its last row.
-      const char *folder = slash ? dir : ".";
-      struct stat st;
-      int e = stat(folder, &st) != 0      ? errno
-              : !S_ISDIR(st.st_mode)      ? ENOTDIR
-              : access(folder, W_OK) != 0 ? errno
-                                          : 0;
+      char folder[sizeof json];
+      int e = ek_cli_folder_error(path, folder, sizeof folder);
       if (e) {
         fprintf(stderr, "ek-bench: cannot write '%s': folder '%s': %s\n", path, folder,
                 strerror(e));

@@ -5,6 +5,8 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #ifndef EK_VERSION_STRING
 #define EK_VERSION_STRING "unknown"
@@ -76,4 +78,18 @@ unsigned long long ek_cli_test_args(int argc, char **argv, unsigned long long fa
     }
   }
   return seed;
+}
+
+int ek_cli_folder_error(const char *path, char *folder, size_t n) {
+  snprintf(folder, n, "%s", path);
+  char *slash = strrchr(folder, '/');
+  if (slash)
+    slash[slash == folder ? 1 : 0] = '\0';
+  else
+    snprintf(folder, n, ".");
+  struct stat st;
+  return stat(folder, &st) != 0      ? errno
+         : !S_ISDIR(st.st_mode)      ? ENOTDIR
+         : access(folder, W_OK) != 0 ? errno
+                                     : 0;
 }

@@ -39,6 +39,12 @@ void ek_cli_footer(FILE *out);
 int ek_cli_usage_error(const char *program, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
+// Whether the folder of an output path (its part before the last '/', or
+// ".") takes a new file now: 0, or the errno (ENOTDIR when it is not a
+// directory: a regular file passes access(W_OK) as root, and the run would
+// fail after its last row). folder receives the folder's name.
+int ek_cli_folder_error(const char *path, char *folder, size_t n);
+
 // Test binaries: parses [--seed N] [--help] [--version], and [--scenes DIR]
 // when scenes is not NULL (*scenes is set to DIR); anything else is a usage
 // error (exit 2). Returns the seed (fallback when not given).

@@ -170,19 +170,8 @@ static int check_json_path(const char *path, int force) {
     fprintf(stderr, "ek-verify: --json '%s' exists; not overwritten (use --force)\n", path);
     return EK_EXIT_FAILED;
   }
-  char dir[4096];
-  snprintf(dir, sizeof dir, "%s", path);
-  char *slash = strrchr(dir, '/');
-  if (slash)
-    slash[slash == dir ? 1 : 0] = '\0';
-  // A regular file passes access(W_OK) (as root, always): the folder must
-  // be a directory too, or the rows run before the write fails.
-  const char *folder = slash ? dir : ".";
-  struct stat st;
-  int e = stat(folder, &st) != 0      ? errno
-          : !S_ISDIR(st.st_mode)      ? ENOTDIR
-          : access(folder, W_OK) != 0 ? errno
-                                      : 0;
+  char folder[4096];
+  int e = ek_cli_folder_error(path, folder, sizeof folder);
   if (e) {
     fprintf(stderr, "ek-verify: cannot write --json '%s': folder '%s': %s\n", path, folder,
             strerror(e));
