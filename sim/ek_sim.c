@@ -372,12 +372,12 @@ static void median_p95(double *v, size_t n, double *median, double *p95) {
 }
 
 static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
-  char *end = NULL;
-  errno = 0;
-  long v = s ? strtol(s, &end, 10) : 0;
-  if (!s || errno || end == s || *end || v < lo || v > hi) {
-    return ek_cli_usage_error("ek-sim", "%s %s: expected a whole number in [%ld, %ld]", opt,
-                              s ? s : "(missing)", lo, hi);
+  long v = 0;
+  if (!s)
+    return ek_cli_usage_error("ek-sim", "%s: needs a value", opt);
+  if (ek_cli_parse_long(s, lo, hi, &v)) {
+    return ek_cli_usage_error("ek-sim", "%s '%s': expected a whole number in [%ld, %ld]", opt, s,
+                              lo, hi);
   }
   *out = v;
   return 0;
@@ -385,12 +385,12 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
 
 // A finite number >= lo (> lo when strict).
 static int parse_double(const char *opt, const char *s, double lo, int strict, double *out) {
-  char *end = NULL;
-  errno = 0;
-  double v = s ? strtod(s, &end) : 0;
-  if (!s || errno || end == s || *end || !isfinite(v) || (strict ? !(v > lo) : !(v >= lo))) {
-    return ek_cli_usage_error("ek-sim", "%s %s: expected a finite number %s %g", opt,
-                              s ? s : "(missing)", strict ? ">" : ">=", lo);
+  double v = 0;
+  if (!s)
+    return ek_cli_usage_error("ek-sim", "%s: needs a value", opt);
+  if (ek_cli_parse_double(s, &v) || (strict ? !(v > lo) : !(v >= lo))) {
+    return ek_cli_usage_error("ek-sim", "%s '%s': expected a finite number %s %g", opt, s,
+                              strict ? ">" : ">=", lo);
   }
   *out = v;
   return 0;

@@ -317,5 +317,40 @@ grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not name
 grep -Eq "^frames +[1-9][0-9]* written" "$out" ||
   fail "ek-sim on a full disk: no frame kept before the disk filled: $(grep frames "$out")"
 
+# Numbers on the command line are strict (sim/cli.h): the whole text is the
+# number, no white space ("--steps ' 5'" ran 5 steps), not empty, no
+# overflow, decimal; a usage error naming the option and the value.
+for v in " 5" "5 " "" "5x" "99999999999999999999"; do
+  expect "ek-sim --steps '$v'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps "$v" &&
+    one_error "ek-sim --steps '$v'" &&
+    { grep -qF -- "--steps '$v'" "$err" || fail "ek-sim --steps '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-sim --threads ' 1'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1 \
+  --threads " 1" && one_error "ek-sim --threads ' 1'"
+for args in "--tol|0.1 " "--time| 0.01"; do
+  expect "ek-sim --advise ${args/|/ \'}'" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise \
+    "${args%%|*}" "${args#*|}" && one_error "ek-sim --advise ${args/|/ \'}'"
+done
+# ek-bench on one row listed: only the bad value can make it exit 2.
+for args in "--threads| 1" "--threads|1 " "--seed| -1" "--seed|99999999999999999999" \
+  "--min-time| 1" "--isas|scalar,,avx2" "--isas|,scalar" "--isas|scalar," "--isas|"; do
+  o=${args%%|*} v=${args#*|}
+  expect "ek-bench $o '$v'" 2 "$bin/ek-bench" --list --filter "$one_row" "$o" "$v" &&
+    one_error "ek-bench $o '$v'" &&
+    { grep -qF -- "$o '$v'" "$err" || fail "ek-bench $o '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-bench --isas scalar (one row listed)" 0 "$bin/ek-bench" --list --filter "$one_row" \
+  --isas scalar
+one_check='^svd3 scalar f32 sweeps=def rsqrt=exact random$'
+for args in "--seed| 1" "--seed|1 " "--n| 100" "--seed|99999999999999999999"; do
+  o=${args%%|*} v=${args#*|}
+  expect "ek-verify $o '$v'" 2 "$bin/ek-verify" --quick --n 100 --filter "$one_check" "$o" "$v" &&
+    one_error "ek-verify $o '$v'"
+done
+# Test binaries take --seed as strictly.
+for prog in "$@"; do
+  expect "$prog --seed ' 1'" 2 "$bin/$prog" --seed " 1" && one_error "$prog --seed ' 1'"
+done
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]
