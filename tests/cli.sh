@@ -352,5 +352,20 @@ for prog in "$@"; do
   expect "$prog --seed ' 1'" 2 "$bin/$prog" --seed " 1" && one_error "$prog --seed ' 1'"
 done
 
+# Scene errors name FILE:LINE:COLUMN: the offending value (after parsing)
+# or where the text stops being JSON; a file cut short says so.
+sed 's/"E": 1.0e8/"E": -100000/' "$scenes/cantilever.json" >"$work/negE.json"
+line=$(grep -n '"E": -100000' "$work/negE.json" | cut -d: -f1)
+col=$(($(sed -n "${line}p" "$work/negE.json" | sed 's/"E": -100000.*//' | wc -c) + 5))
+expect "ek-sim: material.E = -100000" 1 "$bin/ek-sim" "$work/negE.json" --no-output &&
+  one_error "ek-sim: material.E = -100000"
+grep -qF "negE.json:$line:$col: material.E = -100000" "$err" ||
+  fail "ek-sim: material.E = -100000: not placed at $line:$col: $(cat "$err")"
+head -c 200 "$scenes/cantilever.json" >"$work/cut.json"
+expect "ek-sim: a scene cut short" 1 "$bin/ek-sim" "$work/cut.json" --no-output &&
+  one_error "ek-sim: a scene cut short"
+grep -q "cut.json:2:[0-9]*: invalid JSON: unexpected end of file" "$err" ||
+  fail "ek-sim: a scene cut short: not said: $(cat "$err")"
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]
