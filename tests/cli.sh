@@ -367,5 +367,20 @@ expect "ek-sim: a scene cut short" 1 "$bin/ek-sim" "$work/cut.json" --no-output 
 grep -q "cut.json:2:[0-9]*: invalid JSON: unexpected end of file" "$err" ||
   fail "ek-sim: a scene cut short: not said: $(cat "$err")"
 
+# Vertices no element uses: one warning naming the mesh file, the count and
+# the first; the run goes on as before (exit 0).
+printf '%s\n' 'v 0 0 0' 'v 1 0 0' 'v 9 9 9' 'v 0 1 0' 'v 1 1 0' 'v 8 8 8' 'f 1 2 4' 'f 2 5 4' \
+  >"$work/stray.obj"
+printf '%s\n' '{"mesh": {"file": "stray.obj"}, "material": {"model": "stvk", "E": 1e5,' \
+  ' "nu": 0.3, "density": 100}, "cloth": {"thickness": 0.001}, "dt": 1e-4, "steps": 2}' \
+  >"$work/stray.json"
+expect "ek-sim: a mesh with unused vertices" 0 "$bin/ek-sim" "$work/stray.json" --no-output
+[ "$(grep -c warning "$err")" -eq 1 ] &&
+  grep -q "warning: $work/stray.obj: 2 of 6 vertices belong to no triangle (the first: vertex 2," \
+    "$err" || fail "ek-sim: a mesh with unused vertices: no warning: $(cat "$err")"
+expect "ek-sim: a shipped scene from a mesh file" 0 "$bin/ek-sim" "$scenes/bracket.json" \
+  --no-output --steps 1
+grep -q warning "$err" && fail "ek-sim: bracket.json warns: $(grep warning "$err")"
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]
