@@ -80,8 +80,9 @@ int ek_cli_parse_ull(const char *s, unsigned long long *out) {
 }
 
 int ek_cli_parse_double(const char *s, double *out) {
-  // A digit, a sign or a point first: no space, and no "inf" or "nan".
-  if (!s || !(*s == '-' || *s == '+' || *s == '.' || (*s >= '0' && *s <= '9')))
+  // A digit, a sign or a point first: no space, and no "inf" or "nan";
+  // no 'x': strtod's hexadecimal form is not decimal.
+  if (!s || !(*s == '-' || *s == '+' || *s == '.' || (*s >= '0' && *s <= '9')) || strpbrk(s, "xX"))
     return -1;
   char *end;
   errno = 0;

@@ -44,7 +44,8 @@ int ek_cli_usage_error(const char *program, const char *fmt, ...)
 // Each returns 0 and sets *out, or -1 (the caller names the option).
 //   ek_cli_parse_long: a whole number in [lo, hi];
 //   ek_cli_parse_ull: a whole number >= 0, no sign;
-//   ek_cli_parse_double: a finite number (not inf, nan; no overflow).
+//   ek_cli_parse_double: a finite number (not inf, nan, hexadecimal; no
+//   overflow).
 int ek_cli_parse_long(const char *s, long lo, long hi, long *out);
 int ek_cli_parse_ull(const char *s, unsigned long long *out);
 int ek_cli_parse_double(const char *s, double *out);

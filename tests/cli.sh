@@ -327,7 +327,7 @@ for v in " 5" "5 " "" "5x" "99999999999999999999"; do
 done
 expect "ek-sim --threads ' 1'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1 \
   --threads " 1" && one_error "ek-sim --threads ' 1'"
-for args in "--tol|0.1 " "--time| 0.01"; do
+for args in "--tol|0.1 " "--time| 0.01" "--time|0x1p-7"; do
   expect "ek-sim --advise ${args/|/ \'}'" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise \
     "${args%%|*}" "${args#*|}" && one_error "ek-sim --advise ${args/|/ \'}'"
 done
