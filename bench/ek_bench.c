@@ -455,19 +455,8 @@ static void usage(FILE *f) {
 }
 
 static int bad_arg(const char *opt, const char *value, const char *why) {
-  return ek_cli_usage_error("ek-bench", "bad argument %s%s%s: %s", opt, value ? " " : "",
-                            value ? value : "", why);
-}
-
-// Strict number parsing: the whole string must be the number.
-static int parse_long(const char *s, long lo, long hi, long *out) {
-  char *end;
-  errno = 0;
-  long v = strtol(s, &end, 10);
-  if (errno || end == s || *end || v < lo || v > hi)
-    return -1;
-  *out = v;
-  return 0;
+  return ek_cli_usage_error("ek-bench", "bad argument %s%s%s%s: %s", opt, value ? " '" : "",
+                            value ? value : "", value ? "'" : "", why);
 }
 
 typedef struct {
@@ -516,7 +505,7 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
         return bad_arg(a, v, "unknown suite (default, tradeoff)");
       b->suite_tradeoff = !strcmp(v, "tradeoff");
     } else if (!strcmp(a, "--n")) {
-      if (parse_long(v, 1, 100000000, &b->tradeoff_n))
+      if (ek_cli_parse_long(v, 1, 100000000, &b->tradeoff_n))
         return bad_arg(a, v, "must be an integer in 1..1e8");
     } else if (!strcmp(a, "--quick")) {
       b->quick = 1;
@@ -529,6 +518,8 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
       char list[128];
       if (strlen(v) >= sizeof list)
         return bad_arg(a, v, "too long");
+      if (!ek_cli_list_ok(v)) // strtok_r would skip the empty item
+        return bad_arg(a, v, "an empty item in the list (scalar, avx2, avx512, comma-separated)");
       snprintf(list, sizeof list, "%s", v);
       char *save = NULL;
       for (char *tok = strtok_r(list, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
@@ -558,22 +549,19 @@ static int parse_args(ek_bench *b, int argc, char **argv, outputs *o) {
       b->has_filter = 1;
     } else if (!strcmp(a, "--threads")) {
       long n;
-      if (parse_long(v, 1, EK_MACHINE_MAX_THREADS, &n))
+      if (ek_cli_parse_long(v, 1, EK_MACHINE_MAX_THREADS, &n))
         return bad_arg(a, v, "must be an integer in 1..64");
       b->thread_counts[0] = (int)n;
       b->nthread_counts = 1;
     } else if (!strcmp(a, "--min-time")) {
-      char *end;
-      double s = strtod(v, &end);
-      if (end == v || *end || !(s > 0) || !isfinite(s) || s > 3600)
+      double s = 0;
+      if (ek_cli_parse_double(v, &s) || !(s > 0) || s > 3600)
         return bad_arg(a, v, "must be a number of seconds in (0, 3600]");
       b->timer.min_time = s;
       b->min_time_given = 1;
     } else if (!strcmp(a, "--seed")) {
-      char *end;
-      errno = 0;
-      unsigned long long s = strtoull(v, &end, 10);
-      if (errno || end == v || *end || v[0] == '-')
+      unsigned long long s;
+      if (ek_cli_parse_ull(v, &s))
         return bad_arg(a, v, "must be a non-negative integer");
       b->seed = s;
     } else if (!strcmp(a, "--out")) {

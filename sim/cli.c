@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,6 +45,60 @@ int ek_cli_usage_error(const char *program, const char *fmt, ...) {
   return EK_EXIT_USAGE;
 }
 
+// The whole text is the number: strtol/strtod alone take leading white
+// space (" 5"), and strtoull takes a sign (" -1" wraps to 2^64 - 1).
+static int whole_number_text(const char *s, int sign) {
+  if (!s || !*s)
+    return 0;
+  if (*s == '-' || *s == '+')
+    s += sign;
+  return *s >= '0' && *s <= '9';
+}
+
+int ek_cli_parse_long(const char *s, long lo, long hi, long *out) {
+  if (!whole_number_text(s, 1))
+    return -1;
+  char *end;
+  errno = 0;
+  long v = strtol(s, &end, 10);
+  if (errno || *end || v < lo || v > hi)
+    return -1;
+  *out = v;
+  return 0;
+}
+
+int ek_cli_parse_ull(const char *s, unsigned long long *out) {
+  if (!whole_number_text(s, 0))
+    return -1;
+  char *end;
+  errno = 0;
+  unsigned long long v = strtoull(s, &end, 10);
+  if (errno || *end)
+    return -1;
+  *out = v;
+  return 0;
+}
+
+int ek_cli_parse_double(const char *s, double *out) {
+  // A digit, a sign or a point first: no space, and no "inf" or "nan";
+  // no 'x': strtod's hexadecimal form is not decimal.
+  if (!s || !(*s == '-' || *s == '+' || *s == '.' || (*s >= '0' && *s <= '9')) || strpbrk(s, "xX"))
+    return -1;
+  char *end;
+  errno = 0;
+  double v = strtod(s, &end);
+  if (end == s || *end || errno == ERANGE || !isfinite(v))
+    return -1;
+  *out = v;
+  return 0;
+}
+
+int ek_cli_list_ok(const char *s) {
+  if (!s || !*s || *s == ',' || s[strlen(s) - 1] == ',' || strstr(s, ",,"))
+    return 0;
+  return 1;
+}
+
 static const char *test_program;
 static int test_takes_scenes;
 
@@ -66,10 +121,7 @@ unsigned long long ek_cli_test_args(int argc, char **argv, unsigned long long fa
     ek_cli_common(test_program, a, test_help);
     if (!strcmp(a, "--seed") && i + 1 < argc) {
       const char *v = argv[++i];
-      char *end;
-      errno = 0;
-      seed = strtoull(v, &end, 0);
-      if (errno || end == v || *end || v[0] == '-')
+      if (ek_cli_parse_ull(v, &seed))
         exit(ek_cli_usage_error(test_program, "--seed: '%s' is not a non-negative integer", v));
     } else if (scenes && !strcmp(a, "--scenes") && i + 1 < argc) {
       *scenes = argv[++i];

@@ -39,6 +39,21 @@ void ek_cli_footer(FILE *out);
 int ek_cli_usage_error(const char *program, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
+// Strict numbers for options: the whole text is the number, in decimal,
+// without white space, in range (one that overflows is out of range).
+// Each returns 0 and sets *out, or -1 (the caller names the option).
+//   ek_cli_parse_long: a whole number in [lo, hi];
+//   ek_cli_parse_ull: a whole number >= 0, no sign;
+//   ek_cli_parse_double: a finite number (not inf, nan, hexadecimal; no
+//   overflow).
+int ek_cli_parse_long(const char *s, long lo, long hi, long *out);
+int ek_cli_parse_ull(const char *s, unsigned long long *out);
+int ek_cli_parse_double(const char *s, double *out);
+
+// A comma-separated list without an empty item ("a,,b", ",a", "a,", ""):
+// 1, else 0.
+int ek_cli_list_ok(const char *s);
+
 // Whether the folder of an output path (its part before the last '/', or
 // ".") takes a new file now: 0, or the errno (ENOTDIR when it is not a
 // directory: a regular file passes access(W_OK) as root, and the run would

@@ -42,6 +42,7 @@
 #include "implicit_petsc.h"
 #include "omp_env.h"
 #include "scene_find.h"
+#include "sim_internal.h"
 
 // SIGINT / SIGTERM / SIGHUP: the handler only records the signal (async-
 // signal-safe); the step loop checks it, stops, and the frames are closed as
@@ -242,6 +243,18 @@ static double eta_seconds(const eta_mean *e, long remaining) {
   return span / (double)k * (double)remaining;
 }
 
+// A mesh file's vertices that no element uses (stray points, or a file
+// whose elements were cut) are accepted, as before, but said once: how
+// many and the first (0-based, in the file's order of vertices).
+static void warn_unused_vertices(const char *mesh_file, int triangles, size_t unused, size_t nverts,
+                                 size_t first) {
+  if (unused && mesh_file[0] && implicit_mpi_rank() == 0)
+    fprintf(stderr,
+            "ek-sim: warning: %s: %zu of %zu vertices belong to no %s (the first: vertex %zu, "
+            "counting from 0 in the file's order)\n",
+            mesh_file, unused, nverts, triangles ? "triangle" : "tet", first);
+}
+
 // The library's pending warning (ek_sim_warning), on its own line.
 static void print_sim_warning(ek_sim *sim, int tty) {
   const char *w = ek_sim_warning(sim);
@@ -372,12 +385,12 @@ static void median_p95(double *v, size_t n, double *median, double *p95) {
 }
 
 static int parse_long(const char *opt, const char *s, long lo, long hi, long *out) {
-  char *end = NULL;
-  errno = 0;
-  long v = s ? strtol(s, &end, 10) : 0;
-  if (!s || errno || end == s || *end || v < lo || v > hi) {
-    return ek_cli_usage_error("ek-sim", "%s %s: expected a whole number in [%ld, %ld]", opt,
-                              s ? s : "(missing)", lo, hi);
+  long v = 0;
+  if (!s)
+    return ek_cli_usage_error("ek-sim", "%s: needs a value", opt);
+  if (ek_cli_parse_long(s, lo, hi, &v)) {
+    return ek_cli_usage_error("ek-sim", "%s '%s': expected a whole number in [%ld, %ld]", opt, s,
+                              lo, hi);
   }
   *out = v;
   return 0;
@@ -385,12 +398,12 @@ static int parse_long(const char *opt, const char *s, long lo, long hi, long *ou
 
 // A finite number >= lo (> lo when strict).
 static int parse_double(const char *opt, const char *s, double lo, int strict, double *out) {
-  char *end = NULL;
-  errno = 0;
-  double v = s ? strtod(s, &end) : 0;
-  if (!s || errno || end == s || *end || !isfinite(v) || (strict ? !(v > lo) : !(v >= lo))) {
-    return ek_cli_usage_error("ek-sim", "%s %s: expected a finite number %s %g", opt,
-                              s ? s : "(missing)", strict ? ">" : ">=", lo);
+  double v = 0;
+  if (!s)
+    return ek_cli_usage_error("ek-sim", "%s: needs a value", opt);
+  if (ek_cli_parse_double(s, &v) || (strict ? !(v > lo) : !(v >= lo))) {
+    return ek_cli_usage_error("ek-sim", "%s '%s': expected a finite number %s %g", opt, s,
+                              strict ? ">" : ">=", lo);
   }
   *out = v;
   return 0;
@@ -848,6 +861,9 @@ static int run_advise(const ek_scene *scene, double tol, double sim_time, int do
     fprintf(stderr, "ek-sim: %s\n", ek_last_error());
     return EK_EXIT_FAILED;
   }
+  size_t first = 0, unused = sim_count_unused(ek_mesh_nverts(mesh), ek_mesh_tets(mesh),
+                                              ek_mesh_ntets(mesh), 4, &first);
+  warn_unused_vertices(scene->mesh_file, 0, unused, ek_mesh_nverts(mesh), first);
   printf("ek-sim %s --advise: %zu vertices, %zu tets, model %s, integrator %s, f%d, dt %g\n",
          scene->path, ek_mesh_nverts(mesh), ek_mesh_ntets(mesh), scene->model_name,
          ek_scene_integrator_name(scene->integrator), scene->precision, scene->dt);
@@ -1053,6 +1069,10 @@ static int run(int argc, char **argv) {
   print_sim_warning(sim, 0);
   ek_sim_elements el;
   ek_sim_elements_of(sim, &el);
+  {
+    size_t first = 0, nverts = 0, unused = sim_unused_vertices(sim, &first, &nverts);
+    warn_unused_vertices(scene.mesh_file, scene.triangles, unused, nverts, first);
+  }
   const char *elem = el.kind;
   size_t nv = el.nverts, nt = el.count;
   // Wall time of each step that ran the fused force kernel (one in ten runs

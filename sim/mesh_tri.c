@@ -21,6 +21,7 @@
 
 struct ek_trimesh {
   size_t nv, nt;
+  size_t dropped, first_dropped; // vertices no triangle used (dropped), the first
   double *X;
   int32_t *T;
   ek_cloth *cloth;
@@ -51,6 +52,12 @@ void ek_trimesh_destroy(ek_trimesh *m) {
 }
 
 size_t ek_trimesh_nverts(const ek_trimesh *m) { return m->nv; }
+
+size_t sim_trimesh_dropped(const ek_trimesh *m, size_t *first) {
+  if (m->dropped)
+    *first = m->first_dropped;
+  return m->dropped;
+}
 size_t ek_trimesh_ntris(const ek_trimesh *m) { return m->nt; }
 const double *ek_trimesh_rest_positions(const ek_trimesh *m) { return m->X; }
 const int32_t *ek_trimesh_tris(const ek_trimesh *m) { return m->T; }
@@ -267,10 +274,16 @@ static ek_trimesh *tm_build(size_t nv, double *X, size_t nt, int32_t *T, const t
     }
   for (size_t i = 0; i < 3 * nt; ++i)
     T[i] = map[T[i]];
+  size_t first_dropped = 0;
+  for (size_t i = nv; i-- > 0;)
+    if (map[i] < 0)
+      first_dropped = i;
   free(map);
   ek_trimesh *m = calloc(1, sizeof *m);
   if (!m)
     goto oom;
+  m->dropped = nv - used;
+  m->first_dropped = first_dropped;
   m->nv = used;
   m->nt = nt;
   m->X = X;

@@ -18,13 +18,351 @@
 
 #include "text_escape.h"
 
+// ---------------------------------------------------------------- positions
+// The scene's text is read once more beside cJSON's tree, to place each
+// value and key at its line and column in error messages; on text that
+// cJSON refused, the same scan finds where and why it stops being JSON
+// (cJSON's own error position is one byte late after a bad key, and only
+// the terminating NUL on a truncated file). The scanner follows cJSON
+// 1.7's grammar: white space is any byte <= 32, a number is what strtod
+// takes of the bytes [0-9+-.eE] after a '-' or digit, literals are
+// matched by prefix, nesting stops at 1000 levels. Should scan and tree
+// ever disagree, messages go without positions rather than with wrong
+// ones.
+
+enum { JSON_NESTING_LIMIT = 1000 }; // cJSON's CJSON_NESTING_LIMIT
+
+typedef struct {
+  const char *key;   // opening quote of its key in an object, else NULL
+  const char *value; // first byte of the value
+} text_pos;
+
+typedef struct {
+  const char *p;
+  text_pos *pos; // every value, in pre-order (a member's key, then its value)
+  size_t n, cap;
+  int ok;
+  // Where the text stops being JSON: the byte, what was expected there,
+  // and for a truncated text the innermost string or container left open.
+  const char *err_at, *expected, *open_at, *open_what;
+} json_scan;
+
+static void scan_ws(json_scan *k) {
+  while (*k->p && (unsigned char)*k->p <= 32) // cJSON's white space
+    k->p++;
+}
+
+static void scan_fail(json_scan *k, const char *at, const char *expected) {
+  if (k->ok) {
+    k->ok = 0;
+    k->err_at = at;
+    k->expected = expected;
+  }
+}
+
+// Text cut short inside what opened at `at` (the innermost one names it).
+static void scan_open(json_scan *k, const char *at, const char *what) {
+  if (!k->ok && k->err_at && !*k->err_at && !k->open_at) {
+    k->open_at = at;
+    k->open_what = what;
+  }
+}
+
+static int hex4(const char *s) {
+  int h = 0;
+  for (int i = 0; i < 4; i++) {
+    char ch = s[i];
+    int d = ch >= '0' && ch <= '9'   ? ch - '0'
+            : ch >= 'a' && ch <= 'f' ? ch - 'a' + 10
+            : ch >= 'A' && ch <= 'F' ? ch - 'A' + 10
+                                     : -1;
+    if (d < 0)
+      return 0; // as cJSON's parse_hex4: an invalid digit reads as U+0000
+    h = h * 16 + d;
+  }
+  return h;
+}
+
+static void scan_string(json_scan *k, const char *expected) {
+  const char *open = k->p;
+  if (*open != '"') {
+    scan_fail(k, open, expected);
+    return;
+  }
+  const char *end = open + 1;
+  while (*end && *end != '"')
+    end += end[0] == '\\' && end[1] ? 2 : 1;
+  if (*end != '"') {
+    scan_fail(k, end, "the closing '\"'");
+    scan_open(k, open, "string");
+    return;
+  }
+  for (const char *q = open + 1; q < end; q++) {
+    if (*q != '\\')
+      continue;
+    const char *esc = "\"\\/bfnrt";
+    if (q[1] && strchr(esc, q[1])) {
+      q++;
+      continue;
+    }
+    const char *at = q;
+    int ok = 0;
+    if (q[1] == 'u' && end - q >= 6) {
+      // UTF-16: a lone low surrogate, or a high one without its low
+      // half, is refused (cJSON's utf16_literal_to_utf8).
+      int first = hex4(q + 2);
+      ok = !(first >= 0xDC00 && first <= 0xDFFF);
+      if (ok && first >= 0xD800 && first <= 0xDBFF) {
+        int second = end - q >= 12 && q[6] == '\\' && q[7] == 'u' ? hex4(q + 8) : 0;
+        ok = second >= 0xDC00 && second <= 0xDFFF;
+        q += 6;
+      }
+      q += 5;
+    }
+    if (!ok) {
+      scan_fail(k, at, "a valid escape (\\\" \\\\ \\/ \\b \\f \\n \\r \\t \\uXXXX)");
+      return;
+    }
+  }
+  k->p = end + 1;
+}
+
+static void scan_value(json_scan *k, const char *key, int depth);
+
+static void scan_container(json_scan *k, int depth) {
+  const char *open = k->p;
+  const int object = *open == '{';
+  const char close = object ? '}' : ']';
+  if (depth >= JSON_NESTING_LIMIT) {
+    scan_fail(k, open, "at most 1000 levels of nesting");
+    return;
+  }
+  k->p++;
+  scan_ws(k);
+  if (*k->p == close) {
+    k->p++;
+    return;
+  }
+  for (;;) {
+    const char *key = NULL;
+    if (object) {
+      scan_ws(k);
+      key = k->p;
+      scan_string(k, "a key (a string in double quotes)");
+      scan_ws(k);
+      if (k->ok && *k->p != ':')
+        scan_fail(k, k->p, "':' after the key");
+      if (!k->ok)
+        break;
+      k->p++;
+    }
+    scan_value(k, key, depth + 1);
+    scan_ws(k);
+    if (!k->ok)
+      break;
+    if (*k->p == ',') {
+      k->p++;
+    } else if (*k->p == close) {
+      k->p++;
+      return;
+    } else {
+      scan_fail(k, k->p, object ? "',' or '}'" : "',' or ']'");
+      break;
+    }
+  }
+  scan_open(k, open, object ? "object" : "array");
+}
+
+static void scan_value(json_scan *k, const char *key, int depth) {
+  scan_ws(k);
+  if (!k->ok)
+    return;
+  if (k->n == k->cap) {
+    size_t cap = k->cap ? 2 * k->cap : 64;
+    text_pos *pos = realloc(k->pos, cap * sizeof *pos);
+    if (!pos) {
+      k->ok = 0; // no positions, and no syntax verdict (err_at stays NULL)
+      return;
+    }
+    k->pos = pos;
+    k->cap = cap;
+  }
+  k->pos[k->n++] = (text_pos){key, k->p};
+  const char *at = k->p;
+  if (*at == '"') {
+    scan_string(k, "a value");
+  } else if (*at == '{' || *at == '[') {
+    scan_container(k, depth);
+  } else if (*at == '-' || (*at >= '0' && *at <= '9')) {
+    // strtod on a copy of the bytes a number may hold ("0x1", "-inf" stop
+    // early, as in cJSON), however many.
+    size_t len = strspn(at, "0123456789+-eE."), used = 0;
+    char small[64], *num = len < sizeof small ? small : malloc(len + 1);
+    if (num) {
+      memcpy(num, at, len);
+      num[len] = '\0';
+      char *end;
+      strtod(num, &end);
+      used = (size_t)(end - num);
+      if (num != small)
+        free(num);
+    } else {
+      k->ok = 0; // out of memory: no positions, no syntax verdict
+      return;
+    }
+    if (!used)
+      scan_fail(k, at, "a value");
+    else
+      k->p += used;
+  } else {
+    static const char *const literals[] = {"null", "false", "true"};
+    for (int i = 0; i < 3; i++) {
+      size_t len = strlen(literals[i]);
+      if (!strncmp(at, literals[i], len)) {
+        k->p += len;
+        return;
+      }
+      if (*at && !strncmp(at, literals[i], strlen(at))) { // cut short at the end
+        scan_fail(k, at + strlen(at), "the rest of a literal");
+        return;
+      }
+    }
+    scan_fail(k, at, "a value");
+  }
+}
+
+static void line_col(const char *text, const char *at, int *line, int *col) {
+  *line = 1;
+  *col = 1;
+  for (const char *p = text; *p && p < at; ++p) {
+    if (*p == '\n') {
+      ++*line;
+      *col = 1;
+    } else {
+      ++*col;
+    }
+  }
+}
+
+// The scan of a whole text: one value, then only white space.
+static void scan_text(json_scan *k, const char *text) {
+  *k = (json_scan){.p = text, .ok = 1};
+  if (!strncmp(k->p, "\xEF\xBB\xBF", 3)) // a UTF-8 byte order mark, as cJSON skips it
+    k->p += 3;
+  scan_value(k, NULL, 0);
+  scan_ws(k);
+  if (k->ok && *k->p)
+    scan_fail(k, k->p, "the end of the file after the scene's object");
+}
+
+// Text cJSON refused: "FILE:LINE:COL: invalid JSON ..." at the first byte
+// that is not JSON, or at the end of a truncated text. cJSON's position
+// when the scan finds nothing wrong.
+static void syntax_error(const char *name, const char *text, const char *cjson_at, char *err,
+                         size_t errlen) {
+  json_scan k;
+  scan_text(&k, text);
+  free(k.pos);
+  const char *at = k.err_at ? k.err_at : cjson_at;
+  int line, col;
+  line_col(text, at, &line, &col);
+  if (!err || !errlen)
+    return;
+  if (!*at) {
+    char open[128] = "";
+    if (k.open_at) {
+      int l, c;
+      line_col(text, k.open_at, &l, &c);
+      snprintf(open, sizeof open, ": the %s opened at line %d, column %d is not closed",
+               k.open_what, l, c);
+    }
+    snprintf(err, errlen, "%s:%d:%d: invalid JSON: unexpected end of file%s", name, line, col,
+             open[0]    ? open
+             : k.n <= 1 ? ": the file holds no JSON value"
+                        : "");
+    return;
+  }
+  char near[128];
+  text_escape(near, sizeof near, at, 20, 1);
+  if (k.err_at)
+    snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%s\": expected %s", name, line, col, near,
+             k.expected);
+  else
+    snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%s\"", name, line, col, near);
+}
+
 // ---------------------------------------------------------------- errors
 
 typedef struct {
   const char *name; // file name for messages
   char *err;
   size_t errlen;
+  const char *text;    // the scene's text
+  const cJSON **nodes; // the tree's items in pre-order, NULL without positions
+  const text_pos *pos; // nodes[i]'s place in the text
+  size_t npos;
 } parse_ctx;
+
+static size_t count_items(const cJSON *v) {
+  size_t n = 1;
+  for (const cJSON *it = v->child; it; it = it->next)
+    n += count_items(it);
+  return n;
+}
+
+// Pairs the tree's items with the scan's values, in pre-order; 0 when a
+// value's first byte does not fit its item's type (scan and tree disagree).
+static int pair_items(const cJSON *v, const cJSON **nodes, const text_pos *pos, size_t *i) {
+  char first = *pos[*i].value;
+  int fits = cJSON_IsObject(v)   ? first == '{'
+             : cJSON_IsArray(v)  ? first == '['
+             : cJSON_IsString(v) ? first == '"'
+             : cJSON_IsNumber(v) ? first == '-' || (first >= '0' && first <= '9')
+             : cJSON_IsBool(v)   ? first == 't' || first == 'f'
+                                 : first == 'n';
+  if (!fits || !pos[*i].key != !v->string)
+    return 0;
+  nodes[(*i)++] = v;
+  for (const cJSON *it = v->child; it; it = it->next)
+    if (!pair_items(it, nodes, pos, i))
+      return 0;
+  return 1;
+}
+
+// Positions for c's messages (none when out of memory or in disagreement).
+static void find_positions(parse_ctx *c, const cJSON *root, json_scan *k) {
+  scan_text(k, c->text);
+  size_t i = 0;
+  const cJSON **nodes = k->ok && k->n == count_items(root) ? malloc(k->n * sizeof *nodes) : NULL;
+  if (nodes && pair_items(root, nodes, k->pos, &i)) {
+    c->nodes = nodes;
+    c->pos = k->pos;
+    c->npos = k->n;
+  } else {
+    free(nodes);
+  }
+}
+
+// Where v's value (its key when at_key) starts in the text; NULL unknown.
+static const char *node_at(const parse_ctx *c, const cJSON *v, int at_key) {
+  for (size_t i = 0; v && i < c->npos; i++)
+    if (c->nodes[i] == v)
+      return at_key && c->pos[i].key ? c->pos[i].key : c->pos[i].value;
+  return NULL;
+}
+
+// "FILE:LINE:COL" of v's value (its key when at_key), or "FILE" alone.
+static const char *place(const parse_ctx *c, const cJSON *v, int at_key, char *out, size_t n) {
+  const char *at = node_at(c, v, at_key);
+  if (!at) {
+    snprintf(out, n, "%s", c->name);
+  } else {
+    int line, col;
+    line_col(c->text, at, &line, &col);
+    snprintf(out, n, "%s:%d:%d", c->name, line, col);
+  }
+  return out;
+}
 
 // Short text of a JSON value for an error message.
 static void value_text(const cJSON *v, char *out, size_t outlen) {
@@ -42,23 +380,44 @@ static void value_text(const cJSON *v, char *out, size_t outlen) {
   }
 }
 
-// "<file>: <path> = <value>: <reason>"; always returns EK_EINVAL.
-__attribute__((format(printf, 4, 5))) static int bad(parse_ctx *c, const char *path, const cJSON *v,
-                                                     const char *fmt, ...) {
-  char val[300], reason[256];
+static int vbad(parse_ctx *c, const char *path, const cJSON *v, int at_key, const char *fmt,
+                va_list ap) {
+  char val[300], reason[256], where[EK_SCENE_PATH_MAX + 32];
   value_text(v, val, sizeof val);
-  va_list ap;
-  va_start(ap, fmt);
   vsnprintf(reason, sizeof reason, fmt, ap);
-  va_end(ap);
   if (c->err && c->errlen)
-    snprintf(c->err, c->errlen, "%s: %s = %s: %s", c->name, path, val, reason);
+    snprintf(c->err, c->errlen, "%s: %s = %s: %s", place(c, v, at_key, where, sizeof where), path,
+             val, reason);
   return EK_EINVAL;
 }
 
-static int missing(parse_ctx *c, const char *path) {
+// "FILE:LINE:COL: <path> = <value>: <reason>" at the value; always returns
+// EK_EINVAL.
+__attribute__((format(printf, 4, 5))) static int bad(parse_ctx *c, const char *path, const cJSON *v,
+                                                     const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  int rc = vbad(c, path, v, 0, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
+// The same at v's key (a key that must not be there).
+__attribute__((format(printf, 4, 5))) static int bad_key(parse_ctx *c, const char *path,
+                                                         const cJSON *v, const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  int rc = vbad(c, path, v, 1, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
+// A required key absent from obj: placed at obj (where it belongs).
+static int missing(parse_ctx *c, const cJSON *obj, const char *path) {
+  char where[EK_SCENE_PATH_MAX + 32];
   if (c->err && c->errlen)
-    snprintf(c->err, c->errlen, "%s: %s: missing (required)", c->name, path);
+    snprintf(c->err, c->errlen, "%s: %s: missing (required)", place(c, obj, 0, where, sizeof where),
+             path);
   return EK_EINVAL;
 }
 
@@ -87,7 +446,7 @@ static int check_keys(parse_ctx *c, const cJSON *obj, const char *path,
         if (a[1])
           strncat(list, ", ", sizeof list - strlen(list) - 1);
       }
-      return bad(c, p, it, "unknown key (allowed: %s)", list);
+      return bad_key(c, p, it, "unknown key (allowed: %s)", list);
     }
   }
   return 0;
@@ -100,139 +459,27 @@ static int want_object(parse_ctx *c, const cJSON *v, const char *path) {
 }
 
 // ---------------------------------------------------------------- duplicates
-// Found in the tree (cJSON's unescaped names); placed in the text by a scan
-// of the already validated text, which meets the keys in the order of a
-// pre-order walk of the tree. Should the two ever disagree, the message
-// goes without positions rather than with wrong ones.
-
-typedef struct {
-  const char *p;
-  const char **keys; // opening quote of each key, in text order
-  size_t n, cap;
-  int ok;
-} key_scan;
-
-static void scan_ws(key_scan *k) {
-  while (*k->p && (unsigned char)*k->p <= 32) // cJSON's whitespace
-    k->p++;
-}
-
-static void scan_string(key_scan *k) {
-  if (*k->p != '"') {
-    k->ok = 0;
-    return;
-  }
-  for (k->p++; *k->p && *k->p != '"'; k->p++)
-    if (*k->p == '\\' && k->p[1])
-      k->p++;
-  if (*k->p == '"')
-    k->p++;
-  else
-    k->ok = 0;
-}
-
-static void scan_value(key_scan *k, int depth) {
-  scan_ws(k);
-  if (!k->ok || depth > 2000) {
-    k->ok = 0;
-    return;
-  }
-  char open = *k->p;
-  if (open == '"') {
-    scan_string(k);
-  } else if (open == '{' || open == '[') {
-    char close = open == '{' ? '}' : ']';
-    k->p++;
-    scan_ws(k);
-    if (*k->p == close) {
-      k->p++;
-      return;
-    }
-    while (k->ok) {
-      if (open == '{') {
-        scan_ws(k);
-        if (k->n == k->cap) {
-          size_t cap = k->cap ? 2 * k->cap : 64;
-          const char **keys = realloc(k->keys, cap * sizeof *keys);
-          if (!keys) {
-            k->ok = 0;
-            return;
-          }
-          k->keys = keys;
-          k->cap = cap;
-        }
-        k->keys[k->n++] = k->p;
-        scan_string(k);
-        scan_ws(k);
-        if (*k->p != ':') {
-          k->ok = 0;
-          return;
-        }
-        k->p++;
-      }
-      scan_value(k, depth + 1);
-      scan_ws(k);
-      if (*k->p == ',') {
-        k->p++;
-      } else if (*k->p == close) {
-        k->p++;
-        return;
-      } else {
-        k->ok = 0;
-      }
-    }
-  } else {
-    // number, true, false, null
-    while (*k->p && *k->p != ',' && *k->p != '}' && *k->p != ']' && (unsigned char)*k->p > 32)
-      k->p++;
-  }
-}
-
-static void line_col(const char *text, const char *at, int *line, int *col) {
-  *line = 1;
-  *col = 1;
-  for (const char *p = text; *p && p < at; ++p) {
-    if (*p == '\n') {
-      ++*line;
-      *col = 1;
-    } else {
-      ++*col;
-    }
-  }
-}
-
-static size_t count_keys(const cJSON *v) {
-  size_t n = 0;
-  for (const cJSON *it = v->child; it; it = it->next)
-    n += (cJSON_IsObject(v) ? 1 : 0) + count_keys(it);
-  return n;
-}
+// Found in the tree (cJSON's unescaped names; cJSON keeps both and lookups
+// find the first), placed by the scan's positions.
 
 typedef struct {
   const cJSON *item;
-  size_t key; // index of its key in text order
+  size_t index; // its place among its object's members (text order)
 } member;
 
 static int cmp_member(const void *x, const void *y) {
   const member *a = x, *b = y;
   int c = strcmp(a->item->string, b->item->string);
-  return c ? c : (a->key > b->key) - (a->key < b->key);
+  return c ? c : (a->index > b->index) - (a->index < b->index);
 }
 
-typedef struct {
-  parse_ctx *c;
-  const char *text;
-  const key_scan *scan;
-  size_t next; // keys met so far in the walk
-} dup_walk;
-
-static int find_duplicates(dup_walk *w, const cJSON *v, const char *path) {
+static int find_duplicates(parse_ctx *c, const cJSON *v, const char *path) {
   if (cJSON_IsArray(v)) {
     int i = 0;
     for (const cJSON *it = v->child; it; it = it->next, ++i) {
       char p[300];
       snprintf(p, sizeof p, "%s[%d]", path[0] ? path : "(top level)", i);
-      int rc = find_duplicates(w, it, p);
+      int rc = find_duplicates(c, it, p);
       if (rc)
         return rc;
     }
@@ -245,17 +492,17 @@ static int find_duplicates(dup_walk *w, const cJSON *v, const char *path) {
     n++;
   member *m = malloc((n ? n : 1) * sizeof *m);
   if (!m) {
-    if (w->c->err && w->c->errlen)
-      snprintf(w->c->err, w->c->errlen, "%s: out of memory checking keys", w->c->name);
+    if (c->err && c->errlen)
+      snprintf(c->err, c->errlen, "%s: out of memory checking keys", c->name);
     return EK_ENOMEM;
   }
   size_t i = 0;
   int rc = 0;
   for (const cJSON *it = v->child; it && !rc; it = it->next, ++i) {
-    m[i] = (member){it, w->next++};
+    m[i] = (member){it, i};
     char p[300];
     join(p, sizeof p, path, it->string);
-    rc = find_duplicates(w, it, p);
+    rc = find_duplicates(c, it, p);
   }
   if (!rc) {
     qsort(m, n, sizeof *m, cmp_member);
@@ -263,48 +510,31 @@ static int find_duplicates(dup_walk *w, const cJSON *v, const char *path) {
     const member *first = NULL, *again = NULL;
     for (i = 1; i < n; i++)
       if (strcmp(m[i].item->string, m[i - 1].item->string) == 0 &&
-          (!again || m[i].key < again->key)) {
+          (!again || m[i].index < again->index)) {
         again = &m[i];
         first = &m[i - 1];
         while (first > m && strcmp((first - 1)->item->string, again->item->string) == 0)
           first--;
       }
     if (again) {
-      char p[300];
+      char p[300], where[EK_SCENE_PATH_MAX + 32];
       join(p, sizeof p, path, again->item->string);
-      const key_scan *k = w->scan;
-      if (k->ok) {
-        int l1, c1, l2, c2;
-        line_col(w->text, k->keys[first->key], &l1, &c1);
-        line_col(w->text, k->keys[again->key], &l2, &c2);
-        if (w->c->err && w->c->errlen)
-          snprintf(w->c->err, w->c->errlen,
-                   "%s:%d:%d: duplicate key \"%s\" (first at line %d, column %d): a key may "
-                   "appear once per object",
-                   w->c->name, l2, c2, p, l1, c1);
-      } else if (w->c->err && w->c->errlen) {
-        snprintf(w->c->err, w->c->errlen,
-                 "%s: duplicate key \"%s\": a key may appear once per object", w->c->name, p);
+      const char *at1 = node_at(c, first->item, 1);
+      if (c->err && c->errlen && at1) {
+        int l1, c1;
+        line_col(c->text, at1, &l1, &c1);
+        snprintf(c->err, c->errlen,
+                 "%s: duplicate key \"%s\" (first at line %d, column %d): a key may appear once "
+                 "per object",
+                 place(c, again->item, 1, where, sizeof where), p, l1, c1);
+      } else if (c->err && c->errlen) {
+        snprintf(c->err, c->errlen, "%s: duplicate key \"%s\": a key may appear once per object",
+                 c->name, p);
       }
       rc = EK_EINVAL;
     }
   }
   free(m);
-  return rc;
-}
-
-// 0 if no object of the scene repeats a key, else EK_EINVAL with the key
-// path and both places in the message.
-static int check_duplicates(parse_ctx *c, const char *text, const cJSON *root) {
-  key_scan k = {.p = text, .ok = 1};
-  if (!strncmp(k.p, "\xEF\xBB\xBF", 3)) // a UTF-8 byte order mark, as cJSON skips it
-    k.p += 3;
-  scan_value(&k, 0);
-  if (k.n != count_keys(root))
-    k.ok = 0;
-  dup_walk w = {c, text, &k, 0};
-  int rc = find_duplicates(&w, root, "");
-  free(k.keys);
   return rc;
 }
 
@@ -320,7 +550,7 @@ static int get_number(parse_ctx *c, const cJSON *obj, const char *parent, const 
   if (node)
     *node = v;
   if (!v)
-    return required ? missing(c, p) : 0;
+    return required ? missing(c, obj, p) : 0;
   if (!cJSON_IsNumber(v))
     return bad(c, p, v, "must be a number");
   if (!isfinite(v->valuedouble))
@@ -335,7 +565,7 @@ static int get_vec(parse_ctx *c, const cJSON *obj, const char *parent, const cha
   join(p, sizeof p, parent, key);
   const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
   if (!v)
-    return required ? missing(c, p) : 0;
+    return required ? missing(c, obj, p) : 0;
   if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != n)
     return bad(c, p, v, "must be an array of %d numbers", n);
   int i = 0;
@@ -358,7 +588,7 @@ static int get_string(parse_ctx *c, const cJSON *obj, const char *parent, const 
   if (node)
     *node = v;
   if (!v)
-    return required ? missing(c, p) : 0;
+    return required ? missing(c, obj, p) : 0;
   if (!cJSON_IsString(v) || !v->valuestring[0])
     return bad(c, p, v, "must be a non-empty string");
   *out = v->valuestring;
@@ -425,7 +655,7 @@ static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, con
 static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_scene *s) {
   const cJSON *mesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
   if (!mesh)
-    return missing(c, "mesh");
+    return missing(c, root, "mesh");
   int rc = want_object(c, mesh, "mesh");
   if (!rc)
     rc = check_keys(c, mesh, "mesh",
@@ -501,7 +731,7 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
     return 0;
   }
   if (!box)
-    return missing(c, "mesh.file or mesh.box (or mesh.grid for a cloth)");
+    return missing(c, mesh, "mesh.file or mesh.box (or mesh.grid for a cloth)");
   double cells[3];
   if ((rc = get_vec(c, mesh, "mesh", "box", 1, 3, cells)))
     return rc;
@@ -534,7 +764,7 @@ static int parse_cloth(parse_ctx *c, const cJSON *root, ek_scene *s) {
                                                 "model"),
                "a triangle mesh (cloth) takes \"stvk\" or \"arap\" membranes only");
   if (!cl)
-    return missing(c, "cloth (a triangle mesh needs cloth.thickness)");
+    return missing(c, root, "cloth (a triangle mesh needs cloth.thickness)");
   int rc = want_object(c, cl, "cloth");
   if (!rc)
     rc = check_keys(c, cl, "cloth", (const char *const[]){"thickness", "bending_stiffness", NULL});
@@ -598,7 +828,7 @@ static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
 static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {
   const cJSON *mat = cJSON_GetObjectItemCaseSensitive(root, "material");
   if (!mat)
-    return missing(c, "material");
+    return missing(c, root, "material");
   int rc = want_object(c, mat, "material");
   if (!rc)
     rc = check_keys(
@@ -653,7 +883,7 @@ static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {
     if (!(s->material.lambda > -2.0 * s->material.mu / 3.0))
       return bad(c, "material.lambda", nlambda, "must be > -2 mu / 3 (positive bulk modulus)");
   } else {
-    return missing(c, "material.E and material.nu (or material.mu and material.lambda)");
+    return missing(c, mat, "material.E and material.nu (or material.mu and material.lambda)");
   }
 
   const cJSON *node = NULL;
@@ -761,7 +991,7 @@ static int parse_region(parse_ctx *c, const cJSON *bc, const char *path, ek_scen
   join(p, sizeof p, path, "region");
   const cJSON *region = cJSON_GetObjectItemCaseSensitive(bc, "region");
   if (!region)
-    return missing(c, p);
+    return missing(c, bc, p);
   int rc = want_object(c, region, p);
   if (!rc)
     rc = check_keys(c, region, p, (const char *const[]){"min", "max", NULL});
@@ -1066,7 +1296,7 @@ static void scene_defaults(ek_scene *s) {
 
 int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_dir, ek_scene *scene,
                           char *err, size_t errlen) {
-  parse_ctx c = {name ? name : "(scene)", err, errlen};
+  parse_ctx c = {name ? name : "(scene)", err, errlen, text, NULL, NULL, 0};
   if (err && errlen)
     err[0] = '\0';
   if (!text || !scene) {
@@ -1077,25 +1307,12 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
   const char *end = NULL;
   cJSON *root = cJSON_ParseWithOpts(text, &end, 1);
   if (!root) {
-    // cJSON reports where it stopped; turn that into line:column.
     const char *at = cJSON_GetErrorPtr();
-    if (!at)
-      at = end ? end : text;
-    int line = 1, col = 1;
-    for (const char *p = text; *p && p < at; ++p) {
-      if (*p == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-    char near[128];
-    if (err && errlen)
-      snprintf(err, errlen, "%s:%d:%d: invalid JSON near \"%s\"", c.name, line, col,
-               text_escape(near, sizeof near, at, 20, 1));
+    syntax_error(c.name, text, at ? at : end ? end : text, err, errlen);
     return EK_EINVAL;
   }
+  json_scan k;
+  find_positions(&c, root, &k);
   ek_scene s;
   scene_defaults(&s);
   snprintf(s.path, sizeof s.path, "%s", c.name);
@@ -1103,7 +1320,7 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
   if (!cJSON_IsObject(root))
     rc = bad(&c, "(top level)", root, "a scene must be a JSON object");
   if (!rc)
-    rc = check_duplicates(&c, text, root);
+    rc = find_duplicates(&c, root, "");
   if (!rc)
     rc = check_keys(&c, root, "",
                     (const char *const[]){
@@ -1137,6 +1354,8 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
   if (!rc)
     rc = parse_advise(&c, root, &s);
   cJSON_Delete(root);
+  free(k.pos);
+  free(c.nodes);
   if (rc)
     return rc;
   *scene = s;

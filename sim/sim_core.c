@@ -330,6 +330,35 @@ ek_sim *ek_sim_create_scene(const ek_scene *scene) {
   return s;
 }
 
+size_t sim_count_unused(size_t nverts, const int32_t *elems, size_t count, int corners,
+                        size_t *first) {
+  unsigned char *used = calloc(nverts ? nverts : 1, 1);
+  if (!used)
+    return 0; // a warning only: none rather than a failure
+  for (size_t i = 0; i < count * (size_t)corners; i++)
+    if (elems[i] >= 0 && (size_t)elems[i] < nverts)
+      used[elems[i]] = 1;
+  size_t unused = 0;
+  for (size_t v = nverts; v-- > 0;)
+    if (!used[v]) {
+      unused++;
+      *first = v;
+    }
+  free(used);
+  return unused;
+}
+
+size_t sim_unused_vertices(const ek_sim *s, size_t *first, size_t *nverts) {
+  const sim_body *b = s->body;
+  if (s->own_trimesh) {
+    size_t n = sim_trimesh_dropped(s->own_trimesh, first);
+    *nverts = b->nv + n;
+    return n;
+  }
+  *nverts = b->nv;
+  return sim_count_unused(b->nv, b->caller_elems, b->ne, b->corners, first);
+}
+
 int ek_sim_elements_of(const ek_sim *s, ek_sim_elements *e) {
   if (!s || !e) {
     ek_set_error("ek_sim_elements_of: NULL argument");

@@ -118,6 +118,18 @@ int sim_check_forces(ek_sim *sim, const double *x);
 // is set (ek_sim_set_stop_flag), else 0. `where` names the point in the
 // step ("XPBD substep 3 of 100000").
 int sim_stop_requested(ek_sim *sim, const char *where, long i, long n);
+// Vertices of [0, nverts) that none of the count x corners elements uses:
+// how many, and the first (*first; untouched when none).
+size_t sim_count_unused(size_t nverts, const int32_t *elems, size_t count, int corners,
+                        size_t *first);
+// The vertices of the scene's mesh that no element uses (ek-sim warns):
+// how many, the first (0-based, the mesh's order) and the mesh's vertex
+// count with them (*nverts). A triangle mesh drops them when it loads
+// (mesh_tri.c); a tet mesh keeps them, massless.
+size_t sim_unused_vertices(const ek_sim *sim, size_t *first, size_t *nverts);
+// Those a triangle mesh dropped (mesh_tri.c), as above.
+size_t sim_trimesh_dropped(const ek_trimesh *m, size_t *first);
+
 // Position and velocity that condition b prescribes at time t to a vertex
 // whose initial position is x0.
 void sim_bc_state(const ek_scene_bc *b, const double x0[3], double t, double x[3], double v[3]);

@@ -317,5 +317,70 @@ grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not name
 grep -Eq "^frames +[1-9][0-9]* written" "$out" ||
   fail "ek-sim on a full disk: no frame kept before the disk filled: $(grep frames "$out")"
 
+# Numbers on the command line are strict (sim/cli.h): the whole text is the
+# number, no white space ("--steps ' 5'" ran 5 steps), not empty, no
+# overflow, decimal; a usage error naming the option and the value.
+for v in " 5" "5 " "" "5x" "99999999999999999999"; do
+  expect "ek-sim --steps '$v'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps "$v" &&
+    one_error "ek-sim --steps '$v'" &&
+    { grep -qF -- "--steps '$v'" "$err" || fail "ek-sim --steps '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-sim --threads ' 1'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1 \
+  --threads " 1" && one_error "ek-sim --threads ' 1'"
+for args in "--tol|0.1 " "--time| 0.01" "--time|0x1p-7"; do
+  expect "ek-sim --advise ${args/|/ \'}'" 2 "$bin/ek-sim" "$scenes/small_strain.json" --advise \
+    "${args%%|*}" "${args#*|}" && one_error "ek-sim --advise ${args/|/ \'}'"
+done
+# ek-bench on one row listed: only the bad value can make it exit 2.
+for args in "--threads| 1" "--threads|1 " "--seed| -1" "--seed|99999999999999999999" \
+  "--min-time| 1" "--isas|scalar,,avx2" "--isas|,scalar" "--isas|scalar," "--isas|"; do
+  o=${args%%|*} v=${args#*|}
+  expect "ek-bench $o '$v'" 2 "$bin/ek-bench" --list --filter "$one_row" "$o" "$v" &&
+    one_error "ek-bench $o '$v'" &&
+    { grep -qF -- "$o '$v'" "$err" || fail "ek-bench $o '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-bench --isas scalar (one row listed)" 0 "$bin/ek-bench" --list --filter "$one_row" \
+  --isas scalar
+one_check='^svd3 scalar f32 sweeps=def rsqrt=exact random$'
+for args in "--seed| 1" "--seed|1 " "--n| 100" "--seed|99999999999999999999"; do
+  o=${args%%|*} v=${args#*|}
+  expect "ek-verify $o '$v'" 2 "$bin/ek-verify" --quick --n 100 --filter "$one_check" "$o" "$v" &&
+    one_error "ek-verify $o '$v'"
+done
+# Test binaries take --seed as strictly.
+for prog in "$@"; do
+  expect "$prog --seed ' 1'" 2 "$bin/$prog" --seed " 1" && one_error "$prog --seed ' 1'"
+done
+
+# Scene errors name FILE:LINE:COLUMN: the offending value (after parsing)
+# or where the text stops being JSON; a file cut short says so.
+sed 's/"E": 1.0e8/"E": -100000/' "$scenes/cantilever.json" >"$work/negE.json"
+line=$(grep -n '"E": -100000' "$work/negE.json" | cut -d: -f1)
+col=$(($(sed -n "${line}p" "$work/negE.json" | sed 's/"E": -100000.*//' | wc -c) + 5))
+expect "ek-sim: material.E = -100000" 1 "$bin/ek-sim" "$work/negE.json" --no-output &&
+  one_error "ek-sim: material.E = -100000"
+grep -qF "negE.json:$line:$col: material.E = -100000" "$err" ||
+  fail "ek-sim: material.E = -100000: not placed at $line:$col: $(cat "$err")"
+head -c 200 "$scenes/cantilever.json" >"$work/cut.json"
+expect "ek-sim: a scene cut short" 1 "$bin/ek-sim" "$work/cut.json" --no-output &&
+  one_error "ek-sim: a scene cut short"
+grep -q "cut.json:2:[0-9]*: invalid JSON: unexpected end of file" "$err" ||
+  fail "ek-sim: a scene cut short: not said: $(cat "$err")"
+
+# Vertices no element uses: one warning naming the mesh file, the count and
+# the first; the run goes on as before (exit 0).
+printf '%s\n' 'v 0 0 0' 'v 1 0 0' 'v 9 9 9' 'v 0 1 0' 'v 1 1 0' 'v 8 8 8' 'f 1 2 4' 'f 2 5 4' \
+  >"$work/stray.obj"
+printf '%s\n' '{"mesh": {"file": "stray.obj"}, "material": {"model": "stvk", "E": 1e5,' \
+  ' "nu": 0.3, "density": 100}, "cloth": {"thickness": 0.001}, "dt": 1e-4, "steps": 2}' \
+  >"$work/stray.json"
+expect "ek-sim: a mesh with unused vertices" 0 "$bin/ek-sim" "$work/stray.json" --no-output
+[ "$(grep -c warning "$err")" -eq 1 ] &&
+  grep -q "warning: $work/stray.obj: 2 of 6 vertices belong to no triangle (the first: vertex 2," \
+    "$err" || fail "ek-sim: a mesh with unused vertices: no warning: $(cat "$err")"
+expect "ek-sim: a shipped scene from a mesh file" 0 "$bin/ek-sim" "$scenes/bracket.json" \
+  --no-output --steps 1
+grep -q warning "$err" && fail "ek-sim: bracket.json warns: $(grep warning "$err")"
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

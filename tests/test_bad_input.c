@@ -8,7 +8,11 @@
 //     NUL and binary bytes are refused and never echoed raw; a file of
 //     another format (x.vtk) is named as one, not as a missing x.vtk.node;
 //   - scenes: a key twice in one object is refused naming the key and both
-//     places; E = 1e308 is refused naming material.E; a directory as the
+//     places; errors found after parsing name FILE:LINE:COLUMN of the
+//     value (of an unknown key; of the object a required key is missing
+//     from), and invalid JSON the byte where it stops being JSON ("unexpected
+//     end of file" when cut short, naming what is left open); E = 1e308 is
+//     refused naming material.E; a directory as the
 //     mesh is reported as one; messages never carry raw control or non-ASCII
 //     bytes;
 //   - batches: a count whose byte count overflows (n = SIZE_MAX) gives
@@ -319,6 +323,54 @@ static void scenes(void) {
   scene_refused("control character in mesh.file: refused",
                 "{\"mesh\": {\"file\": \"a\\nb.msh\"}, " MAT ", " TAIL "}", "mesh.file",
                 "control character", NULL);
+  // Placed at FILE:LINE:COLUMN: the value, the unknown key, the object a
+  // required key is missing from; and where the text stops being JSON
+  // (cJSON's own position is one byte late after a bad key, and only the
+  // end of the text when it is cut short).
+#define ZEROS10 "0000000000"
+#define ZEROS100 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10 ZEROS10
+#define LINES(mat)                                                                                 \
+  "{\"mesh\": {\"box\": [2, 2, 2], \"size\": [1, 1, 1]},\n"                                        \
+  " \"material\": {\"model\": \"arap\",\n" mat "\n \"dt\": 1e-4, \"steps\": 10}"
+  scene_refused("E = -100000 on line 3: at its value",
+                LINES("   \"E\": -100000, \"nu\": 0.3, \"density\": 1},"),
+                "bad.json:3:9: material.E = -100000: Young's modulus must be > 0", NULL, NULL);
+  scene_refused("unknown key on line 3: at the key",
+                LINES("   \"E\": 1e5, \"nu\": 0.3, \"densty\": 1},"),
+                "bad.json:3:25: material.densty = 1: unknown key", NULL, NULL);
+  scene_refused("missing key: at its object's '{' (line 2)", LINES("   \"E\": 1e5, \"nu\": 0.3},"),
+                "bad.json:2:14: material.density: missing (required)", NULL, NULL);
+  scene_refused("bad enum on line 2: at its value",
+                "{" MESH ",\n \"material\": {\"model\": \"neo\", \"E\": 1e5, \"nu\": 0.3, "
+                "\"density\": 1},\n " TAIL "}",
+                "bad.json:2:24: material.model = \"neo\": unknown model", NULL, NULL);
+  scene_refused("missing top-level key: at the scene's '{'",
+                "\n  {" MESH ",\n " MAT ",\n \"steps\": 10}",
+                "bad.json:2:3: dt: missing (required)", NULL, NULL);
+  scene_refused("array item on line 3: at the item",
+                "{" MESH ", " MAT ", " TAIL ",\n \"boundary\": [{\"type\": \"pin\", \"region\": "
+                "{\"min\": [0, 0, 0],\n \"max\": [1, -1e400, 0]}}]}",
+                "bad.json:3:13: boundary[0].region.max[1] = -inf: must be a finite number", NULL,
+                NULL);
+  scene_refused(
+      "a number of 101 digits: placed (the scan takes it whole, as cJSON)",
+      "{\"mesh\": {\"box\": [2, 2" ZEROS100 ", 2], \"size\": [1, 1, 1]},\n " MAT ", " TAIL "}",
+      "bad.json:1:22: mesh.box[1] = 2e+100: must be a whole number in [1, 4096]", NULL, NULL);
+  scene_refused("invalid JSON: a bare key, at the key (cJSON: one byte late)", "{\n  mesh: 1}",
+                "bad.json:2:3: invalid JSON near \"mesh: 1}\"", "expected a key", NULL);
+  scene_refused("invalid JSON: a comma before '}', at the '}' (cJSON: at the end)",
+                "{\"dt\": 1,\n}\n", "bad.json:2:1: invalid JSON near \"}\\x0a\"", NULL, NULL);
+  scene_refused("invalid JSON: cut short, 'unexpected end of file'", "{\"mesh\": {\"box\": [2,\n",
+                "bad.json:2:1: invalid JSON: unexpected end of file",
+                "the array opened at line 1, column 18 is not closed", NULL);
+  scene_refused("invalid JSON: cut short in a string", "{\"description\": \"a beam\n",
+                "bad.json:2:1: invalid JSON: unexpected end of file",
+                "the string opened at line 1, column 17", NULL);
+  scene_refused("invalid JSON: empty text", "",
+                "bad.json:1:1: invalid JSON: unexpected end of file", "no JSON value", NULL);
+#undef LINES
+#undef ZEROS100
+#undef ZEROS10
   {
     // A NUL in the file: cJSON would stop there and take the first part.
     const char text[] = "{" MESH ", " MAT ", " TAIL "}\0, \"dt\": -1}";

@@ -279,13 +279,10 @@ static void usage(FILE *out) {
         out);
 }
 
-// A whole number in [lo, ULLONG_MAX]: the whole string, no sign.
+// A whole number in [lo, ULLONG_MAX]: the whole string, decimal, no sign.
 static int parse_count(const char *opt, const char *s, unsigned long long lo,
                        unsigned long long *out) {
-  char *end;
-  errno = 0;
-  *out = strtoull(s, &end, 0);
-  if (!*s || *end || s[0] == '-' || errno || *out < lo)
+  if (ek_cli_parse_ull(s, out) || *out < lo)
     return ek_cli_usage_error("ek-verify", "%s: '%s' is not a whole number >= %llu", opt, s, lo);
   return 0;
 }

@@ -290,10 +290,14 @@ typedef struct {
   double advise_reference_dt;
 } ek_scene;
 
-// Parse a scene file. 0 on success; < 0 with ek_last_error naming the file, the key
-// path and the value ("scenes/beam.json: material.nu = 0.5: Poisson ratio
-// must be < 0.5"). Unknown keys are errors. *scene is fully written on
-// success and left unspecified on error.
+// Parse a scene file. 0 on success; < 0 with ek_last_error naming the file,
+// the line and column of the value, the key path and the value
+// ("scenes/beam.json:4:52: material.nu = 0.5: Poisson ratio must be < 0.5";
+// an unknown key is placed at the key, a missing one at the '{' of the
+// object it belongs in). Unknown keys are errors. Text that is not JSON is
+// placed at the first byte that is not ("invalid JSON near ...: expected
+// ..."), or named "unexpected end of file" with what is left open. *scene
+// is fully written on success and left unspecified on error.
 int ek_scene_load(const char *path, ek_scene *scene);
 // Same from text in memory; `name` is used in messages, `base_dir` resolves a
 // relative mesh file ("." when NULL).
