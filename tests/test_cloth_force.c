@@ -11,7 +11,8 @@
 //      projected product equals it on a stretched cloth and is PSD on a
 //      crumpled one;
 //   e. a flat cloth at rest feels no force (membrane and bending);
-//   f. the same bits at 1 and 2 threads above the parallel threshold;
+//   f. the same bits at 1 and 2 threads above the parallel threshold (the
+//      energies at 1, 2, 3 and 7, and the f32 energy in its block order);
 //   g. bad input is refused with a message naming the triangle;
 //   h. ARAP on near rank-deficient triangles (the kernel's slow lanes)
 //      against the reference, and finite on collapsed ones;
@@ -26,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../kernels/elements/tris.h" // the f32 energy's blocks, its triangle energies
 #include "check.h"
 #include "cli.h"
 #include "cloth_force/cloth_force_ref.h"
@@ -523,20 +525,55 @@ int main(int argc, char **argv) {
                  model_name(model), ek_isa_name((ek_isa)isa));
         check(what, memcmp(fa, fb, nb3 * sizeof(double)) == 0 &&
                         memcmp(fa32, fb32, nb3 * sizeof(float)) == 0);
-        // The energies: one ordered double sum whose adds thread 0 overlaps
-        // with its share (cloth_force.c, energy_sum); 3 threads too.
-        double E[3][3];
-        for (int nt = 1; nt <= 3; ++nt) {
-          omp_set_num_threads(nt);
-          ek_cloth_energy_ex_f64(cb, &p, xb, &E[nt - 1][0], &o);
-          ek_cloth_energy_ex_f32(cb, &p, xbf, &E[nt - 1][1], &o);
-          E[nt - 1][2] = ek_cloth_energy_f64(cb, &p, xb);
+        // The energies: f64, one ordered double sum whose adds thread 0
+        // overlaps with its share; f32, block sums added in block order
+        // (cloth_force.c, energy_sum). 1, 2, 3 and 7 threads (7 leaves
+        // shares that no smaller count has).
+        static const int counts[4] = {1, 2, 3, 7};
+        double E[4][3];
+        int same = 1;
+        for (int c = 0; c < 4; ++c) {
+          omp_set_num_threads(counts[c]);
+          ek_cloth_energy_ex_f64(cb, &p, xb, &E[c][0], &o);
+          ek_cloth_energy_ex_f32(cb, &p, xbf, &E[c][1], &o);
+          E[c][2] = ek_cloth_energy_f64(cb, &p, xb);
+          same &= memcmp(E[0], E[c], sizeof E[0]) == 0;
         }
         snprintf(what, sizeof what,
-                 "f. %s %s: energies (f64, f32, default) same bits at 1, 2 and 3 threads",
+                 "f. %s %s: energies (f64, f32, default) same bits at 1, 2, 3, 7 threads",
                  model_name(model), ek_isa_name((ek_isa)isa));
-        check(what, memcmp(E[0], E[1], sizeof E[0]) == 0 && memcmp(E[0], E[2], sizeof E[0]) == 0 &&
-                        isfinite(E[0][0]) && isfinite(E[0][1]) && isfinite(E[0][2]));
+        check(what, same && isfinite(E[0][0]) && isfinite(E[0][1]) && isfinite(E[0][2]));
+        // ... and the f32 energy is its documented order (cloth_force.h),
+        // rebuilt from the triangle energies it leaves in the corner
+        // buffer (tris.h) and the hinge energies in double (a 2-thread call,
+        // whose shares differ from the blocks).
+        omp_set_num_threads(2);
+        double E32 = NAN, blocks = 0;
+        ek_cloth_energy_ex_f32(cb, &p, xbf, &E32, &o);
+        const size_t B = EK_CLOTH_ENERGY_BLOCK_F32, nhb = ek_cloth_nhinges(cb);
+        for (size_t t0 = 0; t0 < big.nt; t0 += B) {
+          double s = 0;
+          for (size_t t = t0; t < t0 + B && t < big.nt; ++t)
+            s += (double)cb->tri_corner_f32[t];
+          blocks += s;
+        }
+        for (size_t h0 = 0; h0 < nhb; h0 += B) {
+          double s = 0;
+          for (size_t h = h0; h < h0 + B && h < nhb; ++h) {
+            const int32_t *q = ek_cloth_hinges(cb) + 4 * h;
+            const double *k = ek_cloth_hinge_k(cb) + 4 * h;
+            double v[3] = {0, 0, 0};
+            for (int c = 0; c < 4; ++c)
+              for (int i = 0; i < 3; ++i)
+                v[i] += k[c] * (double)xbf[3 * (size_t)q[c] + (size_t)i];
+            s += 0.5 * p.bending * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+          }
+          blocks += s;
+        }
+        snprintf(what, sizeof what,
+                 "f. %s %s: f32 energy = its blocks of %zu summed in order, bit for bit",
+                 model_name(model), ek_isa_name((ek_isa)isa), B);
+        check(what, E32 == blocks && E32 == E[0][1] && big.nt > 2 * B && nhb > 2 * B);
         if (isa == EK_ISA_SCALAR) { // the fields (no ISA): per triangle, any partition
           double *fl = malloc(4 * 2 * big.nt * sizeof(double));
           for (int nt = 1; nt <= 2 && fl; ++nt) {

@@ -139,7 +139,9 @@ int ek_cloth_forces_f32(const ek_cloth *cl, const ek_cloth_params *p, const floa
                         const ek_cloth_force_opts *opts);
 int ek_cloth_forces_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x, double *f,
                         const ek_cloth_force_opts *opts);
-// E(x) = sum_t A_t Psi(F_t) + E_bend(x), summed in a fixed order.
+// E(x) = sum_t A_t Psi(F_t) + E_bend(x), summed in a fixed order: in
+// double, the triangles' energies in triangle order, then the hinges' in
+// hinge order (one sum; the implicit loop's line search compares these).
 double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x);
 // q = H(x) p (nverts x 3 each), projected to PSD when `project` (above).
 int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
@@ -148,7 +150,13 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
 // the membrane's energy and Hessian product run as vector kernels
 // (kernels/cloth_force/cloth_membrane_block.c, ARAP through the vectorised
 // 3x2 polar of ek_polar32), the bending and the sums as above; the energy
-// is summed in double (E receives it). They equal the double paths above
+// is summed in double (E receives it): _f64 in the order above; _f32 in
+// blocks of 256 (EK_CLOTH_ENERGY_BLOCK_F32: triangles 0-255, 256-511, ...,
+// then hinges the same),
+// each block's energies summed in element order from 0, then the block
+// sums in order, the triangles' blocks then the hinges' (so 2 threads
+// share the adds; the same bits at any thread count, though not those of
+// one ordered sum). They equal the double paths above
 // to EK_CLOTH_MEMBRANE_TOL_F32/_F64 (max |q - q_ref| / max |q_ref|, and
 // |E - E_ref| / sum_t A_t |Psi_t| for the energy), checked against the
 // double reference by tests/test_cloth_force.c and ek-verify. The default

@@ -34,9 +34,11 @@ struct ek_cloth {
   // cloth serves one force call at a time.
   float *tri_corner_f32, *hinge_corner_f32;
   double *tri_corner_f64, *hinge_corner_f64;
-  // The energy call's hinge energies (nh) and, for f32 positions, the
-  // positions in double (3 nv); its triangle energies go in tri_corner_*;
-  // a flag per chunk of EK_CLOTH_ENERGY_CHUNK hinges once they are written.
+  // The energy call's scratch: f64, the hinge energies (nh); f32, the
+  // positions in double (3 nv) then the block sums (one per
+  // EK_CLOTH_ENERGY_BLOCK_F32 triangles, then hinges); the triangle
+  // energies go in tri_corner_*. f64's flag per chunk of
+  // EK_CLOTH_ENERGY_CHUNK hinges once they are written.
   double *energy_buf;
   atomic_uchar *energy_ready;
 };
@@ -45,6 +47,10 @@ struct ek_cloth {
 // EK_FVM_PARALLEL_MIN_TETS for tets: a second thread gains too little).
 #define EK_CLOTH_PARALLEL_MIN_TRIS 4096
 #define EK_CLOTH_ENERGY_CHUNK 256
+// The f32 energy's partial sums (cloth_force.h): triangles and hinges in
+// blocks of this many (a multiple of EK_LANES_F32). Part of that energy's
+// definition: changing it changes its bits.
+#define EK_CLOTH_ENERGY_BLOCK_F32 256
 
 // The triangle rest frame (include/ek/cloth.h, ek_tri_rest_f64): Dm^-1
 // (2x2 row-major) of the rest edges in the triangle's orthonormal frame
