@@ -163,10 +163,6 @@ void ek_results_derive(ek_results *r);
 
 // 1 if a file exists at path.
 int ek_results_file_exists(const char *path);
-// What is at path when it exists and is not a regular file ("a directory",
-// "a character device", "a FIFO", "a symbolic link", ...), else NULL. The
-// writers never replace such a path, with or without force.
-const char *ek_results_not_regular(const char *path);
 // Write the set. Without force an existing file is an error and is left
 // untouched; with force it is replaced atomically. 0 on success, < 0 on
 // error (message on stderr naming the path); no partial file is left.

@@ -44,6 +44,8 @@
 // (not HyperSlab items), and ParaView's Xdmf3 reader reads them too.
 #define _GNU_SOURCE // renameat2 (glibc >= 2.28)
 #include "errbuf.h"
+#include "h5_quiet.h"
+#include "not_regular.h"
 #include <ek/sim/sim.h>
 
 #include <errno.h>
@@ -121,21 +123,6 @@ static int file_exists(const char *path) {
   return lstat(path, &st) == 0;
 }
 
-// What lstat says is at path when it is not a regular file, else NULL
-// (nothing there, or a regular file).
-static const char *not_regular(const char *path) {
-  struct stat st;
-  if (lstat(path, &st) != 0 || S_ISREG(st.st_mode))
-    return NULL;
-  return S_ISDIR(st.st_mode)    ? "a directory"
-         : S_ISCHR(st.st_mode)  ? "a character device"
-         : S_ISBLK(st.st_mode)  ? "a block device"
-         : S_ISFIFO(st.st_mode) ? "a FIFO"
-         : S_ISSOCK(st.st_mode) ? "a socket"
-         : S_ISLNK(st.st_mode)  ? "a symbolic link"
-                                : "not a regular file";
-}
-
 // Every name the writer creates, renames over or unlinks (the file, its
 // XDMF, their scratch, swap and temporary names) must be free or a regular
 // file, with or without force: the commits rename over these names, which
@@ -159,17 +146,6 @@ static int check_output_names(const ek_frames *fr, char *err, size_t errlen) {
   }
   return 0;
 }
-
-// HDF5 prints its error stack by default; ek reports its own messages.
-typedef struct {
-  H5E_auto2_t func;
-  void *data;
-} h5_quiet;
-static void quiet_on(h5_quiet *q) {
-  H5Eget_auto2(H5E_DEFAULT, &q->func, &q->data);
-  H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
-}
-static void quiet_off(const h5_quiet *q) { H5Eset_auto2(H5E_DEFAULT, q->func, q->data); }
 
 // The XDMF names the HDF5 file by its base name inside XML text and splits
 // "file:/dataset" at the colon (meshio: exactly one colon). Refuses what
@@ -770,7 +746,7 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
   // h5path never names a file that is not whole. Without force the commit
   // is a hard link, which fails if h5path appeared meanwhile.
   h5_quiet q;
-  quiet_on(&q);
+  h5_quiet_on(&q);
   const char *what = "create";
   errno = 0;
   ok = create_base(fr, fr->scratch_path, X, tets, &what) == 0;
@@ -791,7 +767,7 @@ ek_frames *ek_frames_create_ex_errbuf(const char *path, int force, size_t nverts
         unlink(fr->h5path);
     }
   }
-  quiet_off(&q);
+  h5_quiet_off(&q);
   if (!ok) {
     int e = errno;
     if (err && errlen) {
@@ -875,7 +851,7 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
 
   // The scratch copy: replay the frame it lacks, add this one, close.
   h5_quiet q;
-  quiet_on(&q);
+  h5_quiet_on(&q);
   errno = 0;
   int ok = text != NULL;
   const char *what = "write";
@@ -893,7 +869,7 @@ int ek_frames_write_fields_errbuf(ek_frames *fr, double time, long step, const d
     if (file >= 0 && H5Fclose(file) < 0)
       ok = 0;
   }
-  quiet_off(&q);
+  h5_quiet_off(&q);
   if (ok) {
     what = "commit";
     ok = swap_files(fr) == 0;
@@ -985,7 +961,7 @@ int ek_frames_set_info_errbuf(ek_frames *fr, const ek_frames_info *info, char *e
   // as for a frame, the scratch becomes a fresh byte copy of `path`, which
   // has the attributes. `path` is a closed, whole file throughout.
   h5_quiet q;
-  quiet_on(&q);
+  h5_quiet_on(&q);
   errno = 0;
   int wrote = write_info_attrs(fr->scratch_path, info) == 0;
   int ok = wrote && swap_files(fr) == 0;
@@ -995,7 +971,7 @@ int ek_frames_set_info_errbuf(ek_frames *fr, const ek_frames_info *info, char *e
   // `path` replaces it, and the frames go on without the attributes.
   int e = errno;
   int usable = ok || (!wrote && scratch_from_committed(fr) == 0);
-  quiet_off(&q);
+  h5_quiet_off(&q);
   if (!ok) {
     fr->failed = !usable;
     if (err && errlen)

@@ -115,6 +115,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "../kernels/elements/morton.h" // header-only
 #include "implicit_petsc.h"
 #include "sim_internal.h"
 
@@ -240,38 +241,12 @@ static int agree(ek_sim *s, int rc) {
   return rc;
 }
 
-// The Morton (Z-order) code of a point of the cube [lo, lo + side]^3:
-// 21 bits per axis, interleaved x, y, z from the top (Morton 1966; the
-// bit spreading of Raman & Wise 2008, "Converting to and from dilated
-// integers"). kernels/elements/tets.c has the same spread3: this library
-// sees only ek's public API, which has no Morton code.
-static uint64_t spread3(uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
-typedef struct {
-  uint64_t code;
-  size_t v;
-} morton_key;
-
-static int morton_cmp(const void *a, const void *b) {
-  const morton_key *p = a, *q = b;
-  if (p->code != q->code)
-    return p->code < q->code ? -1 : 1;
-  return p->v < q->v ? -1 : p->v > q->v; // ties: the vertex index (a total order)
-}
-
-// perm[v]: vertex v's place in the Morton order of the rest positions, on
+// perm[v]: vertex v's place in the Morton order of the rest positions
+// (21 bits per axis, interleaved x, y, z from the top), on
 // the bounding box's enclosing cube (one scale for all axes, so the first
 // cuts fall across the longest extent: a beam is cut along its length).
 static int morton_order(const double *X, size_t nv, int32_t *perm) {
-  morton_key *k = malloc((nv + 1) * sizeof *k);
+  ek_morton_key *k = malloc((nv + 1) * sizeof *k);
   if (!k)
     return -1;
   double lo[3] = {INFINITY, INFINITY, INFINITY}, side = 0;
@@ -283,14 +258,14 @@ static int morton_order(const double *X, size_t nv, int32_t *perm) {
       side = fmax(side, X[3 * v + a] - lo[a]);
   const double scale = side > 0 ? 2097151.0 / side : 0; // 2^21 - 1
   for (size_t v = 0; v < nv; v++) {
-    uint64_t c[3];
+    uint64_t code = 0;
     for (int a = 0; a < 3; a++)
-      c[a] = (uint64_t)((X[3 * v + a] - lo[a]) * scale);
-    k[v] = (morton_key){spread3(c[0]) << 2 | spread3(c[1]) << 1 | spread3(c[2]), v};
+      code |= ek_morton_spread3((uint64_t)((X[3 * v + a] - lo[a]) * scale)) << (2 - a);
+    k[v] = (ek_morton_key){code, (int32_t)v};
   }
-  qsort(k, nv, sizeof *k, morton_cmp);
+  qsort(k, nv, sizeof *k, ek_morton_key_cmp);
   for (size_t i = 0; i < nv; i++)
-    perm[k[i].v] = (int32_t)i;
+    perm[k[i].index] = (int32_t)i;
   free(k);
   return 0;
 }

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "errbuf.h"
+#include "mesh_box.h"
 #include "mesh_build.h"
 
 void mesh_error(char *err, size_t errlen, const char *fmt, ...) {
@@ -369,12 +370,7 @@ ek_mesh *ek_mesh_create_errbuf(size_t nverts, const double *X, size_t ntets, con
   return mesh_build(nverts, X, ntets, tets, NULL, NULL, err, errlen);
 }
 
-// Kuhn (Freudenthal) split of each cube into 6 tets around the diagonal
-// from corner 0 to corner 7: one tet per permutation of the axes, the path
-// 0 -> e_a -> e_a+e_b -> 7. All cubes use the same split, so shared faces
-// are cut along the same diagonal and the mesh is conforming. Odd
-// permutations are listed with vertices 1 and 2 swapped so all volumes are
-// positive.
+// A box of nx x ny x nz cubes, 6 tets each (mesh_box.h).
 ek_mesh *ek_mesh_box_errbuf(int nx, int ny, int nz, double lx, double ly, double lz, char *err,
                             size_t errlen) {
   if (nx < 1 || ny < 1 || nz < 1) {
@@ -385,59 +381,18 @@ ek_mesh *ek_mesh_box_errbuf(int nx, int ny, int nz, double lx, double ly, double
     mesh_error(err, errlen, "ek_mesh_box: sizes %g x %g x %g must be finite and > 0", lx, ly, lz);
     return NULL;
   }
-  size_t px = (size_t)nx + 1, py = (size_t)ny + 1, pz = (size_t)nz + 1;
-  size_t nverts = px * py * pz, ncubes = (size_t)nx * ny * nz;
-  if (nverts > INT32_MAX || ncubes > (size_t)INT32_MAX / 24) {
-    mesh_error(err, errlen, "ek_mesh_box: %d x %d x %d cells is too large", nx, ny, nz);
-    return NULL;
-  }
-  double *X = malloc(nverts * 3 * sizeof(double));
-  int32_t *T = malloc(ncubes * 6 * 4 * sizeof(int32_t));
-  if (!X || !T) {
-    free(X);
-    free(T);
+  double *X;
+  int32_t *T;
+  size_t nverts, ntets;
+  int rc = mesh_box_arrays(nx, ny, nz, lx, ly, lz, &X, &T, &nverts, &ntets);
+  if (rc == EK_ENOMEM)
     mesh_error(err, errlen, "ek_mesh_box: out of memory");
+  else if (rc)
+    mesh_error(err, errlen, "ek_mesh_box: %d x %d x %d cells is too large", nx, ny, nz);
+  if (rc)
     return NULL;
-  }
-  for (size_t k = 0; k < pz; k++)
-    for (size_t j = 0; j < py; j++)
-      for (size_t i = 0; i < px; i++) {
-        size_t v = (k * py + j) * px + i;
-        X[v * 3 + 0] = lx * (double)i / nx;
-        X[v * 3 + 1] = ly * (double)j / ny;
-        X[v * 3 + 2] = lz * (double)k / nz;
-      }
-  // Corner c of a cube: bit 0 = +x, bit 1 = +y, bit 2 = +z. The tet of
-  // the axis permutation (a, b, c) has Dm = [e_a, e_a+e_b, 7] whose
-  // determinant is the permutation's sign, so odd permutations get
-  // corners 1 and 2 swapped to keep det Dm > 0.
-  // Path corners for each axis permutation (a, b, c): 0, e_a, e_a + e_b, 7.
-  static const int perms[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {1, 0, 2}, {2, 1, 0}};
-  size_t t = 0;
-  for (size_t k = 0; k < (size_t)nz; k++)
-    for (size_t j = 0; j < (size_t)ny; j++)
-      for (size_t i = 0; i < (size_t)nx; i++) {
-        int32_t corner[8];
-        for (int c = 0; c < 8; c++)
-          corner[c] =
-              (int32_t)(((k + (c >> 2 & 1)) * py + (j + (c >> 1 & 1))) * px + (i + (c & 1)));
-        for (int p = 0; p < 6; p++) {
-          int a = 1 << perms[p][0], ab = a | 1 << perms[p][1];
-          int32_t *tv = T + t * 4;
-          tv[0] = corner[0];
-          tv[1] = corner[a];
-          tv[2] = corner[ab];
-          tv[3] = corner[7];
-          if (p >= 3) { // odd permutation: negative orientation, swap 1 and 2
-            int32_t tmp = tv[1];
-            tv[1] = tv[2];
-            tv[2] = tmp;
-          }
-          t++;
-        }
-      }
   mesh_origin o = {.file = "ek_mesh_box", .index_base = 0};
-  ek_mesh *m = mesh_build(nverts, X, ncubes * 6, T, NULL, &o, err, errlen);
+  ek_mesh *m = mesh_build(nverts, X, ntets, T, NULL, &o, err, errlen);
   free(X);
   free(T);
   return m;

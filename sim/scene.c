@@ -637,10 +637,10 @@ int ek_scene_model_from_name(const char *name, ek_model *model) {
 
 // ---------------------------------------------------------------- sections
 
-// Every component of the 3-vector obj.key (already read into v) must be > 0.
-static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, const char *key,
-                        const double v[3]) {
-  for (int i = 0; i < 3; ++i)
+// Every component of the n-vector obj.key (already read into v) must be > 0.
+static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, const char *key, int n,
+                        const double *v) {
+  for (int i = 0; i < n; ++i)
     if (!(v[i] > 0)) {
       char p[64];
       snprintf(p, sizeof p, "%s.%s[%d]", objname, key, i);
@@ -648,6 +648,22 @@ static int all_positive(parse_ctx *c, const cJSON *obj, const char *objname, con
                  "must be > 0");
     }
   return 0;
+}
+
+// mesh.key: n whole numbers in [1, max] into cells.
+static int get_cells(parse_ctx *c, const cJSON *mesh, const char *key, int n, int max, int *cells) {
+  double v[3];
+  int rc = get_vec(c, mesh, "mesh", key, 1, n, v);
+  for (int i = 0; !rc && i < n; ++i) {
+    if (v[i] != floor(v[i]) || v[i] < 1 || v[i] > max) {
+      char p[32];
+      snprintf(p, sizeof p, "mesh.%s[%d]", key, i);
+      return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(mesh, key), i),
+                 "must be a whole number in [1, %d]", max);
+    }
+    cells[i] = (int)v[i];
+  }
+  return rc;
 }
 
 // mesh: {"file"} (tets; triangles for .obj or "kind": "triangles"),
@@ -704,26 +720,10 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
     return 0;
   }
   if (grid) {
-    double cells[2];
-    if ((rc = get_vec(c, mesh, "mesh", "grid", 1, 2, cells)))
+    if ((rc = get_cells(c, mesh, "grid", 2, 8192, s->grid_cells)) ||
+        (rc = get_vec(c, mesh, "mesh", "size", 1, 2, s->grid_size)) ||
+        (rc = all_positive(c, mesh, "mesh", "size", 2, s->grid_size)))
       return rc;
-    for (int i = 0; i < 2; ++i) {
-      if (cells[i] != floor(cells[i]) || cells[i] < 1 || cells[i] > 8192) {
-        char p[32];
-        snprintf(p, sizeof p, "mesh.grid[%d]", i);
-        return bad(c, p, cJSON_GetArrayItem(grid, i), "must be a whole number in [1, 8192]");
-      }
-      s->grid_cells[i] = (int)cells[i];
-    }
-    if ((rc = get_vec(c, mesh, "mesh", "size", 1, 2, s->grid_size)))
-      return rc;
-    for (int i = 0; i < 2; ++i)
-      if (!(s->grid_size[i] > 0)) {
-        char p[32];
-        snprintf(p, sizeof p, "mesh.size[%d]", i);
-        return bad(c, p, cJSON_GetArrayItem(cJSON_GetObjectItemCaseSensitive(mesh, "size"), i),
-                   "must be > 0");
-      }
     if (plane && strcmp(plane, "xy") != 0 && strcmp(plane, "xz") != 0)
       return bad(c, "mesh.plane", plane_node, "must be \"xy\" or \"xz\"");
     snprintf(s->grid_plane, sizeof s->grid_plane, "%s", plane ? plane : "xy");
@@ -732,20 +732,10 @@ static int parse_mesh(parse_ctx *c, const cJSON *root, const char *base_dir, ek_
   }
   if (!box)
     return missing(c, mesh, "mesh.file or mesh.box (or mesh.grid for a cloth)");
-  double cells[3];
-  if ((rc = get_vec(c, mesh, "mesh", "box", 1, 3, cells)))
+  if ((rc = get_cells(c, mesh, "box", 3, 4096, s->box_cells)) ||
+      (rc = get_vec(c, mesh, "mesh", "size", 1, 3, s->box_size)))
     return rc;
-  for (int i = 0; i < 3; ++i) {
-    if (cells[i] != floor(cells[i]) || cells[i] < 1 || cells[i] > 4096) {
-      char p[32];
-      snprintf(p, sizeof p, "mesh.box[%d]", i);
-      return bad(c, p, cJSON_GetArrayItem(box, i), "must be a whole number in [1, 4096]");
-    }
-    s->box_cells[i] = (int)cells[i];
-  }
-  if ((rc = get_vec(c, mesh, "mesh", "size", 1, 3, s->box_size)))
-    return rc;
-  return all_positive(c, mesh, "mesh", "size", s->box_size);
+  return all_positive(c, mesh, "mesh", "size", 3, s->box_size);
 }
 
 // cloth: {"thickness" (m, required for a triangle mesh), "bending_stiffness"
@@ -822,7 +812,7 @@ static int parse_initial(parse_ctx *c, const cJSON *root, ek_scene *s) {
     rc = get_vec(c, init, "initial", "velocity", 0, 3, s->init_velocity);
   if (rc)
     return rc;
-  return all_positive(c, init, "initial", "scale", s->init_scale);
+  return all_positive(c, init, "initial", "scale", 3, s->init_scale);
 }
 
 static int parse_material(parse_ctx *c, const cJSON *root, ek_scene *s) {

@@ -2,10 +2,11 @@
 // libek and ek_testing only (no libek_sim, HDF5 or cJSON).
 //
 // ek_check_box_create builds the same vertices and tets, in the same order,
-// as the simulation library's ek_mesh_box (sim/mesh.c: a Kuhn split of
-// each cube into 6 positively oriented tets), as plain arrays, and the
-// element layer the kernels read (ek_tets_create, elements.h). A test that
-// moved from ek_mesh_box sees the same mesh.
+// as the simulation library's ek_mesh_box, from the same code
+// (sim/mesh_box.h: a Kuhn split of each cube into 6 positively oriented
+// tets), as plain arrays, and the element layer the kernels read
+// (ek_tets_create, elements.h). A test that moved from ek_mesh_box sees
+// the same mesh.
 #ifndef EK_CHECK_BOX_H
 #define EK_CHECK_BOX_H
 

@@ -1259,94 +1259,64 @@ static void lap(const char *family) {
   g_t0 = t;
 }
 
+// fn(f64) for both precisions, as ISA "auto".
+static void each_auto(void (*fn)(int f64)) {
+  g_isa = "auto";
+  for (int f64 = 0; f64 < 2; f64++) {
+    g_prec = f64 ? "f64" : "f32";
+    fn(f64);
+  }
+}
+
+// fn(isa, f64) for every available ISA x precision.
+static void each_isa(void (*fn)(ek_isa isa, int f64)) {
+  for (size_t i = 0; i < 3; i++) {
+    if (!ek_isa_available(isas[i]))
+      continue;
+    g_isa = ek_isa_name(isas[i]);
+    for (int f64 = 0; f64 < 2; f64++) {
+      g_prec = f64 ? "f64" : "f32";
+      fn(isas[i], f64);
+    }
+  }
+}
+
+// The families that share a pass over the ISAs and precisions.
+static void batch_svd_auto(int f64) {
+  run_batch(f64);
+  run_svd_auto(f64);
+}
+static void svd_polar(ek_isa isa, int f64) {
+  run_svd(isa, f64);
+  run_polar_warm(isa, f64);
+}
+static void hessian(ek_isa isa, int f64) { run_hessian(isa, !f64); }
+static void cloth_and_force(ek_isa isa, int f64) {
+  run_cloth(isa, f64);
+  run_cloth_force(isa, f64);
+}
+
 // The whole table at the current thread count: per family, "auto" entry
 // points first, then every available ISA x precision.
 static void run_table(void) {
   lap(NULL);
-  g_isa = "auto";
-  for (int f64 = 0; f64 < 2; f64++) {
-    g_prec = f64 ? "f64" : "f32";
-    run_batch(f64);
-    run_svd_auto(f64);
-  }
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_svd(isas[i], f64);
-      run_polar_warm(isas[i], f64);
-    }
-  }
+  each_auto(batch_svd_auto);
+  each_isa(svd_polar);
   lap("svd3+polar");
-  g_isa = "auto";
-  for (int f64 = 0; f64 < 2; f64++) {
-    g_prec = f64 ? "f64" : "f32";
-    run_material_auto(f64);
-  }
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_material(isas[i], f64);
-    }
-  }
+  each_auto(run_material_auto);
+  each_isa(run_material);
   lap("material");
-  g_isa = "auto";
-  for (int f64 = 0; f64 < 2; f64++) {
-    g_prec = f64 ? "f64" : "f32";
-    run_fvm_auto(f64);
-  }
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_fvm(isas[i], f64);
-    }
-  }
+  each_auto(run_fvm_auto);
+  each_isa(run_fvm);
   lap("fvm");
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_hessian(isas[i], !f64);
-    }
-  }
+  each_isa(hessian);
   lap("hessian");
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_xpbd(isas[i], f64);
-    }
-  }
+  each_isa(run_xpbd);
   lap("xpbd");
-  g_isa = "auto";
-  for (int f64 = 0; f64 < 2; f64++) {
-    g_prec = f64 ? "f64" : "f32";
-    run_cloth_auto(f64);
-  }
+  each_auto(run_cloth_auto);
   g_prec = "f64";
   run_cloth_force_auto();
-  for (size_t i = 0; i < 3; i++) {
-    if (!ek_isa_available(isas[i]))
-      continue;
-    g_isa = ek_isa_name(isas[i]);
-    for (int f64 = 0; f64 < 2; f64++) {
-      g_prec = f64 ? "f64" : "f32";
-      run_cloth(isas[i], f64);
-      run_cloth_force(isas[i], f64);
-    }
-  }
+  each_isa(cloth_and_force);
   lap("cloth");
 }
 

@@ -15,12 +15,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "check.h"
 #include "cli.h"
+#include "not_regular.h"
 #include "omp_env.h"
 #include "verify.h"
 
@@ -141,18 +141,6 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
     cJSON_AddStringToObject(j, "nonfinite_inputs", r->nonfinite_case);
   cJSON_AddStringToObject(j, "status", status);
   cJSON_AddItemToArray(ctx->rows, j);
-}
-
-// What is at path when it exists and is not a regular file, else NULL.
-static const char *not_regular(const char *path) {
-  struct stat st;
-  if (lstat(path, &st) != 0 || S_ISREG(st.st_mode))
-    return NULL;
-  return S_ISDIR(st.st_mode)    ? "a directory"
-         : S_ISCHR(st.st_mode)  ? "a character device"
-         : S_ISFIFO(st.st_mode) ? "a FIFO"
-         : S_ISLNK(st.st_mode)  ? "a symbolic link"
-                                : "not a regular file";
 }
 
 // --json FILE, checked before any row runs (issue 28: a bad path was

@@ -41,7 +41,10 @@ typedef struct ek_cloth_force_args_f64 cloth_args;
 
 static double wall(void) { return omp_get_wtime(); }
 
-static int check_params(const char *fn, const ek_cloth *cl, const ek_cloth_params *p) {
+// Every entry point's argument checks, in this order: cl and p, the
+// parameters, then its arrays (missing: one of those named is NULL).
+static int check_args(const char *fn, const ek_cloth *cl, const ek_cloth_params *p, int missing,
+                      const char *arrays) {
   if (!cl || !p) {
     ek_set_error("%s: NULL cloth or parameters", fn);
     return EK_EINVAL;
@@ -51,6 +54,10 @@ static int check_params(const char *fn, const ek_cloth *cl, const ek_cloth_param
     ek_set_error("%s: bad parameters (model %d, mu %g, lambda %g, bending %g): need mu > 0, "
                  "lambda >= 0, bending >= 0, finite",
                  fn, (int)p->model, p->mu, p->lambda, p->bending);
+    return EK_EINVAL;
+  }
+  if (missing) {
+    ek_set_error("%s: NULL %s", fn, arrays);
     return EK_EINVAL;
   }
   return 0;
@@ -105,14 +112,9 @@ static cloth_args base_args(const ek_cloth *cl, const ek_cloth_params *p, const 
 
 int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
                        const ek_cloth_force_opts *opts) {
-  const char *fn = "ek_cloth_forces";
-  int rc = check_params(fn, cl, p);
+  int rc = check_args("ek_cloth_forces", cl, p, !x || !f, "x or f");
   if (rc)
     return rc;
-  if (!x || !f) {
-    ek_set_error("%s: NULL x or f", fn);
-    return EK_EINVAL;
-  }
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
@@ -395,14 +397,9 @@ static void kernel_blocks(const void *ctx, size_t b0, size_t b1) {
 
 int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, double *E,
                           const ek_cloth_force_opts *opts) {
-  const char *fn = "ek_cloth_energy_ex";
-  int rc = check_params(fn, cl, p);
+  int rc = check_args("ek_cloth_energy_ex", cl, p, !x || !E, "x or E");
   if (rc)
     return rc;
-  if (!x || !E) {
-    ek_set_error("%s: NULL x or E", fn);
-    return EK_EINVAL;
-  }
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
@@ -416,14 +413,9 @@ int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const re
 int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, const real *x,
                                  int project, const real *dx, real *q,
                                  const ek_cloth_force_opts *opts) {
-  const char *fn = "ek_cloth_hessian_apply_ex";
-  int rc = check_params(fn, cl, p);
+  int rc = check_args("ek_cloth_hessian_apply_ex", cl, p, !x || !dx || !q, "x, dx or q");
   if (rc)
     return rc;
-  if (!x || !dx || !q) {
-    ek_set_error("%s: NULL x, dx or q", fn);
-    return EK_EINVAL;
-  }
   const ek_kernel_table *kt = ek_kernels_resolve(opts ? opts->isa : EK_ISA_AUTO);
   if (!kt)
     return EK_EISA;
@@ -516,7 +508,7 @@ static void psi_blocks(const void *ctx, size_t b0, size_t b1) {
 }
 
 double ek_cloth_energy_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x) {
-  if (check_params("ek_cloth_energy_f64", cl, p) || !x)
+  if (check_args("ek_cloth_energy_f64", cl, p, !x, "x"))
     return NAN;
   double E = 0;
   // StVK: the vector kernel, written in this path's operation order (the
@@ -633,13 +625,9 @@ static void tri_hess(const ek_cloth *cl, const ek_cloth_params *p, const double 
 
 int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
                                int project, const double *dx, double *q) {
-  int rc = check_params("ek_cloth_hessian_apply_f64", cl, p);
+  int rc = check_args("ek_cloth_hessian_apply_f64", cl, p, !x || !dx || !q, "x, dx or q");
   if (rc)
     return rc;
-  if (!x || !dx || !q) {
-    ek_set_error("ek_cloth_hessian_apply_f64: NULL x, dx or q");
-    return EK_EINVAL;
-  }
   // StVK: the vector kernel, in this path's operation order (above).
   if (p->model == EK_MEMBRANE_STVK)
     return ek_cloth_hessian_apply_ex_f64(cl, p, x, project, dx, q, NULL);
@@ -685,13 +673,9 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
 
 int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
                                   double *blocks) {
-  int rc = check_params("ek_cloth_hessian_diagonal_f64", cl, p);
+  int rc = check_args("ek_cloth_hessian_diagonal_f64", cl, p, !x || !blocks, "x or blocks");
   if (rc)
     return rc;
-  if (!x || !blocks) {
-    ek_set_error("ek_cloth_hessian_diagonal_f64: NULL x or blocks");
-    return EK_EINVAL;
-  }
   // Column j of corner c's block is the corner-c part of the element
   // product with e_j at corner c. Each vertex sums its corners in element
   // order (triangles, then hinges), the order of the serial scatter this
@@ -724,13 +708,9 @@ int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, 
 
 int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x, double *J,
                         double *s1, double *s2, double *psi) {
-  int rc = check_params("ek_cloth_fields_f64", cl, p);
+  int rc = check_args("ek_cloth_fields_f64", cl, p, !x, "x");
   if (rc)
     return rc;
-  if (!x) {
-    ek_set_error("ek_cloth_fields_f64: NULL x");
-    return EK_EINVAL;
-  }
   // Each triangle's values alone: any partition gives the same bits.
   long nt = (long)cl->nt;
 #pragma omp parallel for schedule(static) if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)

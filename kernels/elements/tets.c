@@ -7,6 +7,7 @@
 #include "tets.h"
 
 #include "layer.h"
+#include "morton.h"
 
 #include "../kernels.h"
 
@@ -90,32 +91,6 @@ static double rest_frame(const double *X, const int32_t *t, double Dm_inv[9]) {
   return det;
 }
 
-// Spread the low 21 bits of v so that there are two zero bits between
-// consecutive bits (3D Morton interleave). sim/implicit.c has its own copy:
-// libek_sim is built on the public API only (kernels/ is private to libek),
-// and a Morton code is no API of its own.
-static uint64_t spread3(uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
-
-typedef struct {
-  uint64_t key;
-  int32_t tet;
-} keyed_tet;
-
-static int cmp_keyed(const void *a, const void *b) {
-  const keyed_tet *x = a, *y = b;
-  if (x->key != y->key)
-    return x->key < y->key ? -1 : 1;
-  return (x->tet > y->tet) - (x->tet < y->tet); // stable: ties by index
-}
-
 // Morton order of the centroids in the bounding box, 21 bits per axis.
 static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
   size_t nt = el->ntets, nv = el->nverts;
@@ -125,7 +100,7 @@ static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
       lo[k] = fmin(lo[k], X[v * 3 + k]);
       hi[k] = fmax(hi[k], X[v * 3 + k]);
     }
-  keyed_tet *keyed = malloc(nt * sizeof *keyed);
+  ek_morton_key *keyed = malloc(nt * sizeof *keyed);
   if (!keyed)
     return -1;
   for (size_t t = 0; t < nt; t++) {
@@ -141,14 +116,14 @@ static int morton_order(const ek_tets *el, const double *X, int32_t *order) {
       double span = hi[k] / 2 - lo[k] / 2;
       double u = span > 0 ? (c - lo[k] / 2) / span : 0;
       u = u >= 0 ? fmin(u, 1.0) : 0;
-      key |= spread3((uint64_t)(u * 2097151.0)) << k;
+      key |= ek_morton_spread3((uint64_t)(u * 2097151.0)) << k;
     }
     keyed[t].key = key;
-    keyed[t].tet = (int32_t)t;
+    keyed[t].index = (int32_t)t;
   }
-  qsort(keyed, nt, sizeof *keyed, cmp_keyed);
+  qsort(keyed, nt, sizeof *keyed, ek_morton_key_cmp);
   for (size_t t = 0; t < nt; t++)
-    order[t] = keyed[t].tet;
+    order[t] = keyed[t].index;
   free(keyed);
   return 0;
 }
