@@ -45,6 +45,21 @@ static inline vmask vmnot(vmask a) {
   return _mm256_xor_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(-1)));
 }
 static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_ps(b, a, m); }
+// vsel_op: vsel as the instruction itself, for the SVD's selects
+// (svd3_core.h). GCC 12 folds the blendv builtins into a generic select on
+// "m < 0" and, where it cannot see that m is a compare result, expands that
+// back as vpcmpgtd + vblendvps: one more operation on the chain of each
+// Jacobi pair (18 per vector in the SVD). The asm keeps one vblendvps, the
+// same selection (docs/perf.md, "SVD", twelfth round). Not vsel itself: in
+// every kernel it changed GCC's code, and the warm polar's f64 AoS bits
+// (ek-hash: one entry of the extremes' inputs, where the code's other
+// choices reach NaN lanes differently).
+#define EK_HAVE_VSEL_OP
+static inline vreal vsel_op(vmask m, vreal a, vreal b) {
+  vreal r;
+  __asm__("vblendvps %3, %2, %1, %0" : "=x"(r) : "x"(b), "xm"(a), "x"(m));
+  return r;
+}
 static inline int vany(vmask m) { return _mm256_movemask_ps(m) != 0; }
 static inline int vall(vmask m) { return _mm256_movemask_ps(m) == 0xff; }
 
@@ -84,6 +99,12 @@ static inline vmask vmnot(vmask a) {
   return _mm256_xor_pd(a, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
 }
 static inline vreal vsel(vmask m, vreal a, vreal b) { return _mm256_blendv_pd(b, a, m); }
+#define EK_HAVE_VSEL_OP
+static inline vreal vsel_op(vmask m, vreal a, vreal b) { // as vsel_op of float
+  vreal r;
+  __asm__("vblendvpd %3, %2, %1, %0" : "=x"(r) : "x"(b), "xm"(a), "x"(m));
+  return r;
+}
 static inline int vany(vmask m) { return _mm256_movemask_pd(m) != 0; }
 static inline int vall(vmask m) { return _mm256_movemask_pd(m) == 0xf; }
 #endif

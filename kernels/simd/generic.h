@@ -48,9 +48,15 @@ static inline vreal vrsqrt_est(vreal a) { return vrsqrt(a); }
 // visfinite(x): x - x is 0 for finite x and NaN for inf or NaN.
 static inline vmask visfinite(vreal a) { return veq(vsub(a, a), vzero()); }
 
+// vsel_op(m, a, b) = vsel(m, a, b) where the target spells it otherwise
+// (avx2.h says why).
+#ifndef EK_HAVE_VSEL_OP
+static inline vreal vsel_op(vmask m, vreal a, vreal b) { return vsel(m, a, b); }
+#endif
+
 // vsel_neg(m, a, b) = m ? -a : b. AVX-512 does it in one masked XOR.
 #ifndef EK_HAVE_VSEL_NEG
-static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return vsel(m, vneg(a), b); }
+static inline vreal vsel_neg(vmask m, vreal a, vreal b) { return vsel_op(m, vneg(a), b); }
 #endif
 
 // The record transposes, through a tile of np planes in L1: the records

@@ -27,6 +27,7 @@
 //                   <= EK_RSQRT_RAW_TOL = 2^-14 (AVX-512), 1.5 2^-12 (AVX2
 //                   float); exact where vrsqrt_est is
 //   vsel_neg(m, a, b) = m ? -a : b
+//   vsel_op(m, a, b) = vsel(m, a, b), the select instruction as such (avx2.h)
 //   vxorsign(y, x) = y with its sign flipped where x's sign bit is set
 //   vlt vle vgt vge veq (-> vmask), visfinite(x), vmand vmor vmnot
 //   vsel(m, a, b) = m ? a : b,  vany(m), vall(m)
