@@ -38,7 +38,7 @@ one_error() {
   fi
 }
 
-for prog in ek-bench ek-sim ek-verify "$@"; do
+for prog in ek-bench ek-sim ek-verify ek-hash "$@"; do
   exe=$bin/$prog
   for h in --help -h; do
     if expect "$prog $h" 0 "$exe" "$h"; then
@@ -341,6 +341,14 @@ for v in " 5" "5 " "" "5x" "99999999999999999999"; do
     one_error "ek-sim --steps '$v'" &&
     { grep -qF -- "--steps '$v'" "$err" || fail "ek-sim --steps '$v': value not named: $(cat "$err")"; }
 done
+# ek-hash --threads as strict (it was atoi: "2x" ran 2 threads, "x" 0).
+for v in "x" " 2" "2x" "0" "4097" "99999999999999999999" ""; do
+  expect "ek-hash --threads '$v'" 2 "$bin/ek-hash" --threads "$v" &&
+    one_error "ek-hash --threads '$v'" &&
+    { grep -qF -- "--threads '$v'" "$err" || fail "ek-hash --threads '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-hash --threads (no value)" 2 "$bin/ek-hash" --threads &&
+  one_error "ek-hash --threads (no value)"
 expect "ek-sim --threads ' 1'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1 \
   --threads " 1" && one_error "ek-sim --threads ' 1'"
 for args in "--tol|0.1 " "--time| 0.01" "--time|0x1p-7"; do
