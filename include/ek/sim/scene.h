@@ -323,12 +323,17 @@ typedef struct {
 // object it belongs in). Unknown keys are errors. Text that is not JSON is
 // placed at the first byte that is not ("invalid JSON near ...: expected
 // ..."), or named "unexpected end of file" with what is left open. *scene
-// is fully written on success and left unspecified on error.
+// is fully written on success and left unspecified on error. Checks made
+// later (ek_sim_create, ek_scene_mesh, ek-sim) name the value's place too
+// (scene->where, ek_scene_at): "scene.json:9:30: boundary[1].region = ...:
+// holds no vertex of the mesh".
 int ek_scene_load(const char *path, ek_scene *scene);
 // Same from text in memory; `name` is used in messages, `base_dir` resolves a
 // relative mesh file ("." when NULL).
 int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene);
-// Build (generate or load) the scene's mesh. NULL on failure (message in ek_last_error).
+// Build (generate or load) the scene's mesh. NULL on failure (message in
+// ek_last_error: for a mesh file, "SCENE:LINE:COL: mesh.file: " and the
+// mesh reader's "MESH:LINE: ...").
 // A tet scene has an ek_mesh, a cloth scene (scene->triangles) an
 // ek_trimesh; asking for the other kind is an error.
 ek_mesh *ek_scene_mesh(const ek_scene *scene);
