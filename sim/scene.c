@@ -383,7 +383,11 @@ static void record_positions(const parse_ctx *c, const cJSON *root, ek_scene_whe
   const cJSON *mesh = item(root, "mesh"), *mat = item(root, "material");
   const cJSON *integ = item(root, "integrator");
   const cJSON *m = item(mesh, "file");
-  w->mesh = pos_of(c, m ? m : (m = item(mesh, "box")) ? m : item(mesh, "grid"));
+  if (!m)
+    m = item(mesh, "box");
+  if (!m)
+    m = item(mesh, "grid");
+  w->mesh = pos_of(c, m);
   w->material = pos_of(c, mat);
   w->model = pos_of(c, item(mat, "model"));
   w->isa = pos_of(c, item(root, "isa"));
