@@ -504,7 +504,11 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
     dt /= 2;
   }
   if (best < 0) {
-    snprintf(err, errlen, "%s: the reference (explicit f64, dt %g) failed: %s", scene->path,
+    // A reference step the scene states: named at its place in the file.
+    char where[EK_SCENE_PATH_MAX + 32];
+    snprintf(err, errlen, "%s: the reference (explicit f64, dt %g) failed: %s",
+             ek_scene_at(scene, trusted ? scene->where.reference_dt : (ek_scene_pos){0, 0}, where,
+                         sizeof where),
              f->dt[f->runs - 1], runs[f->runs - 1].error);
     goto fail;
   }
@@ -540,7 +544,9 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
   memset(a, 0, sizeof *a);
   a->scene_row = a->pick = -1;
   if (scene->triangles || !mesh) {
-    snprintf(err, errlen, "%s: the advisor takes tet scenes only", scene->path);
+    char where[EK_SCENE_PATH_MAX + 32];
+    snprintf(err, errlen, "%s: mesh: the advisor takes tet scenes only",
+             ek_scene_at(scene, scene->where.mesh, where, sizeof where));
     return EK_EINVAL;
   }
   if (!(o->tol >= 0 && o->tol < 1) || !(o->sim_time > 0)) {

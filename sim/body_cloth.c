@@ -262,8 +262,11 @@ static void *tris_xpbd_create(ek_sim *s, double young, int *f32) {
   // W per unit area). Gauss-Seidel over colours is the one solver.
   const ek_scene_xpbd *k = &s->scene.xpbd;
   if (k->elements != EK_XPBD_TETS || k->solver != EK_XPBD_GAUSS_SEIDEL) {
-    sim_fail(s, "xpbd: a cloth takes the default elements and solver (its triangles and hinges, "
-                "coloured Gauss-Seidel)");
+    const int el = k->elements != EK_XPBD_TETS;
+    sim_fail_at(s, el ? s->scene.where.elements : s->scene.where.solver,
+                "integrator.%s = \"%s\": a cloth takes the default elements and solver (its "
+                "triangles and hinges, coloured Gauss-Seidel)",
+                el ? "elements" : "solver", el ? "clusters" : "jacobi");
     return NULL;
   }
   const triangles *b = tris_of(s);

@@ -624,10 +624,10 @@ static void tets_xpbd_destroy(void *c) {
 
 static void *tets_xpbd_create(ek_sim *s, double young, int *f32) {
   if (!ek_xpbd_supports(s->mat.model)) {
-    sim_fail(s,
-             "material.model = %s: XPBD has constraints for \"stvk\" (seed 001's Hookean "
-             "energy) and \"snh\" (stable neo-Hookean, Macklin & Mueller 2021; xpbd.h) only",
-             s->scene.model_name);
+    sim_fail_at(s, s->scene.where.model,
+                "material.model = %s: XPBD has constraints for \"stvk\" (seed 001's Hookean "
+                "energy) and \"snh\" (stable neo-Hookean, Macklin & Mueller 2021; xpbd.h) only",
+                s->scene.model_name);
     return NULL;
   }
   tets_xpbd *tx = calloc(1, sizeof *tx);

@@ -142,12 +142,15 @@ static const char *output_is_input(const char *out, const ek_scene *s) {
 static void warn_long_xpbd_step(const ek_scene *s, size_t constraints, long steps) {
   const double sweeps = (double)s->xpbd.substeps * (double)s->xpbd.iterations;
   const double seconds = sweeps * (double)constraints * 1e-9;
+  char where[EK_SCENE_PATH_MAX + 32];
   if (seconds > 60)
     fprintf(stderr,
             "ek-sim: warning: %s: each step runs %ld substeps x %ld iterations = %.3g sweeps "
             "over %zu constraints: at least %.3g s per step (1 ns per constraint and sweep), "
             "%.3g s for the %ld steps\n",
-            s->path, s->xpbd.substeps, s->xpbd.iterations, sweeps, constraints, seconds,
+            ek_scene_at(s, s->where.substeps.line ? s->where.substeps : s->where.integrator, where,
+                        sizeof where),
+            s->xpbd.substeps, s->xpbd.iterations, sweeps, constraints, seconds,
             seconds * (double)steps, steps);
 }
 
@@ -171,11 +174,12 @@ static int box_fits_memory(const ek_scene *s) {
   const double have = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
   if (need <= have)
     return 0;
+  char where[EK_SCENE_PATH_MAX + 32];
   fprintf(stderr,
           "ek-sim: %s: mesh.box %d x %d x %d cells = %.3g tets needs at least %.3g GB (%.0f "
           "bytes per tet, measured), more than this machine's %.3g GB of memory\n",
-          s->path, s->box_cells[0], s->box_cells[1], s->box_cells[2], tets, need / 1e9,
-          BOX_BYTES_PER_TET, have / 1e9);
+          ek_scene_at(s, s->where.mesh, where, sizeof where), s->box_cells[0], s->box_cells[1],
+          s->box_cells[2], tets, need / 1e9, BOX_BYTES_PER_TET, have / 1e9);
   return EK_EXIT_FAILED;
 }
 
@@ -852,7 +856,9 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
 static int run_advise(const ek_scene *scene, double tol, double sim_time, int do_explain,
                       int threads) {
   if (scene->triangles) {
-    fprintf(stderr, "ek-sim: %s: --advise takes tet scenes only (this is a cloth)\n", scene->path);
+    char where[EK_SCENE_PATH_MAX + 32];
+    fprintf(stderr, "ek-sim: %s: mesh: --advise takes tet scenes only (this is a cloth)\n",
+            ek_scene_at(scene, scene->where.mesh, where, sizeof where));
     return EK_EXIT_FAILED;
   }
   char err[1024];
@@ -996,11 +1002,13 @@ static int run(int argc, char **argv) {
   // An ISA the CPU lacks (the scene's or EK_ISA's) stops here, before any
   // output exists.
   ek_isa isa;
+  char where[EK_SCENE_PATH_MAX + 32];
   if (ek_isa_resolve(scene.svd.isa, &isa) != EK_OK) {
     // EK_ISA is part of the invocation (usage); the scene's isa key is input.
     if (scene.svd.isa == EK_ISA_AUTO)
       return ek_cli_usage_error("ek-sim", "%s", ek_last_error());
-    fprintf(stderr, "ek-sim: %s: %s\n", scene_path, ek_last_error());
+    fprintf(stderr, "ek-sim: %s: isa: %s\n",
+            ek_scene_at(&scene, scene.where.isa, where, sizeof where), ek_last_error());
     return EK_EXIT_FAILED;
   }
   // A scene that names its ISA and an EK_ISA that forces another: the
@@ -1013,7 +1021,9 @@ static int run(int argc, char **argv) {
     return ek_cli_usage_error("ek-sim",
                               "EK_ISA=%s forces %s but %s names isa \"%s\": unset EK_ISA or "
                               "drop the scene's isa key",
-                              env_isa, ek_isa_name(forced), scene_path, ek_isa_name(isa));
+                              env_isa, ek_isa_name(forced),
+                              ek_scene_at(&scene, scene.where.isa, where, sizeof where),
+                              ek_isa_name(isa));
   if (steps < 0)
     steps = scene.steps;
   if (!out && !no_output && scene.output_file[0])
@@ -1025,7 +1035,7 @@ static int run(int argc, char **argv) {
     fprintf(stderr,
             "ek-sim: %s: output.file \"%s\" names the input %s; refusing to write "
             "frames over it\n",
-            scene_path, out, input);
+            ek_scene_at(&scene, scene.where.output_file, where, sizeof where), out, input);
     return EK_EXIT_FAILED;
   }
   if (input)

@@ -31,12 +31,13 @@ static int explicit_explain(const ek_scene *s, FILE *out, int number) {
 // not refused.
 static int explicit_create(ek_sim *s, void **data) {
   *data = NULL;
+  char where[EK_SCENE_PATH_MAX + 32];
   if (s->scene.dt > s->cfl_dt)
     sim_warn(s,
              "%s: dt = %g is above the CFL limit %g (h_min = %g, c = sqrt((lambda + 2 mu) / "
              "rho) = %g, h_min / c = %g): the explicit loop may be unstable",
-             s->scene.path, s->scene.dt, s->cfl_dt, s->h_min, s->wave_speed,
-             s->h_min / s->wave_speed);
+             ek_scene_at(&s->scene, s->scene.where.dt, where, sizeof where), s->scene.dt, s->cfl_dt,
+             s->h_min, s->wave_speed, s->h_min / s->wave_speed);
   return 0;
 }
 

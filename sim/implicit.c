@@ -430,10 +430,10 @@ static int implicit_create(ek_sim *s, void **data) {
     const char *name = ek_linear_solver_name(ls);
     if (!ops->hessian_pattern || !ops->hessian_assemble)
       return create_failed(s, d,
-                           sim_fail(s,
-                                    "integrator.linear_solver \"%s\": this body has no assembled "
-                                    "Hessian (tets only); use \"matrix_free\"",
-                                    name));
+                           sim_fail_at(s, sc->where.linear_solver,
+                                       "integrator.linear_solver = \"%s\": this body has no "
+                                       "assembled Hessian (tets only); use \"matrix_free\"",
+                                       name));
     if (ops->hessian_pattern(d->H, &d->pat) < 0)
       return create_failed(s, d, sim_fail(s, "the Hessian's pattern: %s", ek_last_error()));
     d->acc = calloc(d->n3, sizeof(double));
@@ -459,7 +459,8 @@ static int implicit_create(ek_sim *s, void **data) {
                                     sc->implicit.cg_tol, sc->implicit.max_cg, err, sizeof err);
     if (!d->ps) {
       data_free(d);
-      return sim_fail(s, "integrator.linear_solver \"%s\": %s", name, err);
+      return sim_fail_at(s, sc->where.linear_solver, "integrator.linear_solver = \"%s\": %s", name,
+                         err);
     }
   }
   *data = d;

@@ -1,5 +1,7 @@
 // Mesh file readers: TetGen .node/.ele and Gmsh .msh (ASCII v2 and v4).
-// Every error names the file, the line and the offending value; a reader
+// Every error names the file, the line and the offending value (a token
+// beyond what the format and the header's counts put on a line included:
+// mesh_rd_end); a reader
 // collects everything first and hands it to mesh_build(), so a mesh never
 // half-loads. The line reader, the growable arrays and the Gmsh parser are
 // shared with the triangle meshes (mesh_read.h: counts in headers are never
@@ -45,17 +47,35 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
   // "<index> x y z [attributes] [marker]" per point.
   if (mesh_rd_open(&r, node_path, 1, err, errlen))
     goto done;
-  long np, dim;
+  long np, dim, nattr, nmark;
   if (mesh_rd_line(&r, "the .node header") || mesh_rd_long(&r, "number of points", &np) ||
       mesh_rd_check_count(&r, np, MESH_MAX_ITEMS, "point") || mesh_rd_count_fits(&r, np, "point") ||
-      mesh_rd_long(&r, "dimension", &dim))
+      mesh_rd_long(&r, "dimension", &dim) ||
+      mesh_rd_long_or(&r, "number of attributes", 0, &nattr) ||
+      mesh_rd_long_or(&r, "number of boundary markers", 0, &nmark) ||
+      mesh_rd_end(&r, "the header's point count, dimension, attribute count and marker count"))
     goto done;
   if (dim != 3) {
     mesh_error(err, errlen, "%s:%ld: dimension %ld, expected 3", node_path, r.lineno, dim);
     goto done;
   }
-  // Attribute and marker counts (optional) are not needed: the rest of
-  // each point line is ignored.
+  // Attributes are read and dropped, one token each: a count beyond the
+  // line's tokens is a truncated line, whatever its size.
+  if (nattr < 0 || nattr > MESH_MAX_ITEMS || (nmark != 0 && nmark != 1)) {
+    mesh_error(err, errlen,
+               "%s:%ld: %ld attributes and %ld boundary markers per point, expected >= 0 and 0 "
+               "or 1",
+               node_path, r.lineno, nattr, nmark);
+    goto done;
+  }
+  // A point line holds its index, x y z, then exactly the attributes and
+  // the marker the header declares (read and checked as numbers, not kept);
+  // anything beyond them is refused.
+  char point_what[160];
+  snprintf(point_what, sizeof point_what,
+           "the point's index, 3 coordinates, %ld attribute%s and %ld boundary marker%s (as the "
+           "header declares)",
+           nattr, nattr == 1 ? "" : "s", nmark, nmark == 1 ? "" : "s");
   for (long i = 0; i < np; i++) {
     long idx;
     char what[96];
@@ -74,10 +94,16 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
                  r.lineno, idx, base_index + i);
       goto done;
     }
-    double x[3];
+    double x[3], attr;
+    long mark;
     for (int k = 0; k < 3; k++)
       if (mesh_rd_double(&r, "coordinate", &x[k]))
         goto done;
+    for (long k = 0; k < nattr; k++)
+      if (mesh_rd_double(&r, "attribute", &attr))
+        goto done;
+    if ((nmark && mesh_rd_long(&r, "boundary marker", &mark)) || mesh_rd_end(&r, point_what))
+      goto done;
     if (mesh_arrays_push_vert(&a, x, r.lineno)) {
       mesh_error(err, errlen, "%s:%ld: out of memory at point %ld", node_path, r.lineno, i);
       goto done;
@@ -90,34 +116,56 @@ static ek_mesh *load_tetgen(const char *base, const ek_mesh_opts *opts, char *er
   // nodes are the corners.
   if (mesh_rd_open(&r, ele_path, 1, err, errlen))
     goto done;
-  long ne, npt;
+  long ne, npt, eattr;
   if (mesh_rd_line(&r, "the .ele header") || mesh_rd_long(&r, "number of tetrahedra", &ne) ||
       mesh_rd_check_count(&r, ne, MESH_MAX_ITEMS / 4, "tetrahedron") ||
-      mesh_rd_count_fits(&r, ne, "tetrahedron") || mesh_rd_long(&r, "nodes per tetrahedron", &npt))
+      mesh_rd_count_fits(&r, ne, "tetrahedron") ||
+      mesh_rd_long(&r, "nodes per tetrahedron", &npt) ||
+      mesh_rd_long_or(&r, "number of attributes", 0, &eattr) ||
+      mesh_rd_end(&r, "the header's tetrahedron count, nodes per tetrahedron and attribute count"))
     goto done;
   if (npt != 4 && npt != 10) {
     mesh_error(err, errlen, "%s:%ld: %ld nodes per tetrahedron, expected 4 or 10", ele_path,
                r.lineno, npt);
     goto done;
   }
+  if (eattr < 0 || eattr > MESH_MAX_ITEMS) {
+    mesh_error(err, errlen, "%s:%ld: %ld attributes per tetrahedron, expected >= 0", ele_path,
+               r.lineno, eattr);
+    goto done;
+  }
+  // A tet line: its index, npt nodes (the first four the corners, every one
+  // a vertex of the .node file), then exactly the attributes the header
+  // declares; anything beyond them is refused.
+  char tet_what[160];
+  snprintf(tet_what, sizeof tet_what,
+           "the tetrahedron's index, %ld nodes and %ld attribute%s (as the header declares)", npt,
+           eattr, eattr == 1 ? "" : "s");
   for (long e = 0; e < ne; e++) {
-    long idx, v[4];
+    long idx, v[10];
+    double attr;
     char what[96];
     snprintf(what, sizeof what, "tetrahedra (%ld of %ld read)", e, ne);
     if (mesh_rd_line(&r, what) || mesh_rd_long(&r, "tetrahedron index", &idx))
       goto done;
-    for (int c = 0; c < 4; c++)
+    for (int c = 0; c < npt; c++)
       if (mesh_rd_long(&r, "vertex index", &v[c]))
         goto done;
+    for (long k = 0; k < eattr; k++)
+      if (mesh_rd_double(&r, "attribute", &attr))
+        goto done;
+    if (mesh_rd_end(&r, tet_what))
+      goto done;
     int32_t t[4];
-    for (int c = 0; c < 4; c++) {
+    for (int c = 0; c < npt; c++) {
       long z = v[c] - base_index;
       if (z < 0 || z >= np) {
         mesh_error(err, errlen, "%s:%ld: tet %ld: vertex index %ld out of range [%ld, %ld]",
                    ele_path, r.lineno, idx, v[c], base_index, base_index + np - 1);
         goto done;
       }
-      t[c] = (int32_t)z;
+      if (c < 4)
+        t[c] = (int32_t)z;
     }
     if (mesh_arrays_push_elem(&a, t, r.lineno)) {
       mesh_error(err, errlen, "%s:%ld: out of memory at tetrahedron %ld", ele_path, r.lineno, e);

@@ -138,16 +138,38 @@ static int bad_number(mesh_reader *r, const char *tok, const char *what) {
   return -1;
 }
 
-int mesh_rd_long(mesh_reader *r, const char *what, long *out) {
-  char *tok = need_token(r, what), *end;
-  if (!tok)
-    return -1;
+static int parse_long(mesh_reader *r, const char *tok, const char *what, long *out) {
+  char *end;
   errno = 0;
   long v = strtol(tok, &end, 10);
   if (*end || errno)
     return bad_number(r, tok, what);
   *out = v;
   return 0;
+}
+
+int mesh_rd_long(mesh_reader *r, const char *what, long *out) {
+  char *tok = need_token(r, what);
+  return tok ? parse_long(r, tok, what, out) : -1;
+}
+
+int mesh_rd_long_or(mesh_reader *r, const char *what, long absent, long *out) {
+  char *tok = mesh_rd_token(r);
+  if (!tok) {
+    *out = absent;
+    return 0;
+  }
+  return parse_long(r, tok, what, out);
+}
+
+int mesh_rd_end(mesh_reader *r, const char *what) {
+  char *tok = mesh_rd_token(r), text[128];
+  if (!tok)
+    return 0;
+  mesh_error(r->err, r->errlen, "%s:%ld: unexpected '%s' after %s", r->path, r->lineno,
+             text_escape(text, sizeof text, tok, 40, 1), what);
+  r->failed = 1;
+  return -1;
 }
 
 int mesh_rd_double(mesh_reader *r, const char *what, double *out) {
@@ -299,6 +321,10 @@ static int read_elem_nodes(mesh_reader *r, const tag_index *map, size_t nnodes, 
       return -1;
     }
   }
+  char what[96];
+  snprintf(what, sizeof what, "element %ld's tag and %d nodes", tag, a->npe);
+  if (mesh_rd_end(r, what))
+    return -1;
   if (mesh_arrays_push_elem(a, t, r->lineno)) {
     mesh_error(r->err, r->errlen, "%s:%ld: out of memory at element %ld", r->path, r->lineno, tag);
     return -1;
@@ -315,7 +341,7 @@ static int find_section(mesh_reader *r, const char *name) {
       return -1;
     char *tok = mesh_rd_token(r);
     if (tok && strcmp(tok, name) == 0)
-      return 0;
+      return mesh_rd_end(r, name);
   }
 }
 
@@ -329,7 +355,7 @@ static int expect_end(mesh_reader *r, const char *name) {
     r->failed = 1;
     return -1;
   }
-  return 0;
+  return mesh_rd_end(r, name);
 }
 
 // n lines "tag x y z" (Gmsh v2 and v4.0 nodes): 0, 1 on a parse error
@@ -343,6 +369,8 @@ static int read_tagged_nodes(mesh_reader *r, long n, tag_map *map, mesh_arrays *
     for (int k = 0; k < 3; k++)
       if (mesh_rd_double(r, "coordinate", &x[k]))
         return 1;
+    if (mesh_rd_end(r, "the node's tag and 3 coordinates"))
+      return 1;
     if (map_push(map, tag) || mesh_arrays_push_vert(a, x, r->lineno))
       return 2;
   }
@@ -361,7 +389,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
   long ftype, dsize;
   if (find_section(r, "$MeshFormat") || mesh_rd_line(r, "the mesh format line") ||
       mesh_rd_double(r, "format version", &version) || mesh_rd_long(r, "file type", &ftype) ||
-      mesh_rd_long(r, "data size", &dsize))
+      mesh_rd_long(r, "data size", &dsize) ||
+      mesh_rd_end(r, "the format's version, file type and data size"))
     goto done;
   int v4 = version >= 4.0 && version < 5.0, v41 = version >= 4.05;
   if (!(version >= 2.0 && version < 3.0) && !v4) {
@@ -383,6 +412,7 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
   if (!v4) {
     // v2: "n", then "tag x y z" per node.
     if (mesh_rd_line(r, "node count") || mesh_rd_long(r, "node count", &nnodes) ||
+        mesh_rd_end(r, "the node count") ||
         mesh_rd_check_count(r, nnodes, MESH_MAX_ITEMS, "node") ||
         mesh_rd_count_fits(r, nnodes, "node"))
       goto done;
@@ -395,9 +425,13 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
     // "entityDim entityTag parametric n", n tag lines, n coordinate lines.
     // v4.0: "numBlocks numNodes"; per block "entityTag entityDim
     // parametric n", then n lines "tag x y z".
-    long nblocks;
+    long nblocks, tag_lo, tag_hi;
     if (mesh_rd_line(r, "node header") || mesh_rd_long(r, "node block count", &nblocks) ||
         mesh_rd_long(r, "node count", &nnodes) ||
+        (v41 && (mesh_rd_long(r, "minimum node tag", &tag_lo) ||
+                 mesh_rd_long(r, "maximum node tag", &tag_hi))) ||
+        mesh_rd_end(r, v41 ? "the node header's block count, node count and tag range"
+                           : "the node header's block count and node count") ||
         mesh_rd_check_count(r, nnodes, MESH_MAX_ITEMS, "node") ||
         mesh_rd_check_count(r, nblocks, MESH_MAX_ITEMS, "node block") ||
         mesh_rd_count_fits(r, nnodes, "node") || mesh_rd_count_fits(r, nblocks, "node block"))
@@ -407,7 +441,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
       long e1, e2, param, n;
       if (mesh_rd_line(r, "node block header") || mesh_rd_long(r, "entity", &e1) ||
           mesh_rd_long(r, "entity", &e2) || mesh_rd_long(r, "parametric flag", &param) ||
-          mesh_rd_long(r, "block node count", &n))
+          mesh_rd_long(r, "block node count", &n) ||
+          mesh_rd_end(r, "the node block header's 4 numbers"))
         goto done;
       if (n < 0 || n > nnodes - filled) {
         mesh_error(err, errlen, "%s:%ld: node block of %ld nodes exceeds the %ld declared", path,
@@ -421,7 +456,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
       if (v41) {
         for (long i = 0; i < n; i++) {
           long tag;
-          if (mesh_rd_line(r, "node tags") || mesh_rd_long(r, "node tag", &tag))
+          if (mesh_rd_line(r, "node tags") || mesh_rd_long(r, "node tag", &tag) ||
+              mesh_rd_end(r, "the node tag"))
             goto done;
           if (map_push(&map, tag))
             goto oom;
@@ -432,6 +468,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
           for (int k = 0; k < 3; k++)
             if (mesh_rd_double(r, "coordinate", &x[k]))
               goto done;
+          if (mesh_rd_end(r, "the node's 3 coordinates"))
+            goto done;
           if (mesh_arrays_push_vert(a, x, r->lineno))
             goto oom;
         }
@@ -462,13 +500,14 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
   if (find_section(r, "$Elements"))
     goto done;
 
-  // Element node lists: only elem_type is read; node counts of the other
-  // types are needed only to check a line's length, so they are skipped by
-  // ignoring the rest of the line.
+  // Element node lists: only elem_type is read, and its lines must end
+  // after its nodes; a line of another type is skipped whole (its length
+  // depends on the type, which this reader does not keep a table of).
   if (!v4) {
     // v2: "n", then "tag type ntags tags... nodes..." per element.
     long ne;
     if (mesh_rd_line(r, "element count") || mesh_rd_long(r, "element count", &ne) ||
+        mesh_rd_end(r, "the element count") ||
         mesh_rd_check_count(r, ne, MESH_MAX_ITEMS, "element") ||
         mesh_rd_count_fits(r, ne, "element"))
       goto done;
@@ -493,9 +532,13 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
     // v4.1: "numBlocks numElements minTag maxTag"; per block "entityDim
     // entityTag type n" (v4.0: "entityTag entityDim type n"), then n lines
     // "tag node...".
-    long nblocks, ne;
+    long nblocks, ne, tag_lo, tag_hi;
     if (mesh_rd_line(r, "element header") || mesh_rd_long(r, "element block count", &nblocks) ||
         mesh_rd_long(r, "element count", &ne) ||
+        (v41 && (mesh_rd_long(r, "minimum element tag", &tag_lo) ||
+                 mesh_rd_long(r, "maximum element tag", &tag_hi))) ||
+        mesh_rd_end(r, v41 ? "the element header's block count, element count and tag range"
+                           : "the element header's block count and element count") ||
         mesh_rd_check_count(r, ne, MESH_MAX_ITEMS, "element") ||
         mesh_rd_check_count(r, nblocks, MESH_MAX_ITEMS, "element block") ||
         mesh_rd_count_fits(r, ne, "element") || mesh_rd_count_fits(r, nblocks, "element block"))
@@ -508,6 +551,7 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
       if (mesh_rd_line(r, "element block header") || mesh_rd_long(r, "entity", &e1) ||
           mesh_rd_long(r, "entity", &e2) || mesh_rd_long(r, "element type", &type) ||
           mesh_rd_long(r, "block element count", &n) ||
+          mesh_rd_end(r, "the element block header's 4 numbers") ||
           mesh_rd_check_count(r, n, ne, "block element"))
         goto done;
       if (n > ne - filled) {

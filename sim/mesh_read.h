@@ -42,6 +42,14 @@ char *mesh_rd_token(mesh_reader *r);
 // Tokens that must be there; errors name `what`, the line and the value.
 int mesh_rd_long(mesh_reader *r, const char *what, long *out);
 int mesh_rd_double(mesh_reader *r, const char *what, double *out);
+// A token that may be absent at the end of the line (*out = absent then).
+int mesh_rd_long_or(mesh_reader *r, const char *what, long absent, long *out);
+// The line must hold nothing more than what was read: 0, or -1 with an
+// error quoting the first token left and saying what the line holds
+// ("unexpected '9' after <what>"). A reader calls it on every line it
+// reads whole: a token beyond what the format (and its header's counts)
+// puts there is a corrupt line, never silently dropped.
+int mesh_rd_end(mesh_reader *r, const char *what);
 // A count in [0, max], and one that fits the bytes left in the file.
 int mesh_rd_check_count(mesh_reader *r, long n, long max, const char *what);
 int mesh_rd_count_fits(mesh_reader *r, long n, const char *what);

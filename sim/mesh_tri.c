@@ -384,6 +384,34 @@ static ek_trimesh *build_from(mesh_reader *r, mesh_arrays *a, long base) {
   return m;
 }
 
+// After a vertex's x y z: nothing, w (the spec's optional weight, for
+// rational curves; a polygon's vertex ignores it) or r g b (vertex colours,
+// the extension MeshLab and others write), numbers all, read and dropped;
+// anything else is refused. 0, or -1 with the error set.
+static int obj_vertex_rest(mesh_reader *r) {
+  static const char *const read[] = {"x y z", "x y z w", "x y z and 2 more numbers", "x y z r g b"};
+  int n = 0;
+  for (char *tok; (tok = mesh_rd_token(r)); n++) {
+    char *end, text[128];
+    errno = 0;
+    (void)strtod(tok, &end);
+    if (n == 3 || *end || (errno && errno != ERANGE)) {
+      mesh_error(r->err, r->errlen,
+                 "%s:%ld: unexpected '%s' after the vertex's %s (a v line holds x y z, x y z w "
+                 "or x y z r g b)",
+                 r->path, r->lineno, text_escape(text, sizeof text, tok, 40, 1), read[n]);
+      return -1;
+    }
+  }
+  if (n == 2) {
+    mesh_error(r->err, r->errlen,
+               "%s:%ld: 5 numbers on a v line (a v line holds x y z, x y z w or x y z r g b)",
+               r->path, r->lineno);
+    return -1;
+  }
+  return 0;
+}
+
 static ek_trimesh *read_obj(mesh_reader *r, mesh_arrays *a) {
   int rc;
   while ((rc = mesh_rd_line_or_eof(r)) == 0) {
@@ -391,7 +419,7 @@ static ek_trimesh *read_obj(mesh_reader *r, mesh_arrays *a) {
     if (strcmp(kw, "v") == 0) {
       double p[3];
       if (mesh_rd_double(r, "x", &p[0]) || mesh_rd_double(r, "y", &p[1]) ||
-          mesh_rd_double(r, "z", &p[2]))
+          mesh_rd_double(r, "z", &p[2]) || obj_vertex_rest(r))
         return NULL;
       if (mesh_arrays_push_vert(a, p, r->lineno)) {
         push_failed(r);

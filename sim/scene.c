@@ -364,6 +364,47 @@ static const char *place(const parse_ctx *c, const cJSON *v, int at_key, char *o
   return out;
 }
 
+// v's place for ek_scene_where ({0, 0} unknown).
+static ek_scene_pos pos_of(const parse_ctx *c, const cJSON *v) {
+  const char *at = node_at(c, v, 0);
+  ek_scene_pos p = {0, 0};
+  if (at)
+    line_col(c->text, at, &p.line, &p.col);
+  return p;
+}
+
+static const cJSON *item(const cJSON *obj, const char *key) {
+  return cJSON_GetObjectItemCaseSensitive(obj, key);
+}
+
+// The places of the values that later checks refer to (ek_scene_where), from
+// the parsed (and checked) tree.
+static void record_positions(const parse_ctx *c, const cJSON *root, ek_scene_where *w) {
+  const cJSON *mesh = item(root, "mesh"), *mat = item(root, "material");
+  const cJSON *integ = item(root, "integrator");
+  const cJSON *m = item(mesh, "file");
+  if (!m)
+    m = item(mesh, "box");
+  if (!m)
+    m = item(mesh, "grid");
+  w->mesh = pos_of(c, m);
+  w->material = pos_of(c, mat);
+  w->model = pos_of(c, item(mat, "model"));
+  w->isa = pos_of(c, item(root, "isa"));
+  const cJSON *list = item(root, "boundary");
+  int i = 0;
+  for (const cJSON *bc = list ? list->child : NULL; bc && i < EK_SCENE_MAX_BC; bc = bc->next, i++)
+    w->region[i] = pos_of(c, item(bc, "region"));
+  w->dt = pos_of(c, item(root, "dt"));
+  w->integrator = pos_of(c, integ);
+  w->solver = pos_of(c, item(integ, "solver"));
+  w->elements = pos_of(c, item(integ, "elements"));
+  w->substeps = pos_of(c, item(integ, "substeps"));
+  w->linear_solver = pos_of(c, item(integ, "linear_solver"));
+  w->output_file = pos_of(c, item(item(root, "output"), "file"));
+  w->reference_dt = pos_of(c, item(item(root, "advise"), "reference_dt"));
+}
+
 // Short text of a JSON value for an error message.
 static void value_text(const cJSON *v, char *out, size_t outlen) {
   if (!v) {
@@ -1343,6 +1384,8 @@ int ek_scene_parse_errbuf(const char *text, const char *name, const char *base_d
     rc = parse_allow(&c, root, &s);
   if (!rc)
     rc = parse_advise(&c, root, &s);
+  if (!rc)
+    record_positions(&c, root, &s.where);
   cJSON_Delete(root);
   free(k.pos);
   free(c.nodes);
@@ -1415,6 +1458,27 @@ int ek_scene_load_errbuf(const char *path, ek_scene *scene, char *err, size_t er
   return rc;
 }
 
+const char *ek_scene_at(const ek_scene *s, ek_scene_pos pos, char *buf, size_t len) {
+  if (!buf || !len)
+    return buf;
+  if (pos.line > 0)
+    snprintf(buf, len, "%s:%d:%d", s->path, pos.line, pos.col);
+  else
+    snprintf(buf, len, "%s", s->path);
+  return buf;
+}
+
+// A mesh file that does not load: its reader's message (FILE:LINE of the
+// mesh file) after the scene's place of mesh.file.
+static void mesh_file_error(const ek_scene *s, char *err, size_t errlen) {
+  if (!err || !errlen)
+    return;
+  char where[EK_SCENE_PATH_MAX + 32], why[EK_ERRBUF_LEN];
+  snprintf(why, sizeof why, "%s", err);
+  snprintf(err, errlen, "%s: mesh.file: %s", ek_scene_at(s, s->where.mesh, where, sizeof where),
+           why);
+}
+
 ek_mesh *ek_scene_mesh_errbuf(const ek_scene *s, char *err, size_t errlen) {
   if (s->triangles) {
     if (err && errlen)
@@ -1425,7 +1489,10 @@ ek_mesh *ek_scene_mesh_errbuf(const ek_scene *s, char *err, size_t errlen) {
   if (s->mesh_file[0]) {
     ek_mesh_opts opts = {0};
     opts.fix_orientation = s->fix_orientation;
-    return ek_mesh_load_ex_errbuf(s->mesh_file, &opts, err, errlen);
+    ek_mesh *m = ek_mesh_load_ex_errbuf(s->mesh_file, &opts, err, errlen);
+    if (!m)
+      mesh_file_error(s, err, errlen);
+    return m;
   }
   return ek_mesh_box_errbuf(s->box_cells[0], s->box_cells[1], s->box_cells[2], s->box_size[0],
                             s->box_size[1], s->box_size[2], err, errlen);
@@ -1437,8 +1504,12 @@ ek_trimesh *ek_scene_trimesh_errbuf(const ek_scene *s, char *err, size_t errlen)
       snprintf(err, errlen, "%s: the mesh is a tet mesh: use ek_scene_mesh", s->path);
     return NULL;
   }
-  if (s->mesh_file[0])
-    return ek_trimesh_load_errbuf(s->mesh_file, err, errlen);
+  if (s->mesh_file[0]) {
+    ek_trimesh *m = ek_trimesh_load_errbuf(s->mesh_file, err, errlen);
+    if (!m)
+      mesh_file_error(s, err, errlen);
+    return m;
+  }
   return ek_trimesh_grid_errbuf(s->grid_cells[0], s->grid_cells[1], s->grid_size[0],
                                 s->grid_size[1], s->grid_plane, err, errlen);
 }

@@ -44,6 +44,17 @@ int sim_fail(ek_sim *s, const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(s->error, sizeof s->error, fmt, ap);
   va_end(ap);
+  s->error_at = (ek_scene_pos){0, 0};
+  ek_set_error("%s", s->error);
+  return EK_EINVAL;
+}
+
+int sim_fail_at(ek_sim *s, ek_scene_pos at, const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(s->error, sizeof s->error, fmt, ap);
+  va_end(ap);
+  s->error_at = at;
   ek_set_error("%s", s->error);
   return EK_EINVAL;
 }
@@ -152,9 +163,13 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
       snprintf(err, errlen, "ek_sim_create: no scene or mesh, or a mesh of the wrong kind");
     return NULL;
   }
+  // Messages about a value of the scene name its place in the file.
+  char where[EK_SCENE_PATH_MAX + 32];
   if ((unsigned)scene->integrator >= EK_INTEGRATOR_COUNT) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: integrator %d: unknown", scene->path, (int)scene->integrator);
+      snprintf(err, errlen, "%s: integrator %d: unknown",
+               ek_scene_at(scene, scene->where.integrator, where, sizeof where),
+               (int)scene->integrator);
     return NULL;
   }
   ek_sim *s = calloc(1, sizeof *s);
@@ -164,7 +179,8 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   s->mat = scene->material;
   if (ek_material_check(&s->mat) != 0) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: material: %s", scene->path, ek_last_error());
+      snprintf(err, errlen, "%s: material: %s",
+               ek_scene_at(scene, scene->where.material, where, sizeof where), ek_last_error());
     ek_sim_destroy(s);
     return NULL;
   }
@@ -255,9 +271,10 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
         snprintf(err, errlen,
                  "%s: boundary[%d].region = [%g %g %g]..[%g %g %g]: holds no vertex of the mesh "
                  "(its bounding box is [%g %g %g]..[%g %g %g])",
-                 scene->path, b, scene->bc[b].box_min[0], scene->bc[b].box_min[1],
-                 scene->bc[b].box_min[2], scene->bc[b].box_max[0], scene->bc[b].box_max[1],
-                 scene->bc[b].box_max[2], lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+                 ek_scene_at(scene, scene->where.region[b], where, sizeof where), b,
+                 scene->bc[b].box_min[0], scene->bc[b].box_min[1], scene->bc[b].box_min[2],
+                 scene->bc[b].box_max[0], scene->bc[b].box_max[1], scene->bc[b].box_max[2], lo[0],
+                 lo[1], lo[2], hi[0], hi[1], hi[2]);
       ek_sim_destroy(s);
       return NULL;
     }
@@ -271,7 +288,8 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   body->ops->cfl(s, &s->h_min, &s->wave_speed, &s->cfl_dt);
   if (body->ops->start(s) != 0) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: %s", scene->path, s->error);
+      snprintf(err, errlen, "%s: %s", ek_scene_at(scene, s->error_at, where, sizeof where),
+               s->error);
     ek_sim_destroy(s);
     return NULL;
   }
@@ -279,7 +297,8 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
   s->integrator = sim_integrators[scene->integrator];
   if (s->integrator->create && s->integrator->create(s, &s->integrator_data) != 0) {
     if (err && errlen)
-      snprintf(err, errlen, "%s: integrator %s: %s", scene->path, s->integrator->name, s->error);
+      snprintf(err, errlen, "%s: integrator %s: %s",
+               ek_scene_at(scene, s->error_at, where, sizeof where), s->integrator->name, s->error);
     ek_sim_destroy(s);
     return NULL;
   }

@@ -95,6 +95,7 @@ struct ek_sim {
   unsigned long state_epoch;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
   char error[512];
+  ek_scene_pos error_at; // the scene value `error` is about (sim_fail_at); 0, 0: none
   char warning[512];     // pending, for ek_sim_warning; "" when none
   char warning_out[512]; // what ek_sim_warning returned last
 };
@@ -102,6 +103,10 @@ struct ek_sim {
 double sim_now(void);
 // Message into sim->error; returns EK_EINVAL.
 int sim_fail(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+// The same about a value of the scene (sim->scene.where.*): ek_sim_create's
+// message names its FILE:LINE:COL instead of the file alone.
+int sim_fail_at(ek_sim *sim, ek_scene_pos at, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 // A warning for the caller (ek_sim_warning): the library prints nothing
 // itself (core.h). A pending one is kept; a second is dropped.
 void sim_warn(ek_sim *sim, const char *fmt, ...) __attribute__((format(printf, 2, 3)));

@@ -223,6 +223,9 @@ int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_t
     return -1;
   }
   ek_scene s = *scene;
+  // A trial runs a setting derived from the scene (the advisor's rows, the
+  // loop maps), not the file's values: its messages name the file alone.
+  memset(&s.where, 0, sizeof s.where);
   const int K = nframes > 0 ? nframes : 1;
   double nsteps = (double)K * ceil(sim_time / ((double)K * s.dt) - 1e-9);
   // Checked before the cast to long, which overflows (undefined) for

@@ -38,7 +38,7 @@ one_error() {
   fi
 }
 
-for prog in ek-bench ek-sim ek-verify "$@"; do
+for prog in ek-bench ek-sim ek-verify ek-hash "$@"; do
   exe=$bin/$prog
   for h in --help -h; do
     if expect "$prog $h" 0 "$exe" "$h"; then
@@ -288,17 +288,33 @@ printf '%s\n' '{"mesh": {"box": [1, 1, 1], "size": [1, 1, 1]}, "allow": {"invert
   >"$work/badallow.json"
 expect "ek-sim: allow.inverted not a bool" 1 "$bin/ek-sim" "$work/badallow.json" --no-output &&
   one_error "ek-sim: allow.inverted not a bool"
+# at FILE MARKER: "FILE:LINE:COL" of the byte after the first MARKER (a
+# fixed string) in FILE, as scene errors found after parsing name a value.
+at() {
+  awk -v m="$2" -v f="$1" 'i = index($0, m) { print f ":" NR ":" i + length(m); exit }' "$1"
+}
 # A box too large for any machine's memory: refused before allocating,
-# with the estimate (--explain still explains it).
+# with the estimate (--explain still explains it), at the box's place.
 sed 's/"box": \[100, 1, 10\]/"box": [4096, 4096, 4096]/' "$scenes/cantilever.json" >"$work/huge.json"
 expect "ek-sim on a 4096^3 box" 1 "$bin/ek-sim" "$work/huge.json" --no-output &&
   one_error "ek-sim on a 4096^3 box"
 grep -q "needs at least" "$err" || fail "ek-sim on a 4096^3 box: no estimate in: $(cat "$err")"
+grep -qF "ek-sim: $(at "$work/huge.json" '"box": '): mesh.box 4096 x" "$err" ||
+  fail "ek-sim on a 4096^3 box: not at the box's place: $(cat "$err")"
+# The scene's output.file naming the scene itself: refused at its place.
+sed "s|\"file\": \"cantilever.h5\"|\"file\": \"$work/self.json\"|" "$scenes/cantilever.json" \
+  >"$work/self.json"
+expect "ek-sim, output.file names the scene" 1 "$bin/ek-sim" "$work/self.json" --steps 1 &&
+  one_error "ek-sim, output.file names the scene"
+grep -qF "ek-sim: $(at "$work/self.json" '"output": {"file": '): output.file" "$err" ||
+  fail "ek-sim, output.file names the scene: not at its place: $(cat "$err")"
 expect "ek-sim --explain on a 4096^3 box" 0 "$bin/ek-sim" "$work/huge.json" --explain
 # A scene's isa and an EK_ISA that disagree.
 sed 's/^{/{"isa": "scalar",/' "$scenes/cantilever.json" >"$work/isa.json"
 expect "scene isa scalar under EK_ISA=avx2" 2 env EK_ISA=avx2 "$bin/ek-sim" "$work/isa.json" \
   --no-output --steps 1 && one_error "scene isa scalar under EK_ISA=avx2"
+grep -qF "but $(at "$work/isa.json" '"isa": ') names isa" "$err" ||
+  fail "scene isa scalar under EK_ISA=avx2: not at the isa's place: $(cat "$err")"
 # A full disk (a file size limit: writes fail with EFBIG) after some frames
 # (a cantilever frame with every field is about 1.4 MB; 5 MB hold 3): a
 # message and exit 1, no crash at exit (rc 139 was HDF5's atexit close), the
@@ -325,6 +341,14 @@ for v in " 5" "5 " "" "5x" "99999999999999999999"; do
     one_error "ek-sim --steps '$v'" &&
     { grep -qF -- "--steps '$v'" "$err" || fail "ek-sim --steps '$v': value not named: $(cat "$err")"; }
 done
+# ek-hash --threads as strict (it was atoi: "2x" ran 2 threads, "x" 0).
+for v in "x" " 2" "2x" "0" "4097" "99999999999999999999" ""; do
+  expect "ek-hash --threads '$v'" 2 "$bin/ek-hash" --threads "$v" &&
+    one_error "ek-hash --threads '$v'" &&
+    { grep -qF -- "--threads '$v'" "$err" || fail "ek-hash --threads '$v': value not named: $(cat "$err")"; }
+done
+expect "ek-hash --threads (no value)" 2 "$bin/ek-hash" --threads &&
+  one_error "ek-hash --threads (no value)"
 expect "ek-sim --threads ' 1'" 2 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1 \
   --threads " 1" && one_error "ek-sim --threads ' 1'"
 for args in "--tol|0.1 " "--time| 0.01" "--time|0x1p-7"; do

@@ -7,6 +7,10 @@
 //     before anything is allocated for it; a directory is reported as one;
 //     NUL and binary bytes are refused and never echoed raw; a file of
 //     another format (x.vtk) is named as one, not as a missing x.vtk.node;
+//     a token beyond what a line holds (TetGen: the attributes and marker
+//     its header declares; Gmsh: a line's fields; OBJ: v x y z [w | r g b])
+//     is refused naming FILE:LINE and the token, what the formats allow
+//     loads, and through a scene the message starts at mesh.file's place;
 //   - scenes: a key twice in one object is refused naming the key and both
 //     places; errors found after parsing name FILE:LINE:COLUMN of the
 //     value (of an unknown key; of the object a required key is missing
@@ -511,6 +515,160 @@ static void duplicates(void) {
                ek_last_error(), "2 elements in blocks, 3 declared", NULL, NULL, NULL);
 }
 
+// ---- tokens beyond what a mesh format puts on a line
+
+static const char *const cube_xyz[8] = {"0 0 0", "1 0 0", "0 1 0", "1 1 0",
+                                        "0 0 1", "1 0 1", "0 1 1", "1 1 1"};
+static const char *const cube_tets[6] = {"1 2 4 8", "1 3 7 8", "1 5 6 8",
+                                         "1 6 2 8", "1 4 3 8", "1 7 5 8"};
+
+// NAME.node (the unit cube, 1-based, after `header`) and NAME.ele (its 6
+// tets after `ele_header`): each point line "i x y z" + node_tail, each
+// tet line "i a b c d" + ele_tail; line `bad_point` / `bad_tet` (1-based;
+// 0: none) gets bad_tail instead.
+static void write_cube(const char *name, const char *header, const char *node_tail, int bad_point,
+                       const char *ele_header, const char *ele_tail, int bad_tet,
+                       const char *bad_tail) {
+  char text[2048], file[300];
+  int n = snprintf(text, sizeof text, "%s\n", header);
+  for (int i = 0; i < 8; i++)
+    n += snprintf(text + n, sizeof text - (size_t)n, "%d %s%s\n", i + 1, cube_xyz[i],
+                  i + 1 == bad_point ? bad_tail : node_tail);
+  snprintf(file, sizeof file, "%s.node", name);
+  write_text(file, text);
+  n = snprintf(text, sizeof text, "%s\n", ele_header);
+  for (int e = 0; e < 6; e++)
+    n += snprintf(text + n, sizeof text - (size_t)n, "%d %s%s\n", e + 1, cube_tets[e],
+                  e + 1 == bad_tet ? bad_tail : ele_tail);
+  snprintf(file, sizeof file, "%s.ele", name);
+  write_text(file, text);
+}
+
+static void mesh_loads(const char *what, ek_mesh *m, size_t ntets) {
+  char detail[1200];
+  snprintf(detail, sizeof detail, "%s", m ? "loaded" : ek_last_error());
+  verdict(what, m && ek_mesh_ntets(m) == ntets, detail);
+  ek_mesh_destroy(m);
+}
+
+static void trimesh_loads(const char *what, ek_trimesh *m) {
+  char detail[1200];
+  snprintf(detail, sizeof detail, "%s", m ? "loaded" : ek_last_error());
+  verdict(what, m != NULL, detail);
+  ek_trimesh_destroy(m);
+}
+
+static void trimesh_refused(const char *what, ek_trimesh *m, const char *w1, const char *w2) {
+  const char *err = m ? "(loaded)" : ek_last_error();
+  verdict(what, !m && contains_all(err, w1, w2, NULL) && printable(err), err);
+  ek_trimesh_destroy(m);
+}
+
+static ek_trimesh *load_tri(const char *name) {
+  char path[512];
+  snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+  return ek_trimesh_load(path);
+}
+
+#define V2_HEAD "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n8\n"
+#define V2_NODES                                                                                   \
+  "101 0 0 0\n102 1 0 0\n103 0 1 0\n104 1 1 0\n105 0 0 1\n106 1 0 1\n107 0 1 1\n108 1 1 1\n"
+#define V2_TETS                                                                                    \
+  "1 15 2 0 1 101\n2 4 2 1 1 101 102 104 108\n3 4 2 1 1 101 103 107 108\n"                         \
+  "4 4 2 1 1 101 105 106 108\n5 4 2 1 1 101 106 102 108\n6 4 2 1 1 101 104 103 108\n"              \
+  "7 4 2 1 1 101 107 105 108\n"
+
+// Every token a reader leaves on a line is refused naming FILE:LINE and the
+// token (they were ignored: "1 0 0 0 0.5" under a header of no attributes
+// loaded); what the format and the header's counts put there loads.
+static void extra_tokens(void) {
+  printf("-- tokens beyond a line's content\n");
+  // TetGen: attributes and markers as the headers declare them.
+  write_cube("attrs", "8 3 2 1", " 0.5 7 1", 0, "6 4 1", " 3", 0, "");
+  mesh_loads("TetGen: 2 attributes and a marker per point, 1 attribute per tet", load("attrs"), 6);
+  write_cube("bare", "8 3", "", 0, "6 4", "  # a comment", 0, "");
+  mesh_loads("TetGen: headers without attribute or marker counts", load("bare"), 6);
+  write_cube("quad", "8 3 0 0", "", 0, "6 10", " 2 3 4 5 6 7", 0, "");
+  mesh_loads("TetGen: 10-node tets (the corners kept)", load("quad"), 6);
+  write_cube("x1", "8 3 0 0 9", "", 0, "6 4 0", "", 0, "");
+  mesh_refused("TetGen: .node header with a fifth number", load("x1"), ek_last_error(),
+               "x1.node:1:", "unexpected '9'", "marker count", NULL);
+  write_cube("x2", "8 3 0 0", "", 3, "6 4 0", "", 0, " 0.5");
+  mesh_refused("TetGen: an attribute the header does not declare", load("x2"), ek_last_error(),
+               "x2.node:4:", "unexpected '0.5'", "0 attributes and 0 boundary markers", NULL);
+  write_cube("x3", "8 3 1 1", " 0.5 1", 8, "6 4 0", "", 0, " 0.5 1 2");
+  mesh_refused("TetGen: a token beyond the declared attribute and marker", load("x3"),
+               ek_last_error(), "x3.node:9:", "unexpected '2'", "1 attribute and 1 boundary marker",
+               NULL);
+  write_cube("x4", "8 3 1 1", " 0.5 1", 2, "6 4 0", "", 0, " 0.5");
+  mesh_refused("TetGen: a declared marker missing", load("x4"), ek_last_error(),
+               "x4.node:3:", "missing boundary marker", NULL, NULL);
+  write_cube("x5", "8 3 0 2", "", 0, "6 4 0", "", 0, "");
+  mesh_refused("TetGen: 2 boundary markers per point", load("x5"), ek_last_error(),
+               "x5.node:1:", "0 or 1", NULL, NULL);
+  write_cube("x6", "8 3 0 0", "", 0, "6 4 0 7", "", 0, "");
+  mesh_refused("TetGen: .ele header with a fourth number", load("x6"), ek_last_error(),
+               "x6.ele:1:", "unexpected '7'", NULL, NULL);
+  write_cube("x7", "8 3 0 0", "", 0, "6 4 0", "", 5, " 9");
+  mesh_refused("TetGen: a fifth node on a 4-node tet's line", load("x7"), ek_last_error(),
+               "x7.ele:6:", "unexpected '9'", "4 nodes and 0 attributes", NULL);
+  write_cube("x8", "8 3 0 0", "", 0, "6 4 1", " 2", 2, " 2 x");
+  mesh_refused("TetGen: a word after a tet's attribute", load("x8"), ek_last_error(),
+               "x8.ele:3:", "unexpected 'x'", NULL, NULL);
+  write_cube("x9", "8 3 0 0", "", 0, "6 10", " 2 3 4 5 6 7", 1, " 2 3 4");
+  mesh_refused("TetGen: a 10-node tet with 7 nodes", load("x9"), ek_last_error(),
+               "x9.ele:2:", "missing vertex index", NULL, NULL);
+  // Through a scene: the scene's place of mesh.file, then the mesh's line.
+  write_text("x9.json", "{\"mesh\": {\"file\": \"x7.ele\"}, " MAT ", " TAIL "}");
+  ek_scene sc;
+  char path[512];
+  snprintf(path, sizeof path, "%s/x9.json", tmp_dir);
+  ek_mesh *m = ek_scene_load(path, &sc) == 0 ? ek_scene_mesh(&sc) : NULL;
+  char want[1200];
+  snprintf(want, sizeof want, "%s:1:19: mesh.file: %s/x7.ele:6: unexpected '9'", path, tmp_dir);
+  mesh_refused("TetGen through a scene: the scene's place, then the mesh's line", m,
+               ek_last_error(), want, NULL, NULL, NULL);
+
+  // Gmsh: every line read whole; lines of element types not read are
+  // skipped (cube_v2.msh's point element carries its own tags).
+  write_text("ok2.msh", V2_HEAD V2_NODES "$EndNodes\n$Elements\n7\n" V2_TETS "$EndElements\n");
+  mesh_loads("Gmsh v2: the cube", load("ok2.msh"), 6);
+  write_text("g1.msh", V2_HEAD "101 0 0 0 7\n" V2_NODES); // the lines after it never read
+  mesh_refused("Gmsh v2: a fourth coordinate", load("g1.msh"), ek_last_error(),
+               "g1.msh:6:", "unexpected '7'", "tag and 3 coordinates", NULL);
+  write_text("g2.msh", V2_HEAD V2_NODES "$EndNodes\n$Elements\n8\n" V2_TETS
+                                        "8 4 2 1 1 101 102 104 108 105\n$EndElements\n");
+  mesh_refused("Gmsh v2: a fifth node on a tet", load("g2.msh"), ek_last_error(),
+               "g2.msh:24:", "unexpected '105'", "element 8's tag and 4 nodes", NULL);
+  write_text("g3.msh",
+             V2_HEAD V2_NODES "$EndNodes\n$Elements\n7\n" V2_TETS "$EndElements trailing\n");
+  mesh_refused("Gmsh v2: a word after $EndElements", load("g3.msh"), ek_last_error(),
+               "g3.msh:24:", "unexpected 'trailing' after $EndElements", NULL, NULL);
+  write_text("g4.msh", "$MeshFormat\n2.2 0 8 1\n$EndMeshFormat\n");
+  mesh_refused("Gmsh: a fourth number on the format line", load("g4.msh"), ek_last_error(),
+               "g4.msh:2:", "unexpected '1'", NULL, NULL);
+  write_text("g5.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n"
+                       "4\n0 0 0\n1 0 0 0\n0 1 0\n0 0 1\n$EndNodes\n");
+  mesh_refused("Gmsh v4.1: a fourth number on a coordinate line", load("g5.msh"), ek_last_error(),
+               "g5.msh:12:", "unexpected '0'", "3 coordinates", NULL);
+  write_text("g6.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4 5\n");
+  mesh_refused("Gmsh v4.1: a fifth number in the node header", load("g6.msh"), ek_last_error(),
+               "g6.msh:5:", "unexpected '5'", "tag range", NULL);
+
+  // OBJ: "v x y z", "v x y z w" and "v x y z r g b"; nothing else.
+  write_text("w.obj", "v 0 0 0 1\nv 1 0 0 1\nv 0 1 0 1\nf 1 2 3\n");
+  trimesh_loads("OBJ: v x y z w", load_tri("w.obj"));
+  write_text("rgb.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n");
+  trimesh_loads("OBJ: v x y z r g b (vertex colours)", load_tri("rgb.obj"));
+  write_text("o1.obj", "v 0 0 0\nv 1 0 0 1 2\nv 0 1 0\nf 1 2 3\n");
+  trimesh_refused("OBJ: 5 numbers on a v line", load_tri("o1.obj"), "o1.obj:2:", "5 numbers");
+  write_text("o2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0 junk\nf 1 2 3\n");
+  trimesh_refused("OBJ: a word after x y z", load_tri("o2.obj"), "o2.obj:3:", "unexpected 'junk'");
+  write_text("o3.obj", "v 0 0 0 1 1 1 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  trimesh_refused("OBJ: 7 numbers on a v line", load_tri("o3.obj"),
+                  "o3.obj:1:", "unexpected '1' after the vertex's x y z r g b");
+}
+
 // One triangle of size s: loads with the area s^2 / 2 (scale-free shape
 // test; within EK_MESH_TOL) or is refused as outside the supported range,
 // never as "degenerate", never loaded with an infinite area.
@@ -899,6 +1057,7 @@ int main(int argc, char **argv) {
     return 2;
   }
   meshes();
+  extra_tokens();
   scenes();
   faults();
   batches();

@@ -337,6 +337,114 @@ static const char *place_fits(const char *json, const char *msg) {
   return (num_shown && num_there) || shown == there ? NULL : "not at the value shown";
 }
 
+// Checks after parsing (ek_sim_create, ek_scene_mesh) name the place of the
+// value they refuse: "test.json:LINE:COL: " with LINE:COL the first byte
+// after the first `marker` in the text (a key and its ": ").
+typedef enum { LATER_SIM, LATER_MESH, LATER_WARNING } later_stage;
+typedef struct {
+  const char *what;
+  later_stage stage;
+  const char *json;
+  const char *marker;
+  const char *expect[3];
+} later_case;
+
+#define CLOTH_MESH "\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}"
+#define CLOTH_MAT                                                                                  \
+  "\"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, \"density\": 100},\n"              \
+  "\"cloth\": {\"thickness\": 0.001}"
+
+static const later_case later_cases[] = {
+    {"region holding no vertex (the second, line 4)",
+     LATER_SIM,
+     "{" MESH ",\n" MAT ",\n" TAIL ", \"boundary\": [\n"
+     "  {\"type\": \"pin\", \"region\": {\"min\": [0,0,0], \"max\": [1,1,0]}},\n"
+     "  {\"type\": \"pin\",    \"region\":  {\"min\": [5,5,5], \"max\": [6,6,6]}}]}",
+     "\"region\":  ",
+     {"boundary[1].region", "holds no vertex"}},
+    {"XPBD with a model it has no constraint for",
+     LATER_SIM,
+     "{" MESH ",\n\"material\": {\"E\": 1e5, \"nu\": 0.3, \"density\": 1000,\n"
+     "   \"model\": \"arap\"},\n" TAIL ", \"integrator\": {\"type\": \"xpbd\"}}",
+     "\"model\": ",
+     {"material.model = arap", "XPBD"}},
+    {"cloth XPBD with clusters",
+     LATER_SIM,
+     "{" CLOTH_MESH ",\n" CLOTH_MAT ",\n" TAIL
+     ",\n\"integrator\": {\"type\": \"xpbd\",\n \"elements\": \"clusters\"}}",
+     "\"elements\": ",
+     {"integrator.elements = \"clusters\"", "a cloth takes"}},
+    {"cloth XPBD with the Jacobi solver",
+     LATER_SIM,
+     "{" CLOTH_MESH ",\n" CLOTH_MAT ",\n" TAIL
+     ",\n\"integrator\": {\"type\": \"xpbd\", \"solver\": \"jacobi\"}}",
+     "\"solver\": ",
+     {"integrator.solver = \"jacobi\"", "a cloth takes"}},
+    {"cloth with an assembled linear solver",
+     LATER_SIM,
+     "{" CLOTH_MESH ",\n" CLOTH_MAT ",\n" TAIL
+     ",\n\"integrator\": {\"type\": \"implicit\",\n\n   \"linear_solver\": \"direct\"}}",
+     "\"linear_solver\": ",
+     {"integrator.linear_solver = \"direct\"", "no assembled Hessian"}},
+    {"missing mesh file",
+     LATER_MESH,
+     "{\n  \"mesh\": {\"file\": \"no_such_mesh.node\"},\n" MAT ", " TAIL "}",
+     "\"file\": ",
+     {"mesh.file", "no_such_mesh.node", "cannot open"}},
+    {"missing cloth mesh file",
+     LATER_MESH,
+     "{\n\n  \"mesh\": {\"file\": \"no_such_cloth.obj\"},\n" CLOTH_MAT ", " TAIL "}",
+     "\"file\": ",
+     {"mesh.file", "no_such_cloth.obj", "cannot open"}},
+    {"dt above the CFL limit (a warning)",
+     LATER_WARNING,
+     "{" MESH ",\n" MAT ",\n \"steps\": 10,\n   \"dt\": 0.5}",
+     "\"dt\": ",
+     {"dt = 0.5", "CFL limit"}},
+};
+
+// "test.json:LINE:COL" of the byte after the first `marker` in json.
+static void place_after(const char *json, const char *marker, char *out, size_t n) {
+  const char *at = strstr(json, marker);
+  int line = 1, col = 1;
+  for (const char *p = json; at && p < at + strlen(marker); p++) {
+    col = *p == '\n' ? 1 : col + 1;
+    line += *p == '\n';
+  }
+  snprintf(out, n, "test.json:%d:%d: ", line, col);
+}
+
+// Runs a later_case; the message (error or warning) into msg, 1 if refused
+// (or warned) as the stage expects.
+static int run_later(const later_case *c, char *msg, size_t n) {
+  static ek_scene sc;
+  msg[0] = '\0';
+  if (ek_scene_parse(c->json, "test.json", "/nonexistent", &sc) != 0) {
+    snprintf(msg, n, "parse failed: %s", ek_last_error());
+    return 0;
+  }
+  ek_mesh *m = sc.triangles ? NULL : ek_scene_mesh(&sc);
+  ek_trimesh *tm = sc.triangles ? ek_scene_trimesh(&sc) : NULL;
+  if (!m && !tm) {
+    snprintf(msg, n, "%s", ek_last_error());
+    return c->stage == LATER_MESH;
+  }
+  ek_sim *sim = m ? ek_sim_create(&sc, m) : ek_sim_create_cloth(&sc, tm);
+  int ok = 0;
+  if (!sim) {
+    snprintf(msg, n, "%s", ek_last_error());
+    ok = c->stage == LATER_SIM;
+  } else {
+    const char *w = ek_sim_warning(sim);
+    snprintf(msg, n, "%s", w ? w : "(created, no warning)");
+    ok = c->stage == LATER_WARNING && w;
+  }
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+  ek_trimesh_destroy(tm);
+  return ok;
+}
+
 static int close_to(double a, double b) { return fabs(a - b) <= 1e-12 * fmax(1.0, fabs(b)); }
 
 int main(int argc, char **argv) {
@@ -483,16 +591,47 @@ int main(int argc, char **argv) {
           rc == 0 && !m && strstr(ek_last_error(), "no_such_mesh"), ek_last_error());
   ek_mesh_destroy(m);
 
-  // 4. A region that holds no vertex is caught when the sim is built.
-  rc = ek_scene_parse("{" MESH ", " MAT ", " TAIL
-                      ", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [5,5,5], "
-                      "\"max\": [6,6,6]}}]}",
-                      "test.json", ".", &s);
+  // 4. Checks after parsing (a region that holds no vertex, caught when
+  // the sim is built; a mesh file that does not load; ...) name the scene
+  // file, the line and column of the value, and the key path.
+  int nlater = (int)(sizeof later_cases / sizeof later_cases[0]);
+  for (int i = 0; i < nlater; ++i) {
+    const later_case *c = &later_cases[i];
+    char msg[1400], at[64];
+    place_after(c->json, c->marker, at, sizeof at);
+    int ok = run_later(c, msg, sizeof msg) && strncmp(msg, at, strlen(at)) == 0 &&
+             contains_all(msg, c->expect);
+    verdict(c->what, ok, msg);
+    if (!ok)
+      printf("    expected the message to start with \"%s\" and hold \"%s\" \"%s\" \"%s\"\n", at,
+             c->expect[0], c->expect[1] ? c->expect[1] : "", c->expect[2] ? c->expect[2] : "");
+  }
+  // A linear solver this build lacks (no PETSc): refused at its place.
+  if (!ek_linear_solver_available(EK_LINSOLVE_AMG)) {
+    const later_case c = {
+        "linear_solver amg without PETSc",
+        LATER_SIM,
+        "{" MESH ",\n" MAT ",\n" TAIL
+        ",\n\"integrator\": {\"type\": \"implicit\", \"linear_solver\": \"amg\"}}",
+        "\"linear_solver\": ",
+        {"integrator.linear_solver = \"amg\"", "PETSc"}};
+    char msg[1400], at[64];
+    place_after(c.json, c.marker, at, sizeof at);
+    verdict(c.what,
+            run_later(&c, msg, sizeof msg) && strncmp(msg, at, strlen(at)) == 0 &&
+                contains_all(msg, c.expect),
+            msg);
+  } else {
+    printf("linear_solver amg without PETSc: skipped (this build has PETSc)\n");
+  }
+  // A scene built in code (no places known) is named by its path alone.
+  rc = ek_scene_parse(later_cases[0].json, "test.json", ".", &s);
+  memset(&s.where, 0, sizeof s.where);
   m = rc == 0 ? ek_scene_mesh(&s) : NULL;
   ek_sim *sim = m ? ek_sim_create(&s, m) : NULL;
-  verdict("region holding no vertex",
-          m && !sim && strstr(ek_last_error(), "boundary[0].region") &&
-              strstr(ek_last_error(), "no vertex"),
+  verdict("region holding no vertex, no places known",
+          m && !sim &&
+              strstr(ek_last_error(), "test.json: boundary[1].region = ") == ek_last_error(),
           ek_last_error());
   ek_sim_destroy(sim);
   ek_mesh_destroy(m);

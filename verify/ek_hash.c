@@ -13,8 +13,9 @@
 // EK_ISA or the best target); explicit ISAs are iterated over every target
 // ek_isa_available reports, so EK_ISA changes only the "auto" lines.
 //
-// Only public headers (include/ek/) are used, so the same source builds
-// against the old and the new tree. Inputs come from a fixed-seed generator
+// Only public headers (include/ek/) are used, and sim/cli.h for the command
+// line as every ek program reads it, so the same source builds against the
+// old and the new tree. Inputs come from a fixed-seed generator
 // in this file: near-identity and general random matrices, stretched
 // rotations, and the extremes (scale 1e-30 and 1e30, rank 0, 1 and 2,
 // inverted, repeated singular values, a NaN in one lane); batch sizes are
@@ -39,6 +40,8 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+
+#include "cli.h"
 #include <string.h>
 #include <unistd.h>
 
@@ -1336,23 +1339,35 @@ static void wait_policy_default(char **argv) {
   fprintf(stderr, "ek-hash: note: re-exec with OMP_WAIT_POLICY=passive failed; going on\n");
 }
 
+static void usage(FILE *out) {
+  fputs("usage: ek-hash [--threads N] [--times]\n"
+        "Prints '<variant> <FNV-1a-64 of its output bytes>' for every kernel variant,\n"
+        "at 1 and 2 OpenMP threads (or N only, 1..4096); --times: seconds per family on\n"
+        "stderr.\n",
+        out);
+}
+
 int main(int argc, char **argv) {
   wait_policy_default(argv);
   int threads[2] = {1, 2};
   int nthreads = 2;
   for (int i = 1; i < argc; i++) {
-    if (!strcmp(argv[i], "--threads") && i + 1 < argc) {
-      threads[0] = atoi(argv[++i]);
+    const char *a = argv[i];
+    ek_cli_common("ek-hash", a, usage);
+    if (!strcmp(a, "--threads")) {
+      // Strict (sim/cli.h): "--threads 2x" or " 2" was atoi's 2, "x" its 0.
+      long n;
+      if (i + 1 >= argc)
+        return ek_cli_usage_error("ek-hash", "--threads: needs a value");
+      if (ek_cli_parse_long(argv[++i], 1, 4096, &n))
+        return ek_cli_usage_error("ek-hash", "--threads '%s': expected a whole number in [1, 4096]",
+                                  argv[i]);
+      threads[0] = (int)n;
       nthreads = 1;
-    } else if (!strcmp(argv[i], "--times")) {
+    } else if (!strcmp(a, "--times")) {
       g_times = 1;
     } else {
-      fprintf(stderr,
-              "usage: %s [--threads N] [--times]\n"
-              "Prints '<variant> <FNV-1a-64 of its output bytes>' for every kernel variant,\n"
-              "at 1 and 2 OpenMP threads (or N only); --times: seconds per family on stderr.\n",
-              argv[0]);
-      return 2;
+      return ek_cli_usage_error("ek-hash", "unexpected argument \"%s\"", a);
     }
   }
   // Resolve AUTO once: an EK_ISA naming an unavailable target stops here.

@@ -77,6 +77,13 @@ ek_mesh *ek_mesh_create_ex(size_t nverts, const double *X, size_t ntets, const i
 // .node/.ele files, or a Gmsh .msh file (ASCII v2 or v4; only tetrahedra,
 // element type 4, become elements, other element types are skipped).
 // TetGen indices are 0- or 1-based as the .node file's first index says.
+// Lines are read whole: a TetGen line holds exactly what its header
+// declares (a point: index, x y z, the attributes and the boundary marker
+// the .node header counts; a tet: index, 4 or 10 nodes, the attributes the
+// .ele header counts; attributes and markers are checked as numbers and
+// dropped); a Gmsh line it reads (headers, nodes, elements of type 4,
+// section marks) holds its fields and nothing more. Any other token is
+// refused naming FILE:LINE and the token.
 ek_mesh *ek_mesh_load(const char *path);
 ek_mesh *ek_mesh_load_ex(const char *path, const ek_mesh_opts *opts);
 

@@ -238,8 +238,34 @@ typedef struct {
   int release;
 } ek_scene_bc;
 
+// A place in the scene file: line and column (from 1) of a value; 0, 0
+// when unknown (a scene built in code, or the key absent).
+typedef struct {
+  int line, col;
+} ek_scene_pos;
+
+// Where the values that checks after parsing may refuse stand in the file
+// (ek_sim_create: a region that holds no vertex, a model XPBD cannot take;
+// ek-sim: an ISA the CPU lacks, a box beyond the machine's memory; a mesh
+// file that does not load), so that those messages too name FILE:LINE:COL
+// (ek_scene_at).
+typedef struct {
+  ek_scene_pos mesh;     // mesh.file, mesh.box or mesh.grid, whichever is given
+  ek_scene_pos material; // the material object
+  ek_scene_pos model;    // material.model
+  ek_scene_pos isa;
+  ek_scene_pos region[EK_SCENE_MAX_BC]; // boundary[i].region
+  ek_scene_pos dt;
+  ek_scene_pos integrator;                 // the integrator object
+  ek_scene_pos solver, elements, substeps; // integrator.solver, .elements, .substeps (xpbd)
+  ek_scene_pos linear_solver;              // integrator.linear_solver (implicit)
+  ek_scene_pos output_file;                // output.file
+  ek_scene_pos reference_dt;               // advise.reference_dt
+} ek_scene_where;
+
 typedef struct {
   char path[EK_SCENE_PATH_MAX]; // the scene file as given
+  ek_scene_where where;         // places of values in the file, for later messages
   // Mesh: a file (resolved relative to the scene's directory), or the box
   // generator when mesh_file is empty.
   char mesh_file[EK_SCENE_PATH_MAX];
@@ -297,16 +323,24 @@ typedef struct {
 // object it belongs in). Unknown keys are errors. Text that is not JSON is
 // placed at the first byte that is not ("invalid JSON near ...: expected
 // ..."), or named "unexpected end of file" with what is left open. *scene
-// is fully written on success and left unspecified on error.
+// is fully written on success and left unspecified on error. Checks made
+// later (ek_sim_create, ek_scene_mesh, ek-sim) name the value's place too
+// (scene->where, ek_scene_at): "scene.json:9:30: boundary[1].region = ...:
+// holds no vertex of the mesh".
 int ek_scene_load(const char *path, ek_scene *scene);
 // Same from text in memory; `name` is used in messages, `base_dir` resolves a
 // relative mesh file ("." when NULL).
 int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_scene *scene);
-// Build (generate or load) the scene's mesh. NULL on failure (message in ek_last_error).
+// Build (generate or load) the scene's mesh. NULL on failure (message in
+// ek_last_error: for a mesh file, "SCENE:LINE:COL: mesh.file: " and the
+// mesh reader's "MESH:LINE: ...").
 // A tet scene has an ek_mesh, a cloth scene (scene->triangles) an
 // ek_trimesh; asking for the other kind is an error.
 ek_mesh *ek_scene_mesh(const ek_scene *scene);
 ek_trimesh *ek_scene_trimesh(const ek_scene *scene);
+// "FILE:LINE:COL" of a value of the scene (scene->where.*) into buf, or
+// "FILE" when its place is unknown; returns buf.
+const char *ek_scene_at(const ek_scene *scene, ek_scene_pos pos, char *buf, size_t len);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
 int ek_scene_model_from_name(const char *name, ek_model *model);

@@ -20,17 +20,20 @@
 //
 // Formats:
 //   OBJ (Wavefront, "Object Files", Appendix B1 of the Advanced Visualizer
-//   manual): "v x y z [w]" vertices, "f i j k ..." faces; an index is
-//   "i", "i/t", "i//n" or "i/t/n", 1-based, or negative, relative to the
-//   last vertex defined so far (-1 is the latest). Faces with more than 3
+//   manual): "v x y z [w]" vertices (or "v x y z r g b", the vertex
+//   colours other tools write; w and r g b are dropped, anything else after
+//   x y z is refused naming the line and the token), "f i j k ..." faces;
+//   an index is "i", "i/t", "i//n" or "i/t/n", 1-based, or negative,
+//   relative to the last vertex defined so far (-1 is the latest). Faces with more than 3
 //   vertices are triangulated as a fan from their first vertex (exact for
 //   convex polygons; a fan triangle of a non-convex polygon that comes out
 //   degenerate is refused like any other). Other statements (vt, vn, o, g,
 //   s, usemtl, mtllib, l, ...) are ignored.
 //   Gmsh .msh, ASCII v2 and v4 (reference manual sec. 10.1): 3-node
 //   triangles (element type 2) become triangles; other element types are
-//   skipped. Counts in headers are checked against the data that follows,
-//   never used to size memory before the data arrives.
+//   skipped; a line read holds its fields and nothing more. Counts in
+//   headers are checked against the data that follows, never used to size
+//   memory before the data arrives.
 #ifndef EK_SIM_TRIMESH_H
 #define EK_SIM_TRIMESH_H
 
