@@ -113,6 +113,22 @@ void ek_bench_note(ek_bench *b, const char *fmt, ...) __attribute__((format(prin
 // Notes and failures are not thread-safe: call them outside OpenMP regions.
 void ek_bench_fail(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+// A row's big arrays in one block, one after another in the order given,
+// each `offset` bytes (< 64) into a 64-byte line and rounded up to whole
+// lines; arrays[k] gets the k-th. Returns the block (free it with ek_free),
+// or NULL when out of memory. Why: allocated one by one, they land in
+// whatever earlier rows freed (a library PETSc loads sets glibc's
+// M_MMAP_MAX to 0 and M_TRIM_THRESHOLD to -1, so big blocks come from the
+// heap and are never given back), and their relative placement changes
+// with the rows selected. Zen 4 runs the warm polar on 2^20 matrices ~8%
+// slower (AoS) with A 2^28 + 448 bytes past R (one such run's placement:
+// the same bits 12-27 of the linear address, presumably the L1D way
+// predictor's tag, Lipp et al. 2020, "Take A Way") and its AoSoA kernel
+// ~40% slower with A 2^28 bytes past R (docs/perf.md, warm polar,
+// thirteenth round). One after the other is what a program allocating
+// its arrays in turn gets from a fresh heap or from mmap.
+void *ek_bench_arrays(int narrays, const size_t *bytes, size_t offset, void **arrays);
+
 // A family entry point; returns 0, or < 0 after ek_bench_fail.
 typedef int ek_bench_family_fn(ek_bench *b);
 

@@ -56,6 +56,7 @@ typedef struct {
   int f64;
   size_t n, nblocks;
   void *A, *G, *R; // AoSoA: input, guess, in/out
+  void *block;     // A, R and G, one after the other (ek_bench_arrays)
   ek_isa isa;
   int iterations, svd, aos, rc;
 } polar_ctx;
@@ -77,22 +78,30 @@ static void call_polar(void *p) {
   }
 }
 
-// AoSoA copies of A and the guess (double AoS in), rounded for f32.
+// A, R and G, `bytes` each, one after the other in one block, `offset` bytes
+// into a line (ek_bench_arrays: the same relative placement in every run).
+static int alloc_arrays(polar_ctx *c, size_t bytes, size_t offset) {
+  void *p[3];
+  c->block = ek_bench_arrays(3, (const size_t[]){bytes, bytes, bytes}, offset, p);
+  c->A = p[0], c->R = p[1], c->G = p[2];
+  return c->block ? 0 : -1;
+}
+
+// AoSoA copies of A and the guess (double AoS in), rounded for f32. The
+// packer pads the tail lanes.
 static int setup(polar_ctx *c, int f64, size_t n, const double *A, const double *G) {
   memset(c, 0, sizeof *c);
   c->f64 = f64, c->n = n;
   c->nblocks = f64 ? ek_aosoa_blocks_f64(n) : ek_aosoa_blocks_f32(n);
+  size_t bytes =
+      f64 ? ek_aosoa_size_f64(n, 9) * sizeof(double) : ek_aosoa_size_f32(n, 9) * sizeof(float);
+  if (alloc_arrays(c, bytes, 0) != 0)
+    return -1;
   if (f64) {
-    c->A = ek_aosoa_alloc_f64(n, 9), c->G = ek_aosoa_alloc_f64(n, 9),
-    c->R = ek_aosoa_alloc_f64(n, 9);
-    if (!c->A || !c->G || !c->R)
-      return -1;
     ek_aosoa_pack_f64(n, 9, A, c->A), ek_aosoa_pack_f64(n, 9, G, c->G);
   } else {
     float *a = malloc(n * 9 * sizeof(float)), *g = malloc(n * 9 * sizeof(float));
-    c->A = ek_aosoa_alloc_f32(n, 9), c->G = ek_aosoa_alloc_f32(n, 9),
-    c->R = ek_aosoa_alloc_f32(n, 9);
-    if (!a || !g || !c->A || !c->G || !c->R) {
+    if (!a || !g) {
       free(a), free(g);
       return -1;
     }
@@ -103,7 +112,7 @@ static int setup(polar_ctx *c, int f64, size_t n, const double *A, const double 
   return 0;
 }
 
-static void free_ctx(polar_ctx *c) { ek_free(c->A), ek_free(c->G), ek_free(c->R); }
+static void free_ctx(polar_ctx *c) { ek_free(c->block), c->block = NULL; }
 
 static void reset_guess(polar_ctx *c) {
   size_t bytes =
@@ -291,10 +300,12 @@ static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const i
               free(A), free(G);
               return -1;
             }
+            // The AoS arrays 16 bytes into a line, where glibc's malloc
+            // puts a block it maps on its own (ek_aos_head's head records
+            // then run alone, as for such a caller).
             a = c;
-            a.A = malloc(n * 9 * es), a.G = malloc(n * 9 * es), a.R = malloc(n * 9 * es);
-            if (!a.A || !a.G || !a.R) {
-              free(a.A), free(a.G), free(a.R), free_ctx(&c), free(A), free(G);
+            if (alloc_arrays(&a, n * 9 * es, 16) != 0) {
+              free_ctx(&c), free(A), free(G);
               ek_bench_fail(b, "%s: out of memory", name);
               return -1;
             }
@@ -337,8 +348,7 @@ static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const i
           ek_bench_run(b, &row);
         }
     if (ready) {
-      free_ctx(&c);
-      free(a.A), free(a.G), free(a.R);
+      free_ctx(&c), free_ctx(&a);
     }
   }
   free(A), free(G);

@@ -94,6 +94,7 @@ typedef struct {
   size_t lanes;            // EK_LANES_F32 / _F64
   void *A, *U, *S, *V;     // AoS or AoSoA, as the row needs
   void *Ap, *Up, *Sp, *Vp; // AoSoA staging for the conversion row
+  void *block, *block_p;   // A..V and Ap..Vp, each set in one block
   ek_svd3_opts opts;
   int rc; // last return code of the timed call
 } svd_ctx;
@@ -101,11 +102,8 @@ typedef struct {
 static size_t real_size(int f64) { return f64 ? sizeof(double) : sizeof(float); }
 
 // n Gaussian 3x3 matrices, AoS, from the run's seed (and the precision, so
-// f32 and f64 rows see different but reproducible inputs).
-static void *gaussian_aos(ek_bench *b, int f64, size_t n) {
-  void *A = ek_alloc(n * 9 * real_size(f64));
-  if (!A)
-    return NULL;
+// f32 and f64 rows see different but reproducible inputs), into A.
+static void gaussian_aos(ek_bench *b, int f64, size_t n, void *A) {
   ek_bench_rng rng;
   ek_bench_rng_init(&rng, ek_bench_seed(b) * 2 + (unsigned)f64);
   for (size_t i = 0; i < 9 * n; i++) {
@@ -115,21 +113,27 @@ static void *gaussian_aos(ek_bench *b, int f64, size_t n) {
     else
       ((float *)A)[i] = (float)g;
   }
-  return A;
 }
 
 static void free_ctx(svd_ctx *c) {
-  ek_free(c->A), ek_free(c->U), ek_free(c->S), ek_free(c->V);
-  ek_free(c->Ap), ek_free(c->Up), ek_free(c->Sp), ek_free(c->Vp);
+  ek_free(c->block), ek_free(c->block_p);
   memset(c, 0, sizeof *c);
 }
 
-// Zeroed buffer (so page faults happen here, not in the first timed call).
-static void *zeroed(size_t bytes) {
-  void *p = ek_alloc(bytes);
-  if (p)
-    memset(p, 0, bytes);
-  return p;
+// A, U, S and V of n matrices (planes 9, 9, 3, 9 per matrix, `blocks` AoSoA
+// blocks of `lanes`, or AoS with blocks * lanes = n), one after the other
+// in one zeroed block (ek_bench_arrays: the same relative placement in
+// every run; zeroed so that page faults happen here, not in the first
+// timed call). NULL when out of memory.
+static void *zeroed_set(size_t blocks, size_t lanes, size_t sz, void **A, void **U, void **S,
+                        void **V) {
+  size_t p = blocks * lanes * sz, bytes[4] = {9 * p, 9 * p, 3 * p, 9 * p};
+  void *a[4];
+  void *block = ek_bench_arrays(4, bytes, 0, a);
+  if (block)
+    memset(block, 0, (size_t)((char *)a[3] + bytes[3] - (char *)block));
+  *A = a[0], *U = a[1], *S = a[2], *V = a[3];
+  return block;
 }
 
 // AoSoA batch of n Gaussian matrices with its output planes.
@@ -139,14 +143,13 @@ static int setup_aosoa(ek_bench *b, svd_ctx *c, int f64, size_t n) {
   c->n = n;
   c->lanes = f64 ? EK_LANES_F64 : EK_LANES_F32;
   size_t blocks = (n + c->lanes - 1) / c->lanes, sz = real_size(f64);
-  void *aos = gaussian_aos(b, f64, n);
-  c->A = zeroed(blocks * 9 * c->lanes * sz);
-  c->U = zeroed(blocks * 9 * c->lanes * sz);
-  c->S = zeroed(blocks * 3 * c->lanes * sz);
-  c->V = zeroed(blocks * 9 * c->lanes * sz);
+  void *aos = ek_alloc(n * 9 * sz);
+  c->block = zeroed_set(blocks, c->lanes, sz, &c->A, &c->U, &c->S, &c->V);
   int rc = -1;
-  if (aos && c->A && c->U && c->S && c->V)
+  if (aos && c->block) {
+    gaussian_aos(b, f64, n, aos);
     rc = f64 ? ek_aosoa_pack_f64(n, 9, aos, c->A) : ek_aosoa_pack_f32(n, 9, aos, c->A);
+  }
   ek_free(aos);
   if (rc)
     free_ctx(c);
@@ -161,18 +164,13 @@ static int setup_aos(ek_bench *b, svd_ctx *c, int f64, size_t n) {
   c->n = n;
   c->lanes = f64 ? EK_LANES_F64 : EK_LANES_F32;
   size_t blocks = (n + c->lanes - 1) / c->lanes, sz = real_size(f64);
-  c->A = gaussian_aos(b, f64, n);
-  c->U = zeroed(n * 9 * sz);
-  c->S = zeroed(n * 3 * sz);
-  c->V = zeroed(n * 9 * sz);
-  c->Ap = zeroed(blocks * 9 * c->lanes * sz);
-  c->Up = zeroed(blocks * 9 * c->lanes * sz);
-  c->Sp = zeroed(blocks * 3 * c->lanes * sz);
-  c->Vp = zeroed(blocks * 9 * c->lanes * sz);
-  if (!c->A || !c->U || !c->S || !c->V || !c->Ap || !c->Up || !c->Sp || !c->Vp) {
+  c->block = zeroed_set(n, 1, sz, &c->A, &c->U, &c->S, &c->V);
+  c->block_p = zeroed_set(blocks, c->lanes, sz, &c->Ap, &c->Up, &c->Sp, &c->Vp);
+  if (!c->block || !c->block_p) {
     free_ctx(c);
     return -1;
   }
+  gaussian_aos(b, f64, n, c->A);
   return 0;
 }
 
@@ -255,6 +253,7 @@ typedef struct {
   int threads;
   void *A, *U, *S, *V; // AoS; LAPACK reads A column-major, i.e. it factors
                        // A^T = V S U^T: the same work, outputs transposed
+  void *block;         // A, U, S and V (zeroed_set)
   int lwork;
   void **work;    // one workspace per thread
   void **scratch; // one 3x3 copy of A per thread (?gesvd overwrites A)
@@ -299,7 +298,7 @@ static void free_lapack(lapack_ctx *c) {
     ek_free(c->scratch[t]);
   free(c->work);
   free(c->scratch);
-  ek_free(c->A), ek_free(c->U), ek_free(c->S), ek_free(c->V);
+  ek_free(c->block);
   memset(c, 0, sizeof *c);
 }
 
@@ -309,14 +308,12 @@ static int setup_lapack(ek_bench *b, lapack_ctx *c, int f64, size_t n, int threa
   c->n = n;
   c->threads = threads;
   size_t sz = real_size(f64);
-  c->A = gaussian_aos(b, f64, n);
-  c->U = zeroed(n * 9 * sz);
-  c->S = zeroed(n * 3 * sz);
-  c->V = zeroed(n * 9 * sz);
+  c->block = zeroed_set(n, 1, sz, &c->A, &c->U, &c->S, &c->V);
   c->work = calloc((size_t)threads, sizeof *c->work);
   c->scratch = calloc((size_t)threads, sizeof *c->scratch);
-  if (!c->A || !c->U || !c->S || !c->V || !c->work || !c->scratch)
+  if (!c->block || !c->work || !c->scratch)
     goto fail;
+  gaussian_aos(b, f64, n, c->A);
   // Workspace query, once: lwork = -1 returns the optimal size in work[0].
   const int three = 3, query = -1;
   int info = 0;

@@ -191,6 +191,24 @@ double ek_bench_rng_gauss(ek_bench_rng *rng) {
   return r * cos(theta);
 }
 
+// ---- arrays ------------------------------------------------------------
+
+void *ek_bench_arrays(int narrays, const size_t *bytes, size_t offset, void **arrays) {
+  size_t total = 0, at[16];
+  if (narrays < 1 || narrays > 16 || offset >= 64)
+    return NULL;
+  for (int k = 0; k < narrays; k++) {
+    size_t lines = (offset + bytes[k] + 63) / 64;
+    if (lines > (SIZE_MAX - total) / 64)
+      return NULL;
+    at[k] = total + offset, total += lines * 64;
+  }
+  char *p = ek_alloc(total);
+  for (int k = 0; k < narrays; k++)
+    arrays[k] = p ? p + at[k] : NULL;
+  return p;
+}
+
 // ---- rows --------------------------------------------------------------
 
 static int valid_row(ek_bench *b, const ek_bench_row *row) {
