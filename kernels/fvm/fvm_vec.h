@@ -76,21 +76,34 @@ static inline void scatter_R_warm(const fvm_args *a, size_t b, const real *Rb) {
 // is harmless (a prefetch never faults). No clamp of the index and the f
 // test out of the loop: the loop had ~12 instructions per corner (48 per
 // tet; perf at 998 250 tets put ~20% of the force kernel's own samples on
-// it), now 4-6.
+// it), then 8.
 // The addresses in integers: the padding lane's is outside the arrays.
-static inline void prefetch_vertices(const fvm_args *a, size_t b) {
+// fs: bytes per force row, 0 for none; a constant at each call, and the
+// loop unrolled by 8: 5 instructions per corner (index load, lea, shift,
+// two prefetches) instead of 8 (imul by the run-time stride, the loop's
+// add, compare and branch); the NH force at 998 250 tets ran 107
+// instructions per tet, 32 of them this loop (docs/perf.md, FVM).
+// Both EK_INLINE: a function of prefetches alone is const to GCC, which
+// then drops its calls (and so the prefetches) when it is not inlined.
+EK_INLINE void prefetch_rows(const int32_t *idx, uintptr_t x, uintptr_t f, uintptr_t fs) {
+#pragma GCC unroll 8
+  for (int k = 0; k < 4 * L; k++) {
+    const uintptr_t i = (uintptr_t)(intptr_t)idx[k];
+    __builtin_prefetch((const void *)(x + i * (3 * sizeof(real))), 0, 3);
+    if (fs)
+      __builtin_prefetch((const void *)(f + i * fs), 1, 3);
+  }
+}
+
+EK_INLINE void prefetch_vertices(const fvm_args *a, size_t b) {
   const int32_t *idx = a->idx + b * 4 * L;
   const uintptr_t x = (uintptr_t)a->x, f = (uintptr_t)a->f;
-  const uintptr_t xs = 3 * sizeof(real), fs = (uintptr_t)a->fstride * sizeof(real);
-  if (a->f) {
-    for (int k = 0; k < 4 * L; k++) {
-      __builtin_prefetch((const void *)(x + (uintptr_t)(intptr_t)idx[k] * xs), 0, 3);
-      __builtin_prefetch((const void *)(f + (uintptr_t)(intptr_t)idx[k] * fs), 1, 3);
-    }
-  } else {
-    for (int k = 0; k < 4 * L; k++)
-      __builtin_prefetch((const void *)(x + (uintptr_t)(intptr_t)idx[k] * xs), 0, 3);
-  }
+  if (a->f && a->fstride == 4)
+    prefetch_rows(idx, x, f, 4 * sizeof(real));
+  else if (a->f)
+    prefetch_rows(idx, x, f, (uintptr_t)a->fstride * sizeof(real));
+  else
+    prefetch_rows(idx, x, 0, 0);
 }
 
 // Start the cache misses of block b's packed planes (indices, Dm^-1, V0),
