@@ -358,4 +358,35 @@ EK_INLINE vreal vrec_perm2(vreal a, vreal b, const int *idx) {
     m |= (unsigned)(idx[l] >= EK_W) << l;
   return vrec_blend(m, vrec_perm(a, idx), vrec_perm(b, idx));
 }
+// vsum_run3 (generic.h's contract), as avx512.h's: each of the block's 3
+// rows summed in a 256-bit register, 3 doubles wide (vmaskmovpd load and
+// store of K's row: nothing past its 3 values touched), the element's 3
+// values gathered from their planes and widened; the partial sum the add's
+// first operand, so a NaN sum is kept (quieted) as the scalar rule keeps it:
+// the same adds in the same order, so the same bits. The generic body (a
+// loop per value, a compare per add) made the AVX2 assembly's sums twice
+// its element kernel (docs/perf.md, "Hessian assembly", thirteenth round).
+#define EK_HAVE_VSUM_RUN3
+static inline __m256d vsum_elem3_(const real *ei, size_t es) {
+#if defined(EK_REAL_F32)
+  return _mm256_cvtps_pd(_mm_setr_ps(ei[0], ei[es], ei[2 * es], 0));
+#else
+  return _mm256_setr_pd(ei[0], ei[es], ei[2 * es], 0);
+#endif
+}
+static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, const uint16_t *off,
+                             int n, int first) {
+  const __m256i m3 = _mm256_setr_epi64x(-1, -1, -1, 0);
+  __m256d acc[3];
+  for (int i = 0; i < 3; i++)
+    acc[i] = first ? _mm256_setzero_pd() : _mm256_maskload_pd(o + (size_t)i * rs, m3);
+  for (int j = 0; j < n; j++)
+    for (int i = 0; i < 3; i++) {
+      const __m256d x = vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es);
+      __asm__("vaddpd %2, %1, %0" : "=x"(acc[i]) : "x"(acc[i]), "x"(x));
+    }
+  for (int i = 0; i < 3; i++)
+    _mm256_maskstore_pd(o + (size_t)i * rs, m3, acc[i]);
+}
+
 #endif
