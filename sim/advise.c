@@ -505,7 +505,7 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
   }
   if (best < 0) {
     // A reference step the scene states: named at its place in the file.
-    char where[EK_SCENE_PATH_MAX + 32];
+    char where[EK_SCENE_AT_MAX];
     snprintf(err, errlen, "%s: the reference (explicit f64, dt %g) failed: %s",
              ek_scene_at(scene, trusted ? scene->where.reference_dt : (ek_scene_pos){0, 0}, where,
                          sizeof where),
@@ -544,7 +544,7 @@ int ek_advise(const ek_scene *scene, const ek_mesh *mesh, const ek_advise_opts *
   memset(a, 0, sizeof *a);
   a->scene_row = a->pick = -1;
   if (scene->triangles || !mesh) {
-    char where[EK_SCENE_PATH_MAX + 32];
+    char where[EK_SCENE_AT_MAX];
     snprintf(err, errlen, "%s: mesh: the advisor takes tet scenes only",
              ek_scene_at(scene, scene->where.mesh, where, sizeof where));
     return EK_EINVAL;

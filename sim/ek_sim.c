@@ -142,7 +142,7 @@ static const char *output_is_input(const char *out, const ek_scene *s) {
 static void warn_long_xpbd_step(const ek_scene *s, size_t constraints, long steps) {
   const double sweeps = (double)s->xpbd.substeps * (double)s->xpbd.iterations;
   const double seconds = sweeps * (double)constraints * 1e-9;
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   if (seconds > 60)
     fprintf(stderr,
             "ek-sim: warning: %s: each step runs %ld substeps x %ld iterations = %.3g sweeps "
@@ -174,7 +174,7 @@ static int box_fits_memory(const ek_scene *s) {
   const double have = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
   if (need <= have)
     return 0;
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   fprintf(stderr,
           "ek-sim: %s: mesh.box %d x %d x %d cells = %.3g tets needs at least %.3g GB (%.0f "
           "bytes per tet, measured), more than this machine's %.3g GB of memory\n",
@@ -856,7 +856,7 @@ static void explain_drops(const ek_scene *scene, const ek_scene *pick) {
 static int run_advise(const ek_scene *scene, double tol, double sim_time, int do_explain,
                       int threads) {
   if (scene->triangles) {
-    char where[EK_SCENE_PATH_MAX + 32];
+    char where[EK_SCENE_AT_MAX];
     fprintf(stderr, "ek-sim: %s: mesh: --advise takes tet scenes only (this is a cloth)\n",
             ek_scene_at(scene, scene->where.mesh, where, sizeof where));
     return EK_EXIT_FAILED;
@@ -1002,7 +1002,7 @@ static int run(int argc, char **argv) {
   // An ISA the CPU lacks (the scene's or EK_ISA's) stops here, before any
   // output exists.
   ek_isa isa;
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   if (ek_isa_resolve(scene.svd.isa, &isa) != EK_OK) {
     // EK_ISA is part of the invocation (usage); the scene's isa key is input.
     if (scene.svd.isa == EK_ISA_AUTO)

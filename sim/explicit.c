@@ -31,7 +31,7 @@ static int explicit_explain(const ek_scene *s, FILE *out, int number) {
 // not refused.
 static int explicit_create(ek_sim *s, void **data) {
   *data = NULL;
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   if (s->scene.dt > s->cfl_dt)
     sim_warn(s,
              "%s: dt = %g is above the CFL limit %g (h_min = %g, c = sqrt((lambda + 2 mu) / "

@@ -423,7 +423,7 @@ static void value_text(const cJSON *v, char *out, size_t outlen) {
 
 static int vbad(parse_ctx *c, const char *path, const cJSON *v, int at_key, const char *fmt,
                 va_list ap) {
-  char val[300], reason[256], where[EK_SCENE_PATH_MAX + 32];
+  char val[300], reason[256], where[EK_SCENE_AT_MAX];
   value_text(v, val, sizeof val);
   vsnprintf(reason, sizeof reason, fmt, ap);
   if (c->err && c->errlen)
@@ -455,7 +455,7 @@ __attribute__((format(printf, 4, 5))) static int bad_key(parse_ctx *c, const cha
 
 // A required key absent from obj: placed at obj (where it belongs).
 static int missing(parse_ctx *c, const cJSON *obj, const char *path) {
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   if (c->err && c->errlen)
     snprintf(c->err, c->errlen, "%s: %s: missing (required)", place(c, obj, 0, where, sizeof where),
              path);
@@ -558,7 +558,7 @@ static int find_duplicates(parse_ctx *c, const cJSON *v, const char *path) {
           first--;
       }
     if (again) {
-      char p[300], where[EK_SCENE_PATH_MAX + 32];
+      char p[300], where[EK_SCENE_AT_MAX];
       join(p, sizeof p, path, again->item->string);
       const char *at1 = node_at(c, first->item, 1);
       if (c->err && c->errlen && at1) {
@@ -1473,7 +1473,7 @@ const char *ek_scene_at(const ek_scene *s, ek_scene_pos pos, char *buf, size_t l
 static void mesh_file_error(const ek_scene *s, char *err, size_t errlen) {
   if (!err || !errlen)
     return;
-  char where[EK_SCENE_PATH_MAX + 32], why[EK_ERRBUF_LEN];
+  char where[EK_SCENE_AT_MAX], why[EK_ERRBUF_LEN];
   snprintf(why, sizeof why, "%s", err);
   snprintf(err, errlen, "%s: mesh.file: %s", ek_scene_at(s, s->where.mesh, where, sizeof where),
            why);

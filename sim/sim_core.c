@@ -39,24 +39,28 @@ double sim_now(void) {
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+// sim_fail and sim_fail_at: the message, and the scene value it is about.
+static int fail_v(ek_sim *s, ek_scene_pos at, const char *fmt, va_list ap) {
+  vsnprintf(s->error, sizeof s->error, fmt, ap);
+  s->error_at = at;
+  ek_set_error("%s", s->error);
+  return EK_EINVAL;
+}
+
 int sim_fail(ek_sim *s, const char *fmt, ...) {
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(s->error, sizeof s->error, fmt, ap);
+  int rc = fail_v(s, (ek_scene_pos){0, 0}, fmt, ap);
   va_end(ap);
-  s->error_at = (ek_scene_pos){0, 0};
-  ek_set_error("%s", s->error);
-  return EK_EINVAL;
+  return rc;
 }
 
 int sim_fail_at(ek_sim *s, ek_scene_pos at, const char *fmt, ...) {
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(s->error, sizeof s->error, fmt, ap);
+  int rc = fail_v(s, at, fmt, ap);
   va_end(ap);
-  s->error_at = at;
-  ek_set_error("%s", s->error);
-  return EK_EINVAL;
+  return rc;
 }
 
 void sim_warn(ek_sim *s, const char *fmt, ...) {
@@ -164,7 +168,7 @@ static ek_sim *sim_create(const ek_scene *scene, const void *mesh, int kind_ok,
     return NULL;
   }
   // Messages about a value of the scene name its place in the file.
-  char where[EK_SCENE_PATH_MAX + 32];
+  char where[EK_SCENE_AT_MAX];
   if ((unsigned)scene->integrator >= EK_INTEGRATOR_COUNT) {
     if (err && errlen)
       snprintf(err, errlen, "%s: integrator %d: unknown",

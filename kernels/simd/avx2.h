@@ -367,6 +367,12 @@ EK_INLINE vreal vrec_perm2(vreal a, vreal b, const int *idx) {
 // loop per value, a compare per add) made the AVX2 assembly's sums twice
 // its element kernel (docs/perf.md, "Hessian assembly", thirteenth round).
 #define EK_HAVE_VSUM_RUN3
+// a + b with a's NaN kept (avx512.h's vadd_pd_nan_first, in ymm registers).
+static inline __m256d vadd_pd_nan_first(__m256d a, __m256d b) {
+  __m256d s;
+  __asm__("vaddpd %2, %1, %0" : "=x"(s) : "x"(a), "x"(b));
+  return s;
+}
 static inline __m256d vsum_elem3_(const real *ei, size_t es) {
 #if defined(EK_REAL_F32)
   return _mm256_cvtps_pd(_mm_setr_ps(ei[0], ei[es], ei[2 * es], 0));
@@ -381,10 +387,8 @@ static inline void vsum_run3(double *o, size_t rs, const real *e, size_t es, con
   for (int i = 0; i < 3; i++)
     acc[i] = first ? _mm256_setzero_pd() : _mm256_maskload_pd(o + (size_t)i * rs, m3);
   for (int j = 0; j < n; j++)
-    for (int i = 0; i < 3; i++) {
-      const __m256d x = vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es);
-      __asm__("vaddpd %2, %1, %0" : "=x"(acc[i]) : "x"(acc[i]), "x"(x));
-    }
+    for (int i = 0; i < 3; i++)
+      acc[i] = vadd_pd_nan_first(acc[i], vsum_elem3_(e + off[j] + (size_t)(3 * i) * es, es));
   for (int i = 0; i < 3; i++)
     _mm256_maskstore_pd(o + (size_t)i * rs, m3, acc[i]);
 }

@@ -339,7 +339,9 @@ int ek_scene_parse(const char *text, const char *name, const char *base_dir, ek_
 ek_mesh *ek_scene_mesh(const ek_scene *scene);
 ek_trimesh *ek_scene_trimesh(const ek_scene *scene);
 // "FILE:LINE:COL" of a value of the scene (scene->where.*) into buf, or
-// "FILE" when its place is unknown; returns buf.
+// "FILE" when its place is unknown; returns buf. EK_SCENE_AT_MAX bytes hold
+// any.
+#define EK_SCENE_AT_MAX (EK_SCENE_PATH_MAX + 32)
 const char *ek_scene_at(const ek_scene *scene, ek_scene_pos pos, char *buf, size_t len);
 // "fixed_corotated" etc. <-> ek_model; NULL / -1 if unknown.
 const char *ek_scene_model_name(ek_model model);
