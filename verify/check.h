@@ -57,9 +57,6 @@ typedef struct {
 extern const ek_check_family ek_check_families[];
 extern const int ek_check_nfamilies;
 
-// Fill A (n x 9) with family f for `seed`; the stream depends on seed and
-// the family's name only.
-void ek_check_family_generate(const ek_check_family *f, uint64_t seed, size_t n, double *A);
 // 1 if family f is meant for precision 32 or 64.
 int ek_check_family_for(const ek_check_family *f, int bits);
 // 1 if the 9 entries are all finite.
@@ -92,7 +89,6 @@ void ek_check_svd3(const double A[9], const double U[9], const double S[3], cons
 // Largest of recon, orth, det, sigma, order (+inf if nonfinite or the sign
 // is wrong): the number held against the budget.
 double ek_svd3_metrics_worst(const ek_svd3_metrics *m);
-void ek_svd3_metrics_max(ek_svd3_metrics *acc, const ek_svd3_metrics *m);
 
 typedef struct {
   double recon;  // |A - R Ssym|_max / s1
@@ -106,7 +102,6 @@ typedef struct {
 void ek_check_polar3(const double A[9], const double R[9], const double Ssym[9],
                      const double S_ref[3], const double R_ref[9], ek_polar3_metrics *m);
 double ek_polar3_metrics_worst(const ek_polar3_metrics *m);
-void ek_polar3_metrics_max(ek_polar3_metrics *acc, const ek_polar3_metrics *m);
 
 // ---- SVD3 input sets ----
 // n matrices of one family (or the gaussian family as "random"), rounded to
