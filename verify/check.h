@@ -31,6 +31,9 @@ void ek_rng_gauss_matrix(ek_rng *rng, double A[9]); // iid N(0, 1) entries
 void ek_rng_rotation(ek_rng *rng, double R[9]);     // uniform on SO(3)
 // U diag(sigma) V^T with U, V uniform random rotations (sigma signed).
 void ek_rng_with_sigma(ek_rng *rng, const double sigma[3], double A[9]);
+// Q (I + g G): a rotation Q uniform on SO(3) times a random stretch, G with
+// iid N(0, 1) entries (Q drawn first, then G).
+void ek_rng_deformation(ek_rng *rng, double g, double A[9]);
 // Seed of a named stream: independent of the order of any table.
 uint64_t ek_check_stream_seed(uint64_t seed, const char *name);
 
