@@ -2,13 +2,14 @@
 // reference. A seeded random generator (xoshiro256**, seeded by splitmix64),
 // the extremes catalogue (named families of input matrices, a table), error
 // metrics for the 3x3 SVD and polar decomposition, and the PASS / MARGINAL /
-// FAIL verdict. Nothing here knows about ISAs or kernels.
+// FAIL verdict; and the library's SVD and material kernels on double data.
 #ifndef EK_CHECK_H
 #define EK_CHECK_H
 
 #include <stddef.h>
 #include <stdint.h>
 
+#include <ek/material.h>
 #include <ek/svd3.h>
 
 #ifdef __cplusplus
@@ -134,6 +135,12 @@ void *ek_check_malloc(size_t bytes);
 // dF (n x 9 each) for `seed`, rounded to float when f32 (the reference then
 // sees exactly the float input).
 void ek_check_material_inputs(uint64_t seed, int f32, size_t n, double *F, double *R, double *dF);
+// ek_material_eval_f32/_f64 on double data, converting for f32 (R and dF
+// may be NULL). out is written when the call ran (its return >= 0: the
+// count of elements outside the model's domain).
+int ek_check_run_material(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
+                          const double *F, const double *R, const double *dF, double *out,
+                          int project);
 
 // ---- Verdict ----
 // PASS at or below half the budget, MARGINAL above half (reported, not a
