@@ -2,7 +2,8 @@
 // declares its rows to the ek-bench program (bench/ek_bench.c).
 //
 // A family is one function `int bench_<family>(ek_bench *b)`. Adding one:
-//   1. write bench/bench_<family>.c (CMake picks up bench/bench_*.c),
+//   1. write bench/bench_<family>.c and add it to EK_BENCH_FAMILY_SOURCES
+//      (bench/CMakeLists.txt),
 //   2. add its prototype and one line `{"<family>", bench_<family>}` to the
 //      family table in bench/ek_bench.c.
 //

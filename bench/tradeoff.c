@@ -80,10 +80,6 @@ void ek_tradeoff_progress(ek_tradeoff *t, const char *fmt, ...) {
 
 size_t ek_tradeoff_count(const ek_tradeoff *t) { return t->n; }
 
-const ek_tradeoff_point *ek_tradeoff_get(const ek_tradeoff *t, size_t i) {
-  return i < t->n ? &t->points[i].p : NULL;
-}
-
 // Copies s into dst (cap bytes) or says which field of which point is too
 // long or missing.
 static int copy_field(char *dst, size_t cap, const char *s, const char *field,

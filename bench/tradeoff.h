@@ -77,7 +77,6 @@ void ek_tradeoff_progress(ek_tradeoff *t, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
 size_t ek_tradeoff_count(const ek_tradeoff *t);
-const ek_tradeoff_point *ek_tradeoff_get(const ek_tradeoff *t, size_t i);
 
 // Pareto front of n points (both coordinates lower is better): front[i] = 1
 // when no other point dominates it, i.e. no point j has time[j] <= time[i]

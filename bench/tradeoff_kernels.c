@@ -7,7 +7,7 @@
 //   pk1/<model>    P(F) per model, precision x ISA.
 // Error: per matrix (element), the number ek-verify holds against the
 // budget, on ek-verify's own inputs, so the default setting's maximum is
-// the number ek-verify reports for that variant (tests/test_tradeoff.py):
+// the number ek-verify reports for that variant (tests/test_tradeoff_map.py):
 //   svd3    ek_svd3_metrics_worst: max of reconstruction, orthogonality,
 //           |det - 1|, |S - S_ref| and ordering, relative to s1, +inf for a
 //           wrong sign of S2 (verify/check_metrics.c), on the "random" set

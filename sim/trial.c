@@ -33,24 +33,6 @@ double ek_trial_body_size(const ek_mesh *mesh) {
               (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
-double ek_trial_deviation(const ek_mesh *mesh, const double *x, const double *xref) {
-  if (!x || !xref)
-    return NAN;
-  size_t nv = ek_mesh_nverts(mesh);
-  double worst = 0;
-  for (size_t i = 0; i < nv; ++i) {
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      double d = x[3 * i + k] - xref[3 * i + k];
-      d2 += d * d;
-    }
-    if (!(d2 <= INFINITY)) // NaN
-      return NAN;
-    worst = fmax(worst, d2);
-  }
-  return sqrt(worst) / ek_trial_body_size(mesh);
-}
-
 // Each model's linearisation at F = I as linear elasticity (material.h,
 // "At F = I every model's dP is linear elasticity") and its inverse are in
 // its descriptor: the scene's material, linearised, becomes the other

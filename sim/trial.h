@@ -110,8 +110,6 @@ void ek_trial_free(ek_trial *t);
 
 // The rest mesh's bounding-box diagonal.
 double ek_trial_body_size(const ek_mesh *mesh);
-// max_i |x_i - xref_i| / body size; NaN when either is NULL or non-finite.
-double ek_trial_deviation(const ek_mesh *mesh, const double *x, const double *xref);
 
 // Set the scene's model to `model` with Lame parameters chosen so that its
 // linearisation at F = I is the scene model's (material.h: every model

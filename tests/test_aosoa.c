@@ -27,7 +27,7 @@ static void fail(const char *what, int bits, size_t n, int nplanes, size_t item,
 
 // Both precisions go through one body: values are read and written as
 // double (exact for float), buffers are typed by `bits` (no function body in
-// a macro, STYLE.md section 9).
+// a macro).
 static double get(const void *p, size_t i, int bits) {
   return bits == 32 ? ((const float *)p)[i] : ((const double *)p)[i];
 }

@@ -1,4 +1,4 @@
-// Invariants of the FVM force kernels (ek_fvm_forces_*):
+// Invariants of the FVM force kernels (ek_mesh_fvm_forces_ex_*):
 //   1. every scatter strategy x available ISA x precision x model matches
 //      the double reference (reference/fvm) within EK_FVM_TOL_F32/_F64
 //      (max_i |f_i - f_ref_i| / max_i s_i, fvm.h), on random jittered

@@ -67,12 +67,8 @@ static inline test_mesh test_mesh_random(ek_rng *rng, int nx, int ny, int nz, do
 // stretch), noise up to `noise` of a cell per component.
 static inline void test_deform(ek_rng *rng, const test_mesh *t, double strain, double noise,
                                double *x) {
-  double Q[9], G[9], A[9];
-  ek_rng_rotation(rng, Q);
-  ek_rng_gauss_matrix(rng, G);
-  for (int k = 0; k < 9; k++)
-    G[k] = (k % 4 == 0) + strain * G[k];
-  ek_mul3(Q, G, A);
+  double A[9];
+  ek_rng_deformation(rng, strain, A);
   double c[3] = {ek_rng_gauss(rng), ek_rng_gauss(rng), ek_rng_gauss(rng)};
   for (size_t v = 0; v < t->nverts; v++)
     for (int i = 0; i < 3; i++) {

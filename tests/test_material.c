@@ -125,25 +125,6 @@ static void check_descriptors(void) {
   }
 }
 
-// Run one evaluation in the given precision; double arrays in and out.
-static int eval(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
-                const double *F, const double *R, const double *dF, double *out, int project) {
-  const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
-  if (!f32)
-    return ek_material_eval_f64(m, op, isa, n, F, R, dF, out, project);
-  float *Ff = malloc(n * 9 * sizeof(float)), *Rf = malloc(n * 9 * sizeof(float));
-  float *dFf = malloc(n * 9 * sizeof(float)), *Of = malloc(n * nout * sizeof(float));
-  for (size_t i = 0; i < n * 9; i++)
-    Ff[i] = (float)F[i], Rf[i] = R ? (float)R[i] : 0, dFf[i] = dF ? (float)dF[i] : 0;
-  for (size_t i = 0; i < n * nout; i++)
-    Of[i] = (float)out[i];
-  int rc = ek_material_eval_f32(m, op, isa, n, Ff, R ? Rf : NULL, dF ? dFf : NULL, Of, project);
-  for (size_t i = 0; i < n * nout; i++)
-    out[i] = Of[i];
-  free(Ff), free(Rf), free(dFf), free(Of);
-  return rc;
-}
-
 static const char *const op_names[4] = {"psi", "P", "dP", "H"};
 
 static void print_element(const char *label, const double *a, size_t n) {
@@ -174,7 +155,7 @@ static double check_accuracy(int f32, ek_isa isa, const ek_material *m, ek_mater
         dF[9 * e + k] = (float)dF[9 * e + k];
       }
   }
-  int rc = eval(f32, m, op, isa, n, F, R, dF, out, project);
+  int rc = ek_check_run_material(f32, m, op, isa, n, F, R, dF, out, project);
   ek_material_ref mr = {(int)m->model, m->mu, m->lambda, m->clamp};
   double worst = 0;
   long outside = 0;
@@ -257,8 +238,8 @@ static void check_extremes(int f32, ek_isa isa, const ek_material *m, int projec
   for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++) {
     const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
     double out[sizeof ext / sizeof ext[0] * 81];
-    int rc =
-        eval(f32, m, (ek_material_op)op, isa, n, &ext[0][0], &R[0][0], &dF[0][0], out, project);
+    int rc = ek_check_run_material(f32, m, (ek_material_op)op, isa, n, &ext[0][0], &R[0][0],
+                                   &dF[0][0], out, project);
     int expect_rc = 0;
     for (size_t e = 0; e < n; e++) {
       double J = ext[e][0] * (ext[e][4] * ext[e][8] - ext[e][5] * ext[e][7]) -
@@ -307,13 +288,13 @@ static void check_nan_lane(int f32, ek_isa isa, const ek_material *m) {
     make_F(NEAR_ID, F + 9 * e), rotation(R + 9 * e), make_F(NEAR_ID, dF + 9 * e);
   for (int op = EK_MAT_ENERGY; op <= EK_MAT_HESSIAN; op++) {
     const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
-    eval(f32, m, (ek_material_op)op, isa, N, F, R, dF, a, 0);
+    ek_check_run_material(f32, m, (ek_material_op)op, isa, N, F, R, dF, a, 0);
     for (int in_r = 0; in_r <= reads_r; in_r++)
       for (int entry = 0; entry < 9; entry++)
         for (int v = 0; v < 3; v++) {
           double *X = in_r ? R : F, keep = X[9 * BAD + entry];
           X[9 * BAD + entry] = bad_values[v];
-          eval(f32, m, (ek_material_op)op, isa, N, F, R, dF, b, 0);
+          ek_check_run_material(f32, m, (ek_material_op)op, isa, N, F, R, dF, b, 0);
           X[9 * BAD + entry] = keep;
           for (size_t e = 0; e < N; e++) {
             size_t finite = 0;
@@ -386,7 +367,7 @@ int main(int argc, char **argv) {
       }
       ek_material m = {EK_MODEL_NEO_HOOKEAN, 1.3, 2.1, 0};
       ek_material_ref mr = {EK_MODEL_NEO_HOOKEAN, 1.3, 2.1, 0};
-      int rc = eval(f32, &m, EK_MAT_ENERGY, (ek_isa)isa, n, F, NULL, NULL, psi, 0);
+      int rc = ek_check_run_material(f32, &m, EK_MAT_ENERGY, (ek_isa)isa, n, F, NULL, NULL, psi, 0);
       double worst = 0;
       for (size_t e = 0; e < n; e++) {
         double ref = ek_psi_ref(&mr, F + 9 * e, NULL);

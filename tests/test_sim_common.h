@@ -8,6 +8,7 @@
 #include "check.h"
 #include "cli.h"
 #include <ek/sim/sim.h>
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -86,6 +87,20 @@ static inline int start(run *r, const char *json_or_name, int is_file) {
 static inline void finish(run *r) {
   ek_sim_destroy(r->sim);
   ek_mesh_destroy(r->mesh);
+}
+
+// Mean z displacement of the vertices on the face x = L: a cantilever's
+// free end along x (the beam axis' deflection there).
+static inline double end_face_dz(const ek_mesh *mesh, const double *x, double L) {
+  const double *X = ek_mesh_rest_positions(mesh);
+  double sum = 0;
+  int count = 0;
+  for (size_t i = 0; i < ek_mesh_nverts(mesh); ++i)
+    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
+      sum += x[3 * i + 2] - X[3 * i + 2];
+      count++;
+    }
+  return sum / count;
 }
 
 // `steps` steps of the scene text at 1 and at 2 threads: the coordinates

@@ -154,8 +154,6 @@ static void cantilever_test(void) {
     ek_mesh_destroy(m);
     return;
   }
-  size_t nv = ek_mesh_nverts(m);
-  const double *X = ek_mesh_rest_positions(m);
   double L = s.box_size[0], b = s.box_size[1], h = s.box_size[2];
   // Tip deflection: mean vertical displacement of the free end face (the
   // beam axis' deflection at x = L).
@@ -165,16 +163,8 @@ static void cantilever_test(void) {
   for (long n = 0; n < s.steps && rc == 0; ++n) {
     rc = ek_sim_step(sim);
     if (n + 1 == check_at || n + 1 == s.steps) {
-      const double *x = ek_sim_positions(sim);
-      double sum = 0;
-      int count = 0;
-      for (size_t i = 0; i < nv; ++i)
-        if (fabs(X[3 * i] - L) <= 1e-9 * L) {
-          sum += x[3 * i + 2] - X[3 * i + 2];
-          count++;
-        }
       tip_prev = tip;
-      tip = -sum / count;
+      tip = -end_face_dz(m, ek_sim_positions(sim), L);
     }
   }
   // Euler-Bernoulli, uniform load q = rho g A on a clamped beam:

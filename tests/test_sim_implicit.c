@@ -235,22 +235,12 @@ static void cantilever_test(void) {
   run r;
   if (start(&r, "cantilever_implicit", 1))
     return;
-  size_t nv = ek_mesh_nverts(r.mesh);
-  const double *X = ek_mesh_rest_positions(r.mesh);
   const ek_scene *s = &r.scene;
   double L = s->box_size[0], b = s->box_size[1], h = s->box_size[2];
   int rc = 0;
   for (long n = 0; n < s->steps && rc == 0; ++n)
     rc = ek_sim_step(r.sim);
-  const double *x = ek_sim_positions(r.sim);
-  double sum = 0;
-  int count = 0;
-  for (size_t i = 0; i < nv; ++i)
-    if (fabs(X[3 * i] - L) <= 1e-9 * L) {
-      sum += x[3 * i + 2] - X[3 * i + 2];
-      count++;
-    }
-  double tip = -sum / count;
+  double tip = -end_face_dz(r.mesh, ek_sim_positions(r.sim), L);
   // Euler-Bernoulli, uniform load q = rho g A: delta = q L^4 / (8 E I).
   double q = s->density * fabs(s->gravity[2]) * b * h, I = b * h * h * h / 12.0;
   double delta_eb = q * L * L * L * L / (8.0 * s->young * I);

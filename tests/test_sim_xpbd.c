@@ -115,15 +115,7 @@ static int tip_trajectory(const char *json, long steps, long every, double *tip)
     rc = ek_sim_step(r.sim);
     if ((n + 1) % every)
       continue;
-    const double *x = ek_sim_positions(r.sim);
-    double s = 0;
-    int c = 0;
-    for (size_t i = 0; i < nv; i++)
-      if (X[3 * i] > xmax - 1e-9) {
-        s += x[3 * i + 2] - X[3 * i + 2];
-        c++;
-      }
-    tip[(n + 1) / every - 1] = s / c;
+    tip[(n + 1) / every - 1] = end_face_dz(r.mesh, ek_sim_positions(r.sim), xmax);
   }
   if (rc)
     printf("step failed: %s\n", ek_last_error());

@@ -571,48 +571,19 @@ static void check_threads(ek_rng *rng) {
   scene_init(&big[EK_XPBD_CLUSTERS], rng, 20, 20, 20, 0.05, DENSITY);
   for (int e = 0; e < EK_XPBD_ELEMENTS_COUNT; e++) {
     const scene *sc = &big[e];
-    size_t n3 = sc->t.nverts * 3, n = sc->set[e].n;
-    double *xs = malloc(n3 * sizeof(double));
-    double *x[2], *lam[2], res[2][2];
-    for (int r = 0; r < 2; r++) {
-      x[r] = malloc(n3 * sizeof(double));
-      lam[r] = malloc(n * sizeof(double));
-    }
+    double *xs = malloc(sc->t.nverts * 3 * sizeof(double));
     deform(rng, sc, 0.1, xs);
     for (int prec = 32; prec <= 64; prec += 32)
       for (int solver = 0; solver < EK_XPBD_SOLVER_COUNT; solver++) {
-        int ok = 1;
-        for (int r = 0; r < 2; r++) {
-          omp_set_num_threads(r + 1);
-          ek_xpbd *xp = lib_create(sc, e, solver, EK_ISA_AUTO, prec);
-          if (!xp) {
-            ok = 0;
-            break;
-          }
-          memcpy(x[r], xs, n3 * sizeof(double));
-          round_to(prec, n3, x[r]);
-          int rc = ek_xpbd_set_weights(xp, sc->w);
-          rc = rc ? rc : ek_xpbd_begin(xp, SUBSTEP);
-          rc = rc ? rc : lib_iterate(xp, prec, n3, x[r], SWEEPS);
-          rc = rc ? rc : ek_xpbd_lambda(xp, lam[r]);
-          rc = rc ? rc : lib_residual(xp, prec, n3, x[r], &res[r][0], &res[r][1]);
-          ok &= rc == 0;
-          ek_xpbd_destroy(xp);
-        }
-        omp_set_num_threads(2);
-        ok = ok && memcmp(x[0], x[1], n3 * sizeof(double)) == 0 &&
-             memcmp(lam[0], lam[1], n * sizeof(double)) == 0 &&
-             memcmp(res[0], res[1], sizeof res[0]) == 0;
+        ek_xpbd_opts o = {
+            .elements = (ek_xpbd_elements)e, .solver = (ek_xpbd_solver)solver, .precision = prec};
+        int ok = lib_same_bits_1_2_threads(sc, &lib_mat, YOUNG, o, SUBSTEP, SWEEPS, xs, 1);
         char label[200];
         snprintf(label, sizeof label, "e. 1 and 2 threads, same bits: %s f%d %s (%zu constraints)",
-                 ek_xpbd_elements_name((ek_xpbd_elements)e), prec,
-                 ek_xpbd_solver_name((ek_xpbd_solver)solver), n);
+                 ek_xpbd_elements_name(o.elements), prec, ek_xpbd_solver_name(o.solver),
+                 sc->set[e].n);
         fail_if(!ok, label);
       }
-    for (int r = 0; r < 2; r++) {
-      free(x[r]);
-      free(lam[r]);
-    }
     free(xs);
   }
   scene_free(&big[0]);
@@ -655,27 +626,12 @@ static void check_momentum(const scene *sc, ek_rng *rng) {
       for (int prec = 32; prec <= 64; prec += 32) {
         ek_xpbd_opts o = {
             .elements = (ek_xpbd_elements)e, .solver = (ek_xpbd_solver)solver, .precision = prec};
-        ek_xpbd *xp = ek_xpbd_create(sc->el, &lib_mat, YOUNG, sc->mass, &o);
-        double *xs_p = malloc(n3 * sizeof(double)), *pr = malloc(n3 * sizeof(double));
-        memcpy(xs_p, xs, n3 * sizeof(double));
-        memcpy(pr, pred, n3 * sizeof(double));
-        round_to(prec, n3, xs_p);
-        round_to(prec, n3, pr);
-        memcpy(x, pr, n3 * sizeof(double));
-        int rc = xp ? 0 : EK_EINVAL;
-        rc = rc ? rc : ek_xpbd_set_weights(xp, w);
-        rc = rc ? rc : ek_xpbd_begin(xp, SUBSTEP);
-        rc = rc ? rc : lib_iterate(xp, prec, n3, x, SWEEPS);
-        double err = rc == 0 ? scene_momentum_error(sc, SUBSTEP, w, xs_p, pr, x) : NAN;
-        double moved = max_abs_diff(n3, x, pr) / (SUBSTEP * 1.0);
+        double dv,
+            err = lib_momentum_error(sc, &lib_mat, YOUNG, o, SUBSTEP, SWEEPS, w, xs, pred, &dv);
         snprintf(label, sizeof label, "f. momentum, library %s %s f%d (max |dv| %.2g m/s)",
-                 ek_xpbd_elements_name((ek_xpbd_elements)e),
-                 ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, moved);
+                 ek_xpbd_elements_name(o.elements), ek_xpbd_solver_name(o.solver), prec, dv);
         failures += ek_check_report(
             label, err, prec == 32 ? EK_XPBD_MOMENTUM_TOL_F32 : EK_XPBD_MOMENTUM_TOL_F64);
-        free(xs_p);
-        free(pr);
-        ek_xpbd_destroy(xp);
       }
     }
   }

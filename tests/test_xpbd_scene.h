@@ -10,8 +10,10 @@
 #include <ek/elements.h>
 #include <ek/xpbd.h>
 #include <math.h>
+#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "test_fvm_common.h"
 #include "xpbd/xpbd_ref.h"
@@ -139,6 +141,75 @@ static inline int lib_residual(const ek_xpbd *xp, int prec, size_t n3, const dou
   int rc = ek_xpbd_residual_f32(xp, NULL, xf, res, cmax);
   free(xf);
   return rc;
+}
+
+// e: the library's substep h (the scene's weights, `sweeps` sweeps from xs
+// rounded to o's precision) at 1 and at 2 threads: 1 if both give the same
+// bits of the positions, the multipliers (nlam per constraint: lambda, and
+// lambda_H where nlam is 2) and the residual.
+static inline int lib_same_bits_1_2_threads(const scene *sc, const ek_material *mat, double young,
+                                            ek_xpbd_opts o, double h, int sweeps, const double *xs,
+                                            int nlam) {
+  const size_t n3 = 3 * sc->t.nverts, n = sc->set[o.elements].n;
+  double *x[2], *lam[2], res[2][2];
+  int ok = 1;
+  for (int r = 0; r < 2; r++) {
+    x[r] = malloc(n3 * sizeof(double));
+    lam[r] = malloc(nlam * n * sizeof(double));
+  }
+  for (int r = 0; r < 2 && ok; r++) {
+    omp_set_num_threads(r + 1);
+    ek_xpbd *xp = ek_xpbd_create(sc->el, mat, young, sc->mass, &o);
+    if (!xp)
+      printf("ek_xpbd_create: %s\n", ek_last_error());
+    memcpy(x[r], xs, n3 * sizeof(double));
+    round_to(o.precision, n3, x[r]);
+    int rc = xp ? ek_xpbd_set_weights(xp, sc->w) : EK_EINVAL;
+    rc = rc ? rc : ek_xpbd_begin(xp, h);
+    rc = rc ? rc : lib_iterate(xp, o.precision, n3, x[r], sweeps);
+    rc = rc ? rc : ek_xpbd_lambda(xp, lam[r]);
+    rc = rc || nlam < 2 ? rc : ek_xpbd_lambda_h(xp, lam[r] + n);
+    rc = rc ? rc : lib_residual(xp, o.precision, n3, x[r], &res[r][0], &res[r][1]);
+    ok &= rc == 0;
+    ek_xpbd_destroy(xp);
+  }
+  omp_set_num_threads(2);
+  ok = ok && memcmp(x[0], x[1], n3 * sizeof(double)) == 0 &&
+       memcmp(lam[0], lam[1], nlam * n * sizeof(double)) == 0 &&
+       memcmp(res[0], res[1], sizeof res[0]) == 0;
+  for (int r = 0; r < 2; r++) {
+    free(x[r]);
+    free(lam[r]);
+  }
+  return ok;
+}
+
+// f: scene_momentum_error of the library's substep h (weights w, `sweeps`
+// sweeps from pred, xs and pred rounded to o's precision first); NaN where
+// the library fails. *dv gets max |x - pred| / h (the velocity change).
+static inline double lib_momentum_error(const scene *sc, const ek_material *mat, double young,
+                                        ek_xpbd_opts o, double h, int sweeps, const double *w,
+                                        const double *xs, const double *pred, double *dv) {
+  const size_t n3 = 3 * sc->t.nverts;
+  ek_xpbd *xp = ek_xpbd_create(sc->el, mat, young, sc->mass, &o);
+  double *xs_p = malloc(n3 * sizeof(double)), *pr = malloc(n3 * sizeof(double));
+  double *x = malloc(n3 * sizeof(double));
+  memcpy(xs_p, xs, n3 * sizeof(double));
+  memcpy(pr, pred, n3 * sizeof(double));
+  round_to(o.precision, n3, xs_p);
+  round_to(o.precision, n3, pr);
+  memcpy(x, pr, n3 * sizeof(double));
+  int rc = xp ? 0 : EK_EINVAL;
+  rc = rc ? rc : ek_xpbd_set_weights(xp, w);
+  rc = rc ? rc : ek_xpbd_begin(xp, h);
+  rc = rc ? rc : lib_iterate(xp, o.precision, n3, x, sweeps);
+  double err = rc == 0 ? scene_momentum_error(sc, h, w, xs_p, pr, x) : NAN;
+  *dv = max_abs_diff(n3, x, pr) / h;
+  free(xs_p);
+  free(pr);
+  free(x);
+  ek_xpbd_destroy(xp);
+  return err;
 }
 
 #endif

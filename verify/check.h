@@ -2,13 +2,14 @@
 // reference. A seeded random generator (xoshiro256**, seeded by splitmix64),
 // the extremes catalogue (named families of input matrices, a table), error
 // metrics for the 3x3 SVD and polar decomposition, and the PASS / MARGINAL /
-// FAIL verdict. Nothing here knows about ISAs or kernels.
+// FAIL verdict; and the library's SVD and material kernels on double data.
 #ifndef EK_CHECK_H
 #define EK_CHECK_H
 
 #include <stddef.h>
 #include <stdint.h>
 
+#include <ek/material.h>
 #include <ek/svd3.h>
 
 #ifdef __cplusplus
@@ -31,6 +32,9 @@ void ek_rng_gauss_matrix(ek_rng *rng, double A[9]); // iid N(0, 1) entries
 void ek_rng_rotation(ek_rng *rng, double R[9]);     // uniform on SO(3)
 // U diag(sigma) V^T with U, V uniform random rotations (sigma signed).
 void ek_rng_with_sigma(ek_rng *rng, const double sigma[3], double A[9]);
+// Q (I + g G): a rotation Q uniform on SO(3) times a random stretch, G with
+// iid N(0, 1) entries (Q drawn first, then G).
+void ek_rng_deformation(ek_rng *rng, double g, double A[9]);
 // Seed of a named stream: independent of the order of any table.
 uint64_t ek_check_stream_seed(uint64_t seed, const char *name);
 
@@ -57,9 +61,6 @@ typedef struct {
 extern const ek_check_family ek_check_families[];
 extern const int ek_check_nfamilies;
 
-// Fill A (n x 9) with family f for `seed`; the stream depends on seed and
-// the family's name only.
-void ek_check_family_generate(const ek_check_family *f, uint64_t seed, size_t n, double *A);
 // 1 if family f is meant for precision 32 or 64.
 int ek_check_family_for(const ek_check_family *f, int bits);
 // 1 if the 9 entries are all finite.
@@ -92,7 +93,6 @@ void ek_check_svd3(const double A[9], const double U[9], const double S[3], cons
 // Largest of recon, orth, det, sigma, order (+inf if nonfinite or the sign
 // is wrong): the number held against the budget.
 double ek_svd3_metrics_worst(const ek_svd3_metrics *m);
-void ek_svd3_metrics_max(ek_svd3_metrics *acc, const ek_svd3_metrics *m);
 
 typedef struct {
   double recon;  // |A - R Ssym|_max / s1
@@ -106,7 +106,6 @@ typedef struct {
 void ek_check_polar3(const double A[9], const double R[9], const double Ssym[9],
                      const double S_ref[3], const double R_ref[9], ek_polar3_metrics *m);
 double ek_polar3_metrics_worst(const ek_polar3_metrics *m);
-void ek_polar3_metrics_max(ek_polar3_metrics *acc, const ek_polar3_metrics *m);
 
 // ---- SVD3 input sets ----
 // n matrices of one family (or the gaussian family as "random"), rounded to
@@ -136,6 +135,12 @@ void *ek_check_malloc(size_t bytes);
 // dF (n x 9 each) for `seed`, rounded to float when f32 (the reference then
 // sees exactly the float input).
 void ek_check_material_inputs(uint64_t seed, int f32, size_t n, double *F, double *R, double *dF);
+// ek_material_eval_f32/_f64 on double data, converting for f32 (R and dF
+// may be NULL). out is written when the call ran (its return >= 0: the
+// count of elements outside the model's domain).
+int ek_check_run_material(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
+                          const double *F, const double *R, const double *dF, double *out,
+                          int project);
 
 // ---- Verdict ----
 // PASS at or below half the budget, MARGINAL above half (reported, not a

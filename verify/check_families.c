@@ -277,12 +277,6 @@ const ek_check_family ek_check_families[] = {
 };
 const int ek_check_nfamilies = (int)(sizeof ek_check_families / sizeof ek_check_families[0]);
 
-void ek_check_family_generate(const ek_check_family *f, uint64_t seed, size_t n, double *A) {
-  ek_rng rng;
-  ek_rng_seed(&rng, ek_check_stream_seed(seed, f->name));
-  f->generate(&rng, n, A);
-}
-
 int ek_check_family_for(const ek_check_family *f, int bits) {
   return (f->flags & (bits == 32 ? EK_FAMILY_F32 : EK_FAMILY_F64)) != 0;
 }

@@ -5,6 +5,8 @@
 // entries in [-1, 1].
 #include "check.h"
 
+#include <stdlib.h>
+
 static void make_F(ek_rng *rng, int kind, double F[9]) {
   double s[3];
   switch (kind) {
@@ -43,4 +45,22 @@ void ek_check_material_inputs(uint64_t seed, int f32, size_t n, double *F, doubl
   if (f32) // the reference sees exactly the float input
     for (size_t i = 0; i < n * 9; i++)
       F[i] = (float)F[i], R[i] = (float)R[i], dF[i] = (float)dF[i];
+}
+
+int ek_check_run_material(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
+                          const double *F, const double *R, const double *dF, double *out,
+                          int project) {
+  const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
+  if (!f32)
+    return ek_material_eval_f64(m, op, isa, n, F, R, dF, out, project);
+  float *Ff = ek_check_malloc(n * 9 * sizeof(float)), *Rf = ek_check_malloc(n * 9 * sizeof(float));
+  float *dFf = ek_check_malloc(n * 9 * sizeof(float)),
+        *Of = ek_check_malloc(n * nout * sizeof(float));
+  for (size_t i = 0; i < n * 9; i++)
+    Ff[i] = (float)F[i], Rf[i] = R ? (float)R[i] : 0, dFf[i] = dF ? (float)dF[i] : 0;
+  int rc = ek_material_eval_f32(m, op, isa, n, Ff, R ? Rf : NULL, dF ? dFf : NULL, Of, project);
+  if (rc >= 0)
+    ek_check_from_f32(n * nout, Of, out);
+  free(Ff), free(Rf), free(dFf), free(Of);
+  return rc;
 }

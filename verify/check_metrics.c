@@ -67,16 +67,6 @@ double ek_svd3_metrics_worst(const ek_svd3_metrics *m) {
   return fmax(fmax(fmax(m->recon, m->orth), fmax(m->det, m->sigma)), m->order);
 }
 
-void ek_svd3_metrics_max(ek_svd3_metrics *acc, const ek_svd3_metrics *m) {
-  acc->recon = fmax(acc->recon, m->recon);
-  acc->orth = fmax(acc->orth, m->orth);
-  acc->det = fmax(acc->det, m->det);
-  acc->sigma = fmax(acc->sigma, m->sigma);
-  acc->order = fmax(acc->order, m->order);
-  acc->sign_wrong += m->sign_wrong;
-  acc->nonfinite += m->nonfinite;
-}
-
 // rdiff: the polar factor is only as well determined as the gap allows; a
 // perturbation dA moves R by up to 2 |dA| / (s2 + s3) with signed s3
 // (Higham, "Functions of Matrices", SIAM 2008, Thm. 8.9; Li 1995), so
@@ -116,15 +106,6 @@ double ek_polar3_metrics_worst(const ek_polar3_metrics *m) {
   if (m->nonfinite)
     return INFINITY;
   return fmax(fmax(fmax(m->recon, m->orth), fmax(m->det, m->sym)), m->rdiff);
-}
-
-void ek_polar3_metrics_max(ek_polar3_metrics *acc, const ek_polar3_metrics *m) {
-  acc->recon = fmax(acc->recon, m->recon);
-  acc->orth = fmax(acc->orth, m->orth);
-  acc->det = fmax(acc->det, m->det);
-  acc->sym = fmax(acc->sym, m->sym);
-  acc->rdiff = fmax(acc->rdiff, m->rdiff);
-  acc->nonfinite += m->nonfinite;
 }
 
 ek_verdict ek_check_verdict(double err, double budget) {

@@ -82,6 +82,15 @@ void ek_rng_with_sigma(ek_rng *rng, const double sigma[3], double A[9]) {
   ek_mul3_bt(US, V, A);
 }
 
+void ek_rng_deformation(ek_rng *rng, double g, double A[9]) {
+  double Q[9], G[9];
+  ek_rng_rotation(rng, Q);
+  ek_rng_gauss_matrix(rng, G);
+  for (int k = 0; k < 9; k++)
+    G[k] = (k % 4 == 0) + g * G[k];
+  ek_mul3(Q, G, A);
+}
+
 // FNV-1a of the name, mixed with the seed: a family's stream does not move
 // when rows are added to or reordered in a table.
 uint64_t ek_check_stream_seed(uint64_t seed, const char *name) {

@@ -170,7 +170,7 @@ static void make_matrices(size_t n, double *A, double *guess) {
       rotation(0, guess + 9 * i);
     }
   }
-  // The extremes catalogue (STYLE.md sec. 7), at fixed indices < n.
+  // Extremes (tiny and huge scales, low ranks, identity), at fixed indices < n.
   for (int k = 0; k < 9; k++) {
     A[9 * 3 + k] *= 1e-30;
     A[9 * 7 + k] *= 1e30;

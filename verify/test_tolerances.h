@@ -1,6 +1,6 @@
 // Tolerances of ek's test scenarios (not installed): what tests/ and
 // ek-verify hold a scenario's measured error to, named here and never
-// written as literals in test bodies (STYLE.md sec. 7). The kernels' error
+// written as literals in test bodies. The kernels' error
 // budgets (EK_<CAP>_TOL_F32/_F64, EK_MESH_TOL) are part of each kernel's
 // contract and stay in its public header; these bound a test's own
 // construction (finite differences, a time integrator on a chosen scene).

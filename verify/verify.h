@@ -1,7 +1,8 @@
 // ek-verify's family table: every kernel family is one function that runs
 // its variants against its reference and emits rows. A new family adds
-// verify/verify_<family>.c (CMake picks it up) and one row in the table of
-// ek_verify.c, e.g. { "material", verify_material }.
+// verify/verify_<family>.c, its name in EK_VERIFY_FAMILIES (verify/
+// CMakeLists.txt) and one row in the table of ek_verify.c, e.g.
+// { "material", verify_material }.
 #ifndef EK_VERIFY_H
 #define EK_VERIFY_H
 

@@ -26,22 +26,6 @@ static double amax(const double *a, size_t n) {
   return m;
 }
 
-static int eval(int f32, const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
-                const double *F, const double *R, const double *dF, double *out, int project) {
-  const size_t nout = op == EK_MAT_ENERGY ? 1 : op == EK_MAT_HESSIAN ? 81 : 9;
-  if (!f32)
-    return ek_material_eval_f64(m, op, isa, n, F, R, dF, out, project);
-  float *Ff = malloc(n * 9 * sizeof(float)), *Rf = malloc(n * 9 * sizeof(float));
-  float *dFf = malloc(n * 9 * sizeof(float)), *Of = malloc(n * nout * sizeof(float));
-  ek_check_to_f32(n * 9, F, Ff);
-  ek_check_to_f32(n * 9, R, Rf);
-  ek_check_to_f32(n * 9, dF, dFf);
-  int rc = ek_material_eval_f32(m, op, isa, n, Ff, Rf, dFf, Of, project);
-  ek_check_from_f32(n * nout, Of, out);
-  free(Ff), free(Rf), free(dFf), free(Of);
-  return rc;
-}
-
 int verify_material(ek_verify_ctx *ctx) {
   size_t n = ek_verify_n_random(ctx);
   if (n > MATERIAL_SET_MAX) {
@@ -88,7 +72,8 @@ int verify_material(ek_verify_ctx *ctx) {
             if (!ek_isa_available((ek_isa)isa))
               continue;
             ek_verify_row *row = &rows[isa];
-            int rc = eval(f32, &m, ops[k], (ek_isa)isa, n, F, R, dF, out, projects[k]);
+            int rc =
+                ek_check_run_material(f32, &m, ops[k], (ek_isa)isa, n, F, R, dF, out, projects[k]);
             if (rc < 0) {
               fprintf(stderr, "ek-verify: material kernel returned %d: %s\n", rc, ek_last_error());
               row->nonfinite++;

@@ -42,12 +42,8 @@ static int make_case(xpbd_case *c, uint64_t seed) {
   c->T = ek_check_malloc(c->nt * 4 * sizeof(int32_t));
   memcpy(c->T, ek_mesh_tets(box), c->nt * 4 * sizeof(int32_t));
   const double *X = ek_mesh_rest_positions(box), len[3] = {0.5, 0.4, 0.3};
-  double Q[9], G[9], A[9];
-  ek_rng_rotation(&rng, Q);
-  ek_rng_gauss_matrix(&rng, G);
-  for (int k = 0; k < 9; k++)
-    G[k] = (k % 4 == 0) + 0.1 * G[k];
-  ek_mul3(Q, G, A);
+  double A[9];
+  ek_rng_deformation(&rng, 0.1, A);
   for (size_t v = 0; v < c->nv; v++)
     for (int i = 0; i < 3; i++) {
       // Interior vertices jittered by up to 15% of a cell; x = A X + noise.

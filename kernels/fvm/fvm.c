@@ -90,7 +90,7 @@ static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, 
   if (!F || (sigma_min && !S)) {
     free(F);
     free(S);
-    ek_set_error("ek_fvm_forces: out of memory for per-tet fields");
+    ek_set_error("ek_fvm_tet_forces_ex: out of memory for per-tet fields");
     return EK_ENOMEM;
   }
   tet_F_f64(el, x, F);
@@ -223,7 +223,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
 
 int EK_P(fvm_tet_forces_ex)(const ek_tets *el, const ek_material *mat, const real *x, real *f,
                             const ek_fvm_opts *opts) {
-  static const char *fn = "ek_fvm_forces";
+  static const char *fn = "ek_fvm_tet_forces_ex";
   ek_fvm_opts o = {0};
   if (opts)
     o = *opts;
@@ -324,7 +324,7 @@ const char *ek_scatter_name(ek_scatter s) {
 
 int ek_fvm_tet_deformation_gradients_f64(const ek_tets *el, const double *x, double *F) {
   if (!el || !x || !F) {
-    ek_set_error("ek_fvm_deformation_gradients_f64: NULL argument");
+    ek_set_error("ek_fvm_tet_deformation_gradients_f64: NULL argument");
     return EK_EINVAL;
   }
   tet_F_f64(el, x, F);
@@ -334,17 +334,17 @@ int ek_fvm_tet_deformation_gradients_f64(const ek_tets *el, const double *x, dou
 double ek_fvm_tet_energy_f64(const ek_tets *el, const ek_material *mat, const double *x,
                              const double *R) {
   if (!el || !mat || !x) {
-    ek_set_error("ek_fvm_energy_f64: NULL argument");
+    ek_set_error("ek_fvm_tet_energy_f64: NULL argument");
     return NAN;
   }
   if (ek_models[mat->model]->needs == EK_NEEDS_R_INPUT && !R) {
-    ek_set_error("ek_fvm_energy_f64: corotated linear needs per-tet rotations (R is NULL)");
+    ek_set_error("ek_fvm_tet_energy_f64: corotated linear needs per-tet rotations (R is NULL)");
     return NAN;
   }
   size_t n = el->ntets;
   double *F = malloc(n * 10 * sizeof(double));
   if (!F) {
-    ek_set_error("ek_fvm_energy_f64: out of memory");
+    ek_set_error("ek_fvm_tet_energy_f64: out of memory");
     return NAN;
   }
   double *psi = F + n * 9;

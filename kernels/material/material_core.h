@@ -82,7 +82,7 @@ EK_INLINE void material_pk1_svd(const ek_material_lanes *m, const vreal U[9], co
 
 // P(F) from F and R = polar(F) given (the warm-started polar), for fixed
 // corotated and ARAP without clamp: 2 mu (F - R) + lambda (J - 1) cof(F),
-// lambda = 0 for ARAP (fixed_corot.h).
+// lambda = 0 for ARAP (fixed_corot.c, arap.c).
 EK_INLINE void material_pk1_rotation(const ek_material_lanes *m, const vreal F[9], const vreal R[9],
                                      vreal P[9]) {
 #if MODEL_WARM_POLAR

@@ -106,10 +106,5 @@ static inline double m3_ddot(const double A[9], const double B[9]) {
   return s;
 }
 static inline double m3_trace(const double A[9]) { return A[0] + A[4] + A[8]; }
-static inline void m3_transpose(const double A[9], double T[9]) {
-  for (int i = 0; i < 3; i++)
-    for (int j = 0; j < 3; j++)
-      T[3 * j + i] = A[3 * i + j];
-}
 
 #endif

@@ -1,7 +1,7 @@
 // The 3x3 SVD oracle: LAPACK dgesvd (one-sided Householder bidiagonalisation
 // and implicit QR, a different algorithm from the kernel's Jacobi, so it can
-// catch the kernel's algorithmic errors; STYLE.md section 6), converted to
-// ek's rotation-variant convention.
+// catch the kernel's algorithmic errors), converted to ek's rotation-variant
+// convention.
 #include "svd3_ref.h"
 
 #include <math.h>

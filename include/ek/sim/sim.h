@@ -246,7 +246,7 @@ const ek_sim_newton_trace *ek_sim_last_newton(const ek_sim *sim);
 size_t ek_sim_xpbd_constraints(const ek_sim *sim);
 // Kinetic, elastic and gravity potential energy of the current state. The
 // elastic energy is measured from the rest shape, E(x) - E(X)
-// (ek_fvm_energy_ex_f64; corotated linear with the current R^n), as some
+// (ek_mesh_fvm_energy_ex_f64; corotated linear with the current R^n), as some
 // models (stable neo-Hookean) are not 0 at rest.
 int ek_sim_energy(const ek_sim *sim, ek_sim_energies *e);
 void ek_sim_momentum(const ek_sim *sim, double p[3]);
