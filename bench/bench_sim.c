@@ -101,12 +101,16 @@ static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim) {
     return;
   if (h.blown_up && !h.allow_nonfinite)
     ek_bench_fail(b,
-                  "%s: the positions blew up (a vertex %.3g body sizes from the rest centre, %zu "
-                  "non-finite values)",
-                  name, h.extent, h.nonfinite);
+                  "%s: the positions blew up after step %ld (t = %g s): vertex %zu %.3g body "
+                  "sizes from the rest centre, %zu non-finite values",
+                  name, ek_sim_steps_done(sim), ek_sim_time(sim), h.farthest, h.extent,
+                  h.nonfinite);
   if (h.inverted > 0 && !h.allow_inverted)
-    ek_bench_note(b, "warning: %s: the run ends with %zu of %zu elements INVERTED (J <= 0)", name,
-                  h.inverted, h.elements);
+    ek_bench_note(b,
+                  "warning: %s: the run ends (step %ld, t = %g s) with %zu of %zu elements "
+                  "INVERTED (J <= 0; the first is element %zu, J = %.3g)",
+                  name, ek_sim_steps_done(sim), ek_sim_time(sim), h.inverted, h.elements,
+                  h.first_inverted, h.first_inverted_J);
 }
 
 // A shipped scene by name, from the build or the installed tree

@@ -90,9 +90,11 @@ struct sim_body_ops {
   // the cause (inverted elements, overflow); hint ends it. Returns
   // EK_SIM_EINVERTED or EK_EINVAL.
   int (*bad_force)(ek_sim *sim, const double *x, size_t vertex, const char *hint);
-  // Elements of sim->x that are inverted (0 where elements have no
-  // orientation, e.g. triangles in 3D).
-  size_t (*inverted_count)(const ek_sim *sim);
+  // Elements of x (sim->x when NULL) that are inverted (0 where elements
+  // have no orientation, e.g. triangles in 3D), and the first of them with
+  // its J = V / V0 (*first, *first_J, either may be NULL; untouched when
+  // none), for the messages: the same pass as the count.
+  size_t (*inverted_count)(const ek_sim *sim, const double *x, size_t *first, double *first_J);
   // Elastic energy E(x) (sim->elastic_rest is subtracted by the caller).
   double (*energy)(const ek_sim *sim, const double *x);
   // Volume (tets) or area (triangles) of sim->x; NAN when it fails.

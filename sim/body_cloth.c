@@ -87,15 +87,14 @@ static int tris_forces(ek_sim *s, const double *x64, const float *x32, double *f
 static int tris_bad_force(ek_sim *s, const double *x, size_t bad_vertex, const char *hint) {
   (void)x; // every membrane model here is defined at every finite F
   const double *f = s->f + 3 * bad_vertex;
-  return sim_fail(s,
-                  "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
-                  "positions%s",
-                  s->n, s->t, f[0], f[1], f[2], bad_vertex, hint);
+  return sim_fail(s, "non-finite force (%g, %g, %g) at vertex %zu from finite positions%s", f[0],
+                  f[1], f[2], bad_vertex, hint);
 }
 
 // A triangle in 3D has no orientation to lose.
-static size_t tris_inverted_count(const ek_sim *s) {
-  (void)s;
+static size_t tris_inverted_count(const ek_sim *s, const double *x, size_t *first,
+                                  double *first_J) {
+  (void)s, (void)x, (void)first, (void)first_J;
   return 0;
 }
 

@@ -375,25 +375,36 @@ static int tets_bad_force(ek_sim *s, const double *x, size_t bad_vertex, const c
   const int domain_limited = s->mat.model == EK_MODEL_NEO_HOOKEAN && !(s->mat.clamp > 0);
   if (inverted && domain_limited) {
     snprintf(s->error, sizeof s->error,
-             "step %ld (t = %g): %zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); "
-             "model %s is undefined there (use an invertible model or material.clamp > 0)",
-             s->n, s->t, inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
+             "%zu of %zu tets inverted (J <= 0; first: tet %zu, J = %.3g); model %s is undefined "
+             "there (use an invertible model or material.clamp > 0)",
+             inverted, s->nt, first, first_J, ek_scene_model_name(s->mat.model));
     ek_set_error("%s", s->error);
     return EK_SIM_EINVERTED;
   }
   return sim_fail(s,
-                  "step %ld (t = %g): non-finite force (%g, %g, %g) at vertex %zu from finite "
-                  "positions (%zu of %zu tets with J <= 0; model %s is finite for every finite "
-                  "F there, so a value overflowed)%s",
-                  s->n, s->t, f[0], f[1], f[2], bad_vertex, inverted, s->nt,
-                  ek_scene_model_name(s->mat.model), hint);
+                  "non-finite force (%g, %g, %g) at vertex %zu from finite positions (%zu of %zu "
+                  "tets with J <= 0; model %s is finite for every finite F there, so a value "
+                  "overflowed)%s",
+                  f[0], f[1], f[2], bad_vertex, inverted, s->nt, ek_scene_model_name(s->mat.model),
+                  hint);
 }
 
-static size_t tets_inverted_count(const ek_sim *s) {
-  const int32_t *T = ek_mesh_tets(tets_of(s)->mesh);
+static size_t tets_inverted_count(const ek_sim *s, const double *x, size_t *first,
+                                  double *first_J) {
+  const ek_mesh *m = tets_of(s)->mesh;
+  const int32_t *T = ek_mesh_tets(m);
+  if (!x)
+    x = s->x;
   size_t n = 0;
-  for (size_t e = 0; e < s->nt; ++e)
-    n += !(tet_volume(s->x, T + 4 * e) > 0);
+  for (size_t e = 0; e < s->nt; ++e) {
+    const double V = tet_volume(x, T + 4 * e);
+    if (!(V > 0) && n++ == 0) {
+      if (first)
+        *first = e;
+      if (first_J)
+        *first_J = V / ek_mesh_rest_volumes(m)[e];
+    }
+  }
   return n;
 }
 

@@ -276,6 +276,9 @@ typedef struct {
   long checks, last_step;
   ek_sim_health last, worst;
   double t_last, t_worst, extent_max, t_extent;
+  long step_extent; // the frame of extent_max, its farthest vertex and where
+  size_t farthest;  // that vertex was then (ek_sim_health.farthest)
+  double far_x[3];
   int warned;       // the first frame with NaN / inf was said on stderr
   const char *path; // the scene, for the messages
 } state_watch;
@@ -287,26 +290,72 @@ static size_t frame_nonfinite(const ek_frame_fields *ff, size_t nv, size_t ne) {
          ek_count_nonfinite(ff->strain_rates, 3 * ne) + ek_count_nonfinite(ff->vertex_R, 9 * nv);
 }
 
+// The first NaN / inf of a frame, for the warning: "vertex 3: position
+// (nan, 0, 1), ..." from the state (h: ek_sim_check's, its own count),
+// else "J of element 7 = -nan" from the fields in the order
+// frame_nonfinite counts them. Called once per run (the first frame that
+// holds one).
+static const char *first_nonfinite(const ek_sim *sim, const ek_sim_health *h,
+                                   const ek_frame_fields *ff, size_t nv, size_t ne, char *buf,
+                                   size_t len) {
+  if (h->nonfinite > 0) { // the state's own (ek_sim_check): named first
+    const double *x = ek_sim_positions(sim) + 3 * h->first_nonfinite;
+    const double *v = ek_sim_velocities(sim) + 3 * h->first_nonfinite;
+    snprintf(buf, len, "vertex %zu: position (%g, %g, %g), velocity (%g, %g, %g)",
+             h->first_nonfinite, x[0], x[1], x[2], v[0], v[1], v[2]);
+    return buf;
+  }
+  const struct {
+    const char *name;
+    const double *a;
+    size_t per, n;
+  } f[] = {{"J", ff->J, 1, ne},
+           {"smin", ff->smin, 1, ne},
+           {"psi", ff->psi, 1, ne},
+           {"smax", ff->smax, 1, ne},
+           {"D", ff->D, 9, ne},
+           {"W", ff->W, 9, ne},
+           {"strain_rates", ff->strain_rates, 3, ne},
+           {"vertex_rotation", ff->vertex_R, 9, nv}};
+  for (size_t k = 0; k < sizeof f / sizeof f[0]; ++k)
+    for (size_t i = 0; f[k].a && i < f[k].per * f[k].n; ++i)
+      if (!isfinite(f[k].a[i])) {
+        snprintf(buf, len, "%s of %s %zu = %g", f[k].name, k == 7 ? "vertex" : "element",
+                 i / f[k].per, f[k].a[i]);
+        return buf;
+      }
+  snprintf(buf, len, "none found");
+  return buf;
+}
+
 // Check the state now (ff: the frame's fields just written, or NULL).
 static int watch_state(state_watch *w, const ek_sim *sim, long step, const ek_frame_fields *ff,
                        size_t nv, size_t ne, int tty) {
   ek_sim_health h;
   if (ek_sim_check(sim, &h) != 0)
     return -1;
+  const size_t state_nonfinite = h.nonfinite;
   if (ff)
     h.nonfinite += frame_nonfinite(ff, nv, ne);
   const double t = ek_sim_time(sim);
   if (h.nonfinite > 0 && !w->warned) {
     w->warned = 1;
+    char first[192];
+    ek_sim_health hs = h;
+    hs.nonfinite = state_nonfinite;
     fprintf(stderr,
-            "%sek-sim: warning: %s: the frame at step %ld (t = %g s) holds %zu NaN/inf values\n",
-            tty ? "\n" : "", w->path, step, t, h.nonfinite);
+            "%sek-sim: warning: %s: the frame at step %ld (t = %g s) holds %zu NaN/inf values "
+            "(first: %s)\n",
+            tty ? "\n" : "", w->path, step, t, h.nonfinite,
+            first_nonfinite(sim, &hs, ff, nv, ne, first, sizeof first));
   }
   if (w->checks == 0 || h.nonfinite > w->worst.nonfinite ||
       (h.nonfinite == w->worst.nonfinite && h.inverted > w->worst.inverted))
     w->worst = h, w->t_worst = t;
-  if (w->checks == 0 || !(h.extent <= w->extent_max))
-    w->extent_max = h.extent, w->t_extent = t;
+  if (w->checks == 0 || !(h.extent <= w->extent_max)) {
+    w->extent_max = h.extent, w->t_extent = t, w->step_extent = step, w->farthest = h.farthest;
+    memcpy(w->far_x, ek_sim_positions(sim) + 3 * h.farthest, sizeof w->far_x);
+  }
   w->last = h, w->t_last = t, w->last_step = step;
   ++w->checks;
   return 0;
@@ -344,9 +393,10 @@ static int watch_report(const state_watch *w, const ek_scene *s, const ek_sim_el
                 s->path, b->nonfinite, w->t_worst, l->nonfinite);
       if (blown)
         fprintf(stderr,
-                "ek-sim: %s: FAILED: the positions blew up: a vertex %.3g body sizes from the "
-                "rest centre at t = %g s (limit %g)\n",
-                s->path, w->extent_max, w->t_extent, EK_SIM_BLOWUP_EXTENT);
+                "ek-sim: %s: FAILED: the positions blew up: at step %ld (t = %g s) vertex %zu "
+                "is at (%g, %g, %g), %.3g body sizes from the rest centre (limit %g)\n",
+                s->path, w->step_extent, w->t_extent, w->farthest, w->far_x[0], w->far_x[1],
+                w->far_x[2], w->extent_max, EK_SIM_BLOWUP_EXTENT);
       rc = EK_EXIT_NONFINITE;
     }
   }
@@ -356,10 +406,12 @@ static int watch_report(const state_watch *w, const ek_scene *s, const ek_sim_el
              "(allow.inverted)\n");
     else {
       fprintf(stderr,
-              "ek-sim: %s: FAILED: the run ends with %zu of %zu %s INVERTED (J <= 0; worst "
-              "frame %zu at t = %g s); a scene that studies inversion says so with \"allow\": "
+              "ek-sim: %s: FAILED: the run ends with %zu of %zu %s INVERTED (J <= 0; at the last "
+              "frame, step %ld (t = %g s), the first is element %zu with J = %.3g; worst frame "
+              "%zu at t = %g s); a scene that studies inversion says so with \"allow\": "
               "{\"inverted\": true}\n",
-              s->path, l->inverted, l->elements, elem, b->inverted, w->t_worst);
+              s->path, l->inverted, l->elements, elem, w->last_step, w->t_last, l->first_inverted,
+              l->first_inverted_J, b->inverted, w->t_worst);
       if (!rc)
         rc = EK_EXIT_INVERTED;
     }
@@ -1164,7 +1216,8 @@ static int run(int argc, char **argv) {
           ek_sim_rate_fields(sim, Drate, Wrate, rates) != 0 ||
           ek_sim_vertex_rotations(sim, vrot) != 0 ||
           ek_frames_write_fields(frames, ek_sim_time(sim), n, ek_sim_positions(sim), &ff) != 0) {
-        fprintf(stderr, "\nek-sim: %s\n", ek_last_error());
+        fprintf(stderr, "%sek-sim: %s: the frame after step %ld (t = %g s): %s\n", tty ? "\n" : "",
+                scene.path, n, ek_sim_time(sim), ek_last_error());
         rc = EK_EXIT_FAILED;
         break;
       }

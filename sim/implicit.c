@@ -783,7 +783,7 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
   rc = implicit_petsc_solve(d->ps, d->svals, d->diag, d->r, d->x, d->dx, iters, rel,
                             &s->times.solver_setup, &s->times.solver_solve, err, sizeof err);
   if (rc < 0)
-    return sim_fail(s, "step %ld: %s", s->n, err);
+    return sim_fail(s, "%s", err);
   // Held dofs stay put: their rows are identity rows with a zero
   // right-hand side, but an inexact solve leaves dx nonzero there (AMG's
   // aggregates couple them to free dofs). The residual, over free dofs
@@ -810,6 +810,32 @@ static int turned_inside_out(ek_sim *s, double *x, double *before, double *after
   *after = s->body->ops->measure(s);
   s->x = xn;
   return *before > 0 && !(*after > 0);
+}
+
+// The objective is not finite at x_n though its force is: name the first
+// free vertex whose inertia, gravity and damping term (objective's loop) is
+// not (e.g. gravity x mass x position above DBL_MAX), else the elastic
+// energy. On this failure only.
+static int start_not_finite(ek_sim *s, implicit_data *d, const double *x) {
+  const double dt = s->scene.dt, a = 1 / (dt * dt), b = s->scene.damping / dt;
+  const double *g = s->scene.gravity;
+  for (size_t i = 0; i < s->nv; i++) {
+    double term = 0;
+    for (int k = 0; k < 3 && d->is_free[3 * i] != 0; k++) {
+      const size_t j = 3 * i + (size_t)k;
+      const double u = x[j] - d->xtil[j], w = x[j] - s->x[j];
+      term += s->mass[i] * (0.5 * a * u * u - g[k] * x[j] + 0.5 * b * w * w);
+    }
+    if (!isfinite(term))
+      return sim_fail(s,
+                      "the objective is not finite at the start point: vertex %zu's inertia and "
+                      "gravity term is %g (mass %g, position (%g, %g, %g), x_n + dt v_n (%g, %g, "
+                      "%g), gravity (%g, %g, %g))",
+                      i, term, s->mass[i], x[3 * i], x[3 * i + 1], x[3 * i + 2], d->xtil[3 * i],
+                      d->xtil[3 * i + 1], d->xtil[3 * i + 2], g[0], g[1], g[2]);
+  }
+  return sim_fail(s, "the objective is not finite at the start point: the elastic energy is not "
+                     "(its force is finite)");
 }
 
 static int implicit_step(ek_sim *s, void *data) {
@@ -863,7 +889,7 @@ static int implicit_step(ek_sim *s, void *data) {
       // force check names the inverted tets.
       if ((rc = sim_forces(s, x)) || (rc = sim_check_forces(s, x)))
         return rc;
-      return sim_fail(s, "step %ld: the objective is not finite at the start point", s->n);
+      return start_not_finite(s, d, x);
     }
   }
 
@@ -1023,21 +1049,27 @@ static int implicit_step(ek_sim *s, void *data) {
     s->times.worst_residual = res;
   double v_before, v_after;
   if (res > sc->implicit.newton_tol && turned_inside_out(s, x, &v_before, &v_after)) {
+    // The first inverted element of the state refused, for the message
+    // (one pass, on this failure only).
+    size_t first = 0;
+    double first_J = NAN;
+    const size_t inverted = s->body->ops->inverted_count(s, x, &first, &first_J);
     sim_fail(s,
-             "step %ld (t = %g): Newton did not converge (residual %.3g > newton_tol %g after "
-             "%ld iterations: %s) and its state turns the body inside out (signed volume %.4g "
-             "-> %.4g); not applied",
-             s->n, s->t, res, sc->implicit.newton_tol, it,
-             stalled ? "the line search found no decrease" : "max_newton", v_before, v_after);
+             "Newton did not converge (residual %.3g > newton_tol %g after %ld iterations: %s) "
+             "and its state turns the body inside out (signed volume %.4g -> %.4g; %zu of %zu "
+             "%s inverted, first: %zu, J = %.3g); not applied",
+             res, sc->implicit.newton_tol, it,
+             stalled ? "the line search found no decrease" : "max_newton", v_before, v_after,
+             inverted, s->nt, s->body->kind, first, first_J);
     return EK_SIM_EUNCONVERGED;
   }
   if (res > sc->implicit.newton_tol) {
     s->times.unconverged_steps++;
     if (s->times.unconverged_steps == 1)
       sim_warn(s,
-               "%s: step %ld: Newton stopped at residual %.3g > newton_tol %g after %ld "
-               "iterations (%s); counted in the summary",
-               sc->path, s->n, res, sc->implicit.newton_tol, it,
+               "%s: step %ld (t = %g s to %g s): Newton stopped at residual %.3g > newton_tol %g "
+               "after %ld iterations (%s); counted in the summary",
+               sc->path, s->n + 1, s->t, t_next, res, sc->implicit.newton_tol, it,
                stalled ? "the line search found no decrease" : "max_newton");
   }
 

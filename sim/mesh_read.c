@@ -332,6 +332,68 @@ static int read_elem_nodes(mesh_reader *r, const tag_index *map, size_t nnodes, 
   return 0;
 }
 
+// Nodes per element of each Gmsh element type (the elm-type / elementType
+// of MSH 2.2 and 4.x): the Gmsh reference manual's list (types 1-31, 92,
+// 93: "2-node line", ..., "125-node fourth order hexahedron") and the rest
+// of src/common/GmshDefines.h (MSH_LIN_2 = 1 ... MSH_TRIH_4 = 140; the
+// count is the name's suffix, 1 for the MSH_*_1 types, and Gmsh's own
+// MElement::getInfoMSH for the XFEM sub-elements 133-136). 0: no fixed
+// count (34, 35: polygon, polyhedron) or not a type Gmsh reads or writes
+// (138, 139: the "mini" elements, and the unassigned 67-70, 76-78).
+static const short gmsh_nodes[] = {
+    0,                                                       // 0
+    2,   3,    4,   4,   8,  6,  5,  3,  6,   9,   10,  27,  // 1-12
+    18,  14,   1,   8,   20, 15, 13, 9,  10,  12,  15,  15,  // 13-24
+    21,  4,    5,   6,   20, 35, 56, 22, 28,  0,   0,   16,  // 25-36
+    25,  36,   12,  16,  20, 28, 36, 45, 55,  66,  49,  64,  // 37-48
+    81,  100,  121, 18,  21, 24, 27, 30, 24,  28,  32,  36,  // 49-60
+    40,  7,    8,   9,   10, 11, 0,  0,  0,   0,   84,  120, // 61-72
+    165, 220,  286, 0,   0,  0,  34, 40, 46,  52,  58,  1,   // 73-84
+    1,   1,    1,   1,   1,  40, 75, 64, 125, 216, 343, 512, // 85-96
+    729, 1000, 32,  44,  56, 68, 80, 92, 104, 126, 196, 288, // 97-108
+    405, 550,  24,  33,  42, 51, 60, 69, 78,  30,  55,  91,  // 109-120
+    140, 204,  285, 385, 21, 29, 37, 45, 53,  61,  69,  1,   // 121-132
+    1,   2,    3,   4,   16, 0,  0,  4,                      // 133-140
+};
+
+// Nodes of Gmsh element type `type`, or 0 (with the error at the current
+// line) for a type that has no fixed count or that Gmsh does not define.
+static int gmsh_type_nodes(mesh_reader *r, long type, long kept) {
+  const long ntypes = (long)(sizeof gmsh_nodes / sizeof gmsh_nodes[0]);
+  const int n = type > 0 && type < ntypes ? gmsh_nodes[type] : 0;
+  if (n == 0) {
+    mesh_error(r->err, r->errlen,
+               "%s:%ld: element type %ld: %s (this reader keeps type %ld and skips Gmsh's other "
+               "types of a fixed node count)",
+               r->path, r->lineno, type,
+               type == 34 || type == 35 ? "a polygon or polyhedron, no fixed node count"
+                                        : "not a Gmsh element type",
+               kept);
+    r->failed = 1;
+  }
+  return n;
+}
+
+// The node tags of element `tag` of a type the reader does not keep, n of
+// them: checked to be n integers and nothing more, then dropped (a line of
+// the wrong length is a corrupt line, as for a kept type).
+static int skip_elem_nodes(mesh_reader *r, long tag, long type, int n) {
+  int found = 0;
+  for (char *tok; (tok = mesh_rd_token(r)) != NULL; found++) {
+    long node;
+    if (found < n && parse_long(r, tok, "node tag", &node))
+      return -1;
+  }
+  if (found == n)
+    return 0;
+  mesh_error(r->err, r->errlen,
+             "%s:%ld: element %ld has %d node tag%s; its type, %ld, has %d node%s (Gmsh element "
+             "types)",
+             r->path, r->lineno, tag, found, found == 1 ? "" : "s", type, n, n == 1 ? "" : "s");
+  r->failed = 1;
+  return -1;
+}
+
 // Skip to the line "$name" (sections we do not read are skipped).
 static int find_section(mesh_reader *r, const char *name) {
   char what[64];
@@ -500,9 +562,9 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
   if (find_section(r, "$Elements"))
     goto done;
 
-  // Element node lists: only elem_type is read, and its lines must end
-  // after its nodes; a line of another type is skipped whole (its length
-  // depends on the type, which this reader does not keep a table of).
+  // Element node lists: only elem_type is kept; every line must hold as
+  // many nodes as its type has (gmsh_nodes), and a type Gmsh does not
+  // define is an error, never skipped.
   if (!v4) {
     // v2: "n", then "tag type ntags tags... nodes..." per element.
     long ne;
@@ -516,8 +578,9 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
       if (mesh_rd_line(r, "elements") || mesh_rd_long(r, "element tag", &tag) ||
           mesh_rd_long(r, "element type", &type) || mesh_rd_long(r, "tag count", &ntags))
         goto done;
-      if (type != elem_type)
-        continue;
+      const int nodes = gmsh_type_nodes(r, type, elem_type);
+      if (!nodes)
+        goto done;
       if (ntags < 0 || ntags > 64) {
         mesh_error(err, errlen, "%s:%ld: bad tag count %ld", path, r->lineno, ntags);
         goto done;
@@ -525,7 +588,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
       for (long k = 0; k < ntags; k++)
         if (mesh_rd_long(r, "element tag value", &dummy))
           goto done;
-      if (read_elem_nodes(r, map.v, map.n, tag, a))
+      if (type != elem_type ? skip_elem_nodes(r, tag, type, nodes)
+                            : read_elem_nodes(r, map.v, map.n, tag, a))
         goto done;
     }
   } else {
@@ -554,6 +618,9 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
           mesh_rd_end(r, "the element block header's 4 numbers") ||
           mesh_rd_check_count(r, n, ne, "block element"))
         goto done;
+      const int nodes = gmsh_type_nodes(r, type, elem_type);
+      if (!nodes)
+        goto done;
       if (n > ne - filled) {
         mesh_error(err, errlen,
                    "%s:%ld: element block of %ld elements exceeds the %ld declared (%ld in "
@@ -566,9 +633,8 @@ int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a) {
         long tag;
         if (mesh_rd_line(r, "elements") || mesh_rd_long(r, "element tag", &tag))
           goto done;
-        if (type != elem_type)
-          continue;
-        if (read_elem_nodes(r, map.v, map.n, tag, a))
+        if (type != elem_type ? skip_elem_nodes(r, tag, type, nodes)
+                              : read_elem_nodes(r, map.v, map.n, tag, a))
           goto done;
       }
     }

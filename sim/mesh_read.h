@@ -73,7 +73,9 @@ void mesh_arrays_free(mesh_arrays *a);
 // Reads a whole Gmsh ASCII file (v2 or v4) from r: every node into a
 // (a->npe must be set), and the elements of Gmsh type elem_type (4: 4-node
 // tetrahedron, 2: 3-node triangle; a->npe nodes each) mapped to vertex
-// indices; other element types are skipped. 0, or -1 with the error set.
+// indices; lines of other element types are checked (as many integer node
+// tags as the type has) and skipped, and a type Gmsh does not define is an
+// error. 0, or -1 with the error set.
 int mesh_read_gmsh(mesh_reader *r, long elem_type, mesh_arrays *a);
 
 #endif

@@ -415,7 +415,9 @@ int ek_sim_is_cloth(const ek_sim *s) { return s->body->ops == &sim_body_triangle
 
 const char *ek_sim_integrator_name(const ek_sim *s) { return s->integrator->name; }
 
-size_t ek_sim_inverted_count(const ek_sim *s) { return s->body->ops->inverted_count(s); }
+size_t ek_sim_inverted_count(const ek_sim *s) {
+  return s->body->ops->inverted_count(s, NULL, NULL, NULL);
+}
 
 int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
   if (!s || !h) {
@@ -424,7 +426,7 @@ int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
   }
   *h = (ek_sim_health){0};
   h->elements = s->body->ne;
-  h->inverted = s->body->ops->inverted_count(s);
+  h->inverted = s->body->ops->inverted_count(s, NULL, &h->first_inverted, &h->first_inverted_J);
   h->allow_inverted = s->scene.allow_inverted;
   h->allow_nonfinite = s->scene.allow_nonfinite;
   // Relative to the rest bounding box (centre c, diagonal L): scale-free,
@@ -432,14 +434,19 @@ int ek_sim_check(const ek_sim *s, ek_sim_health *h) {
   double r2 = 0;
   for (size_t i = 0; i < s->nv; ++i) {
     double d2 = 0;
+    const size_t before = h->nonfinite;
     for (int k = 0; k < 3; ++k) {
       const double x = s->x[3 * i + k], v = s->v[3 * i + k];
       h->nonfinite += !isfinite(x) + !isfinite(v);
       d2 += (x - s->body_center[k]) * (x - s->body_center[k]);
     }
+    if (before == 0 && h->nonfinite > 0)
+      h->first_nonfinite = i;
     if (d2 > r2) // NaN compares false: counted above instead
-      r2 = d2;
+      r2 = d2, h->farthest = i;
   }
+  if (h->nonfinite > 0)
+    h->farthest = h->first_nonfinite;
   h->extent = s->body_size > 0 ? sqrt(r2) / s->body_size : (r2 > 0 ? INFINITY : 0);
   h->blown_up = h->nonfinite > 0 || !(h->extent <= EK_SIM_BLOWUP_EXTENT);
   return 0;
@@ -520,8 +527,8 @@ int sim_check_forces(ek_sim *s, const double *x) {
   // state whose force overflows; the body tells the last two apart.
   for (size_t i = 0; i < 3 * s->nv; ++i)
     if (!isfinite(x[i]))
-      return sim_fail(s, "step %ld (t = %g): non-finite state: vertex %zu position (%g, %g, %g)%s",
-                      s->n, s->t, i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
+      return sim_fail(s, "non-finite state: vertex %zu has a non-finite position (%g, %g, %g)%s",
+                      i / 3, x[i - i % 3], x[i - i % 3 + 1], x[i - i % 3 + 2],
                       cfl_hint(s, NULL, hint, sizeof hint));
   return s->body->ops->bad_force(s, x, bad_vertex, cfl_hint(s, x, hint, sizeof hint));
 }
@@ -540,12 +547,25 @@ static int check_state(ek_sim *s) {
     const double *x = s->x_next + (i - i % 3), *v = s->v_next + (i - i % 3);
     char hint[256];
     return sim_fail(s,
-                    "step %ld (t = %g): non-finite state after the step: vertex %zu position "
-                    "(%g, %g, %g), velocity (%g, %g, %g)%s",
-                    s->n, s->t, i / 3, x[0], x[1], x[2], v[0], v[1], v[2],
+                    "non-finite state after the step: vertex %zu has position (%g, %g, %g), "
+                    "velocity (%g, %g, %g)%s",
+                    i / 3, x[0], x[1], x[2], v[0], v[1], v[2],
                     cfl_hint(s, s->x, hint, sizeof hint));
   }
   return 0;
+}
+
+// A failed step's message, whatever check gave it, begins with where in
+// the run: "step N (t = T0 s to T1 s): " (N counted from 1, as ek-sim's
+// progress line; [T0, T1] the step's interval). The checks name the first
+// offending vertex or element and its value themselves.
+static int step_failed(ek_sim *s, int rc) {
+  char why[sizeof s->error - 80]; // room for the prefix (-Wformat-truncation)
+  snprintf(why, sizeof why, "%.*s", (int)sizeof why - 1, s->error[0] ? s->error : ek_last_error());
+  snprintf(s->error, sizeof s->error, "step %ld (t = %g s to %g s): %s", s->n + 1, s->t,
+           s->t + s->scene.dt, why);
+  ek_set_error("%s", s->error);
+  return rc;
 }
 
 int ek_sim_step(ek_sim *s) {
@@ -558,7 +578,7 @@ int ek_sim_step(ek_sim *s) {
   if (rc == 0)
     rc = check_state(s);
   if (rc)
-    return rc;
+    return step_failed(s, rc);
   double *tmp = s->x;
   s->x = s->x_next;
   s->x_next = tmp;
@@ -579,10 +599,8 @@ void ek_sim_set_stop_flag(ek_sim *s, const volatile sig_atomic_t *flag) {
 int sim_stop_requested(ek_sim *s, const char *where, long i, long n) {
   if (!s->stop_flag || !*s->stop_flag)
     return 0;
-  snprintf(s->error, sizeof s->error,
-           "step %ld (t = %g): stopped inside the step, at %s %ld of "
-           "%ld; the step is not applied",
-           s->n, s->t, where, i, n);
+  snprintf(s->error, sizeof s->error, "stopped inside the step, at %s %ld of %ld; not applied",
+           where, i, n);
   ek_set_error("%s", s->error);
   return EK_SIM_ESTOPPED;
 }

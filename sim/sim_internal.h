@@ -94,7 +94,7 @@ struct ek_sim {
   // for the next (implicit.c's last acceleration) holds within one epoch.
   unsigned long state_epoch;
   const volatile sig_atomic_t *stop_flag; // ek_sim_set_stop_flag; NULL: none
-  char error[512];
+  char error[1024];      // room for a failed step's place and the check's own message
   ek_scene_pos error_at; // the scene value `error` is about (sim_fail_at); 0, 0: none
   char warning[512];     // pending, for ek_sim_warning; "" when none
   char warning_out[512]; // what ek_sim_warning returned last

@@ -206,7 +206,9 @@ int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_t
   }
   ek_scene s = *scene;
   // A trial runs a setting derived from the scene (the advisor's rows, the
-  // loop maps), not the file's values: its messages name the file alone.
+  // loop maps), not the file's values: its messages name no place in the
+  // file, but the file and the setting run ("FILE (trial model=...;dt=...)",
+  // below, once dt is the trial's).
   memset(&s.where, 0, sizeof s.where);
   const int K = nframes > 0 ? nframes : 1;
   double nsteps = (double)K * ceil(sim_time / ((double)K * s.dt) - 1e-9);
@@ -221,6 +223,10 @@ int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_t
   s.steps = (long)(nsteps < 1 ? 1 : nsteps);
   s.dt = sim_time / (double)s.steps;
   s.output_file[0] = '\0';
+  char setting[512];
+  ek_trial_setting_text(&s, setting, sizeof setting);
+  snprintf(s.path, sizeof s.path, "%.*s (trial %s)", (int)(sizeof s.path - sizeof setting - 16),
+           scene->path, setting);
   t->dt = s.dt;
   size_t nv = ek_mesh_nverts(mesh), nt = ek_mesh_ntets(mesh);
   t->nverts = nv;
@@ -280,7 +286,7 @@ int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_t
     step_s[n] = trial_now() - t0;
     if (src != 0) {
       t->failed = 1;
-      snprintf(t->error, sizeof t->error, "step %ld: %s", n + 1, ek_last_error());
+      snprintf(t->error, sizeof t->error, "%s", ek_last_error()); // names the step
       break;
     }
     t->steps = n + 1;
@@ -327,9 +333,9 @@ int ek_trial_run_frames(const ek_scene *scene, const ek_mesh *mesh, double sim_t
     } else if (t->health.blown_up && !s.allow_nonfinite) {
       t->failed = 1;
       snprintf(t->error, sizeof t->error,
-               "the positions blew up after step %ld (a vertex %.3g body sizes from the rest "
+               "the positions blew up after step %ld (vertex %zu %.3g body sizes from the rest "
                "centre, %zu non-finite values)",
-               t->steps, t->health.extent, t->health.nonfinite);
+               t->steps, t->health.farthest, t->health.extent, t->health.nonfinite);
     }
   }
   if (rc == 0 && !t->failed) {

@@ -212,9 +212,10 @@ static int xpbd_step(ek_sim *s, void *data) {
   for (size_t i = 0; i < n3; i++)
     if (!isfinite(d->xs[i]))
       return sim_fail(s,
-                      "step %ld: XPBD gave a non-finite position at vertex %zu (dt = %g, %ld "
+                      "XPBD gave vertex %zu a non-finite position (%g, %g, %g) (dt = %g, %ld "
                       "substeps, %ld iterations)",
-                      s->n, i / 3, sc->dt, K, N);
+                      i / 3, d->xs[i - i % 3], d->xs[i - i % 3 + 1], d->xs[i - i % 3 + 2], sc->dt,
+                      K, N);
   memcpy(s->x_next, d->xs, n3 * sizeof(double));
   memcpy(s->v_next, d->vs, n3 * sizeof(double));
   return 0;

@@ -258,6 +258,12 @@ grep -q "invertible" "$err" && fail "ek-sim: state goes NaN: blamed on the model
 data=$(cd "$(dirname "$0")/data" && pwd)
 expect "ek-sim: run ends inverted" 4 "$bin/ek-sim" "$data/inverts.json" --out "$work/inv.h5"
 grep -q "24 of 24 tets INVERTED" "$err" || fail "ek-sim: run ends inverted: not said in: $(tail -1 "$err")"
+# ... naming the last frame (the scene's steps and dt) and its first
+# inverted tet: every tet ends mirrored, J = -1 (the scene's description).
+inv_steps=$(grep -o '"steps": [0-9]*' "$data/inverts.json" | grep -o '[0-9]*$')
+inv_dt=$(grep -o '"dt": [0-9.e-]*' "$data/inverts.json" | grep -o '[0-9.e-]*$')
+inv_at=$(awk -v n="$inv_steps" -v dt="$inv_dt" 'BEGIN { printf "step %d (t = %g s), the first is element 0 with J = -1;", n, n * dt }')
+grep -qF "$inv_at" "$err" || fail "ek-sim: run ends inverted: no '$inv_at' in: $(tail -1 "$err")"
 grep -q "^check .*last frame.*24 of 24 tets inverted (J <= 0), 0 non-finite" "$out" ||
   fail "ek-sim: run ends inverted: no check line in the summary"
 grep -q "worst frame.*24 inverted, 0 non-finite" "$out" ||
@@ -275,6 +281,10 @@ expect "ek-sim: frames hold NaN" 3 "$bin/ek-sim" "$data/flattens.json" --out "$w
 grep -q "FAILED: frames hold NaN/inf" "$err" || fail "ek-sim: frames hold NaN: not said"
 grep -q "warning: .*holds [0-9]* NaN/inf values" "$err" ||
   fail "ek-sim: frames hold NaN: no warning at the first such frame"
+# ... naming the first: every tet flat (J = 0, finite), so the first
+# per-element field that is not finite is element 0's velocity gradient D.
+grep -qF "NaN/inf values (first: D of element 0 = " "$err" ||
+  fail "ek-sim: frames hold NaN: the first value not named: $(grep warning "$err")"
 sed 's/^{/{"allow": {"nonfinite": true, "inverted": true},/' "$data/flattens.json" >"$work/flat_ok.json"
 expect "ek-sim: NaN allowed" 0 "$bin/ek-sim" "$work/flat_ok.json" --out "$work/flat_ok.h5"
 grep -q "NaN/inf in the frames allowed" "$out" || fail "ek-sim: NaN allowed: the summary does not say so"
@@ -283,6 +293,10 @@ printf '%s\n' '{"mesh": {"box": [1, 1, 1], "size": [1, 1, 1]}, "initial": {"velo
   >"$work/blowup.json"
 expect "ek-sim: positions blow up" 3 "$bin/ek-sim" "$work/blowup.json" --no-output
 grep -q "FAILED: the positions blew up" "$err" || fail "ek-sim: positions blow up: not said"
+# ... at the last frame (2 steps of 10 s) and the vertex: the first of those
+# furthest from the rest centre, x = 1 after moving 2e10 m along x.
+grep -qF "blew up: at step 2 (t = 20 s) vertex 1 is at (2e+10, 0, 0)," "$err" ||
+  fail "ek-sim: positions blow up: step and vertex not named: $(grep blew "$err")"
 printf '%s\n' '{"mesh": {"box": [1, 1, 1], "size": [1, 1, 1]}, "allow": {"inverted": 1},' \
   ' "material": {"model": "stvk", "E": 1e5, "nu": 0.3, "density": 1000}, "dt": 1, "steps": 1}' \
   >"$work/badallow.json"
@@ -332,6 +346,13 @@ fi
 grep -q "partial" "$out" || fail "ek-sim on a full disk: the frames are not named partial"
 grep -Eq "^frames +[1-9][0-9]* written" "$out" ||
   fail "ek-sim on a full disk: no frame kept before the disk filled: $(grep frames "$out")"
+# The failed write names its frame's step and time: the frame after the
+# K kept, at step K * output.every (500), t = that * dt (1.7e-5).
+kept=$(awk '/^frames/ { print $2 }' "$out")
+full_at=$(awk -v k="$kept" 'BEGIN { printf "the frame after step %d (t = %g s): ", k * 500, k * 500 * 1.7e-5 }')
+grep -qF "$full_at" "$err" || fail "ek-sim on a full disk: no '$full_at' in: $(tail -1 "$err")"
+grep -q '"every": 500' "$scenes/cantilever.json" && grep -q '"dt": 1.7e-5' "$scenes/cantilever.json" ||
+  fail "ek-sim on a full disk: cantilever.json's output.every or dt changed: update the check"
 
 # Numbers on the command line are strict (sim/cli.h): the whole text is the
 # number, no white space ("--steps ' 5'" ran 5 steps), not empty, no

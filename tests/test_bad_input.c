@@ -669,6 +669,92 @@ static void extra_tokens(void) {
                   "o3.obj:1:", "unexpected '1' after the vertex's x y z r g b");
 }
 
+// The line (from 1) of a file's text where `marker` begins.
+static int line_of(const char *text, const char *marker) {
+  const char *at = strstr(text, marker);
+  int line = 1;
+  for (const char *p = text; at && p < at; p++)
+    line += *p == '\n';
+  return at ? line : -1;
+}
+
+// A Gmsh file whose element line `bad` (its text, in `text`) is wrong for
+// its type: refused at that line, saying how many node tags it has and how
+// many its type has (Gmsh's element types: 15 point 1, 1 line 2, 2
+// triangle 3, 4 tetrahedron 4).
+static void gmsh_line_refused(const char *what, const char *name, const char *text, const char *bad,
+                              long elem, int tags, int type, int nodes, int tri) {
+  write_text(name, text);
+  char want[256];
+  snprintf(want, sizeof want, "%s:%d: element %ld has %d node tag%s; its type, %d, has %d node%s",
+           name, line_of(text, bad), elem, tags, tags == 1 ? "" : "s", type, nodes,
+           nodes == 1 ? "" : "s");
+  if (tri)
+    trimesh_refused(what, load_tri(name), want, NULL);
+  else
+    mesh_refused(what, load(name), ek_last_error(), want, NULL, NULL, NULL);
+}
+
+// Element lines of types the readers skip are checked against their type's
+// node count (they were skipped unread: a point with 2 nodes loaded), and a
+// type Gmsh does not define is refused at its line, never skipped.
+static void gmsh_skipped_types(void) {
+  printf("-- Gmsh: element types not kept\n");
+  static const char ok[] = V2_HEAD V2_NODES "$EndNodes\n$Elements\n9\n8 1 2 0 1 101 102\n"
+                                            "9 2 2 0 1 101 102 104\n" V2_TETS "$EndElements\n";
+  write_text("gs1.msh", ok);
+  mesh_loads("Gmsh v2: a line and a triangle beside the tets (skipped)", load("gs1.msh"), 6);
+  static const char point2[] =
+      V2_HEAD V2_NODES "$EndNodes\n$Elements\n8\n1 15 2 0 1 101 102\n" V2_TETS "$EndElements\n";
+  // V2_TETS' own point line follows: the first one read is the bad one.
+  gmsh_line_refused("Gmsh v2: a point (type 15) with 2 nodes", "gs2.msh", point2,
+                    "1 15 2 0 1 101 102\n", 1, 2, 15, 1, 0);
+  static const char tri2[] =
+      V2_HEAD V2_NODES "$EndNodes\n$Elements\n8\n8 2 2 0 1 101 102\n" V2_TETS "$EndElements\n";
+  gmsh_line_refused("Gmsh v2: a triangle (type 2) with 2 nodes", "gs3.msh", tri2,
+                    "8 2 2 0 1 101 102\n", 8, 2, 2, 3, 0);
+  static const char line3[] =
+      V2_HEAD V2_NODES "$EndNodes\n$Elements\n8\n" V2_TETS "8 1 2 0 1 101 102 103\n$EndElements\n";
+  gmsh_line_refused("Gmsh v2: a line (type 1) with 3 nodes, after the tets", "gs4.msh", line3,
+                    "8 1 2 0 1 101 102 103\n", 8, 3, 1, 2, 0);
+  char want[256];
+  static const char unknown[] =
+      V2_HEAD V2_NODES "$EndNodes\n$Elements\n8\n8 200 2 0 1 101\n" V2_TETS "$EndElements\n";
+  write_text("gs5.msh", unknown);
+  snprintf(want, sizeof want, "gs5.msh:%d: element type 200: not a Gmsh element type",
+           line_of(unknown, "8 200"));
+  mesh_refused("Gmsh v2: element type 200 (not Gmsh's)", load("gs5.msh"), ek_last_error(), want,
+               NULL, NULL, NULL);
+  static const char poly[] = V2_HEAD V2_NODES
+      "$EndNodes\n$Elements\n8\n8 34 2 0 1 101 102 103 104\n" V2_TETS "$EndElements\n";
+  write_text("gs6.msh", poly);
+  snprintf(want, sizeof want, "gs6.msh:%d: element type 34: a polygon or polyhedron",
+           line_of(poly, "8 34"));
+  mesh_refused("Gmsh v2: a polygon (type 34, no fixed node count)", load("gs6.msh"),
+               ek_last_error(), want, NULL, NULL, NULL);
+  // v4.1: the type is the block's; one tet after a block of one point.
+#define V41_TET_NODES                                                                              \
+  "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n"     \
+  "0 1 0\n0 0 1\n$EndNodes\n$Elements\n2 2 1 2\n"
+  static const char v4ok[] = V41_TET_NODES "0 1 15 1\n1 1\n3 1 4 1\n2 1 2 3 4\n$EndElements\n";
+  write_text("gs7.msh", v4ok);
+  mesh_loads("Gmsh v4.1: a point block beside the tet (skipped)", load("gs7.msh"), 1);
+  static const char v4pt[] = V41_TET_NODES "0 1 15 1\n1 1 2\n3 1 4 1\n2 1 2 3 4\n$EndElements\n";
+  gmsh_line_refused("Gmsh v4.1: a point with 2 nodes", "gs8.msh", v4pt, "1 1 2\n", 1, 2, 15, 1, 0);
+  static const char v4type[] = V41_TET_NODES "0 1 0 1\n1 1\n3 1 4 1\n2 1 2 3 4\n$EndElements\n";
+  write_text("gs9.msh", v4type);
+  snprintf(want, sizeof want, "gs9.msh:%d: element type 0: not a Gmsh element type",
+           line_of(v4type, "0 1 0 1\n"));
+  mesh_refused("Gmsh v4.1: a block of element type 0", load("gs9.msh"), ek_last_error(), want, NULL,
+               NULL, NULL);
+#undef V41_TET_NODES
+  // The triangle reader: a tet line (skipped there) with 3 nodes.
+  static const char tri_tet3[] = V2_HEAD V2_NODES "$EndNodes\n$Elements\n2\n1 4 2 0 1 101 102 "
+                                                  "104\n2 2 2 0 1 101 102 103\n$EndElements\n";
+  gmsh_line_refused("Gmsh v2 triangles: a tet (type 4) with 3 nodes", "gs10.msh", tri_tet3,
+                    "1 4 2 0 1 101 102 104\n", 1, 3, 4, 4, 1);
+}
+
 // One triangle of size s: loads with the area s^2 / 2 (scale-free shape
 // test; within EK_MESH_TOL) or is refused as outside the supported range,
 // never as "degenerate", never loaded with an infinite area.
@@ -791,12 +877,58 @@ static void nonfinite_run(const char *what, const char *json, const char *said, 
   int finite = sim != NULL;
   for (size_t i = 0; sim && i < 3 * ek_mesh_nverts(m); i++)
     finite = finite && isfinite(ek_sim_positions(sim)[i]) && isfinite(ek_sim_velocities(sim)[i]);
-  char detail[1200];
-  snprintf(detail, sizeof detail, "failed at step %ld, rc %d, state finite %d: %s", n + 1, rc,
-           finite, msg);
+  // Where in the run, first: the failed step (counted from 1) and its
+  // interval from the state it left as it was.
+  char where[128] = "";
+  if (sim)
+    snprintf(where, sizeof where, "step %ld (t = %g s to %g s): ", n + 1, ek_sim_time(sim),
+             ek_sim_time(sim) + sc.dt);
+  char detail[1400];
+  snprintf(detail, sizeof detail,
+           "failed at step %ld, rc %d, state finite %d: %s (want it to begin '%s')", n + 1, rc,
+           finite, msg, where);
   verdict(what,
           sim && rc != 0 && rc != EK_SIM_EINVERTED && finite && strstr(msg, said) &&
-              !strstr(msg, "invertible") && ek_sim_steps_done(sim) == n && (at == 0 || n + 1 == at),
+              !strstr(msg, "invertible") && ek_sim_steps_done(sim) == n &&
+              (at == 0 || n + 1 == at) && strncmp(msg, where, strlen(where)) == 0,
+          detail);
+  ek_sim_destroy(sim);
+  ek_mesh_destroy(m);
+}
+
+// Gravity 1e308 at dt 10 from rest: after the first step every free vertex
+// falls to -inf. Each loop's message names where in the run (step 1, t = 0
+// to 10 s) and the first such vertex, the first of the box not held by the
+// pin at z = 0 (its rest position from the mesh), with its value (inf).
+static void first_vertex_named(const char *loop, const char *integrator, const char *said) {
+  char json[1024];
+  snprintf(json, sizeof json,
+           "{" MESH ", \"material\": {\"model\": \"stvk\", \"E\": 1e5, \"nu\": 0.3, "
+           "\"density\": 1000}, \"integrator\": %s, " PIN ", \"gravity\": [0, 0, -1e308], "
+           "\"dt\": 10, \"steps\": 1}",
+           integrator);
+  ek_scene sc;
+  ek_mesh *m = NULL;
+  ek_sim *sim = NULL;
+  if (ek_scene_parse(json, "fall.json", ".", &sc) == 0 && (m = ek_scene_mesh(&sc)))
+    sim = ek_sim_create(&sc, m);
+  const int rc = sim ? ek_sim_step(sim) : -1;
+  const char *msg = ek_last_error();
+  size_t k = 0;
+  const double *X = m ? ek_mesh_rest_positions(m) : NULL;
+  while (X && k < ek_mesh_nverts(m) && !(X[3 * k + 2] > 0))
+    k++;
+  char want[256], what[128], detail[1400];
+  snprintf(want, sizeof want, "step 1 (t = 0 s to 10 s): %s", said);
+  char *v = strstr(want, "%zu");
+  if (v) { // the vertex index in `said`
+    char tail[256];
+    snprintf(tail, sizeof tail, "%s", v + 3);
+    snprintf(v, sizeof want - (size_t)(v - want), "%zu%s", k, tail);
+  }
+  snprintf(what, sizeof what, "%s: gravity 1e308 names step 1 and vertex %zu", loop, k);
+  snprintf(detail, sizeof detail, "rc %d: '%s' (want it to begin '%s')", rc, msg, want);
+  verdict(what, sim && rc != 0 && strncmp(msg, want, strlen(want)) == 0 && strstr(msg, "inf"),
           detail);
   ek_sim_destroy(sim);
   ek_mesh_destroy(m);
@@ -851,7 +983,12 @@ static void stop_flag(void) {
     snprintf(what, sizeof what, "%s: flag set: step stopped, not applied", j ? "implicit" : "xpbd");
     snprintf(detail, sizeof detail, "rc %d (want %d), state kept %d: %s", rc, EK_SIM_ESTOPPED, kept,
              ek_last_error());
-    verdict(what, rc == EK_SIM_ESTOPPED && kept && strstr(ek_last_error(), "stopped"), detail);
+    char where[128];
+    snprintf(where, sizeof where, "step 3 (t = %g s to %g s): stopped inside the step",
+             ek_sim_time(b), ek_sim_time(b) + sc.dt);
+    verdict(what,
+            rc == EK_SIM_ESTOPPED && kept && strncmp(ek_last_error(), where, strlen(where)) == 0,
+            detail);
     free(x);
     ek_sim_destroy(a);
     ek_sim_destroy(b);
@@ -884,6 +1021,13 @@ static void faults(void) {
                 "{" MESH ", " MAT ", " PIN ", \"gravity\": [0, 0, -1e308], \"dt\": 10, "
                 "\"steps\": 1}",
                 "non-finite state after the step", 1);
+  first_vertex_named("explicit", "{\"type\": \"explicit\"}",
+                     "non-finite state after the step: vertex %zu has position (");
+  first_vertex_named("xpbd", "{\"type\": \"xpbd\", \"substeps\": 2, \"iterations\": 2}",
+                     "XPBD gave vertex %zu a non-finite position (");
+  first_vertex_named("implicit", "{\"type\": \"implicit\"}",
+                     "the objective is not finite at the start point: vertex %zu's inertia and "
+                     "gravity term is inf");
   stop_flag();
   scene_refused("cloth thickness 1e300: refused naming the key",
                 "{\"mesh\": {\"grid\": [2, 2], \"size\": [1, 1]}, \"material\": {\"model\": "
@@ -1058,6 +1202,7 @@ int main(int argc, char **argv) {
   }
   meshes();
   extra_tokens();
+  gmsh_skipped_types();
   scenes();
   faults();
   batches();

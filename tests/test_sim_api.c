@@ -136,6 +136,32 @@ static void health_test(void) {
            h.elements, sim ? ek_sim_inverted_count(sim) : 0);
   check("inverts.json ends with every tet inverted",
         ok && h.elements == 24 && h.inverted == 24 && !h.blown_up && !h.allow_inverted, detail);
+  // The first inverted tet and its J = V / V0, for the messages: from the
+  // positions and the scene's mesh (the same box) here.
+  ek_mesh *im = ek_scene_mesh(&s);
+  size_t first = (size_t)-1;
+  double first_J = NAN;
+  for (size_t e = 0; ok && im && e < ek_mesh_ntets(im) && first == (size_t)-1; ++e) {
+    const int32_t *t = ek_mesh_tets(im) + 4 * e;
+    const double *x = ek_sim_positions(sim), *a = x + 3 * t[0];
+    double D[3][3];
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k)
+        D[k][c] = x[3 * t[c + 1] + k] - a[k];
+    const double V = (D[0][0] * (D[1][1] * D[2][2] - D[1][2] * D[2][1]) -
+                      D[0][1] * (D[1][0] * D[2][2] - D[1][2] * D[2][0]) +
+                      D[0][2] * (D[1][0] * D[2][1] - D[1][1] * D[2][0])) /
+                     6;
+    if (!(V > 0))
+      first = e, first_J = V / ek_mesh_rest_volumes(im)[e];
+  }
+  snprintf(detail, sizeof detail, "first inverted %zu, J %.17g (from the positions: %zu, %.17g)",
+           h.first_inverted, h.first_inverted_J, first, first_J);
+  check("inverts.json: the first inverted tet and its J named",
+        ok && h.first_inverted == first &&
+            fabs(h.first_inverted_J - first_J) <= 1e-12 * fabs(first_J),
+        detail);
+  ek_mesh_destroy(im);
   ek_sim_destroy(sim);
   // The same scene allowed: the flag is copied.
   s.allow_inverted = 1;
@@ -155,6 +181,27 @@ static void health_test(void) {
              EK_SIM_BLOWUP_EXTENT);
     check("a finite blow-up is blown_up",
           ok && h.blown_up && h.nonfinite == 0 && h.extent > EK_SIM_BLOWUP_EXTENT, detail);
+    // The vertex at the extent: the first farthest from the rest box's
+    // centre, from the positions.
+    const double *X = ek_mesh_rest_positions(r.mesh), *x = ek_sim_positions(r.sim);
+    const size_t nv = ek_mesh_nverts(r.mesh);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < nv; ++i)
+      for (int k = 0; k < 3; ++k)
+        lo[k] = fmin(lo[k], X[3 * i + k]), hi[k] = fmax(hi[k], X[3 * i + k]);
+    size_t far = 0;
+    double r2 = -1;
+    for (size_t i = 0; i < nv; ++i) {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double d = x[3 * i + k] - 0.5 * (lo[k] + hi[k]);
+        d2 += d * d;
+      }
+      if (d2 > r2)
+        r2 = d2, far = i;
+    }
+    snprintf(detail, sizeof detail, "farthest %zu (from the positions: %zu)", h.farthest, far);
+    check("a blow-up names the farthest vertex", ok && h.farthest == far, detail);
     finish(&r);
   }
   check("ek_sim_check(NULL) refused", ek_sim_check(NULL, &h) == EK_EINVAL, ek_last_error());

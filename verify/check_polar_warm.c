@@ -161,7 +161,7 @@ int ek_check_sim_F(const char *scene_path, long steps, long stride, double **F_o
       k++;
     }
     if (n < steps && ek_sim_step(sim) != 0) {
-      snprintf(err, errlen, "%s: step %ld: %s", scene_path, n, ek_last_error());
+      snprintf(err, errlen, "%s: %s", scene_path, ek_last_error()); // names the step
       rc = -1;
     }
   }

@@ -212,12 +212,22 @@ size_t ek_sim_inverted_count(const ek_sim *sim);
 //              blow-up (positions of 1e10 m for a 1 m body) fails like NaN
 //   allow_inverted, allow_nonfinite  the scene's "allow" key (scene.h),
 //              copied for the caller's verdict
+// and where, for the messages (indices 0-based, the mesh's order; the
+// same passes as the counts):
+//   first_inverted, first_inverted_J  the first inverted element and its
+//              J (valid when inverted > 0)
+//   first_nonfinite  the first vertex with a NaN / inf position or
+//              velocity (valid when the state's count is not 0)
+//   farthest   the vertex at `extent` (the first NaN / inf one if any)
 #define EK_SIM_BLOWUP_EXTENT 1e6
 typedef struct {
   size_t elements, inverted, nonfinite;
   double extent;
   int blown_up;
   int allow_inverted, allow_nonfinite;
+  size_t first_inverted;
+  double first_inverted_J;
+  size_t first_nonfinite, farthest;
 } ek_sim_health;
 int ek_sim_check(const ek_sim *sim, ek_sim_health *h);
 // Entries of a[0..n) that are NaN or inf (a may be NULL: 0).
