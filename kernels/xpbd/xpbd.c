@@ -7,7 +7,6 @@
 #include <float.h>
 #include <math.h>
 #include <omp.h>
-#include <sched.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -120,12 +119,34 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
   }
 }
 
-// Until *done >= need: spins, then yields the core (the thread it waits
-// for may be descheduled on a shared machine).
-static void wait_done(atomic_int *done, int need) {
-  for (int spins = 0; atomic_load_explicit(done, memory_order_acquire) < need; spins++)
-    if (spins >= 4096)
-      sched_yield();
+// Until *done >= need: spins a while (a neighbouring chunk takes ~20 us),
+// then sleeps on the condition variable that each finished chunk
+// broadcasts to while anyone sleeps: a waiting thread never spins for a
+// thread the machine has descheduled (it frees its core instead).
+// sleepers and done are sequentially consistent: either the waiter sees
+// the new count or the finisher sees the sleeper, whose wait has begun by
+// the time the finisher holds the mutex.
+static void wait_done(const ek_xpbd *xp, atomic_int *done, int need) {
+  for (int spins = 0; spins < 1 << 15; spins++)
+    if (atomic_load_explicit(done, memory_order_acquire) >= need)
+      return;
+  ek_xpbd *w = (ek_xpbd *)xp;
+  pthread_mutex_lock(&w->flow_mutex);
+  atomic_fetch_add(&w->flow_sleepers, 1);
+  while (atomic_load(done) < need)
+    pthread_cond_wait(&w->flow_cond, &w->flow_mutex);
+  atomic_fetch_sub(&w->flow_sleepers, 1);
+  pthread_mutex_unlock(&w->flow_mutex);
+}
+
+static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
+  atomic_store(done, value);
+  if (atomic_load(&xp->flow_sleepers) > 0) {
+    ek_xpbd *w = (ek_xpbd *)xp;
+    pthread_mutex_lock(&w->flow_mutex);
+    pthread_cond_broadcast(&w->flow_cond);
+    pthread_mutex_unlock(&w->flow_mutex);
+  }
 }
 
 // Gauss-Seidel on tets at n > 1 threads without a barrier per phase: the
@@ -148,10 +169,10 @@ static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
         continue;
       for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
         const size_t u = (size_t)xp->task_dep[e];
-        wait_done(&xp->task_done[u], u < t ? it + 1 : it);
+        wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it);
       }
       KERNEL(xp->kt)(a, xp->task_block[t], xp->task_block[t + 1]);
-      atomic_store_explicit(&xp->task_done[t], it + 1, memory_order_release);
+      mark_done(xp, &xp->task_done[t], it + 1);
     }
 }
 
@@ -161,7 +182,7 @@ static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
   xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, xb, x);
   if (jacobi)
     a.corr = xp->corr;
-  const int flow = !jacobi && xp->task_done;
+  const int flow = !jacobi && xp->flow_ready;
   if (flow)
     for (size_t t = 0; t < xp->ntasks; t++)
       atomic_store_explicit(&xp->task_done[t], 0, memory_order_relaxed);
@@ -296,6 +317,10 @@ void ek_xpbd_destroy(ek_xpbd *xp) {
   free(xp->task_dep);
   free(xp->task_rank);
   free(xp->task_done);
+  if (xp->flow_ready) {
+    pthread_mutex_destroy(&xp->flow_mutex);
+    pthread_cond_destroy(&xp->flow_cond);
+  }
   free(xp->vert_start);
   free(xp->vert_entries);
   free(xp);
@@ -463,6 +488,14 @@ static int build_task_deps(ek_xpbd *xp) {
     xp->task_rank[key[2 * r + 1]] = (int32_t)r;
   for (size_t t = 0; t < nt; t++)
     atomic_init(&xp->task_done[t], 0);
+  atomic_init(&xp->flow_sleepers, 0);
+  if (pthread_mutex_init(&xp->flow_mutex, NULL) != 0)
+    goto done;
+  if (pthread_cond_init(&xp->flow_cond, NULL) != 0) {
+    pthread_mutex_destroy(&xp->flow_mutex);
+    goto done;
+  }
+  xp->flow_ready = 1;
   rc = EK_OK;
 done:
   free(vstart);

@@ -17,6 +17,7 @@
 #define EK_XPBD_KERNEL_H
 
 #include <ek/xpbd.h>
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -97,6 +98,12 @@ struct ek_xpbd {
   size_t *task_dep_start;
   int32_t *task_dep, *task_rank;
   atomic_int *task_done;
+  // Where a thread sleeps once its wait outlasts the spin (sleepers: how
+  // many do).
+  pthread_mutex_t flow_mutex;
+  pthread_cond_t flow_cond;
+  atomic_int flow_sleepers;
+  int flow_ready; // mutex and cond initialised
   // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
