@@ -119,15 +119,18 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
   }
 }
 
-// Until *done >= need: spins a while (a neighbouring chunk takes ~20 us),
-// then sleeps on the condition variable that each finished chunk
-// broadcasts to while anyone sleeps: a waiting thread never spins for a
-// thread the machine has descheduled (it frees its core instead).
+// Until *done >= need: spins up to 2^20 checks (~1 ms, about libgomp's
+// barrier spin; a chunk takes ~20 us), then sleeps on the condition
+// variable that each finished chunk broadcasts to while anyone sleeps, so
+// a thread waiting for a descheduled one frees its core. (Tried: 2^15
+// spins then sleep: on the loaded VM every handoff paid a wake-up, the
+// 2-thread median 5x the barrier's; spins then sched_yield() for ever:
+// 30-60x; docs/perf.md.)
 // sleepers and done are sequentially consistent: either the waiter sees
 // the new count or the finisher sees the sleeper, whose wait has begun by
 // the time the finisher holds the mutex.
 static void wait_done(const ek_xpbd *xp, atomic_int *done, int need) {
-  for (int spins = 0; spins < 1 << 15; spins++)
+  for (int spins = 0; spins < 1 << 20; spins++)
     if (atomic_load_explicit(done, memory_order_acquire) >= need)
       return;
   ek_xpbd *w = (ek_xpbd *)xp;
