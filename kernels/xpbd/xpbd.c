@@ -129,8 +129,8 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
 // sleepers and done are sequentially consistent: either the waiter sees
 // the new count or the finisher sees the sleeper, whose wait has begun by
 // the time the finisher holds the mutex.
-static void wait_done(const ek_xpbd *xp, atomic_int *done, int need) {
-  for (int spins = 0; spins < 1 << 20; spins++)
+static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
+  for (int spins = 0; spins < spin; spins++)
     if (atomic_load_explicit(done, memory_order_acquire) >= need)
       return;
   ek_xpbd *w = (ek_xpbd *)xp;
@@ -165,6 +165,10 @@ static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
 // wait is for an earlier pair, so no wait is for ever.
 static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
   const int n = omp_get_num_threads(), me = omp_get_thread_num();
+  // More threads than processors: a spinning thread may hold the core of
+  // the one it waits for, so it sleeps almost at once (libgomp likewise
+  // cuts its barrier spin).
+  const int spin = n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
   const size_t nt = xp->ntasks;
   for (int it = 0; it < iterations; it++)
     for (size_t t = 0; t < nt; t++) {
@@ -172,7 +176,7 @@ static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
         continue;
       for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
         const size_t u = (size_t)xp->task_dep[e];
-        wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it);
+        wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it, spin);
       }
       KERNEL(xp->kt)(a, xp->task_block[t], xp->task_block[t + 1]);
       mark_done(xp, &xp->task_done[t], it + 1);
