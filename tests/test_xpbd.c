@@ -11,7 +11,7 @@
 //   d. the library against the reference, every ISA x precision x solver
 //      x elements: positions after a few sweeps (EK_XPBD_TOL_F32/_F64),
 //      multipliers, residuals, and the constraint data (members, b);
-//   e. the same bits at 1 and 2 threads, above the parallel threshold;
+//   e. the same bits at 1, 2 and 3 threads, above the parallel threshold;
 //   f. a free body without gravity keeps its momentum;
 //   g. bad arguments are refused with a message; ISAs the CPU lacks are
 //      reported as skipped.
@@ -562,7 +562,8 @@ static void check_against_ref(const scene *sc, ek_rng *rng, int half) {
   free(xr);
 }
 
-// ---- e: 1 and 2 threads ----
+// ---- e: 1, 2 and 3 threads (tets at 2 and 3: the chunks split by Morton rank
+// and run without phase barriers, kernels/xpbd/xpbd.c sweeps_flow) ----
 static void check_threads(ek_rng *rng) {
   // Tets: 12^3 cells, 10368 tets; clusters are per vertex: 20^3 cells,
   // 9261 vertices. Both above the ~4096 constraints of the parallel path.
@@ -573,8 +574,8 @@ static void check_threads(ek_rng *rng) {
     const scene *sc = &big[e];
     size_t n3 = sc->t.nverts * 3, n = sc->set[e].n;
     double *xs = malloc(n3 * sizeof(double));
-    double *x[2], *lam[2], res[2][2];
-    for (int r = 0; r < 2; r++) {
+    double *x[3], *lam[3], res[3][2];
+    for (int r = 0; r < 3; r++) {
       x[r] = malloc(n3 * sizeof(double));
       lam[r] = malloc(n * sizeof(double));
     }
@@ -582,7 +583,7 @@ static void check_threads(ek_rng *rng) {
     for (int prec = 32; prec <= 64; prec += 32)
       for (int solver = 0; solver < EK_XPBD_SOLVER_COUNT; solver++) {
         int ok = 1;
-        for (int r = 0; r < 2; r++) {
+        for (int r = 0; r < 3; r++) {
           omp_set_num_threads(r + 1);
           ek_xpbd *xp = lib_create(sc, e, solver, EK_ISA_AUTO, prec);
           if (!xp) {
@@ -600,16 +601,18 @@ static void check_threads(ek_rng *rng) {
           ek_xpbd_destroy(xp);
         }
         omp_set_num_threads(2);
-        ok = ok && memcmp(x[0], x[1], n3 * sizeof(double)) == 0 &&
-             memcmp(lam[0], lam[1], n * sizeof(double)) == 0 &&
-             memcmp(res[0], res[1], sizeof res[0]) == 0;
+        for (int r = 1; r < 3; r++)
+          ok = ok && memcmp(x[0], x[r], n3 * sizeof(double)) == 0 &&
+               memcmp(lam[0], lam[r], n * sizeof(double)) == 0 &&
+               memcmp(res[0], res[r], sizeof res[0]) == 0;
         char label[200];
-        snprintf(label, sizeof label, "e. 1 and 2 threads, same bits: %s f%d %s (%zu constraints)",
+        snprintf(label, sizeof label,
+                 "e. 1, 2 and 3 threads, same bits: %s f%d %s (%zu constraints)",
                  ek_xpbd_elements_name((ek_xpbd_elements)e), prec,
                  ek_xpbd_solver_name((ek_xpbd_solver)solver), n);
         fail_if(!ok, label);
       }
-    for (int r = 0; r < 2; r++) {
+    for (int r = 0; r < 3; r++) {
       free(x[r]);
       free(lam[r]);
     }
