@@ -150,7 +150,7 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
           n2 = vfma(g, g, n2);
           vstore(corr + (k * 3 + i) * L + o, g);
         }
-        wk[k & 3] = vgather(a->wd, idx + k * L + o);
+        wk[k & 3] = vgather(a->wd, idx + k * L + o); // read for tets only (k < 4)
         dsum = vfma(wk[k & 3], n2, dsum);
       }
       vreal n2 = zero;
