@@ -10,6 +10,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include <ek/xpbd.h>
 
@@ -165,10 +166,12 @@ static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
 // wait is for an earlier pair, so no wait is for ever.
 static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
   const int n = omp_get_num_threads(), me = omp_get_thread_num();
-  // More threads than processors: a spinning thread may hold the core of
-  // the one it waits for, so it sleeps almost at once (libgomp likewise
-  // cuts its barrier spin).
-  const int spin = n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
+  // More threads than processors (a spinning thread may hold the core of
+  // the one it waits for) or OMP_WAIT_POLICY=passive: the wait sleeps
+  // almost at once, as libgomp's barrier then does.
+  const char *policy = getenv("OMP_WAIT_POLICY");
+  const int passive = policy && strcasecmp(policy, "passive") == 0;
+  const int spin = passive || n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
   const size_t nt = xp->ntasks;
   for (int it = 0; it < iterations; it++)
     for (size_t t = 0; t < nt; t++) {
