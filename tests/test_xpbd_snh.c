@@ -352,9 +352,9 @@ static void check_threads(ek_rng *rng) {
       for (int solver = 0; solver < EK_XPBD_SOLVER_COUNT; solver++) {
         ek_xpbd_opts o = {
             .elements = (ek_xpbd_elements)e, .solver = (ek_xpbd_solver)solver, .precision = prec};
-        int ok = lib_same_bits_1_2_threads(sc, &lib_mat, YOUNG, o, SUBSTEP, SWEEPS, xs, 2);
+        int ok = lib_same_bits_1_2_3_threads(sc, &lib_mat, YOUNG, o, SUBSTEP, SWEEPS, xs, 2);
         char label[200];
-        snprintf(label, sizeof label, "e. 1 and 2 threads, same bits: %s f%d %s (%zu)",
+        snprintf(label, sizeof label, "e. 1, 2 and 3 threads, same bits: %s f%d %s (%zu)",
                  ek_xpbd_elements_name(o.elements), prec, ek_xpbd_solver_name(o.solver),
                  sc->set[e].n);
         fail_if(!ok, label);

@@ -222,6 +222,27 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   p[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
   return pad;
 }
+// vstore_points(x, idx, keep, p): the inverse of vload_points for the lanes
+// l whose bit is set in keep: x[3 idx[l] + k] = lane l of p[k], k < 3,
+// one masked 3-float store per lane (no write past the point; the lanes'
+// points must be distinct). The rows from vstore_rows4's transpose.
+#define EK_HAVE_VSTORE_POINTS
+EK_INLINE void vstore_points(real *x, const int32_t *idx, unsigned keep, const vreal p[3]) {
+  const __m512 zero = _mm512_setzero_ps();
+  __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(p[0], p[1])); // x0 y0 x1 y1
+  __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(p[0], p[1])); // x2 y2 x3 y3
+  __m512d t2 = _mm512_castps_pd(_mm512_unpacklo_ps(p[2], zero)); // z0 0 z1 0
+  __m512d t3 = _mm512_castps_pd(_mm512_unpackhi_ps(p[2], zero)); // z2 0 z3 0
+  __m512 r[4] = {
+      _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2)), _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2)),
+      _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3)), _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3))};
+#pragma GCC unroll 16
+  for (int l = 0; l < 16; l++) // lane l: register l % 4, 128-bit part l / 4
+    if (keep >> l & 1)
+      _mm_mask_storeu_ps(x + (ptrdiff_t)idx[l] * 3, 7,
+                         l < 4 ? _mm512_castps512_ps128(r[l % 4])
+                               : _mm512_extractf32x4_ps(r[l % 4], l / 4));
+}
 // Rows of 4 for the thread buffers (scatter.c), in two steps so that the
 // transpose can run where the corner values are made and the adds later:
 // vstore_rows4(rows, h) writes the 12 corner planes h[3 c + k] (corner c,
@@ -300,6 +321,28 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   p[1] = _mm512_permutex2var_pd(t1, lo, t3);
   p[2] = _mm512_permutex2var_pd(t0, hi, t2);
   return _mm256_cmplt_epi32_mask(_mm256_loadu_si256((const __m256i *)idx), _mm256_setzero_si256());
+}
+// vstore_points (the f32 comment above) on 8 lanes: lane l's point from
+// vstore_rows4's transpose, one masked 3-double store each.
+#define EK_HAVE_VSTORE_POINTS
+EK_INLINE void vstore_points(real *x, const int32_t *idx, unsigned keep, const vreal p[3]) {
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
+  const __m512i hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
+  __m512d t0 = _mm512_unpacklo_pd(p[0], p[1]); // x0 y0 x2 y2 x4 y4 x6 y6
+  __m512d t1 = _mm512_unpackhi_pd(p[0], p[1]); // x1 y1 x3 y3 ...
+  __m512d t2 = _mm512_unpacklo_pd(p[2], zero); // z0 0 z2 0 ...
+  __m512d t3 = _mm512_unpackhi_pd(p[2], zero); // z1 0 z3 0 ...
+  // r[q], q = (l & 1) * 2 + l / 4, half (l / 2) & 1 (vrow4_at)
+  __m512d r[4] = {_mm512_permutex2var_pd(t0, lo, t2), _mm512_permutex2var_pd(t0, hi, t2),
+                  _mm512_permutex2var_pd(t1, lo, t3), _mm512_permutex2var_pd(t1, hi, t3)};
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    const __m512d q = r[(l & 1) * 2 + l / 4];
+    if (keep >> l & 1)
+      _mm256_mask_storeu_pd(x + (ptrdiff_t)idx[l] * 3, 7,
+                            (l / 2) & 1 ? _mm512_extractf64x4_pd(q, 1) : _mm512_castpd512_pd256(q));
+  }
 }
 // Rows of 4 (the f32 comment above): register rows[c][q] holds lanes
 // (0, 2), (4, 6), (1, 3), (5, 7) for q = 0..3, so lane l's row is in

@@ -7,8 +7,10 @@
 #include <float.h>
 #include <math.h>
 #include <omp.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include <ek/xpbd.h>
 
@@ -118,26 +120,101 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
   }
 }
 
+// Until *done >= need: spins up to 2^20 checks (~1 ms, about libgomp's
+// barrier spin; a chunk takes ~20 us), then sleeps on the condition
+// variable that each finished chunk broadcasts to while anyone sleeps, so
+// a thread waiting for a descheduled one frees its core. (Tried: 2^15
+// spins then sleep: on the loaded VM every handoff paid a wake-up, the
+// 2-thread median 5x the barrier's; spins then sched_yield() for ever:
+// 30-60x; docs/perf.md.)
+// sleepers and done are sequentially consistent: either the waiter sees
+// the new count or the finisher sees the sleeper, whose wait has begun by
+// the time the finisher holds the mutex.
+static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
+  for (int spins = 0; spins < spin; spins++)
+    if (atomic_load_explicit(done, memory_order_acquire) >= need)
+      return;
+  ek_xpbd *w = (ek_xpbd *)xp;
+  pthread_mutex_lock(&w->flow_mutex);
+  atomic_fetch_add(&w->flow_sleepers, 1);
+  while (atomic_load(done) < need)
+    pthread_cond_wait(&w->flow_cond, &w->flow_mutex);
+  atomic_fetch_sub(&w->flow_sleepers, 1);
+  pthread_mutex_unlock(&w->flow_mutex);
+}
+
+static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
+  atomic_store(done, value);
+  if (atomic_load(&xp->flow_sleepers) > 0) {
+    ek_xpbd *w = (ek_xpbd *)xp;
+    pthread_mutex_lock(&w->flow_mutex);
+    pthread_cond_broadcast(&w->flow_cond);
+    pthread_mutex_unlock(&w->flow_mutex);
+  }
+}
+
+// Gauss-Seidel on tets at n > 1 threads without a barrier per phase: the
+// phase barrier serialised the 13 phases of a 1e5-tet box (65 chunks, 9 ..
+// 1 per phase: at 2 threads the odd counts left one thread idle for 37 - 32.5
+// chunks of 65, docs/perf.md). Each thread runs the tasks (chunks) of its
+// share of the Morton order (rank * n / ntasks == its number), sweep by
+// sweep in task order, and starts task t of sweep i once every neighbour
+// u (a task sharing a vertex with t) has done its turns before it: sweep i
+// for u < t (an earlier phase), sweep i - 1 for u > t. Every task then
+// reads and writes its vertices in the order of the phased sweep, so the
+// bits are the same; the order is (sweep, task) on every thread and each
+// wait is for an earlier pair, so no wait is for ever.
+static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
+  const int n = omp_get_num_threads(), me = omp_get_thread_num();
+  // More threads than processors (a spinning thread may hold the core of
+  // the one it waits for) or OMP_WAIT_POLICY=passive: the wait sleeps
+  // almost at once, as libgomp's barrier then does.
+  const char *policy = getenv("OMP_WAIT_POLICY");
+  const int passive = policy && strcasecmp(policy, "passive") == 0;
+  const int spin = passive || n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
+  const size_t nt = xp->ntasks;
+  for (int it = 0; it < iterations; it++)
+    for (size_t t = 0; t < nt; t++) {
+      if ((size_t)xp->task_rank[t] * (size_t)n / nt != (size_t)me)
+        continue;
+      for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
+        const size_t u = (size_t)xp->task_dep[e];
+        wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it, spin);
+      }
+      KERNEL(xp->kt)(a, xp->task_block[t], xp->task_block[t + 1]);
+      mark_done(xp, &xp->task_done[t], it + 1);
+    }
+}
+
 // `iterations` sweeps; the parallel region spans them all (one wake-up).
 static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
   const int jacobi = xp->solver == EK_XPBD_JACOBI;
   xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, xb, x);
   if (jacobi)
     a.corr = xp->corr;
+  const int flow = !jacobi && xp->flow_ready;
+  if (flow)
+    for (size_t t = 0; t < xp->ntasks; t++)
+      atomic_store_explicit(&xp->task_done[t], 0, memory_order_relaxed);
 #pragma omp parallel if (parallel_for(xp))
-  for (int it = 0; it < iterations; it++) {
-    if (jacobi) {
-      all_blocks(xp, &a);
-      gather_corrections(xp, x);
-      continue;
-    }
-    // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
-    for (size_t p = 0; p < xp->nphases; p++) {
-      const long t0 = (long)xp->phase_task[p], t1 = (long)xp->phase_task[p + 1];
+  {
+    if (flow && omp_get_num_threads() > 1)
+      sweeps_flow(xp, &a, iterations);
+    else
+      for (int it = 0; it < iterations; it++) {
+        if (jacobi) {
+          all_blocks(xp, &a);
+          gather_corrections(xp, x);
+          continue;
+        }
+        // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
+        for (size_t p = 0; p < xp->nphases; p++) {
+          const long t0 = (long)xp->phase_task[p], t1 = (long)xp->phase_task[p + 1];
 #pragma omp for schedule(static)
-      for (long t = t0; t < t1; t++)
-        KERNEL(xp->kt)(&a, xp->task_block[t], xp->task_block[t + 1]);
-    }
+          for (long t = t0; t < t1; t++)
+            KERNEL(xp->kt)(&a, xp->task_block[t], xp->task_block[t + 1]);
+        }
+      }
   }
 }
 
@@ -246,6 +323,14 @@ void ek_xpbd_destroy(ek_xpbd *xp) {
   ek_free(xp->sink);
   free(xp->phase_task);
   free(xp->task_block);
+  free(xp->task_dep_start);
+  free(xp->task_dep);
+  free(xp->task_rank);
+  free(xp->task_done);
+  if (xp->flow_ready) {
+    pthread_mutex_destroy(&xp->flow_mutex);
+    pthread_cond_destroy(&xp->flow_cond);
+  }
   free(xp->vert_start);
   free(xp->vert_entries);
   free(xp);
@@ -280,6 +365,8 @@ static int alloc_blocks(ek_xpbd *xp, double **stiff64) {
     xp->con_slot[j] = -1;
   return EK_OK;
 }
+
+static int build_task_deps(ek_xpbd *xp);
 
 // Tets: the element layer's coloured order, one block per L slots; phase =
 // chunk colour, task = chunk (its tet colours in order).
@@ -325,7 +412,107 @@ static int build_tets(ek_xpbd *xp, double **stiff64) {
     xp->phase_task[p] = el->phase_chunk[p];
   for (size_t k = 0; k <= xp->ntasks; k++)
     xp->task_block[k] = el->chunk_slot[k] / L;
-  return EK_OK;
+  return build_task_deps(xp);
+}
+
+static int cmp_key(const void *a, const void *b) {
+  const size_t *x = a, *y = b;
+  return (x[0] > y[0]) - (x[0] < y[0]);
+}
+
+// The point-to-point schedule's data (sweeps_flow): each task's
+// neighbours through the tasks of each vertex, and each task's rank by its
+// first Morton slot (a chunk is a range of the Morton order).
+static int build_task_deps(ek_xpbd *xp) {
+  const size_t nt = xp->ntasks, nv = xp->nverts, L = (size_t)xp->lanes;
+  const int32_t *morton_slot = xp->el->morton_slot;
+  size_t *vstart = calloc(nv + 1, sizeof(size_t)), *key = malloc(2 * (nt + 1) * sizeof(size_t));
+  int32_t *stamp = malloc((nv > nt ? nv : nt) * sizeof(int32_t)), *vtask = NULL;
+  size_t cap = 8 * nt + 8, nd = 0;
+  xp->task_dep_start = malloc((nt + 1) * sizeof(size_t));
+  xp->task_dep = malloc(cap * sizeof(int32_t));
+  xp->task_rank = malloc((nt ? nt : 1) * sizeof(int32_t));
+  xp->task_done = malloc((nt ? nt : 1) * sizeof(atomic_int));
+  int rc = EK_ENOMEM;
+  if (!vstart || !key || !stamp || !xp->task_dep_start || !xp->task_dep || !xp->task_rank ||
+      !xp->task_done)
+    goto done;
+  // Vertex -> tasks (CSR, each task once), in two passes.
+  for (int pass = 0; pass < 2; pass++) {
+    for (size_t v = 0; v < nv; v++)
+      stamp[v] = -1;
+    for (size_t t = 0; t < nt; t++)
+      for (size_t s = xp->task_block[t] * 4 * L; s < xp->task_block[t + 1] * 4 * L; s++) {
+        const int32_t v = xp->idx[s];
+        if (v < 0 || stamp[v] == (int32_t)t)
+          continue;
+        stamp[v] = (int32_t)t;
+        if (pass == 0)
+          vstart[v + 1]++;
+        else
+          vtask[vstart[v]++] = (int32_t)t;
+      }
+    if (pass == 0) {
+      for (size_t v = 0; v < nv; v++)
+        vstart[v + 1] += vstart[v];
+      vtask = malloc((vstart[nv] + 1) * sizeof(int32_t));
+      if (!vtask)
+        goto done;
+    } else
+      for (size_t v = nv; v > 0; v--) // undo the fill's advance
+        vstart[v] = vstart[v - 1];
+    vstart[0] = 0;
+  }
+  for (size_t t = 0; t < nt; t++)
+    stamp[t] = -1;
+  for (size_t t = 0; t < nt; t++) {
+    xp->task_dep_start[t] = nd;
+    key[2 * t] = SIZE_MAX;
+    key[2 * t + 1] = t;
+    stamp[t] = (int32_t)t;
+    for (size_t s = xp->task_block[t] * 4 * L; s < xp->task_block[t + 1] * 4 * L; s++) {
+      const int32_t v = xp->idx[s];
+      if (v < 0)
+        continue;
+      const size_t slot = (s / (4 * L)) * L + s % L, m = (size_t)morton_slot[xp->cid[slot]];
+      key[2 * t] = m < key[2 * t] ? m : key[2 * t];
+      for (size_t e = vstart[v]; e < vstart[v + 1]; e++) {
+        const int32_t u = vtask[e];
+        if (stamp[u] == (int32_t)t)
+          continue;
+        stamp[u] = (int32_t)t;
+        if (nd == cap) {
+          int32_t *grown = realloc(xp->task_dep, 2 * cap * sizeof(int32_t));
+          if (!grown)
+            goto done;
+          xp->task_dep = grown;
+          cap *= 2;
+        }
+        xp->task_dep[nd++] = u;
+      }
+    }
+  }
+  xp->task_dep_start[nt] = nd;
+  qsort(key, nt, 2 * sizeof(size_t), cmp_key);
+  for (size_t r = 0; r < nt; r++)
+    xp->task_rank[key[2 * r + 1]] = (int32_t)r;
+  for (size_t t = 0; t < nt; t++)
+    atomic_init(&xp->task_done[t], 0);
+  atomic_init(&xp->flow_sleepers, 0);
+  if (pthread_mutex_init(&xp->flow_mutex, NULL) != 0)
+    goto done;
+  if (pthread_cond_init(&xp->flow_cond, NULL) != 0) {
+    pthread_mutex_destroy(&xp->flow_mutex);
+    goto done;
+  }
+  xp->flow_ready = 1;
+  rc = EK_OK;
+done:
+  free(vstart);
+  free(key);
+  free(stamp);
+  free(vtask);
+  return rc;
 }
 
 static int cmp_i32(const void *a, const void *b) {

@@ -44,17 +44,38 @@ static void scatter_block(const xpbd_args *a, const int32_t *idx, int K, const r
   }
 }
 
-// Member positions: x, or xb + x (displacements from a base).
-EK_INLINE vmask gather_member(const xpbd_args *a, const int32_t *idx, vreal p[3]) {
-  const vmask pad = vgather_points(a->x, idx, p);
+// Member positions: x, or xb + x (displacements from a base); loads and a
+// transpose where the target has them (vload_points: vgather_points'
+// values).
+#if defined(EK_HAVE_VLOAD_POINTS)
+#define xpbd_points vload_points
+#else
+#define xpbd_points vgather_points
+#endif
+// raw (or NULL): x alone, for the in-register update below.
+EK_INLINE vmask gather_member(const xpbd_args *a, const int32_t *idx, vreal p[3], vreal *raw) {
+  const vmask pad = xpbd_points(a->x, idx, p);
+  if (raw)
+    for (int i = 0; i < 3; i++)
+      raw[i] = p[i];
   if (a->xb) {
     vreal q[3];
-    vgather_points(a->xb, idx, q);
+    xpbd_points(a->xb, idx, q);
     for (int i = 0; i < 3; i++)
       p[i] = vadd(q[i], p[i]);
   }
   return pad;
 }
+
+// Gauss-Seidel on tets where the target stores points from registers: the
+// members' x as loaded (a block's lanes share no vertex, so nothing else
+// wrote them since), x + w (g s) per lane and member (scatter_block's
+// operations: hb = g s, then x += w hb), stored for the lanes with s != 0.
+#if defined(EK_HAVE_VSTORE_POINTS)
+#define XPBD_REG_SCATTER 1
+#else
+#define XPBD_REG_SCATTER 0
+#endif
 
 EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_t b1) {
   _Alignas(64) real hb[XPBD_MAX_MEMBERS * 3 * L];
@@ -71,13 +92,14 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
     for (int o = 0; o < L; o += EK_W) {
       // F from the members' offsets to member 0 (differences first: no
       // cancellation of large coordinates).
-      vreal x0[3], F[9];
-      const vmask pad = gather_member(a, idx + o, x0);
+      const int reg = XPBD_REG_SCATTER && tets && op == XPBD_GS;
+      vreal x0[3], F[9], xo[4][3], wk[4];
+      const vmask pad = gather_member(a, idx + o, x0, reg ? xo[0] : NULL);
       for (int i = 0; i < 9; i++)
         F[i] = zero;
       for (int k = 1; k < K; k++) {
         vreal xk[3], bk[3];
-        gather_member(a, idx + k * L + o, xk);
+        gather_member(a, idx + k * L + o, xk, reg ? xo[k] : NULL);
         for (int j = 0; j < 3; j++)
           bk[j] = vload(bv + (k * 3 + j) * L + o);
         for (int i = 0; i < 3; i++) {
@@ -128,14 +150,16 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
           n2 = vfma(g, g, n2);
           vstore(corr + (k * 3 + i) * L + o, g);
         }
-        dsum = vfma(vgather(a->wd, idx + k * L + o), n2, dsum);
+        wk[k & 3] = vgather(a->wd, idx + k * L + o); // read for tets only (k < 4)
+        dsum = vfma(wk[k & 3], n2, dsum);
       }
       vreal n2 = zero;
       for (int i = 0; i < 3; i++) {
         n2 = vfma(g0[i], g0[i], n2);
         vstore(corr + i * L + o, g0[i]);
       }
-      dsum = vfma(vgather(a->wd, idx + o), n2, dsum);
+      wk[0] = vgather(a->wd, idx + o);
+      dsum = vfma(wk[0], n2, dsum);
       const vreal inv_c = vdiv(one, vsel(active, C, one));
       const vreal num = vneg(vfma(C, kh2, lam_j));
       const vreal den = vfma(vmul(kh2, dsum), vmul(inv_c, inv_c), one);
@@ -147,6 +171,18 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
       // The correction before its w_k: grad_k C dlambda = g_k dlambda / C.
       vstore(a->lambda + b * L + o, vadd(lam_j, dl));
       const vreal s = vmul(dl, inv_c);
+      if (reg) { // wd is w for Gauss-Seidel
+#if XPBD_REG_SCATTER
+        const unsigned keep = (unsigned)vmnot(veq(s, zero));
+        for (int k = 0; k < 4; k++) {
+          vreal xn[3];
+          for (int i = 0; i < 3; i++)
+            xn[i] = vadd(xo[k][i], vmul(wk[k], vmul(vload(corr + (k * 3 + i) * L + o), s)));
+          vstore_points(a->x, idx + k * L + o, keep, xn);
+        }
+#endif
+        continue;
+      }
       vstore(sl + o, s);
       for (int k = 0; k < K; k++)
         for (int i = 0; i < 3; i++) {
@@ -154,7 +190,7 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
           vstore(c, vmul(vload(c), s));
         }
     }
-    if (op == XPBD_GS)
+    if (op == XPBD_GS && !(XPBD_REG_SCATTER && tets))
       scatter_block(a, idx, K, hb, sl);
   }
 }
@@ -185,12 +221,12 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
     real *corr = a->corr ? a->corr + m0 * 3 * L : hb;
     for (int o = 0; o < L; o += EK_W) {
       vreal x0[3], F[9];
-      const vmask pad = gather_member(a, idx + o, x0);
+      const vmask pad = gather_member(a, idx + o, x0, NULL);
       for (int i = 0; i < 9; i++)
         F[i] = zero;
       for (int k = 1; k < K; k++) {
         vreal xk[3], bk[3];
-        gather_member(a, idx + k * L + o, xk);
+        gather_member(a, idx + k * L + o, xk, NULL);
         for (int j = 0; j < 3; j++)
           bk[j] = vload(bv + (k * 3 + j) * L + o);
         for (int i = 0; i < 3; i++) {

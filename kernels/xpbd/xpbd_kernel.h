@@ -17,6 +17,8 @@
 #define EK_XPBD_KERNEL_H
 
 #include <ek/xpbd.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -88,6 +90,20 @@ struct ek_xpbd {
   // parallel; task t is blocks [task_block[t], task_block[t+1]) in order.
   size_t nphases, ntasks;
   size_t *phase_task, *task_block;
+  // Tets (task = chunk): task t's neighbours, the tasks sharing a vertex
+  // with it, are task_dep[task_dep_start[t] .. task_dep_start[t+1]); its
+  // rank in the Morton order task_rank[t]; task_done[t] the sweeps it has
+  // done in the current ek_xpbd_iterate call (the point-to-point schedule
+  // of xpbd.c).
+  size_t *task_dep_start;
+  int32_t *task_dep, *task_rank;
+  atomic_int *task_done;
+  // Where a thread sleeps once its wait outlasts the spin (sleepers: how
+  // many do).
+  pthread_mutex_t flow_mutex;
+  pthread_cond_t flow_cond;
+  atomic_int flow_sleepers;
+  int flow_ready; // mutex and cond initialised
   // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
