@@ -169,9 +169,7 @@ static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
   // More threads than processors (a spinning thread may hold the core of
   // the one it waits for) or OMP_WAIT_POLICY=passive: the wait sleeps
   // almost at once, as libgomp's barrier then does.
-  const char *policy = getenv("OMP_WAIT_POLICY");
-  const int passive = policy && strcasecmp(policy, "passive") == 0;
-  const int spin = passive || n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
+  const int spin = xp->flow_passive || n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
   const size_t nt = xp->ntasks;
   for (int it = 0; it < iterations; it++)
     for (size_t t = 0; t < nt; t++) {
@@ -505,6 +503,8 @@ static int build_task_deps(ek_xpbd *xp) {
     pthread_mutex_destroy(&xp->flow_mutex);
     goto done;
   }
+  const char *policy = getenv("OMP_WAIT_POLICY"); // libgomp reads it once too
+  xp->flow_passive = policy && strcasecmp(policy, "passive") == 0;
   xp->flow_ready = 1;
   rc = EK_OK;
 done:
