@@ -18,7 +18,8 @@ void ek_cli_footer(FILE *out) {
         "  EK_ISA=scalar|avx2|avx512  force one kernel ISA (default: the best this CPU runs;\n"
         "                             one the CPU lacks is an error, exit 2)\n"
         "  EK_VERBOSE=1               print the ISA chosen, and each library error as it happens\n"
-        "  OMP_NUM_THREADS=N          OpenMP threads, at most 4096 (default: all cores)\n"
+        "  OMP_NUM_THREADS=N          OpenMP threads, 1..4096 (default: all cores; another\n"
+        "                             value is an error, exit 2)\n"
         "Exit status: 0 done, 1 a check or the run failed, 2 bad usage.\n",
         out);
 }

@@ -427,5 +427,46 @@ expect "ek-sim: a shipped scene from a mesh file" 0 "$bin/ek-sim" "$scenes/brack
   --no-output --steps 1
 grep -q warning "$err" && fail "ek-sim: bracket.json warns: $(grep warning "$err")"
 
+# OMP_NUM_THREADS that is not a list of whole numbers in 1..4096: bad usage
+# naming the variable (libgomp only warned, twice through the re-exec, and
+# ran on every core; "-1" was called "more than 4096").
+for v in 0 -1 abc "" "4," "2x"; do
+  for prog in ek-sim ek-bench ek-verify ek-hash; do
+    expect "OMP_NUM_THREADS='$v' $prog" 2 env OMP_NUM_THREADS="$v" "$bin/$prog" &&
+      { grep -qF "$prog: OMP_NUM_THREADS='$v': each comma-separated item" "$err" ||
+        fail "OMP_NUM_THREADS='$v' $prog: not said: $(cat "$err")"; }
+  done
+done
+expect "OMP_NUM_THREADS=' 1,2' ek-sim" 0 env OMP_NUM_THREADS=" 1,2" "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1
+# An output named .xmf: the name is the HDF5 file's (its XDMF is written
+# beside it); it wrote HDF5 into x.xmf and the XDMF into x.xmf.xmf.
+expect "ek-sim --out x.xmf" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/x.xmf" && one_error "ek-sim --out x.xmf"
+[ -e "$work/x.xmf" ] && fail "ek-sim --out x.xmf: wrote $work/x.xmf"
+sed "s|\"file\": \"cantilever.h5\"|\"file\": \"$work/y.xmf\"|" "$scenes/cantilever.json" \
+  >"$work/xmf.json"
+expect "ek-sim, output.file y.xmf" 1 "$bin/ek-sim" "$work/xmf.json" --steps 1 &&
+  one_error "ek-sim, output.file y.xmf"
+grep -qF "ek-sim: $(at "$work/xmf.json" '"output": {"file": '): output.file" "$err" ||
+  fail "ek-sim, output.file y.xmf: not at its place: $(cat "$err")"
+[ -e "$work/y.xmf" ] && fail "ek-sim, output.file y.xmf: wrote $work/y.xmf"
+# --n sizes the random set, which --extremes has not: it was ignored.
+expect "ek-verify --extremes --n 5" 2 "$bin/ek-verify" --extremes --n 5 --filter nothing &&
+  one_error "ek-verify --extremes --n 5" &&
+  { grep -qF -- "--n: not with --extremes" "$err" || fail "ek-verify --extremes --n 5: $(cat "$err")"; }
+# The tools and the quick start: help is no error; a tool run by the wrong
+# Python says how to run it (no traceback). python3 -S: without the site
+# packages, where Debian's paraview puts its module.
+root=$(cd "$(dirname "$0")/.." && pwd)
+expect "quickstart.sh --help" 0 "$root/quickstart.sh" --help &&
+  { grep -q "usage" "$out" || fail "quickstart.sh --help: no usage on stdout"; }
+if command -v python3 >/dev/null; then
+  expect "render_frame.py under python3" 1 python3 -S "$root/tools/render_frame.py" \
+    "$work/x.xmf" "$work/x.png"
+  grep -q Traceback "$err" && fail "render_frame.py under python3: a traceback"
+  grep -q "pvpython" "$err" || fail "render_frame.py under python3: not said: $(cat "$err")"
+fi
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

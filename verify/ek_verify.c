@@ -320,6 +320,9 @@ int main(int argc, char **argv) {
     return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
   if (force && !json_path)
     return ek_cli_usage_error("ek-verify", "--force goes with --json FILE");
+  // The extremes run no random set: --n there changed nothing, silently.
+  if (extremes && have_n)
+    return ek_cli_usage_error("ek-verify", "--n: not with --extremes (it has no random set)");
   if (filter) {
     int rc = regcomp(&ctx.filter, filter, REG_EXTENDED | REG_NOSUB);
     if (rc) {
