@@ -768,6 +768,11 @@ int main(int argc, char **argv) {
     }
   }
 
+  // Interrupted, a run leaves nothing behind (the files are written at its
+  // end, each whole or not at all): said, with the row it had reached.
+  if (!b->list_only)
+    ek_cli_stop_notice("ek-bench", &b->index, &b->total,
+                       "no results written (they are written at the end of the run)");
   if (b->suite_tradeoff)
     return run_tradeoff(b, argc, argv, out, json, o.force);
 

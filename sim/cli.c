@@ -3,6 +3,7 @@
 
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -145,4 +146,72 @@ int ek_cli_folder_error(const char *path, char *folder, size_t n) {
          : !S_ISDIR(st.st_mode)      ? ENOTDIR
          : access(folder, W_OK) != 0 ? errno
                                      : 0;
+}
+
+static const char *stop_program, *stop_note;
+static const volatile int *stop_row, *stop_total;
+static int stop_tty;
+
+// Appends text to buf at *n (room for 512 bytes); async-signal-safe.
+static void stop_put(char *buf, size_t *n, const char *text) {
+  while (*text && *n < 511)
+    buf[(*n)++] = *text++;
+}
+static void stop_put_int(char *buf, size_t *n, int v) {
+  char digits[16];
+  int k = 0;
+  unsigned u = v < 0 ? 0u : (unsigned)v;
+  do
+    digits[k++] = (char)('0' + u % 10);
+  while ((u /= 10) && k < 15);
+  while (k && *n < 511)
+    buf[(*n)++] = digits[--k];
+}
+
+static void on_stop(int sig) {
+  char buf[512];
+  size_t n = 0;
+  if (stop_tty)
+    stop_put(buf, &n, "\n"); // after a progress line that \r rewrites
+  stop_put(buf, &n, stop_program);
+  stop_put(buf, &n,
+           sig == SIGINT    ? ": stopped by SIGINT"
+           : sig == SIGTERM ? ": stopped by SIGTERM"
+                            : ": stopped by SIGHUP");
+  if (stop_row && *stop_row > 0) {
+    stop_put(buf, &n, " (row ");
+    stop_put_int(buf, &n, *stop_row);
+    if (stop_total) {
+      stop_put(buf, &n, " of ");
+      stop_put_int(buf, &n, *stop_total);
+    }
+    stop_put(buf, &n, ")");
+  }
+  stop_put(buf, &n, "; ");
+  stop_put(buf, &n, stop_note);
+  stop_put(buf, &n, "\n");
+  ssize_t w = write(STDERR_FILENO, buf, n);
+  (void)w;
+  // SA_RESETHAND restored the default action; the signal, blocked while
+  // this handler runs, ends the process when it returns.
+  raise(sig);
+}
+
+void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note) {
+  stop_program = program;
+  stop_note = note;
+  stop_row = row;
+  stop_total = total;
+  stop_tty = isatty(STDERR_FILENO);
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop;
+  sa.sa_flags = SA_RESETHAND;
+  sigemptyset(&sa.sa_mask);
+  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
+  for (int i = 0; i < 3; ++i) {
+    struct sigaction old;
+    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+      sigaction(sigs[i], &sa, NULL);
+  }
 }

@@ -1128,6 +1128,9 @@ static int run(int argc, char **argv) {
                                 "steps of it (%g s)",
                                 sim_time, scene.dt, EK_TRIAL_MAX_STEPS,
                                 scene.dt * (double)EK_TRIAL_MAX_STEPS);
+    if (!do_explain) // the trials write no file: an interruption loses the table
+      ek_cli_stop_notice("ek-sim --advise", NULL, NULL,
+                         "no advice (the table and the pick come at the end)");
     return run_advise(&scene, tol, sim_time, do_explain, nthreads);
   }
   if (do_explain) {

@@ -455,6 +455,41 @@ grep -qF "ek-sim: $(at "$work/xmf.json" '"output": {"file": '): output.file" "$e
 expect "ek-verify --extremes --n 5" 2 "$bin/ek-verify" --extremes --n 5 --filter nothing &&
   one_error "ek-verify --extremes --n 5" &&
   { grep -qF -- "--n: not with --extremes" "$err" || fail "ek-verify --extremes --n 5: $(cat "$err")"; }
+# SIGTERM during ek-bench, ek-verify and ek-sim --advise (whose results
+# come at the end): the process ends by the signal (143), saying so and
+# what was not written; no file left behind. (They died silently.)
+# stopped WHAT MARKER COMMAND...: started in the background, sent SIGTERM
+# once MARKER is on its stderr (unbuffered; at most 30 s), or after 2 s.
+stopped() {
+  local what=$1 marker=$2
+  shift 2
+  "$@" >"$out" 2>"$err" </dev/null &
+  local pid=$! rc
+  if [ -n "$marker" ]; then
+    for _ in $(seq 1500); do
+      grep -qF -- "$marker" "$err" && break
+      sleep 0.02
+    done
+  else
+    sleep 2
+  fi
+  kill -TERM "$pid"
+  wait "$pid"
+  rc=$?
+  [ "$rc" -eq 143 ] || fail "$what: exit $rc, expected 143 (SIGTERM)"
+  grep -q "stopped by SIGTERM" "$err" || fail "$what: not said: $(tail -1 "$err")"
+}
+mkdir "$work/stop"
+stopped "ek-bench SIGTERM" "[1/" "$bin/ek-bench" --threads 1 --min-time 0.5 \
+  --filter '^svd3/aosoa/scalar' --out "$work/stop/b.h5"
+grep -q "(row [0-9]* of 18); no results written" "$err" ||
+  fail "ek-bench SIGTERM: the row reached not named: $(tail -1 "$err")"
+stopped "ek-verify SIGTERM" "" "$bin/ek-verify" --json "$work/stop/v.json"
+grep -q "no verdict, and the --json file is not written" "$err" ||
+  fail "ek-verify SIGTERM: $(tail -1 "$err")"
+stopped "ek-sim --advise SIGTERM" "advise: reference run" "$bin/ek-sim" \
+  "$scenes/small_strain.json" --advise
+[ -z "$(ls -A "$work/stop")" ] || fail "SIGTERM: left $(ls "$work/stop")"
 # The tools and the quick start: help is no error; a tool run by the wrong
 # Python says how to run it (no traceback). python3 -S: without the site
 # packages, where Debian's paraview puts its module.

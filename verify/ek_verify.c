@@ -337,6 +337,8 @@ int main(int argc, char **argv) {
       regfree(&ctx.filter);
     return EK_EXIT_FAILED;
   }
+  ek_cli_stop_notice("ek-verify", NULL, NULL,
+                     json_path ? "no verdict, and the --json file is not written" : "no verdict");
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
   if (extremes)
