@@ -490,6 +490,18 @@ grep -q "no verdict, and the --json file is not written" "$err" ||
 stopped "ek-sim --advise SIGTERM" "advise: reference run" "$bin/ek-sim" \
   "$scenes/small_strain.json" --advise
 [ -z "$(ls -A "$work/stop")" ] || fail "SIGTERM: left $(ls "$work/stop")"
+# ek-verify with its table redirected and stderr a terminal (script(1)
+# gives the pty): progress on stderr, each family as it starts; the table
+# stays whole. (A redirected run showed nothing for minutes.)
+if command -v script >/dev/null; then
+  script -qec "'$bin/ek-verify' --quick --n 100 --filter '$one_check' >'$work/vt.txt'" /dev/null \
+    >"$out" 2>&1 </dev/null
+  grep -q "ek-verify: family polar_warm (7 of 7), 1 rows so far" "$out" ||
+    fail "ek-verify redirected, stderr a terminal: no progress: $(head -2 "$out")"
+  grep -q "1 rows, 0 failing -> PASS" "$work/vt.txt" ||
+    fail "ek-verify redirected: the table is not whole: $(tail -1 "$work/vt.txt")"
+  grep -q "ek-verify: family" "$work/vt.txt" && fail "ek-verify redirected: progress in the table"
+fi
 # The tools and the quick start: help is no error; a tool run by the wrong
 # Python says how to run it (no traceback). python3 -S: without the site
 # packages, where Debian's paraview puts its module.
