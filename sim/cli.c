@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -142,10 +143,25 @@ int ek_cli_folder_error(const char *path, char *folder, size_t n) {
   else
     snprintf(folder, n, ".");
   struct stat st;
-  return stat(folder, &st) != 0      ? errno
-         : !S_ISDIR(st.st_mode)      ? ENOTDIR
-         : access(folder, W_OK) != 0 ? errno
-                                     : 0;
+  if (stat(folder, &st) != 0)
+    return errno;
+  if (!S_ISDIR(st.st_mode))
+    return ENOTDIR;
+  if (access(folder, W_OK) != 0)
+    return errno;
+  // access() answers from the mode bits and a read-only mount alone: root
+  // was told yes for /proc and the run failed after its last row. A file
+  // is made and removed to know.
+  char probe[4200];
+  if (snprintf(probe, sizeof probe, "%s/.ek-write-test.%ld", folder, (long)getpid()) >=
+      (int)sizeof probe)
+    return ENAMETOOLONG;
+  int fd = open(probe, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+  if (fd < 0)
+    return errno;
+  close(fd);
+  unlink(probe);
+  return 0;
 }
 
 static const char *stop_program, *stop_note;

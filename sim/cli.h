@@ -57,7 +57,9 @@ int ek_cli_list_ok(const char *s);
 // Whether the folder of an output path (its part before the last '/', or
 // ".") takes a new file now: 0, or the errno (ENOTDIR when it is not a
 // directory: a regular file passes access(W_OK) as root, and the run would
-// fail after its last row). folder receives the folder's name.
+// fail after its last row). A file is created and removed in it to be sure
+// (root passes access(W_OK) on /proc too). folder
+// receives the folder's name.
 int ek_cli_folder_error(const char *path, char *folder, size_t n);
 
 // Until the process ends, SIGINT, SIGTERM and SIGHUP (each unless ignored,

@@ -1139,6 +1139,21 @@ static int run(int argc, char **argv) {
   }
   if (box_fits_memory(&scene) != 0)
     return EK_EXIT_FAILED;
+  // The frames' folder, before the setup (seconds for a big mesh), named
+  // as ek-bench names it, not through the frames' scratch file; a run that
+  // writes nothing (--explain, --advise) needs none.
+  char folder[EK_SCENE_PATH_MAX];
+  int folder_errno = out ? ek_cli_folder_error(out, folder, sizeof folder) : 0;
+  if (folder_errno) {
+    if (out == scene.output_file)
+      fprintf(stderr, "ek-sim: %s: output.file \"%s\": cannot write to folder '%s': %s\n",
+              ek_scene_at(&scene, scene.where.output_file, where, sizeof where), out, folder,
+              strerror(folder_errno));
+    else
+      fprintf(stderr, "ek-sim: --out %s: cannot write to folder '%s': %s\n", out, folder,
+              strerror(folder_errno));
+    return EK_EXIT_FAILED;
+  }
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();

@@ -502,6 +502,26 @@ if command -v script >/dev/null; then
     fail "ek-verify redirected: the table is not whole: $(tail -1 "$work/vt.txt")"
   grep -q "ek-verify: family" "$work/vt.txt" && fail "ek-verify redirected: progress in the table"
 fi
+# A folder that root's access(W_OK) passes but that takes no new file
+# (/proc): refused before the first row (ek-bench timed its rows, ek-verify
+# ran its checks, then both failed writing).
+if [ -d /proc ] && ! touch /proc/.ek-cli-test 2>/dev/null; then
+  expect "ek-bench --out /proc/b.h5" 1 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+    --filter "$one_row" --out /proc/ek-b.h5 --json "$work/proc.json" &&
+    one_error "ek-bench --out /proc/b.h5"
+  expect "ek-verify --json /proc/v.json" 1 "$bin/ek-verify" --quick --n 100 \
+    --filter "$one_check" --json /proc/ek-v.json && one_error "ek-verify --json /proc/v.json"
+  grep -q "rows" "$out" && fail "ek-verify --json /proc/v.json: ran the rows first"
+fi
+# ek-sim names a missing output folder as ek-bench does, before the setup
+# (it named the frames' scratch file, after building the mesh); a run that
+# writes nothing needs none.
+expect "ek-sim --out NO/FOLDER" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/none/x.h5" && one_error "ek-sim --out NO/FOLDER" &&
+  { grep -qF -- "--out $work/none/x.h5: cannot write to folder '$work/none': No such file" "$err" ||
+    fail "ek-sim --out NO/FOLDER: not said: $(cat "$err")"; }
+expect "ek-sim --explain --out NO/FOLDER" 0 "$bin/ek-sim" "$scenes/cantilever.json" --explain \
+  --out "$work/none/x.h5"
 # The tools and the quick start: help is no error; a tool run by the wrong
 # Python says how to run it (no traceback). python3 -S: without the site
 # packages, where Debian's paraview puts its module.
