@@ -7,8 +7,22 @@ set -euo pipefail
 cd "$(dirname "$0")"
 mode=${1:-}
 [ $# -gt 0 ] && shift
-case "$mode" in bench | test) ;; *)
-  echo "usage: $0 bench|test [ek-bench options]" >&2
+usage="usage: $0 bench [ek-bench options] | test"
+case "$mode" in
+bench) ;;
+test)
+  # Nothing takes test's extra words: refused before installing anything.
+  if [ $# -gt 0 ]; then
+    printf "quickstart.sh: 'test' takes no arguments (got: %s)\n%s\n" "$*" "$usage" >&2
+    exit 2
+  fi
+  ;;
+-h | --help)
+  echo "$usage"
+  exit 0
+  ;;
+*)
+  echo "$usage" >&2
   exit 2
   ;;
 esac

@@ -447,7 +447,7 @@ static void usage(FILE *f) {
              "  --suite NAME    default (the rows below) or tradeoff (the speed/accuracy\n"
              "                  map: error vs time per knob setting, README)\n"
              "  --filter REGEX  only rows whose name matches (POSIX extended regex)\n"
-             "  --threads N     only N threads (default: 1 and 2)\n"
+             "  --threads N     only N threads, 1..64 (default: 1 and 2)\n"
              "  --min-time S    seconds of samples per row, in (0, 3600], taken as given\n"
              "                  (default 0.5, scaled down to fit 140 s of samples over all\n"
              "                  selected rows, but not below 0.1)\n"
@@ -768,6 +768,11 @@ int main(int argc, char **argv) {
     }
   }
 
+  // Interrupted, a run leaves nothing behind (the files are written at its
+  // end, each whole or not at all): said, with the row it had reached.
+  if (!b->list_only)
+    ek_cli_stop_notice("ek-bench", &b->index, &b->total,
+                       "no results written (they are written at the end of the run)");
   if (b->suite_tradeoff)
     return run_tradeoff(b, argc, argv, out, json, o.force);
 

@@ -2,7 +2,9 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,7 +20,8 @@ void ek_cli_footer(FILE *out) {
         "  EK_ISA=scalar|avx2|avx512  force one kernel ISA (default: the best this CPU runs;\n"
         "                             one the CPU lacks is an error, exit 2)\n"
         "  EK_VERBOSE=1               print the ISA chosen, and each library error as it happens\n"
-        "  OMP_NUM_THREADS=N          OpenMP threads, at most 4096 (default: all cores)\n"
+        "  OMP_NUM_THREADS=N          OpenMP threads, 1..4096 (default: all cores; another\n"
+        "                             value is an error, exit 2)\n"
         "Exit status: 0 done, 1 a check or the run failed, 2 bad usage.\n",
         out);
 }
@@ -140,8 +143,91 @@ int ek_cli_folder_error(const char *path, char *folder, size_t n) {
   else
     snprintf(folder, n, ".");
   struct stat st;
-  return stat(folder, &st) != 0      ? errno
-         : !S_ISDIR(st.st_mode)      ? ENOTDIR
-         : access(folder, W_OK) != 0 ? errno
-                                     : 0;
+  if (stat(folder, &st) != 0)
+    return errno;
+  if (!S_ISDIR(st.st_mode))
+    return ENOTDIR;
+  if (access(folder, W_OK) != 0)
+    return errno;
+  // access() answers from the mode bits and a read-only mount alone: root
+  // was told yes for /proc and the run failed after its last row. A file
+  // is made and removed to know.
+  char probe[4200];
+  if (snprintf(probe, sizeof probe, "%s/.ek-write-test.%ld", folder, (long)getpid()) >=
+      (int)sizeof probe)
+    return ENAMETOOLONG;
+  int fd = open(probe, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+  if (fd < 0)
+    return errno;
+  close(fd);
+  unlink(probe);
+  return 0;
+}
+
+static const char *stop_program, *stop_note;
+static const volatile int *stop_row, *stop_total;
+static int stop_tty;
+
+// Appends text to buf at *n (room for 512 bytes); async-signal-safe.
+static void stop_put(char *buf, size_t *n, const char *text) {
+  while (*text && *n < 511)
+    buf[(*n)++] = *text++;
+}
+static void stop_put_int(char *buf, size_t *n, int v) {
+  char digits[16];
+  int k = 0;
+  unsigned u = v < 0 ? 0u : (unsigned)v;
+  do
+    digits[k++] = (char)('0' + u % 10);
+  while ((u /= 10) && k < 15);
+  while (k && *n < 511)
+    buf[(*n)++] = digits[--k];
+}
+
+static void on_stop(int sig) {
+  char buf[512];
+  size_t n = 0;
+  if (stop_tty)
+    stop_put(buf, &n, "\n"); // after a progress line that \r rewrites
+  stop_put(buf, &n, stop_program);
+  stop_put(buf, &n,
+           sig == SIGINT    ? ": stopped by SIGINT"
+           : sig == SIGTERM ? ": stopped by SIGTERM"
+                            : ": stopped by SIGHUP");
+  if (stop_row && *stop_row > 0) {
+    stop_put(buf, &n, " (row ");
+    stop_put_int(buf, &n, *stop_row);
+    if (stop_total) {
+      stop_put(buf, &n, " of ");
+      stop_put_int(buf, &n, *stop_total);
+    }
+    stop_put(buf, &n, ")");
+  }
+  stop_put(buf, &n, "; ");
+  stop_put(buf, &n, stop_note);
+  stop_put(buf, &n, "\n");
+  ssize_t w = write(STDERR_FILENO, buf, n);
+  (void)w;
+  // SA_RESETHAND restored the default action; the signal, blocked while
+  // this handler runs, ends the process when it returns.
+  raise(sig);
+}
+
+void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note) {
+  stop_program = program;
+  stop_note = note;
+  stop_row = row;
+  stop_total = total;
+  stop_tty = isatty(STDERR_FILENO);
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop;
+  sa.sa_flags = SA_RESETHAND;
+  sigemptyset(&sa.sa_mask);
+  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
+  for (int i = 0; i < 3; ++i) {
+    struct sigaction old;
+    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+      sigaction(sigs[i], &sa, NULL);
+  }
 }

@@ -57,8 +57,20 @@ int ek_cli_list_ok(const char *s);
 // Whether the folder of an output path (its part before the last '/', or
 // ".") takes a new file now: 0, or the errno (ENOTDIR when it is not a
 // directory: a regular file passes access(W_OK) as root, and the run would
-// fail after its last row). folder receives the folder's name.
+// fail after its last row). A file is created and removed in it to be sure
+// (root passes access(W_OK) on /proc too). folder
+// receives the folder's name.
 int ek_cli_folder_error(const char *path, char *folder, size_t n);
+
+// Until the process ends, SIGINT, SIGTERM and SIGHUP (each unless ignored,
+// as a shell ignores SIGINT for a background job) print one line and end
+// the process by the signal (exit status 128 + its number):
+//   "<program>: stopped by SIGINT (row <*row> of <*total>); <note>"
+// (the parenthesis when row is not NULL and *row > 0; " of" when total is
+// not NULL). For programs that write their files at the end: the line says
+// what was not written, where the shell said nothing. The handler only
+// calls async-signal-safe functions; program and note must stay valid.
+void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note);
 
 // Test binaries: parses [--seed N] [--help] [--version], and [--scenes DIR]
 // when scenes is not NULL (*scenes is set to DIR); anything else is a usage

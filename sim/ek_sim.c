@@ -79,7 +79,8 @@ static void usage(FILE *out) {
           "                EK_SCENES_DIR if set, else the installed or the source tree's scenes/\n"
           "  --steps N     override the scene's step count\n"
           "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n"
-          "  --out FILE.h5 write frames here (overrides the scene's output.file)\n"
+          "  --out FILE.h5 write frames here (overrides the scene's output.file), and\n"
+          "                their XDMF (for ParaView) beside it as FILE.xmf\n"
           "  --no-output   write no frames (overrides the scene's output.file)\n"
           "  --force       overwrite existing output files\n"
           "  --explain     print the pipeline the scene runs, run nothing\n"
@@ -106,9 +107,10 @@ static void usage(FILE *out) {
           "sizes), 4 when the run ends with inverted elements, unless the scene's \"allow\"\n"
           "key says it studies that (include/ek/sim/scene.h).\n"
           "OMP_PROC_BIND / OMP_PLACES default to close / cores (threads\n"
-          "pinned, one per core); values the user set are kept. Meshes below a few\n"
-          "thousand tets run each force evaluation on one thread (EK_FVM_PARALLEL_MIN_TETS).\n",
-          EK_SIM_BLOWUP_EXTENT);
+          "pinned, one per core); values the user set are kept. Meshes below %d tets\n"
+          "(%d for the models that take an SVD) run each force evaluation on one\n"
+          "thread (EK_FVM_PARALLEL_MIN_TETS in <ek/fvm.h>, fixed when ek is built).\n",
+          EK_SIM_BLOWUP_EXTENT, EK_FVM_PARALLEL_MIN_TETS, EK_FVM_PARALLEL_MIN_TETS_SVD);
 }
 
 // The frames' name, or their XDMF's, that is an input of the run (the
@@ -1095,6 +1097,22 @@ static int run(int argc, char **argv) {
                               "--out %s names the input %s; refusing to write frames "
                               "over it",
                               out, input);
+  // The name is the HDF5 file's; its XDMF goes beside it (FILE.h5 ->
+  // FILE.xmf). A name ending in .xmf put HDF5 into FILE.xmf and the XDMF
+  // into FILE.xmf.xmf, which ParaView would be pointed at wrongly.
+  size_t out_len = out ? strlen(out) : 0;
+  if (out_len >= 4 && !strcmp(out + out_len - 4, ".xmf")) {
+    if (out != scene.output_file)
+      return ek_cli_usage_error("ek-sim",
+                                "--out %s: names the HDF5 file (FILE.h5); its XDMF FILE.xmf "
+                                "is written beside it",
+                                out);
+    fprintf(stderr,
+            "ek-sim: %s: output.file \"%s\": names the HDF5 file (FILE.h5); its XDMF FILE.xmf "
+            "is written beside it\n",
+            ek_scene_at(&scene, scene.where.output_file, where, sizeof where), out);
+    return EK_EXIT_FAILED;
+  }
   if (threads > 0)
     omp_set_num_threads((int)threads);
   int nthreads = omp_get_max_threads();
@@ -1110,6 +1128,9 @@ static int run(int argc, char **argv) {
                                 "steps of it (%g s)",
                                 sim_time, scene.dt, EK_TRIAL_MAX_STEPS,
                                 scene.dt * (double)EK_TRIAL_MAX_STEPS);
+    if (!do_explain) // the trials write no file: an interruption loses the table
+      ek_cli_stop_notice("ek-sim --advise", NULL, NULL,
+                         "no advice (the table and the pick come at the end)");
     return run_advise(&scene, tol, sim_time, do_explain, nthreads);
   }
   if (do_explain) {
@@ -1118,6 +1139,21 @@ static int run(int argc, char **argv) {
   }
   if (box_fits_memory(&scene) != 0)
     return EK_EXIT_FAILED;
+  // The frames' folder, before the setup (seconds for a big mesh), named
+  // as ek-bench names it, not through the frames' scratch file; a run that
+  // writes nothing (--explain, --advise) needs none.
+  char folder[EK_SCENE_PATH_MAX];
+  int folder_errno = out ? ek_cli_folder_error(out, folder, sizeof folder) : 0;
+  if (folder_errno) {
+    if (out == scene.output_file)
+      fprintf(stderr, "ek-sim: %s: output.file \"%s\": cannot write to folder '%s': %s\n",
+              ek_scene_at(&scene, scene.where.output_file, where, sizeof where), out, folder,
+              strerror(folder_errno));
+    else
+      fprintf(stderr, "ek-sim: --out %s: cannot write to folder '%s': %s\n", out, folder,
+              strerror(folder_errno));
+    return EK_EXIT_FAILED;
+  }
 
   // Everything that can refuse is checked before the first step.
   double t_setup = now();

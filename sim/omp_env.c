@@ -55,14 +55,28 @@ void omp_env_defaults(const char *program, char **argv) {
 
 int omp_env_check_threads(const char *program) {
   const char *v = getenv("OMP_NUM_THREADS");
-  for (const char *p = v; p; p = strchr(p, ',') ? strchr(p, ',') + 1 : NULL) {
-    // Only a number too large is refused here: libgomp warns about other
-    // bad items itself and ignores the variable.
-    char *end;
-    errno = 0;
-    unsigned long long n = strtoull(p, &end, 10);
-    if (end != p && (errno == ERANGE || n > 4096))
-      return ek_cli_usage_error(program, "OMP_NUM_THREADS=%s: at most 4096 threads", v);
+  if (!v)
+    return 0;
+  // Each item: a whole number of threads in 1..4096, blanks around it
+  // allowed (as libgomp reads it). libgomp only warns about a bad item
+  // ("0", "x", "-1", "") and runs on every core, which a user who set it
+  // never meant; a number too large it takes (99999999999 wrapped to
+  // 1215752191) and aborts at the first parallel region, "out of memory".
+  for (const char *p = v;; ++p) {
+    p += strspn(p, " \t");
+    size_t digits = strspn(p, "0123456789");
+    const char *q = p + digits;
+    q += strspn(q, " \t");
+    long n = 0;
+    for (size_t k = 0; k < digits && n <= 4096; k++)
+      n = n * 10 + (p[k] - '0');
+    if (!digits || n < 1 || n > 4096 || (*q && *q != ','))
+      return ek_cli_usage_error(program,
+                                "OMP_NUM_THREADS='%s': each comma-separated item must be a whole "
+                                "number of threads in 1..4096",
+                                v);
+    if (!*q)
+      return 0;
+    p = q;
   }
-  return 0;
 }

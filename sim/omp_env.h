@@ -17,10 +17,12 @@
 // stderr names `program`; it then runs with libgomp's defaults).
 void omp_env_defaults(const char *program, char **argv);
 
-// OMP_NUM_THREADS above 4096 (--threads' limit) in any item of its list:
-// libgomp takes it (99999999999 wrapped to 1215752191) and aborts at the
-// first parallel region, "out of memory", never naming the variable.
-// Returns 0, or EK_EXIT_USAGE with a message naming the variable and value.
+// OMP_NUM_THREADS with an item of its list that is not a whole number in
+// 1..4096 (--threads' limit): libgomp warns about "0", "x" or "-1" and runs
+// on every core; a number too large it takes (99999999999 wrapped to
+// 1215752191) and aborts at the first parallel region, "out of memory",
+// never naming the variable. Returns 0, or EK_EXIT_USAGE with a message
+// naming the variable and value.
 int omp_env_check_threads(const char *program);
 
 #endif

@@ -427,5 +427,113 @@ expect "ek-sim: a shipped scene from a mesh file" 0 "$bin/ek-sim" "$scenes/brack
   --no-output --steps 1
 grep -q warning "$err" && fail "ek-sim: bracket.json warns: $(grep warning "$err")"
 
+# OMP_NUM_THREADS that is not a list of whole numbers in 1..4096: bad usage
+# naming the variable (libgomp only warned, twice through the re-exec, and
+# ran on every core; "-1" was called "more than 4096").
+for v in 0 -1 abc "" "4," "2x"; do
+  for prog in ek-sim ek-bench ek-verify ek-hash; do
+    expect "OMP_NUM_THREADS='$v' $prog" 2 env OMP_NUM_THREADS="$v" "$bin/$prog" &&
+      { grep -qF "$prog: OMP_NUM_THREADS='$v': each comma-separated item" "$err" ||
+        fail "OMP_NUM_THREADS='$v' $prog: not said: $(cat "$err")"; }
+  done
+done
+expect "OMP_NUM_THREADS=' 1,2' ek-sim" 0 env OMP_NUM_THREADS=" 1,2" "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1
+# An output named .xmf: the name is the HDF5 file's (its XDMF is written
+# beside it); it wrote HDF5 into x.xmf and the XDMF into x.xmf.xmf.
+expect "ek-sim --out x.xmf" 2 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/x.xmf" && one_error "ek-sim --out x.xmf"
+[ -e "$work/x.xmf" ] && fail "ek-sim --out x.xmf: wrote $work/x.xmf"
+sed "s|\"file\": \"cantilever.h5\"|\"file\": \"$work/y.xmf\"|" "$scenes/cantilever.json" \
+  >"$work/xmf.json"
+expect "ek-sim, output.file y.xmf" 1 "$bin/ek-sim" "$work/xmf.json" --steps 1 &&
+  one_error "ek-sim, output.file y.xmf"
+grep -qF "ek-sim: $(at "$work/xmf.json" '"output": {"file": '): output.file" "$err" ||
+  fail "ek-sim, output.file y.xmf: not at its place: $(cat "$err")"
+[ -e "$work/y.xmf" ] && fail "ek-sim, output.file y.xmf: wrote $work/y.xmf"
+# --n sizes the random set, which --extremes has not: it was ignored.
+expect "ek-verify --extremes --n 5" 2 "$bin/ek-verify" --extremes --n 5 --filter nothing &&
+  one_error "ek-verify --extremes --n 5" &&
+  { grep -qF -- "--n: not with --extremes" "$err" || fail "ek-verify --extremes --n 5: $(cat "$err")"; }
+# SIGTERM during ek-bench, ek-verify and ek-sim --advise (whose results
+# come at the end): the process ends by the signal (143), saying so and
+# what was not written; no file left behind. (They died silently.)
+# stopped WHAT MARKER COMMAND...: started in the background, sent SIGTERM
+# once MARKER is on its stderr (unbuffered; at most 30 s), or after 2 s.
+stopped() {
+  local what=$1 marker=$2
+  shift 2
+  "$@" >"$out" 2>"$err" </dev/null &
+  local pid=$! rc
+  if [ -n "$marker" ]; then
+    for _ in $(seq 1500); do
+      grep -qF -- "$marker" "$err" && break
+      sleep 0.02
+    done
+  else
+    sleep 2
+  fi
+  kill -TERM "$pid"
+  wait "$pid"
+  rc=$?
+  [ "$rc" -eq 143 ] || fail "$what: exit $rc, expected 143 (SIGTERM)"
+  grep -q "stopped by SIGTERM" "$err" || fail "$what: not said: $(tail -1 "$err")"
+}
+mkdir "$work/stop"
+stopped "ek-bench SIGTERM" "[1/" "$bin/ek-bench" --threads 1 --min-time 0.5 \
+  --filter '^svd3/aosoa/scalar' --out "$work/stop/b.h5"
+grep -q "(row [0-9]* of 18); no results written" "$err" ||
+  fail "ek-bench SIGTERM: the row reached not named: $(tail -1 "$err")"
+stopped "ek-verify SIGTERM" "" "$bin/ek-verify" --json "$work/stop/v.json"
+grep -q "no verdict, and the --json file is not written" "$err" ||
+  fail "ek-verify SIGTERM: $(tail -1 "$err")"
+stopped "ek-sim --advise SIGTERM" "advise: reference run" "$bin/ek-sim" \
+  "$scenes/small_strain.json" --advise
+[ -z "$(ls -A "$work/stop")" ] || fail "SIGTERM: left $(ls "$work/stop")"
+# ek-verify with its table redirected and stderr a terminal (script(1)
+# gives the pty): progress on stderr, each family as it starts; the table
+# stays whole. (A redirected run showed nothing for minutes.)
+if command -v script >/dev/null; then
+  script -qec "'$bin/ek-verify' --quick --n 100 --filter '$one_check' >'$work/vt.txt'" /dev/null \
+    >"$out" 2>&1 </dev/null
+  grep -q "ek-verify: family polar_warm (7 of 7), 1 rows so far" "$out" ||
+    fail "ek-verify redirected, stderr a terminal: no progress: $(head -2 "$out")"
+  grep -q "1 rows, 0 failing -> PASS" "$work/vt.txt" ||
+    fail "ek-verify redirected: the table is not whole: $(tail -1 "$work/vt.txt")"
+  grep -q "ek-verify: family" "$work/vt.txt" && fail "ek-verify redirected: progress in the table"
+fi
+# A folder that root's access(W_OK) passes but that takes no new file
+# (/proc): refused before the first row (ek-bench timed its rows, ek-verify
+# ran its checks, then both failed writing).
+if [ -d /proc ] && ! touch /proc/.ek-cli-test 2>/dev/null; then
+  expect "ek-bench --out /proc/b.h5" 1 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+    --filter "$one_row" --out /proc/ek-b.h5 --json "$work/proc.json" &&
+    one_error "ek-bench --out /proc/b.h5"
+  expect "ek-verify --json /proc/v.json" 1 "$bin/ek-verify" --quick --n 100 \
+    --filter "$one_check" --json /proc/ek-v.json && one_error "ek-verify --json /proc/v.json"
+  grep -q "rows" "$out" && fail "ek-verify --json /proc/v.json: ran the rows first"
+fi
+# ek-sim names a missing output folder as ek-bench does, before the setup
+# (it named the frames' scratch file, after building the mesh); a run that
+# writes nothing needs none.
+expect "ek-sim --out NO/FOLDER" 1 "$bin/ek-sim" "$scenes/cantilever.json" --steps 1 \
+  --out "$work/none/x.h5" && one_error "ek-sim --out NO/FOLDER" &&
+  { grep -qF -- "--out $work/none/x.h5: cannot write to folder '$work/none': No such file" "$err" ||
+    fail "ek-sim --out NO/FOLDER: not said: $(cat "$err")"; }
+expect "ek-sim --explain --out NO/FOLDER" 0 "$bin/ek-sim" "$scenes/cantilever.json" --explain \
+  --out "$work/none/x.h5"
+# The tools and the quick start: help is no error; a tool run by the wrong
+# Python says how to run it (no traceback). python3 -S: without the site
+# packages, where Debian's paraview puts its module.
+root=$(cd "$(dirname "$0")/.." && pwd)
+expect "quickstart.sh --help" 0 "$root/quickstart.sh" --help &&
+  { grep -q "usage" "$out" || fail "quickstart.sh --help: no usage on stdout"; }
+if command -v python3 >/dev/null; then
+  expect "render_frame.py under python3" 1 python3 -S "$root/tools/render_frame.py" \
+    "$work/x.xmf" "$work/x.png"
+  grep -q Traceback "$err" && fail "render_frame.py under python3: a traceback"
+  grep -q "pvpython" "$err" || fail "render_frame.py under python3: not said: $(cat "$err")"
+fi
+
 echo "cli: $failures failure(s)"
 [ "$failures" -eq 0 ]

@@ -27,7 +27,10 @@ import argparse
 import os
 import sys
 
-import gmsh
+try:
+    import gmsh
+except ImportError as e:
+    sys.exit(f"make_bracket_mesh.py: {e}: needs the PyPI gmsh package (see the top of this file)")
 
 # Geometry, metres.
 LX, LY, LZ = 1.0, 0.2, 0.2

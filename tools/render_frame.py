@@ -21,16 +21,23 @@ import argparse
 import os
 import sys
 
-from paraview.simple import (  # noqa: E402  (pvpython provides paraview)
-    ColorBy,
-    CreateView,
-    Delete,
-    GetColorTransferFunction,
-    Render,
-    SaveScreenshot,
-    Show,
-    Xdmf3ReaderS,
-)
+try:
+    from paraview.simple import (  # noqa: E402  (pvpython provides paraview)
+        ColorBy,
+        CreateView,
+        Delete,
+        GetColorTransferFunction,
+        Render,
+        SaveScreenshot,
+        Show,
+        Xdmf3ReaderS,
+    )
+except ImportError as e:
+    # Run by python3 instead of pvpython: say how to run it, not a traceback.
+    sys.exit(
+        f"render_frame.py: {e}: run it with ParaView's pvpython (apt-get install paraview "
+        "xvfb), e.g.\n  xvfb-run -a pvpython tools/render_frame.py RUN.xmf OUT.png"
+    )
 
 
 def main(argv):

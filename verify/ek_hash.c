@@ -42,6 +42,7 @@
 #include <stdlib.h>
 
 #include "cli.h"
+#include "omp_env.h"
 #include <string.h>
 #include <unistd.h>
 
@@ -1348,6 +1349,8 @@ static void usage(FILE *out) {
 }
 
 int main(int argc, char **argv) {
+  if (omp_env_check_threads("ek-hash"))
+    return EK_EXIT_USAGE;
   wait_policy_default(argv);
   int threads[2] = {1, 2};
   int nthreads = 2;

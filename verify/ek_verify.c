@@ -52,7 +52,18 @@ struct ek_verify_ctx {
   cJSON *rows, *notes;
   int failures, rows_printed;
   const char *last_kernel;
+  // Progress on stderr when the table goes to a file or pipe and stderr
+  // is a terminal (the table itself is the progress on a terminal): each
+  // family as it starts, and the rows every 5 s.
+  int progress;
+  double t0, last_progress;
 };
+
+static double now_s(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 uint64_t ek_verify_seed(const ek_verify_ctx *ctx) { return ctx->seed; }
 size_t ek_verify_n_random(const ek_verify_ctx *ctx) { return ctx->n_random; }
@@ -120,6 +131,11 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
     printf(" [first in %s]", r->nonfinite_case);
   printf("\n");
   ctx->rows_printed++;
+  if (ctx->progress && now_s() - ctx->last_progress > 5.0) {
+    ctx->last_progress = now_s();
+    fprintf(stderr, "ek-verify: %d rows, %d failing, %.0f s\n", ctx->rows_printed, ctx->failures,
+            ctx->last_progress - ctx->t0);
+  }
 
   cJSON *j = cJSON_CreateObject();
   cJSON_AddStringToObject(j, "kernel", r->kernel);
@@ -263,7 +279,8 @@ static void usage(FILE *out) {
         "                 --filter matches \"model loop precision case\"\n"
         "  -h, --help     this text\n"
         "  --version      print the version\n"
-        "Every ISA this CPU runs is verified by name; EK_ISA picks what 'auto' means.\n",
+        "Every ISA this CPU runs is verified by name; EK_ISA picks what 'auto' means.\n"
+        "With the table redirected and stderr a terminal, progress goes to stderr.\n",
         out);
 }
 
@@ -320,6 +337,9 @@ int main(int argc, char **argv) {
     return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
   if (force && !json_path)
     return ek_cli_usage_error("ek-verify", "--force goes with --json FILE");
+  // The extremes run no random set: --n there changed nothing, silently.
+  if (extremes && have_n)
+    return ek_cli_usage_error("ek-verify", "--n: not with --extremes (it has no random set)");
   if (filter) {
     int rc = regcomp(&ctx.filter, filter, REG_EXTENDED | REG_NOSUB);
     if (rc) {
@@ -334,6 +354,8 @@ int main(int argc, char **argv) {
       regfree(&ctx.filter);
     return EK_EXIT_FAILED;
   }
+  ek_cli_stop_notice("ek-verify", NULL, NULL,
+                     json_path ? "no verdict, and the --json file is not written" : "no verdict");
   ctx.rows = cJSON_CreateArray();
   ctx.notes = cJSON_CreateArray();
   if (extremes)
@@ -345,7 +367,13 @@ int main(int argc, char **argv) {
   printf("errors relative to s1 of the input (absolute for the zero matrix); budgets apply to "
          "the default sweeps (either rsqrt mode); 'trade' rows are reported only\n");
   int setup_errors = 0;
-  for (size_t f = 0; f < sizeof families / sizeof families[0]; f++) {
+  const size_t nfamilies = sizeof families / sizeof families[0];
+  ctx.progress = !isatty(STDOUT_FILENO) && isatty(STDERR_FILENO);
+  ctx.t0 = ctx.last_progress = now_s();
+  for (size_t f = 0; f < nfamilies; f++) {
+    if (ctx.progress)
+      fprintf(stderr, "ek-verify: family %s (%zu of %zu), %d rows so far, %.0f s\n",
+              families[f].name, f + 1, nfamilies, ctx.rows_printed, now_s() - ctx.t0);
     printf("\n== %s: %s\n", families[f].name, families[f].note);
     setup_errors += families[f].run(&ctx) != 0;
   }

@@ -55,8 +55,9 @@
 //                 {"type": "xpbd", "iterations", "substeps", "solver":
 //                 "gauss_seidel" | "jacobi", "elements": "tets" |
 //                 "clusters"} (ek_scene_xpbd)
-//   output        {"file": PATH.h5 (relative to the working directory),
-//                 "every": N (default 1)}
+//   output        {"file": PATH.h5 (relative to the working directory; its
+//                 XDMF goes beside it as PATH.xmf, so a PATH ending in .xmf
+//                 is refused), "every": N (default 1)}
 //   allow         {"inverted": bool, "nonfinite": bool} (default false):
 //                 what the run may end in and still succeed. ek-sim checks
 //                 the state at every frame time (ek_sim_check) and fails
