@@ -11,13 +11,20 @@
 // force evaluation per step; stable for dt up to the CFL limit.
 #include "sim_internal.h"
 
+#include "../kernels/team.h"
+
 #include <stdio.h>
 
 // Up to this many vertices the update loop runs on one thread. It takes
-// about 5 ns per vertex, and waking a sleeping OpenMP thread took 12-90 us
-// on the 2-core development machine: a second thread pays off only from
-// several thousand vertices, and more on a loaded machine.
+// about 5 ns per vertex, and waking a sleeping thread took 12-90 us on the
+// 2-core development machine: a second thread pays off only from several
+// thousand vertices, and more on a loaded machine. Above it the loop runs
+// as chunks of EXPLICIT_CHUNK vertices on the helper team (kernels/team.h),
+// as the force does: the calling thread never waits for a helper that has
+// not started (an OpenMP region's end waited for every thread, and a thread
+// descheduled by another process arrived milliseconds later).
 #define EXPLICIT_PARALLEL_GRAIN 20000
+#define EXPLICIT_CHUNK 4096
 
 static int explicit_explain(const ek_scene *s, FILE *out, int number) {
   fprintf(out, "  %d. integration: symplectic Euler v += dt M^-1 (f + M g - c M v), x += dt v\n",
@@ -41,28 +48,21 @@ static int explicit_create(ek_sim *s, void **data) {
   return 0;
 }
 
-static int explicit_step(ek_sim *s, void *data) {
-  (void)data;
-  int rc = sim_forces(s, s->x);
-  if (rc)
-    return rc;
+typedef struct {
+  ek_sim *s;
+  double t_next;
+} integrate_job;
 
-  double t0 = sim_now();
-  if ((rc = sim_check_forces(s, s->x)) != 0) {
-    s->times.integration += sim_now() - t0;
-    return rc;
-  }
-  // Symplectic Euler (free vertices), exact motion (constrained ones),
-  // then the ground. Vertices are independent: any thread count gives the
-  // same bits.
+// Symplectic Euler (free vertices), exact motion (constrained ones), then
+// the ground, for vertices [i0, i1).
+static void integrate(const integrate_job *j, size_t i0, size_t i1) {
+  ek_sim *s = j->s;
   const ek_scene *sc = &s->scene;
-  const double dt = sc->dt, c = sc->damping, t_next = s->t + dt;
+  const double dt = sc->dt, c = sc->damping, t_next = j->t_next;
   const double *g = sc->gravity, *f = s->f;
   double *xn = s->x_next, *vn = s->v_next;
-  long nv = (long)s->nv;
-#pragma omp parallel for schedule(static) if (nv > EXPLICIT_PARALLEL_GRAIN)
-  for (long i = 0; i < nv; ++i) {
-    const ek_scene_bc *bc = sim_bc_at(s, (size_t)i, t_next);
+  for (size_t i = i0; i < i1; ++i) {
+    const ek_scene_bc *bc = sim_bc_at(s, i, t_next);
     if (bc) {
       sim_bc_state(bc, s->x0 + 3 * i, t_next, xn + 3 * i, vn + 3 * i);
       continue;
@@ -77,6 +77,32 @@ static int explicit_step(ek_sim *s, void *data) {
     }
     sim_ground_contact(s, xn + 3 * i, vn + 3 * i);
   }
+}
+
+static void integrate_chunk(void *ctx, size_t k) {
+  const integrate_job *j = ctx;
+  const size_t i0 = k * EXPLICIT_CHUNK, i1 = i0 + EXPLICIT_CHUNK;
+  integrate(j, i0, i1 < j->s->nv ? i1 : j->s->nv);
+}
+
+static int explicit_step(ek_sim *s, void *data) {
+  (void)data;
+  int rc = sim_forces(s, s->x);
+  if (rc)
+    return rc;
+
+  double t0 = sim_now();
+  if ((rc = sim_check_forces(s, s->x)) != 0) {
+    s->times.integration += sim_now() - t0;
+    return rc;
+  }
+  // Vertices are independent: any thread count gives the same bits.
+  integrate_job j = {s, s->t + s->scene.dt};
+  const size_t nv = s->nv, nchunks = (nv + EXPLICIT_CHUNK - 1) / EXPLICIT_CHUNK;
+  if (nv > EXPLICIT_PARALLEL_GRAIN)
+    ek_team_run(nchunks, integrate_chunk, &j);
+  else
+    integrate(&j, 0, nv);
   s->times.integration += sim_now() - t0;
   return 0;
 }

@@ -5,11 +5,11 @@
 // and the frames' paths; the explicit loop's force is the vector kernel).
 // Built once per precision.
 //
-// Threads: one parallel region per force call (three, timed, when the
-// phases are asked for): the membrane blocks, then the hinge blocks, each
+// Threads: the force runs as two jobs of the helper team (three, timed,
+// when the phases are asked for): the membrane and hinge blocks, each
 // writing its corners, then every vertex sums its corners in element order.
 // No vertex is written by two threads and no sum depends on the partition:
-// the same bits at any thread count.
+// the same bits at any thread count. The other entry points use OpenMP.
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>
@@ -20,6 +20,7 @@
 #include "../elements/tris.h"
 #include "../kernels.h"
 #include "../real.h"
+#include "../team.h"
 #include "cloth_force_kernel.h"
 
 #if defined(EK_REAL_F32)
@@ -110,6 +111,63 @@ static cloth_args base_args(const ek_cloth *cl, const ek_cloth_params *p, const 
   };
 }
 
+// The force's passes as jobs of the helper team (kernels/team.h: the caller
+// never waits for a thread that has not started): chunks of CHUNK_BLOCKS
+// membrane blocks, then of hinge blocks, then of GATHER_VERTS vertices.
+// Every chunk writes what the region's thread wrote for it: the same bits.
+#define CHUNK_BLOCKS 32
+#define GATHER_VERTS 1024
+typedef struct {
+  const ek_cloth *cl;
+  const cloth_args *a;
+  void (*membrane)(const cloth_args *, size_t, size_t);
+  void (*bending)(const cloth_args *, size_t, size_t);
+  size_t ntb, nhb, ntc, nhc; // blocks, and chunks of them
+  real *f;
+} force_job;
+
+static void chunk_range(size_t n, size_t i, size_t per, size_t *b0, size_t *b1) {
+  *b0 = i * per;
+  *b1 = *b0 + per < n ? *b0 + per : n;
+}
+
+static void force_membrane(void *ctx, size_t i) {
+  const force_job *j = ctx;
+  size_t b0, b1;
+  chunk_range(j->ntb, i, CHUNK_BLOCKS, &b0, &b1);
+  j->membrane(j->a, b0, b1);
+}
+
+static void force_bending(void *ctx, size_t i) {
+  const force_job *j = ctx;
+  size_t b0, b1;
+  chunk_range(j->nhb, i, CHUNK_BLOCKS, &b0, &b1);
+  j->bending(j->a, b0, b1);
+}
+
+static void force_elements(void *ctx, size_t i) {
+  const force_job *j = ctx;
+  if (i < j->ntc)
+    force_membrane(ctx, i);
+  else
+    force_bending(ctx, i - j->ntc);
+}
+
+static void force_gather(void *ctx, size_t i) {
+  const force_job *j = ctx;
+  size_t v0, v1;
+  chunk_range(j->cl->nv, i, GATHER_VERTS, &v0, &v1);
+  gather(j->cl, j->a->tri_corner, j->a->hinge_corner, j->f, v0, v1);
+}
+
+static void run_chunks(int par, size_t n, ek_team_fn *fn, void *ctx) {
+  if (par)
+    ek_team_run(n, fn, ctx);
+  else
+    for (size_t i = 0; i < n; i++)
+      fn(ctx, i);
+}
+
 int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
                        const ek_cloth_force_opts *opts) {
   int rc = check_args("ek_cloth_forces", cl, p, !x || !f, "x or f");
@@ -122,48 +180,29 @@ int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real 
   const size_t ntb = SFX(cl->ntb), nhb = p->bending > 0 ? SFX(cl->nhb) : 0;
   if (nhb == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
     memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
-  void (*membrane)(const cloth_args *, size_t, size_t) = MEMBRANE(kt);
-  void (*bending)(const cloth_args *, size_t, size_t) = BENDING(kt);
+  force_job j = {cl,
+                 &a,
+                 MEMBRANE(kt),
+                 BENDING(kt),
+                 ntb,
+                 nhb,
+                 (ntb + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS,
+                 (nhb + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS,
+                 f};
+  const size_t ngc = (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS;
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
   ek_cloth_phase_times *pt = opts ? opts->phase_times : NULL;
   if (!pt) {
-#pragma omp parallel if (par)
-    {
-      int t = omp_get_thread_num(), nt = omp_get_num_threads();
-      size_t b0, b1;
-      part(ntb, t, nt, &b0, &b1);
-      membrane(&a, b0, b1);
-      part(nhb, t, nt, &b0, &b1);
-      if (b1 > b0)
-        bending(&a, b0, b1);
-#pragma omp barrier
-      part(cl->nv, t, nt, &b0, &b1);
-      gather(cl, a.tri_corner, a.hinge_corner, f, b0, b1);
-    }
+    run_chunks(par, j.ntc + j.nhc, force_elements, &j);
+    run_chunks(par, ngc, force_gather, &j);
     return 0;
   }
   double t0 = wall();
-#pragma omp parallel if (par)
-  {
-    size_t b0, b1;
-    part(ntb, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
-    membrane(&a, b0, b1);
-  }
+  run_chunks(par, j.ntc, force_membrane, &j);
   double t1 = wall();
-#pragma omp parallel if (par)
-  {
-    size_t b0, b1;
-    part(nhb, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
-    if (b1 > b0)
-      bending(&a, b0, b1);
-  }
+  run_chunks(par, j.nhc, force_bending, &j);
   double t2 = wall();
-#pragma omp parallel if (par)
-  {
-    size_t b0, b1;
-    part(cl->nv, omp_get_thread_num(), omp_get_num_threads(), &b0, &b1);
-    gather(cl, a.tri_corner, a.hinge_corner, f, b0, b1);
-  }
+  run_chunks(par, ngc, force_gather, &j);
   double t3 = wall();
   pt->membrane += t1 - t0;
   pt->bending += t2 - t1;

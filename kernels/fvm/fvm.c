@@ -3,13 +3,16 @@
 // strategies (scatter.c) own the OpenMP region and the block kernel in
 // fvm_block.c does one range of blocks. Built once per precision.
 //
-// Threads: one parallel region per force evaluation, static partitions,
-// and a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling
+// Threads: THREAD_BUFFERS (the default) runs as two jobs of the helper
+// team (kernels/team.h: parts, then sums; the caller never waits for a
+// thread that has not started), the other strategies as one parallel
+// region; a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling
 // thread alone (waking a second thread costs more than it saves there).
 // Every strategy but ATOMIC gives the same bits for any thread count
 // (scatter.h).
 #include <math.h>
 #include <omp.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -21,6 +24,7 @@
 #include "../kernels.h"
 #include "../material/models.h"
 #include "../real.h"
+#include "../team.h"
 #include "fvm_kernel.h"
 #include "scatter.h"
 
@@ -152,7 +156,68 @@ static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a
   const int rows4 = s == EK_SCATTER_THREAD_BUFFERS && (isa == EK_ISA_AVX512 || isa == EK_ISA_AVX2);
   c.a.fstride = rows4 ? 4 : 3;
   scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c, c.a.fstride};
-  return EK_P(scatter_run)(&j, f);
+  return EK_P(scatter_run_team)(&j, f);
+}
+
+// The phase split's passes, each a job of PHASE_CHUNK blocks per chunk on
+// the helper team (kernels/team.h), as the fused force: an OpenMP region
+// here leaves libgomp's thread spinning for milliseconds on the core the
+// team's helper needs for the fused steps that follow (ek-sim times one step
+// in ten this way: the fused steps' 2-thread median was the 1-thread one).
+// The polar and material calls of a chunk stay below their own parallel
+// thresholds (32 blocks, EK_MATERIAL_PARALLEL_MIN elements), so they run on
+// the thread that runs the chunk; every pass is per tet: the same bits.
+#define PHASE_CHUNK 32
+typedef struct {
+  const ek_kernel_table *kt;
+  const fvm_args *a;
+  const ek_material *mat;
+  const ek_svd3_opts *so;
+  ek_isa isa;
+  size_t nb;
+  real *F, *P, *R;
+  _Atomic int rc;
+} phase_job;
+
+static void chunk_of(const phase_job *j, size_t i, size_t *b0, size_t *nb) {
+  *b0 = i * PHASE_CHUNK;
+  *nb = j->nb - *b0 < PHASE_CHUNK ? j->nb - *b0 : PHASE_CHUNK;
+}
+
+static void phase_F(void *ctx, size_t i) {
+  phase_job *j = ctx;
+  size_t b0, nb;
+  chunk_of(j, i, &b0, &nb);
+  j->kt->EK_FIELD(fvm_F_block)(j->a, b0, b0 + nb, j->F);
+}
+
+static void phase_polar(void *ctx, size_t i) {
+  phase_job *j = ctx;
+  size_t b0, nb;
+  chunk_of(j, i, &b0, &nb);
+  const size_t o = b0 * 9 * L;
+  int rc = EK_P(polar3_aosoa)(nb, j->F + o, j->R + o, NULL, j->so);
+  if (rc < 0)
+    atomic_store(&j->rc, rc);
+}
+
+static void phase_P(void *ctx, size_t i) {
+  phase_job *j = ctx;
+  size_t b0, nb;
+  chunk_of(j, i, &b0, &nb);
+  const size_t o = b0 * 9 * L;
+  int rc = EK_P(material_eval_aosoa)(j->mat, EK_MAT_PK1, j->isa, nb, j->F + o, j->R + o, NULL,
+                                     j->P + o, 0);
+  if (rc < 0)
+    atomic_store(&j->rc, rc);
+}
+
+static void run_chunks(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
+  if (parallel)
+    ek_team_run(n, fn, ctx);
+  else
+    for (size_t i = 0; i < n; i++)
+      fn(ctx, i);
 }
 
 // Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
@@ -169,25 +234,21 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
     return EK_ENOMEM;
   real *P = F + nb * 9 * L, *R = P + nb * 9 * L;
   memset(pt, 0, sizeof *pt);
+  phase_job j = {kt, &a, mat, so, isa, nb, F, P, R, 0};
+  const int par = parallel_for(el, a.mat);
+  const size_t nchunks = (nb + PHASE_CHUNK - 1) / PHASE_CHUNK;
 
   double t0 = now();
-#pragma omp parallel if (parallel_for(el, a.mat))
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    size_t lo, hi;
-    scatter_share(0, nb, t, nt, &lo, &hi);
-    if (lo < hi)
-      kt->EK_FIELD(fvm_F_block)(&a, lo, hi, F);
-  }
+  run_chunks(par, nchunks, phase_F, &j);
   double t1 = now();
   pt->deformation_gradient = t1 - t0;
 
   ek_model_needs need = ek_model_need(mat->model, mat->clamp);
   int takes_svd = need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD;
   if (takes_svd) {
-    int rc = EK_P(polar3_aosoa)(nb, F, R, NULL, so);
-    if (rc < 0)
-      return rc;
+    run_chunks(par, nchunks, phase_polar, &j);
+    if (atomic_load(&j.rc) < 0) // the whole call again, for its message on this thread
+      return EK_P(polar3_aosoa)(nb, F, R, NULL, so);
   }
   double t2 = now();
   pt->svd = takes_svd ? t2 - t1 : 0;
@@ -209,14 +270,14 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
     }
   }
   double t3 = now();
-  int rc = EK_P(material_eval_aosoa)(mat, EK_MAT_PK1, isa, nb, F, R, NULL, P, 0);
-  if (rc < 0)
-    return rc;
+  run_chunks(par, nchunks, phase_P, &j);
+  if (atomic_load(&j.rc) < 0)
+    return EK_P(material_eval_aosoa)(mat, EK_MAT_PK1, isa, nb, F, R, NULL, P, 0);
   double t4 = now();
   pt->pk1 = t4 - t3;
 
   a.P_in = P;
-  rc = run_strategy(kt, el, a, f, s, isa);
+  int rc = run_strategy(kt, el, a, f, s, isa);
   pt->scatter = now() - t4;
   return rc;
 }

@@ -42,6 +42,11 @@ typedef struct {
 // out (nverts x ncomp) = the sum of the job's corner values; overwritten.
 // EK_OK or EK_ENOMEM (scratch buffers).
 int EK_P(scatter_run)(const scatter_job *job, real *out);
+// The same, THREAD_BUFFERS run on the helper team (kernels/team.h: the
+// caller never waits for a thread that has not started) instead of an
+// OpenMP region; the same bits (the FVM force; the Hessian passes keep the
+// region).
+int EK_P(scatter_run_team)(const scatter_job *job, real *out);
 
 // The slot order a strategy runs over: the coloured one for COLORED, the
 // Morton one for the others.

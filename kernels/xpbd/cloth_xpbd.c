@@ -20,7 +20,6 @@
 // parallel: the same bits at any thread count. Scalar double (a plain
 // path: the vector kernels are the explicit loop's forces).
 #include <math.h>
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,6 +27,7 @@
 #include "../elements/tri_polar.h"
 #include "../elements/tris.h"
 #include "../kernels.h"
+#include "../team.h"
 
 struct ek_cloth_xpbd {
   const ek_cloth *cl;
@@ -198,35 +198,62 @@ static int constraint(const ek_cloth_xpbd *x, size_t j, const double *pos, const
   return 4;
 }
 
+// Constraints per chunk of a colour's job on the helper team.
+#define COLOR_CHUNK 256
+
+typedef struct {
+  ek_cloth_xpbd *x;
+  double *pos, ih2;
+  size_t a, b; // the colour's range of x->order
+} colour_job;
+
+// Constraints [a + i COLOR_CHUNK, ...) of the colour: no two share a
+// vertex, so the chunks may run in any order, on any thread.
+static void colour_chunk(void *ctx, size_t i) {
+  const colour_job *cj = ctx;
+  ek_cloth_xpbd *x = cj->x;
+  double *pos = cj->pos;
+  const size_t o0 = cj->a + i * COLOR_CHUNK,
+               o1 = o0 + COLOR_CHUNK < cj->b ? o0 + COLOR_CHUNK : cj->b;
+  for (size_t o = o0; o < o1; ++o) {
+    size_t j = (size_t)x->order[o];
+    const int32_t *mem;
+    double C, grad[12], alpha;
+    int nm = constraint(x, j, pos, &mem, &C, grad, &alpha);
+    if (!(C > EK_CLOTH_XPBD_C_MIN))
+      continue;
+    double at = alpha * cj->ih2, den = at;
+    for (int m = 0; m < nm; ++m)
+      den += x->w[mem[m]] * (grad[3 * m] * grad[3 * m] + grad[3 * m + 1] * grad[3 * m + 1] +
+                             grad[3 * m + 2] * grad[3 * m + 2]);
+    double dl = (-C - at * x->lambda[j]) / den;
+    x->lambda[j] += dl;
+    for (int m = 0; m < nm; ++m)
+      for (int k = 0; k < 3; ++k)
+        pos[3 * (size_t)mem[m] + k] += x->w[mem[m]] * grad[3 * m + k] * dl;
+  }
+}
+
+// Each colour is a job of the helper team (kernels/team.h): the next colour
+// starts once this one's chunks are done, but never waits for a thread that
+// has not started (the barrier per colour of an OpenMP loop did).
 int ek_cloth_xpbd_iterate(ek_cloth_xpbd *x, double *pos, int sweeps) {
   if (!x || !pos || sweeps < 0) {
     ek_set_error("ek_cloth_xpbd_iterate: bad arguments");
     return EK_EINVAL;
   }
-  const double ih2 = 1 / (x->h * x->h);
   const int par = x->cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
-#pragma omp parallel if (par)
+  colour_job cj = {x, pos, 1 / (x->h * x->h), 0, 0};
   for (int it = 0; it < sweeps; ++it)
     for (int c = 0; c < x->ncolors; ++c) {
-      long a = (long)x->color_off[c], b = (long)x->color_off[c + 1];
-#pragma omp for schedule(static)
-      for (long o = a; o < b; ++o) {
-        size_t j = (size_t)x->order[o];
-        const int32_t *mem;
-        double C, grad[12], alpha;
-        int nm = constraint(x, j, pos, &mem, &C, grad, &alpha);
-        if (!(C > EK_CLOTH_XPBD_C_MIN))
-          continue;
-        double at = alpha * ih2, den = at;
-        for (int m = 0; m < nm; ++m)
-          den += x->w[mem[m]] * (grad[3 * m] * grad[3 * m] + grad[3 * m + 1] * grad[3 * m + 1] +
-                                 grad[3 * m + 2] * grad[3 * m + 2]);
-        double dl = (-C - at * x->lambda[j]) / den;
-        x->lambda[j] += dl;
-        for (int m = 0; m < nm; ++m)
-          for (int i = 0; i < 3; ++i)
-            pos[3 * (size_t)mem[m] + i] += x->w[mem[m]] * grad[3 * m + i] * dl;
-      }
+      cj.a = x->color_off[c];
+      cj.b = x->color_off[c + 1];
+      const size_t n = (cj.b - cj.a + COLOR_CHUNK - 1) / COLOR_CHUNK;
+      if (par)
+        ek_team_run(n, colour_chunk, &cj);
+      else
+        for (size_t i = 0; i < n; i++)
+          colour_chunk(&cj, i);
     }
   return 0;
 }

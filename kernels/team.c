@@ -1,0 +1,223 @@
+// The helper team of team.h.
+//
+// One job at a time. The claim word packs the job's epoch, its chunk count
+// n and the next unclaimed chunk; a thread claims with one fetch-add and
+// runs the chunk if the index it got is below n (so a helper that wakes
+// during a later job claims from that job, which is as good). The caller
+// publishes fn and ctx, zeroes the done count, then stores a new claim word
+// (release); a helper reads fn and ctx only after a claim below n, and the
+// job cannot end (done < n) before that chunk is done, so they cannot change
+// under it. Helpers wait for a new epoch by spinning, then sleeping on a
+// condition variable; the caller waits for the last claimed chunks the same
+// way. sleepers / caller_sleeps and the words they guard are sequentially
+// consistent: either the waker sees the sleeper, or the sleeper sees the
+// change before it waits (it holds the mutex from its check to the wait).
+#define _GNU_SOURCE
+#include <omp.h>
+#include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <strings.h>
+
+#include "team.h"
+
+#define MAX_HELPERS 63
+#define NEXT_BITS 20
+#define N_BITS 20
+#define NEXT_OF(w) ((size_t)((w) & ((UINT64_C(1) << NEXT_BITS) - 1)))
+#define N_OF(w) ((size_t)(((w) >> NEXT_BITS) & ((UINT64_C(1) << N_BITS) - 1)))
+#define EPOCH_OF(w) ((w) >> (NEXT_BITS + N_BITS))
+
+static struct {
+  pthread_mutex_t run; // held by the caller of the job in flight
+  pthread_mutex_t m;   // for the sleeps below
+  pthread_cond_t wake; // helpers between jobs
+  pthread_cond_t idle; // the caller, for the last claimed chunks
+  _Atomic uint64_t claim;
+  atomic_size_t done;
+  atomic_int sleepers, caller_sleeps;
+  atomic_int want; // helpers 1 .. want - 1 take part in the current job
+  ek_team_fn *fn;
+  void *ctx;
+  int helpers;     // started (under run)
+  atomic_int spin; // checks before a helper's wait for a job sleeps
+  int idle_spin;   // spin's value unless oversubscribed
+  int wait;        // checks before the caller's wait for the last chunks sleeps
+} T = {.run = PTHREAD_MUTEX_INITIALIZER,
+       .m = PTHREAD_MUTEX_INITIALIZER,
+       .wake = PTHREAD_COND_INITIALIZER,
+       .idle = PTHREAD_COND_INITIALIZER};
+
+// Claims and runs chunks of the current job until none is left.
+static void work(void) {
+  for (;;) {
+    uint64_t w = atomic_fetch_add_explicit(&T.claim, 1, memory_order_acq_rel);
+    if (NEXT_OF(w) >= N_OF(w))
+      return;
+    T.fn(T.ctx, NEXT_OF(w));
+    size_t d = atomic_fetch_add_explicit(&T.done, 1, memory_order_acq_rel) + 1;
+    if (d == N_OF(w) && atomic_load(&T.caller_sleeps)) {
+      pthread_mutex_lock(&T.m);
+      pthread_cond_broadcast(&T.idle);
+      pthread_mutex_unlock(&T.m);
+    }
+  }
+}
+
+typedef struct {
+  int id, bound;
+  cpu_set_t set;
+} helper_start;
+
+static void *helper(void *arg) {
+  helper_start h = *(helper_start *)arg;
+  free(arg);
+  const int id = h.id;
+  // A chunk may call a kernel that opens an OpenMP region (below its
+  // threshold: run on this thread), and libgomp binds a thread to the first
+  // place at its first region: open one first, then move to our place.
+  volatile int in_region = 0;
+#pragma omp parallel num_threads(1)
+  in_region = omp_get_num_threads();
+  (void)in_region;
+  if (h.bound)
+    pthread_setaffinity_np(pthread_self(), sizeof h.set, &h.set);
+  uint64_t seen = 0;
+  for (;;) {
+    uint64_t w = atomic_load_explicit(&T.claim, memory_order_acquire);
+    const int spin = atomic_load_explicit(&T.spin, memory_order_relaxed);
+    for (int spins = 0; EPOCH_OF(w) == seen && spins < spin; spins++)
+      w = atomic_load_explicit(&T.claim, memory_order_acquire);
+    if (EPOCH_OF(w) == seen) {
+      pthread_mutex_lock(&T.m);
+      atomic_fetch_add(&T.sleepers, 1);
+      while (EPOCH_OF(w = atomic_load(&T.claim)) == seen)
+        pthread_cond_wait(&T.wake, &T.m);
+      atomic_fetch_sub(&T.sleepers, 1);
+      pthread_mutex_unlock(&T.m);
+    }
+    seen = EPOCH_OF(w);
+    if (id < atomic_load_explicit(&T.want, memory_order_relaxed))
+      work();
+  }
+  return NULL;
+}
+
+// Helper id's cores: those of the OpenMP place thread id of a team would
+// get under OMP_PROC_BIND=close (ek-sim's and ek-bench's default: one thread
+// per core); 0 where threads are not bound.
+static int place_of(int id, cpu_set_t *set) {
+  const int np = omp_get_num_places(), here = omp_get_place_num();
+  if (omp_get_proc_bind() == omp_proc_bind_false || np < 2 || here < 0)
+    return 0;
+  const int p = (here + id) % np, nids = omp_get_place_num_procs(p);
+  int *ids = malloc((size_t)(nids > 0 ? nids : 1) * sizeof *ids);
+  if (!ids)
+    return 0;
+  omp_get_place_proc_ids(p, ids);
+  CPU_ZERO(set);
+  for (int i = 0; i < nids; i++)
+    if (ids[i] >= 0 && ids[i] < CPU_SETSIZE)
+      CPU_SET(ids[i], set);
+  free(ids);
+  return 1;
+}
+
+// A forked child has only its calling thread: no helpers, fresh locks.
+static void after_fork(void) {
+  pthread_mutex_init(&T.run, NULL);
+  pthread_mutex_init(&T.m, NULL);
+  pthread_cond_init(&T.wake, NULL);
+  pthread_cond_init(&T.idle, NULL);
+  atomic_store(&T.sleepers, 0);
+  atomic_store(&T.caller_sleeps, 0);
+  T.helpers = 0;
+}
+
+// Starts helpers up to `count` (under run); returns how many there are.
+static int start_helpers(int count) {
+  if (count > MAX_HELPERS)
+    count = MAX_HELPERS;
+  if (T.helpers == 0) {
+    // As libgomp and xpbd.c's flow: a wait spins ~1 ms (2^20 checks), about
+    // libgomp's own spin, unless OMP_WAIT_POLICY=passive (then it sleeps
+    // almost at once).
+    const char *policy = getenv("OMP_WAIT_POLICY");
+    const int passive = policy && strcasecmp(policy, "passive") == 0;
+    T.idle_spin = T.wait = passive ? 1 << 8 : 1 << 20;
+    pthread_atfork(NULL, NULL, after_fork);
+  }
+  while (T.helpers < count) {
+    pthread_attr_t attr;
+    pthread_t th;
+    if (pthread_attr_init(&attr) != 0)
+      break;
+    pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+    helper_start *h = malloc(sizeof *h);
+    if (!h) {
+      pthread_attr_destroy(&attr);
+      break;
+    }
+    h->id = T.helpers + 1;
+    h->bound = place_of(h->id, &h->set);
+    int rc = pthread_create(&th, &attr, helper, h);
+    pthread_attr_destroy(&attr);
+    if (rc != 0) {
+      free(h);
+      break;
+    }
+    T.helpers++;
+  }
+  return T.helpers;
+}
+
+static void serial(size_t n, ek_team_fn *fn, void *ctx) {
+  for (size_t i = 0; i < n; i++)
+    fn(ctx, i);
+}
+
+void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
+  const int threads = omp_get_max_threads();
+  if (n <= 1 || threads < 2 || n > EK_TEAM_MAX_CHUNKS || omp_in_parallel() ||
+      pthread_mutex_trylock(&T.run) != 0) {
+    serial(n, fn, ctx);
+    return;
+  }
+  const int helpers = start_helpers(threads - 1);
+  if (helpers == 0) {
+    pthread_mutex_unlock(&T.run);
+    serial(n, fn, ctx);
+    return;
+  }
+  // More threads than processors: a spinning wait may hold the core of
+  // the thread it waits for; sleep almost at once, as libgomp then does.
+  const int over = threads > omp_get_num_procs();
+  const int spin = over ? 1 << 8 : T.wait;
+  atomic_store_explicit(&T.spin, over ? 1 << 8 : T.idle_spin, memory_order_relaxed);
+  T.fn = fn;
+  T.ctx = ctx;
+  atomic_store_explicit(&T.want, threads, memory_order_relaxed);
+  atomic_store_explicit(&T.done, 0, memory_order_relaxed);
+  const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
+  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)n << NEXT_BITS);
+  if (atomic_load(&T.sleepers) > 0) {
+    pthread_mutex_lock(&T.m);
+    pthread_cond_broadcast(&T.wake);
+    pthread_mutex_unlock(&T.m);
+  }
+  work();
+  // Only chunks a helper claimed are left: wait for them.
+  for (int spins = 0; spins < spin; spins++)
+    if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
+      goto done;
+  pthread_mutex_lock(&T.m);
+  atomic_store(&T.caller_sleeps, 1);
+  while (atomic_load(&T.done) != n)
+    pthread_cond_wait(&T.idle, &T.m);
+  atomic_store(&T.caller_sleeps, 0);
+  pthread_mutex_unlock(&T.m);
+done:
+  pthread_mutex_unlock(&T.run);
+}

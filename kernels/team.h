@@ -1,0 +1,31 @@
+// Internal: a team of helper threads that run fixed chunks claimed from a
+// counter, for the passes that must stay fast when a core is busy (the
+// explicit loop's FVM force and integration, the cloth force, the cloth
+// XPBD sweep).
+//
+// Why not an OpenMP region: a region's end is a barrier, so the thread that
+// called it waits for every team thread to arrive, and a thread that the
+// machine has descheduled (another process holds its core) arrives when it
+// is given the core again, milliseconds later. Here the caller waits only
+// for the chunks a helper has claimed and is running: a helper that has not
+// woken yet, or whose core is busy, claims nothing, and the caller runs the
+// chunks itself. A chunk does the same work whoever runs it, so the results
+// have the same bits at any thread count and any timing.
+#ifndef EK_TEAM_H
+#define EK_TEAM_H
+
+#include <stddef.h>
+
+// Work of chunk i of a job.
+typedef void ek_team_fn(void *ctx, size_t i);
+
+// Runs fn(ctx, i) once for every i in [0, n), in claim order (increasing i)
+// on the calling thread and on up to omp_get_max_threads() - 1 helper
+// threads, and returns once every chunk is done (what the chunks wrote is
+// then visible to the caller). Runs everything on the calling thread when
+// n <= 1, at 1 thread, inside an OpenMP parallel region, or while another
+// thread's job runs. n at most EK_TEAM_MAX_CHUNKS.
+#define EK_TEAM_MAX_CHUNKS ((size_t)1 << 19)
+void ek_team_run(size_t n, ek_team_fn *fn, void *ctx);
+
+#endif
