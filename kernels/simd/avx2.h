@@ -222,6 +222,38 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   p[2] = _mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
   return _mm256_castsi256_ps(pad);
 }
+// vstore_points (avx512.h's contract, keep a mask vector here) on 8 lanes:
+// lane l's x y as one 8-byte store (vmovlps / vmovhps from the unpacked x,
+// y pairs) and its z as one 4-byte store (vmovss / vextractps), 12 bytes
+// in all. AVX2 has no cheap masked store (vmaskmovps) and a 16-byte store
+// would write the next point's x: that point may be another lane's or
+// another thread's (a race, and a stale value).
+#define EK_HAVE_VSTORE_POINTS
+EK_INLINE void vstore_points(real *x, const int32_t *idx, vmask keep, const vreal p[3]) {
+  const unsigned bits = (unsigned)_mm256_movemask_ps(keep);
+  const __m256 t0 = _mm256_unpacklo_ps(p[0], p[1]); // x0 y0 x1 y1 | x4 y4 x5 y5
+  const __m256 t1 = _mm256_unpackhi_ps(p[0], p[1]); // x2 y2 x3 y3 | x6 y6 x7 y7
+  // xy[l / 2]: the pairs of lanes (0, 1), (2, 3), (4, 5), (6, 7); z[l / 4].
+  const __m128 xy[4] = {_mm256_castps256_ps128(t0), _mm256_castps256_ps128(t1),
+                        _mm256_extractf128_ps(t0, 1), _mm256_extractf128_ps(t1, 1)};
+  const __m128 z[2] = {_mm256_castps256_ps128(p[2]), _mm256_extractf128_ps(p[2], 1)};
+#pragma GCC unroll 8
+  for (int l = 0; l < 8; l++) {
+    if (!(bits >> l & 1))
+      continue;
+    real *o = x + (ptrdiff_t)idx[l] * 3;
+    if (l & 1)
+      _mm_storeh_pi((__m64 *)o, xy[l / 2]);
+    else
+      _mm_storel_pi((__m64 *)o, xy[l / 2]);
+    if (l % 4 == 0)
+      _mm_store_ss(o + 2, z[l / 4]);
+    else { // vextractps to memory
+      const int zl = _mm_extract_ps(z[l / 4], l % 4);
+      __builtin_memcpy(o + 2, &zl, sizeof zl);
+    }
+  }
+}
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 EK_INLINE void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {
   __m256 rows[4][4];
@@ -275,6 +307,28 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   p[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
   __m128i i = _mm_loadu_si128((const __m128i *)idx);
   return _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpgt_epi32(_mm_setzero_si128(), i)));
+}
+// vstore_points (the f32 comment above) on 4 lanes: lane l's x y as one
+// 16-byte store (vmovupd / vextractf128 from the unpacked pairs) and its z
+// as one 8-byte store (vmovlpd / vmovhpd).
+#define EK_HAVE_VSTORE_POINTS
+EK_INLINE void vstore_points(real *x, const int32_t *idx, vmask keep, const vreal p[3]) {
+  const unsigned bits = (unsigned)_mm256_movemask_pd(keep);
+  const __m256d t0 = _mm256_unpacklo_pd(p[0], p[1]); // x0 y0 | x2 y2
+  const __m256d t1 = _mm256_unpackhi_pd(p[0], p[1]); // x1 y1 | x3 y3
+  const __m128d z[2] = {_mm256_castpd256_pd128(p[2]), _mm256_extractf128_pd(p[2], 1)};
+#pragma GCC unroll 4
+  for (int l = 0; l < 4; l++) {
+    if (!(bits >> l & 1))
+      continue;
+    real *o = x + (ptrdiff_t)idx[l] * 3;
+    const __m256d t = l & 1 ? t1 : t0;
+    _mm_storeu_pd(o, l < 2 ? _mm256_castpd256_pd128(t) : _mm256_extractf128_pd(t, 1));
+    if (l & 1)
+      _mm_storeh_pd(o + 2, z[l / 2]);
+    else
+      _mm_storel_pd(o + 2, z[l / 2]);
+  }
 }
 #define EK_HAVE_VSCATTER_ADD_ROWS4
 EK_INLINE void vscatter_add_rows4(real *out, const int32_t *idx, int stride, const vreal h[12]) {

@@ -223,11 +223,11 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
   return pad;
 }
 // vstore_points(x, idx, keep, p): the inverse of vload_points for the lanes
-// l whose bit is set in keep: x[3 idx[l] + k] = lane l of p[k], k < 3,
+// l set in the mask keep: x[3 idx[l] + k] = lane l of p[k], k < 3,
 // one masked 3-float store per lane (no write past the point; the lanes'
 // points must be distinct). The rows from vstore_rows4's transpose.
 #define EK_HAVE_VSTORE_POINTS
-EK_INLINE void vstore_points(real *x, const int32_t *idx, unsigned keep, const vreal p[3]) {
+EK_INLINE void vstore_points(real *x, const int32_t *idx, vmask keep, const vreal p[3]) {
   const __m512 zero = _mm512_setzero_ps();
   __m512d t0 = _mm512_castps_pd(_mm512_unpacklo_ps(p[0], p[1])); // x0 y0 x1 y1
   __m512d t1 = _mm512_castps_pd(_mm512_unpackhi_ps(p[0], p[1])); // x2 y2 x3 y3
@@ -325,7 +325,7 @@ EK_INLINE vmask vload_points(const real *x, const int32_t *idx, vreal p[3]) {
 // vstore_points (the f32 comment above) on 8 lanes: lane l's point from
 // vstore_rows4's transpose, one masked 3-double store each.
 #define EK_HAVE_VSTORE_POINTS
-EK_INLINE void vstore_points(real *x, const int32_t *idx, unsigned keep, const vreal p[3]) {
+EK_INLINE void vstore_points(real *x, const int32_t *idx, vmask keep, const vreal p[3]) {
   const __m512d zero = _mm512_setzero_pd();
   const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
   const __m512i hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);

@@ -67,14 +67,20 @@ EK_INLINE vmask gather_member(const xpbd_args *a, const int32_t *idx, vreal p[3]
   return pad;
 }
 
-// Gauss-Seidel on tets where the target stores points from registers: the
-// members' x as loaded (a block's lanes share no vertex, so nothing else
-// wrote them since), x + w (g s) per lane and member (scatter_block's
-// operations: hb = g s, then x += w hb), stored for the lanes with s != 0.
+// Gauss-Seidel on tets where the target stores points from registers
+// (vstore_points: AVX-512, AVX2): the members' x as loaded (a block's lanes
+// share no vertex, so nothing else wrote them since), x + w (g s) per lane
+// and member (scatter_block's operations: hb = g s, then x += w hb),
+// stored for the lanes with s != 0; the stable neo-Hookean pair's x + w g
+// for the lanes that are not padding (its s is 1 there).
 #if defined(EK_HAVE_VSTORE_POINTS)
 #define XPBD_REG_SCATTER 1
+#define xpbd_store_points vstore_points
 #else
 #define XPBD_REG_SCATTER 0
+EK_INLINE void xpbd_store_points(real *x, const int32_t *idx, vmask keep, const vreal p[3]) {
+  (void)x, (void)idx, (void)keep, (void)p; // not called: XPBD_REG_SCATTER is 0
+}
 #endif
 
 EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_t b1) {
@@ -172,15 +178,13 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
       vstore(a->lambda + b * L + o, vadd(lam_j, dl));
       const vreal s = vmul(dl, inv_c);
       if (reg) { // wd is w for Gauss-Seidel
-#if XPBD_REG_SCATTER
-        const unsigned keep = (unsigned)vmnot(veq(s, zero));
+        const vmask keep = vmnot(veq(s, zero));
         for (int k = 0; k < 4; k++) {
           vreal xn[3];
           for (int i = 0; i < 3; i++)
             xn[i] = vadd(xo[k][i], vmul(wk[k], vmul(vload(corr + (k * 3 + i) * L + o), s)));
-          vstore_points(a->x, idx + k * L + o, keep, xn);
+          xpbd_store_points(a->x, idx + k * L + o, keep, xn);
         }
-#endif
         continue;
       }
       vstore(sl + o, s);
@@ -220,13 +224,14 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
     const real *bv = a->bv + m0 * 3 * L;
     real *corr = a->corr ? a->corr + m0 * 3 * L : hb;
     for (int o = 0; o < L; o += EK_W) {
-      vreal x0[3], F[9];
-      const vmask pad = gather_member(a, idx + o, x0, NULL);
+      const int reg = XPBD_REG_SCATTER && tets && op == XPBD_GS;
+      vreal x0[3], F[9], xo[4][3], wk[4];
+      const vmask pad = gather_member(a, idx + o, x0, reg ? xo[0] : NULL);
       for (int i = 0; i < 9; i++)
         F[i] = zero;
       for (int k = 1; k < K; k++) {
         vreal xk[3], bk[3];
-        gather_member(a, idx + k * L + o, xk, NULL);
+        gather_member(a, idx + k * L + o, xk, reg ? xo[k] : NULL);
         for (int j = 0; j < 3; j++)
           bk[j] = vload(bv + (k * 3 + j) * L + o);
         for (int i = 0; i < 3; i++) {
@@ -283,10 +288,10 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
           hh = vfma(gh, gh, hh);
           dh = vfma(gd, gh, dh);
         }
-        const vreal wk = vgather(a->wd, idx + k * L + o);
-        add = vfma(wk, dd, add);
-        ahh = vfma(wk, hh, ahh);
-        adh = vfma(wk, dh, adh);
+        wk[k & 3] = vgather(a->wd, idx + k * L + o); // read for tets only (k < 4)
+        add = vfma(wk[k & 3], dd, add);
+        ahh = vfma(wk[k & 3], hh, ahh);
+        adh = vfma(wk[k & 3], dh, adh);
       }
       {
         vreal dd = zero, hh = zero, dh = zero;
@@ -295,10 +300,10 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
           hh = vfma(gH0[i], gH0[i], hh);
           dh = vfma(gD0[i], gH0[i], dh);
         }
-        const vreal w0 = vgather(a->wd, idx + o);
-        add = vfma(w0, dd, add);
-        ahh = vfma(w0, hh, ahh);
-        adh = vfma(w0, dh, adh);
+        wk[0] = vgather(a->wd, idx + o);
+        add = vfma(wk[0], dd, add);
+        ahh = vfma(wk[0], hh, ahh);
+        adh = vfma(wk[0], dh, adh);
       }
       const vreal m11 = vfma(kD, add, one), m12 = vmul(kD, adh);
       const vreal m21 = vmul(kH, adh), m22 = vfma(kH, ahh, one);
@@ -313,13 +318,14 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
       }
       vstore(a->lambda + b * L + o, vadd(lD, dlD));
       vstore(a->lambda_h + b * L + o, vadd(lH, dlH));
-      vstore(sl + o, vsel(act, one, zero));
-      // The correction before its w_k: (dl_D dC_D/dF + dl_H cof F) b_k.
+      // The correction before its w_k: (dl_D dC_D/dF + dl_H cof F) b_k;
+      // in registers as xpbd_blocks' (x + w g, stored for the lanes that
+      // scatter_block writes: the non-padding ones).
       vreal Pc[9], g0[3] = {zero, zero, zero};
       for (int i = 0; i < 9; i++)
         Pc[i] = vfma(dlH, cof[i], vmul(dlD, PD[i]));
       for (int k = 1; k < K; k++) {
-        vreal bk[3];
+        vreal bk[3], xn[3];
         for (int j = 0; j < 3; j++)
           bk[j] = vload(bv + (k * 3 + j) * L + o);
         for (int i = 0; i < 3; i++) {
@@ -327,13 +333,26 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
           g = vfma(Pc[3 * i + 1], bk[1], g);
           g = vfma(Pc[3 * i + 2], bk[2], g);
           g0[i] = vsub(g0[i], g);
-          vstore(corr + (k * 3 + i) * L + o, g);
+          if (reg)
+            xn[i] = vadd(xo[k & 3][i], vmul(wk[k & 3], g));
+          else
+            vstore(corr + (k * 3 + i) * L + o, g);
         }
+        if (reg)
+          xpbd_store_points(a->x, idx + k * L + o, act, xn);
+      }
+      if (reg) {
+        vreal xn[3];
+        for (int i = 0; i < 3; i++)
+          xn[i] = vadd(xo[0][i], vmul(wk[0], g0[i]));
+        xpbd_store_points(a->x, idx + o, act, xn);
+        continue;
       }
       for (int i = 0; i < 3; i++)
         vstore(corr + i * L + o, g0[i]);
+      vstore(sl + o, vsel(act, one, zero));
     }
-    if (op == XPBD_GS)
+    if (op == XPBD_GS && !(XPBD_REG_SCATTER && tets))
       scatter_block(a, idx, K, hb, sl);
   }
 }
