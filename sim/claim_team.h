@@ -35,6 +35,9 @@ typedef struct {
   void *ctx;
   uint64_t gen0; // the generation at claim_team_begin
   int spin;      // checks before a wait sleeps
+  // Backing off (driver only): phases still to run on the driver alone
+  // after a stall, the next back-off, the stall-free phases since.
+  long solo, backoff, calm;
   pthread_mutex_t mutex;
   pthread_cond_t cond;
 } claim_team;
@@ -46,7 +49,12 @@ int claim_team_init(claim_team *t); // 0, or -1 (pthread)
 void claim_team_destroy(claim_team *t);
 void claim_team_begin(claim_team *t); // before the region
 // Driver: chunks [0, n) of fn; shared 0: the driver runs them all itself
-// (small work, no wake-up). Returns when every chunk has finished.
+// (small work, no wake-up). Returns when every chunk has finished. A
+// phase whose end waited for a claimed chunk much longer than the
+// driver's own chunks took (its thread was descheduled mid-chunk: the
+// machine is busy) makes the next phases run on the driver alone, 64 at
+// first, twice as many after each such stall (up to 2^16), back to 64
+// after 256 shared phases without one.
 void claim_team_run(claim_team *t, claim_chunk_fn *fn, void *ctx, size_t n, int shared);
 void claim_team_end(claim_team *t);   // driver: releases the workers
 void claim_team_serve(claim_team *t); // workers: until claim_team_end

@@ -391,7 +391,12 @@ static double sum_energy(const double *e, size_t n, int parallel) {
       s += e[i];
     return s;
   }
-#pragma omp parallel for schedule(static) if (parallel)
+  // A region only for 8 chunks or more (~10 us of additions): below, its
+  // fork/join cost more than the sum (one chunk left the second thread
+  // nothing to do, yet the join waited for it to be scheduled: on a busy
+  // machine a scheduler slice per gradient pass; sim/README.md, fifteenth
+  // round). The chunks and their order are the same either way.
+#pragma omp parallel for schedule(static) if (parallel && nc >= 8)
   for (size_t c = 0; c < nc; c++) {
     size_t hi = (c + 1) * ENERGY_CHUNK < n ? (c + 1) * ENERGY_CHUNK : n;
     double s = 0;
