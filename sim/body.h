@@ -127,6 +127,14 @@ struct sim_body_ops {
   int (*gradient)(const ek_sim *sim, void *h, const double *x, double *grad, double *E, int cache);
   // q = K p (f64) or q32 = K p32 (info.f32); < 0 as gradient.
   int (*hessian_apply)(void *h, const double *p, double *q, const float *p32, float *q32);
+  // The same product in parts (hessian.h, ek_fvm_hessian_apply_part), for
+  // a caller running its own parallel loop (implicit.c's CG): the number of
+  // parts (0 or NULL: hessian_apply only) and in *parallel whether
+  // hessian_apply would run on more than one thread; part i's products,
+  // then rows [v0, v1) of q (or q32): hessian_apply's bits.
+  int (*hessian_apply_parts)(void *h, int *parallel);
+  int (*hessian_apply_part)(void *h, int part, const double *p, const float *p32);
+  void (*hessian_apply_rows)(void *h, size_t v0, size_t v1, double *q, float *q32);
   // K's 3x3 diagonal blocks, 6 per vertex (xx, xy, xz, yy, yz, zz); < 0
   // as gradient.
   int (*hessian_diagonal)(void *h, double *blocks);

@@ -605,6 +605,25 @@ static int tets_hessian_apply(void *h, const double *p, double *q, const float *
                  : ek_fvm_hessian_apply_f64(th->H, p, q);
 }
 
+static int tets_hessian_apply_parts(void *h, int *parallel) {
+  const tets_hessian *th = h;
+  return ek_fvm_hessian_apply_parts(th->H, parallel);
+}
+
+static int tets_hessian_apply_part(void *h, int part, const double *p, const float *p32) {
+  const tets_hessian *th = h;
+  return th->f32 ? ek_fvm_hessian_apply_part_f32(th->H, p32, part)
+                 : ek_fvm_hessian_apply_part_f64(th->H, p, part);
+}
+
+static void tets_hessian_apply_rows(void *h, size_t v0, size_t v1, double *q, float *q32) {
+  const tets_hessian *th = h;
+  if (th->f32)
+    ek_fvm_hessian_apply_rows_f32(th->H, v0, v1, q32);
+  else
+    ek_fvm_hessian_apply_rows_f64(th->H, v0, v1, q);
+}
+
 static int tets_hessian_pattern(void *h, ek_csr_pattern *pattern) {
   return ek_fvm_hessian_pattern(((tets_hessian *)h)->H, pattern);
 }
@@ -716,6 +735,9 @@ const sim_body_ops sim_body_tets = {
     .hessian_begin_step = tets_hessian_begin_step,
     .gradient = tets_gradient,
     .hessian_apply = tets_hessian_apply,
+    .hessian_apply_parts = tets_hessian_apply_parts,
+    .hessian_apply_part = tets_hessian_apply_part,
+    .hessian_apply_rows = tets_hessian_apply_rows,
     .hessian_diagonal = tets_hessian_diagonal,
     .hessian_pattern = tets_hessian_pattern,
     .hessian_assemble = tets_hessian_assemble,

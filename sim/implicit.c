@@ -111,11 +111,14 @@
 // preconditioner's diagonal blocks are summed over the ranks the same way
 // as the gradient, so every rank runs the same CG iterations.
 #include <math.h>
+#include <omp.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "../kernels/elements/morton.h" // header-only
+#include "claim_team.h"
 #include "implicit_petsc.h"
 #include "sim_internal.h"
 
@@ -179,8 +182,13 @@ typedef struct {
   double *minv;    // per dof: is_free / m, the M^-1 norm's weight
   double *mdiag;   // per dof: is_free m (1 + c dt) / dt^2, the system's mass term
   double *x, *xt, *g, *gt, *xtil, *dx, *r, *z, *p, *q, *parts;
-  double *pre; // nverts x 6: the preconditioner's blocks
+  double *parts2; // per chunk: r.z (the preconditioner's pass)
+  double *pre;    // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
+  // The CG solve's team (claim_team.h) and the product in parts (body.h
+  // hessian_apply_parts: nparts 0 without it).
+  claim_team team;
+  int team_ready, nparts, apply_par;
   // Assembled solvers (linear_solver "amg", "direct"): K's pattern and
   // values, the system's values, PETSc's solver.
   ek_csr_pattern pat;
@@ -210,8 +218,8 @@ static void data_free(implicit_data *d) {
     return;
   if (d->H)
     d->body->ops->hessian_destroy(d->H);
-  double *arrays[] = {d->is_free, d->minv, d->mdiag, d->x, d->xt, d->g,   d->gt,   d->xtil,
-                      d->dx,      d->r,    d->z,     d->p, d->q,  d->pre, d->parts};
+  double *arrays[] = {d->is_free, d->minv, d->mdiag, d->x, d->xt, d->g,   d->gt,    d->xtil,
+                      d->dx,      d->r,    d->z,     d->p, d->q,  d->pre, d->parts, d->parts2};
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; i++)
     free(arrays[i]);
   free(d->p32);
@@ -223,6 +231,8 @@ static void data_free(implicit_data *d) {
   free(d->acc);
   free(d->dm_inv);
   implicit_petsc_destroy(d->ps);
+  if (d->team_ready)
+    claim_team_destroy(&d->team);
   free(d);
 }
 
@@ -417,6 +427,10 @@ static int implicit_create(ek_sim *s, void **data) {
     ok &= (*arrays[i] = calloc(d->n3, sizeof(double))) != NULL;
   ok &= (d->pre = calloc(2 * d->n3, sizeof(double))) != NULL; // 6 per vertex
   ok &= (d->parts = calloc(d->nchunks, sizeof(double))) != NULL;
+  ok &= (d->parts2 = calloc(d->nchunks, sizeof(double))) != NULL;
+  if (!d->mpi && s->body->ops->hessian_apply_parts)
+    d->nparts = s->body->ops->hessian_apply_parts(d->H, &d->apply_par);
+  d->team_ready = claim_team_init(&d->team) == 0;
   if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
   if (ok && d->hes.residual_merit && s->body->corners == 4)
@@ -617,52 +631,170 @@ static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
   return 0;
 }
 
-// z = P^-1 r; returns r.z (vertex by vertex, chunks of CHUNK / 3).
-static double precondition(implicit_data *d, const double *blocks, const double *r, double *z) {
-  const int block = d->block;
-#pragma omp parallel for schedule(static) if (d->par)
-  for (size_t c = 0; c < d->nchunks; c++) {
-    size_t lo = c * CHUNK / 3, hi = (c + 1) * CHUNK < d->n3 ? (c + 1) * CHUNK / 3 : d->n3 / 3;
-    double acc = 0;
-    for (size_t v = lo; v < hi; v++) {
-      const double *B = blocks + 6 * v, *rv = r + 3 * v;
-      double *zv = z + 3 * v;
-      if (block) {
-        zv[0] = B[0] * rv[0] + B[1] * rv[1] + B[2] * rv[2];
-        zv[1] = B[1] * rv[0] + B[3] * rv[1] + B[4] * rv[2];
-        zv[2] = B[2] * rv[0] + B[4] * rv[1] + B[5] * rv[2];
-      } else {
-        zv[0] = B[0] * rv[0];
-        zv[1] = B[1] * rv[1];
-        zv[2] = B[2] * rv[2];
-      }
-      acc += rv[0] * zv[0] + rv[1] * zv[1] + rv[2] * zv[2];
-    }
-    d->parts[c] = acc;
+// ---- The CG iteration's passes ----
+// Each pass runs over the fixed chunks (CHUNK dofs; the product's parts)
+// and a chunk's result does not depend on the thread that runs it: the
+// same bits at any thread count. At more than one thread a CG solve is one
+// parallel region whose passes are claimed chunk by chunk (claim_team.h),
+// so no thread waits for one that is not running: with fork/join passes
+// (5 regions and a barrier per CG iteration, each needing every thread
+// scheduled) a core held by another process cost a scheduler slice per
+// pass (sim/README.md, fifteenth round). The update of dx and r and the
+// preconditioner run in one pass (z is needed only where CG goes on; the
+// last iteration computes it for nothing).
+
+typedef struct {
+  implicit_data *d;
+  const double *blocks;
+  double alpha, beta;
+  int rows;          // the product's pass sums the parts' rows first
+  atomic_int failed; // a part's product failed (the message is in ek_last_error)
+} cg_pass;
+
+// Chunk c's dofs [*lo, *hi).
+static void chunk_range(const implicit_data *d, size_t c, size_t *lo, size_t *hi) {
+  *lo = c * CHUNK;
+  *hi = *lo + CHUNK < d->n3 ? *lo + CHUNK : d->n3;
+}
+
+// Runs fn over chunks [0, n): on the team, or in a parallel loop (or on
+// this thread alone where parallel is 0).
+static void run_pass(claim_team *team, claim_chunk_fn *fn, void *ctx, size_t n, int parallel) {
+  if (team)
+    claim_team_run(team, fn, ctx, n, parallel);
+  else if (!parallel)
+    for (size_t c = 0; c < n; c++)
+      fn(ctx, c);
+  else {
+#pragma omp parallel for schedule(static)
+    for (size_t c = 0; c < n; c++)
+      fn(ctx, c);
   }
-  return sum_parts(d);
+}
+
+// z = P^-1 r over chunk c's vertices; returns their r.z.
+static double precondition_chunk(const implicit_data *d, const double *blocks, size_t c) {
+  const double *r = d->r;
+  double *z = d->z;
+  size_t lo, hi, block = d->block;
+  chunk_range(d, c, &lo, &hi);
+  double acc = 0;
+  for (size_t v = lo / 3; v < hi / 3; v++) {
+    const double *B = blocks + 6 * v, *rv = r + 3 * v;
+    double *zv = z + 3 * v;
+    if (block) {
+      zv[0] = B[0] * rv[0] + B[1] * rv[1] + B[2] * rv[2];
+      zv[1] = B[1] * rv[0] + B[3] * rv[1] + B[4] * rv[2];
+      zv[2] = B[2] * rv[0] + B[4] * rv[1] + B[5] * rv[2];
+    } else {
+      zv[0] = B[0] * rv[0];
+      zv[1] = B[1] * rv[1];
+      zv[2] = B[2] * rv[2];
+    }
+    acc += rv[0] * zv[0] + rv[1] * zv[1] + rv[2] * zv[2];
+  }
+  return acc;
+}
+
+static void pass_precondition(void *ctx, size_t c) {
+  cg_pass *cp = ctx;
+  cp->d->parts2[c] = precondition_chunk(cp->d, cp->blocks, c);
 }
 
 // p = z + beta p (p = z for beta 0, the first direction), and its float
-// copy for f32 products, in one pass.
-static void set_direction(implicit_data *d, const double *z, double beta, double *p) {
+// copy for f32 products.
+static void pass_direction(void *ctx, size_t c) {
+  const cg_pass *cp = ctx;
+  implicit_data *d = cp->d;
+  const double beta = cp->beta, *z = d->z;
+  double *p = d->p;
   float *p32 = d->hes.f32 ? d->p32 : NULL;
-#pragma omp parallel for schedule(static) if (d->par)
-  for (size_t i = 0; i < d->n3; i++) {
+  size_t lo, hi;
+  chunk_range(d, c, &lo, &hi);
+  for (size_t i = lo; i < hi; i++) {
     p[i] = beta == 0 ? z[i] : z[i] + beta * p[i];
     if (p32)
       p32[i] = (float)p[i];
   }
 }
 
+// Part c of K p (hessian_apply_part).
+static void pass_part(void *ctx, size_t c) {
+  cg_pass *cp = ctx;
+  implicit_data *d = cp->d;
+  if (d->body->ops->hessian_apply_part(d->H, (int)c, d->p, d->p32) < 0)
+    atomic_store(&cp->failed, 1);
+}
+
+// q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones) over
+// chunk c, K p's rows summed from the parts first where cp->rows; its p.q.
+static void pass_product(void *ctx, size_t c) {
+  const cg_pass *cp = ctx;
+  implicit_data *d = cp->d;
+  const double *w = d->is_free, *md = d->mdiag, *p = d->p;
+  const float *q32 = d->q32;
+  double *q = d->q, acc_[4] = {0, 0, 0, 0};
+  size_t lo, hi;
+  chunk_range(d, c, &lo, &hi);
+  if (cp->rows)
+    d->body->ops->hessian_apply_rows(d->H, lo / 3, hi / 3, q, d->q32);
+  if (d->hes.f32)
+    for (size_t i = lo; i < hi; i++) {
+      q[i] = md[i] * p[i] + w[i] * (double)q32[i];
+      acc_[i & 3] += p[i] * q[i];
+    }
+  else
+    for (size_t i = lo; i < hi; i++) {
+      q[i] = md[i] * p[i] + w[i] * q[i];
+      acc_[i & 3] += p[i] * q[i];
+    }
+  d->parts[c] = (acc_[0] + acc_[1]) + (acc_[2] + acc_[3]);
+}
+
+// dx += alpha p, r -= alpha q and r^T M^-1 r over chunk c, then z = P^-1 r
+// and r.z there.
+static void pass_update(void *ctx, size_t c) {
+  const cg_pass *cp = ctx;
+  implicit_data *d = cp->d;
+  const double alpha = cp->alpha, *w = d->minv, *p = d->p, *q = d->q;
+  double *dx = d->dx, *r = d->r, acc_[4] = {0, 0, 0, 0};
+  size_t lo, hi;
+  chunk_range(d, c, &lo, &hi);
+  for (size_t i = lo; i < hi; i++) {
+    dx[i] += alpha * p[i];
+    r[i] -= alpha * q[i];
+    acc_[i & 3] += w[i] * r[i] * r[i];
+  }
+  d->parts[c] = (acc_[0] + acc_[1]) + (acc_[2] + acc_[3]);
+  d->parts2[c] = precondition_chunk(d, cp->blocks, c);
+}
+
+static double sum_of(const implicit_data *d, const double *parts) {
+  double s = 0;
+  for (size_t c = 0; c < d->nchunks; c++)
+    s += parts[c];
+  return s;
+}
+
 // q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones);
-// returns p.q. For f32 products, d->p32 holds p (set_direction).
-static int system_product(ek_sim *s, implicit_data *d, const double *p, double *q, double *pq) {
+// returns p.q. For f32 products, d->p32 holds p (pass_direction).
+static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, claim_team *team, double *pq) {
   double t0 = sim_now();
-  // For f32 products p32 = p, written where p is (set_direction).
-  int rc = d->body->ops->hessian_apply(d->H, p, q, d->p32, d->q32);
-  if (rc < 0)
-    return sim_fail(s, "Hessian product: %s", ek_last_error());
+  const double *p = d->p;
+  double *q = d->q;
+  int rc;
+  if (team) {
+    atomic_store(&cp->failed, 0);
+    run_pass(team, pass_part, cp, (size_t)d->nparts, d->apply_par);
+    if (atomic_load(&cp->failed))
+      return sim_fail(s, "Hessian product: %s", ek_last_error());
+    cp->rows = 1;
+  } else {
+    rc = d->body->ops->hessian_apply(d->H, p, q, d->p32, d->q32);
+    if (rc < 0)
+      return sim_fail(s, "Hessian product: %s", ek_last_error());
+    cp->rows = 0;
+  }
   const double *w = d->is_free, *md = d->mdiag;
   const float *q32 = d->q32;
   if (d->mpi) {
@@ -681,35 +813,25 @@ static int system_product(ek_sim *s, implicit_data *d, const double *p, double *
     if (rc < 0)
       return sim_fail(s, "Hessian product: %s", err);
     CHUNK_LOOP(d, q[i] += md[i] * p[i]; acc_[i & 3] += p[i] * q[i];)
-  } else if (d->hes.f32) {
-    CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * (double)q32[i]; acc_[i & 3] += p[i] * q[i];)
-  } else {
-    CHUNK_LOOP(d, q[i] = md[i] * p[i] + w[i] * q[i]; acc_[i & 3] += p[i] * q[i];)
-  }
+  } else
+    run_pass(team, pass_product, cp, d->nchunks, d->par || (team && d->apply_par));
   *pq = sum_parts(d);
   s->times.matvec += sim_now() - t0;
   s->times.matvecs++;
   return 0;
 }
 
-// PCG for A dx = -g over the free dofs, from dx = 0; *iters and *rel: its
-// iterations and final |r|_{M^-1} / |g|_{M^-1}.
-static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters, double *rel) {
+// The PCG iterations from dx = 0, r = -g, r0 = |r|_{M^-1} (solve); on the
+// team where team is not NULL (its driver).
+static int cg(ek_sim *s, implicit_data *d, const double *blocks, claim_team *team, double r0,
+              long *iters, double *rel) {
   const ek_scene_implicit *im = &s->scene.implicit;
+  const double stop = im->cg_tol * r0;
+  cg_pass cp = {.d = d, .blocks = blocks};
   double t0 = sim_now();
-  double *dx = d->dx, *r = d->r, *z = d->z, *p = d->p, *q = d->q;
-  const double *g = d->g;
-  for (size_t i = 0; i < d->n3; i++) {
-    dx[i] = 0;
-    r[i] = -g[i];
-  }
-  const double r0 = sqrt(norm2_minv(d, r)), stop = im->cg_tol * r0;
-  *iters = 0;
-  *rel = r0 > 0 ? 1 : 0;
-  s->times.cg_vectors += sim_now() - t0;
-  t0 = sim_now();
-  double rz = precondition(d, blocks, r, z);
-  set_direction(d, z, 0, p);
+  run_pass(team, pass_precondition, &cp, d->nchunks, d->par);
+  double rz = sum_of(d, d->parts2);
+  run_pass(team, pass_direction, &cp, d->nchunks, d->par);
   s->times.preconditioner += sim_now() - t0;
   for (long k = 0; k < im->max_cg && r0 > 0; k++) {
     double pq = 0;
@@ -717,31 +839,61 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
     // and CG iterations ignored SIGINT); it reads the flag only.
     int rc = sim_stop_requested(s, "CG iteration", k + 1, im->max_cg);
     if (rc == 0)
-      rc = system_product(s, d, p, q, &pq);
+      rc = system_product(s, d, &cp, team, &pq);
     if (rc)
       return rc;
     if (!(pq > 0))
       break; // p = 0 to rounding: nothing left to solve
     t0 = sim_now();
-    const double alpha = rz / pq, *w = d->minv;
-    CHUNK_LOOP(d, dx[i] += alpha * p[i]; r[i] -= alpha * q[i]; acc_[i & 3] += w[i] * r[i] * r[i];)
+    cp.alpha = rz / pq;
+    run_pass(team, pass_update, &cp, d->nchunks, d->par);
     double rn = sqrt(sum_parts(d));
-    s->times.cg_vectors += sim_now() - t0;
     s->times.cg_iterations++;
     ++*iters;
     *rel = rn / r0;
-    if (rn <= stop)
+    if (rn <= stop) {
+      s->times.cg_vectors += sim_now() - t0;
       break;
-    t0 = sim_now();
-    double rz_new = precondition(d, blocks, r, z);
-    double t1 = sim_now();
-    s->times.preconditioner += t1 - t0;
-    const double beta = rz_new / rz;
+    }
+    const double rz_new = sum_of(d, d->parts2);
+    cp.beta = rz_new / rz;
     rz = rz_new;
-    set_direction(d, z, beta, p);
-    s->times.cg_vectors += sim_now() - t1;
+    run_pass(team, pass_direction, &cp, d->nchunks, d->par);
+    s->times.cg_vectors += sim_now() - t0;
   }
   return 0;
+}
+
+// PCG for A dx = -g over the free dofs, from dx = 0; *iters and *rel: its
+// iterations and final |r|_{M^-1} / |g|_{M^-1}.
+static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters, double *rel) {
+  const double t0 = sim_now();
+  double *dx = d->dx, *r = d->r;
+  const double *g = d->g;
+  for (size_t i = 0; i < d->n3; i++) {
+    dx[i] = 0;
+    r[i] = -g[i];
+  }
+  const double r0 = sqrt(norm2_minv(d, r));
+  *iters = 0;
+  *rel = r0 > 0 ? 1 : 0;
+  s->times.cg_vectors += sim_now() - t0;
+  // The team where some pass runs on more than one thread (and not across
+  // MPI ranks, whose product sums over the ranks between its passes).
+  if (d->mpi || !d->nparts || !(d->par || d->apply_par) || omp_get_max_threads() < 2 ||
+      !d->team_ready)
+    return cg(s, d, blocks, NULL, r0, iters, rel);
+  int rc = 0;
+  claim_team_begin(&d->team);
+#pragma omp parallel
+  {
+    if (omp_get_thread_num() == 0) {
+      rc = cg(s, d, blocks, &d->team, r0, iters, rel);
+      claim_team_end(&d->team);
+    } else
+      claim_team_serve(&d->team);
+  }
+  return rc;
 }
 
 // The Newton system by an assembled solver (linear_solver "amg" or

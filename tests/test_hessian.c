@@ -571,6 +571,86 @@ static void check_threads(ek_rng *rng) {
   test_mesh_free(&t);
 }
 
+// The product in parts (ek_fvm_hessian_apply_part / _rows, sim/implicit.c's
+// CG): the parts run in reverse order or on a parallel loop, the rows in
+// uneven ranges, against ek_fvm_hessian_apply_* at 2 threads: the same bits
+// (f32, f64, two models); with the coloured scatter there are no parts and
+// a part's call is refused.
+static void check_parts(ek_rng *rng) {
+  test_mesh t = test_mesh_random(rng, 12, 10, 8, 0.2); // 5760 tets: above the grains
+  ek_tets *el = ek_tets_create(t.nverts, t.X, t.ntets, t.T);
+  const size_t n3 = t.nverts * 3, cut = t.nverts / 3;
+  double *x = malloc(n3 * sizeof(double)), *p = malloc(n3 * sizeof(double));
+  double *y = malloc(n3 * sizeof(double)), *yp = malloc(n3 * sizeof(double));
+  float *p32 = malloc(n3 * sizeof(float)), *y32 = malloc(n3 * sizeof(float));
+  float *yp32 = malloc(n3 * sizeof(float));
+  test_deform(rng, &t, 0.2, 0.1, x);
+  for (size_t i = 0; i < n3; i++) {
+    p[i] = 2 * ek_rng_uniform(rng) - 1;
+    p32[i] = (float)p[i];
+  }
+  const ek_material mats[2] = {{EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0},
+                               {EK_MODEL_FIXED_COROTATED, 1, 2, 0}};
+  int same = 1, cases = 0, refused = 1;
+  omp_set_num_threads(2);
+  for (int mi = 0; mi < 2; mi++)
+    for (int prec = 32; prec <= 64; prec += 32)
+      for (int order = 0; order < 2; order++) {
+        ek_fvm_hessian_opts o = {.precision = prec};
+        ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[mi], &o);
+        int par = 0, np = ek_fvm_hessian_apply_parts(h, &par);
+        ek_fvm_hessian_gradient_f64(h, x, NULL, y, NULL, 1);
+        if (prec == 64)
+          ek_fvm_hessian_apply_f64(h, p, y);
+        else
+          ek_fvm_hessian_apply_f32(h, p32, y32);
+        int rc = 0;
+        if (order == 0)
+          for (int k = np - 1; k >= 0; k--)
+            rc |= prec == 64 ? ek_fvm_hessian_apply_part_f64(h, p, k)
+                             : ek_fvm_hessian_apply_part_f32(h, p32, k);
+        else {
+#pragma omp parallel for schedule(dynamic, 1) reduction(| : rc)
+          for (int k = 0; k < np; k++)
+            rc |= prec == 64 ? ek_fvm_hessian_apply_part_f64(h, p, k)
+                             : ek_fvm_hessian_apply_part_f32(h, p32, k);
+        }
+        if (prec == 64) {
+          ek_fvm_hessian_apply_rows_f64(h, cut, t.nverts, yp);
+          ek_fvm_hessian_apply_rows_f64(h, 0, cut, yp);
+          same &= memcmp(y, yp, n3 * sizeof(double)) == 0;
+        } else {
+          ek_fvm_hessian_apply_rows_f32(h, cut, t.nverts, yp32);
+          ek_fvm_hessian_apply_rows_f32(h, 0, cut, yp32);
+          same &= memcmp(y32, yp32, n3 * sizeof(float)) == 0;
+        }
+        same &= rc == 0 && np == EK_FVM_PARTS && par == 1;
+        ek_fvm_hessian_destroy(h);
+        cases++;
+      }
+  ek_fvm_hessian_opts oc = {.scatter = EK_SCATTER_COLORED};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[0], &oc);
+  int par = 0;
+  ek_fvm_hessian_gradient_f64(h, x, NULL, y, NULL, 1);
+  refused &= ek_fvm_hessian_apply_parts(h, &par) == 0;
+  refused &= ek_fvm_hessian_apply_part_f64(h, p, 0) == EK_EINVAL;
+  ek_fvm_hessian_destroy(h);
+  printf("K p in parts: same bits as the product, %zu tets, %d cases: %s\n", t.ntets, cases,
+         same ? "PASS" : "FAIL");
+  printf("K p in parts: none with the coloured scatter, a part refused: %s\n",
+         refused ? "PASS" : "FAIL");
+  failures += !same + !refused;
+  free(x);
+  free(p);
+  free(y);
+  free(yp);
+  free(p32);
+  free(y32);
+  free(yp32);
+  ek_tets_destroy(el);
+  test_mesh_free(&t);
+}
+
 // 6: the domain and bad arguments.
 static void check_errors(void) {
   double X[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, x[12], g[12], y[12];
@@ -688,6 +768,7 @@ int main(int argc, char **argv) {
     check_assembly(tm, &t, &s, x, &rng);
   }
   check_threads(&rng);
+  check_parts(&rng);
   check_buffer_reuse(&rng);
   ek_tet_state_destroy(Rs);
   ek_tets_destroy(el);

@@ -104,6 +104,25 @@ int ek_fvm_hessian_gradient_f64(ek_fvm_hessian *h, const double *x, const ek_tet
 int ek_fvm_hessian_apply_f32(const ek_fvm_hessian *h, const float *p, float *y);
 int ek_fvm_hessian_apply_f64(const ek_fvm_hessian *h, const double *p, double *y);
 
+// The same product in parts, for a caller that runs its own parallel loop
+// (sim/implicit.c's CG, where no thread waits for one that has not
+// started): ek_fvm_hessian_apply_parts is EK_FVM_PARTS with the
+// THREAD_BUFFERS scatter (0 otherwise: use ek_fvm_hessian_apply_*), and
+// *parallel whether ek_fvm_hessian_apply_* runs on more than one thread
+// (EK_FVM_PARALLEL_MIN_TETS); each
+// part's call writes the products of its fixed share of the tets into a
+// buffer of the Hessian's own (parts may run at the same time on
+// different threads), then ek_fvm_hessian_apply_rows_* writes rows [v0,
+// v1) of y, each the sum of the parts' rows in part order (disjoint row
+// ranges may run at the same time). After every part, every row: y has
+// the bits of ek_fvm_hessian_apply_* (the same kernels and sums, at any
+// thread count). One product at a time per Hessian.
+int ek_fvm_hessian_apply_parts(const ek_fvm_hessian *h, int *parallel);
+int ek_fvm_hessian_apply_part_f32(const ek_fvm_hessian *h, const float *p, int part);
+int ek_fvm_hessian_apply_part_f64(const ek_fvm_hessian *h, const double *p, int part);
+void ek_fvm_hessian_apply_rows_f32(const ek_fvm_hessian *h, size_t v0, size_t v1, float *y);
+void ek_fvm_hessian_apply_rows_f64(const ek_fvm_hessian *h, size_t v0, size_t v1, double *y);
+
 // The 3x3 diagonal blocks of K, one per vertex (nverts x 6: xx, xy, xz, yy,
 // yz, zz), from the cache (in its precision, returned in double): the
 // Jacobi and block-Jacobi preconditioners of CG.

@@ -106,6 +106,51 @@ int EK_P(fvm_hessian_apply)(const ek_fvm_hessian *h, const real *p, real *y) {
   return run(h, &a, 3, h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS, y);
 }
 
+// The product in parts (include/ek/hessian.h): scatter.c's THREAD_BUFFERS
+// pass (run_buffers, unpadded rows) split at its phases, into the
+// Hessian's own buffers: part p zeroes its vertex range and adds its fixed
+// block share there, the rows sum the parts in part order, a part whose
+// range leaves a vertex out adding a 0 unread (the same bits).
+int EK_P(fvm_hessian_apply_part)(const ek_fvm_hessian *h, const real *p, int part) {
+  int rc = check_cached(h, "ek_fvm_hessian_apply_part", p, p);
+  if (rc < 0)
+    return rc;
+  if (!h->part_buf || part < 0 || part >= EK_FVM_PARTS) {
+    ek_set_error("ek_fvm_hessian_apply_part: part %d of %d (the product in parts needs the "
+                 "THREAD_BUFFERS scatter)",
+                 part, h->part_buf ? EK_FVM_PARTS : 0);
+    return EK_EINVAL;
+  }
+  const ek_tets *el = h->el;
+  const size_t n = el->nverts * 3, nb = el->morton.nslots / EK_LANES;
+  const size_t lo_v = el->part_vlo[sizeof(real) == 8][part];
+  const size_t hi_v = el->part_vhi[sizeof(real) == 8][part];
+  real *b = (real *)h->part_buf + (size_t)part * n;
+  memset(b + lo_v * 3, 0, (hi_v - lo_v) * 3 * sizeof(real));
+  size_t lo, hi;
+  scatter_share(0, nb, part, EK_FVM_PARTS, &lo, &hi);
+  hess_ctx c = {h->kt, args_for(h, HESS_APPLY)};
+  c.a.x = p;
+  c.a.cache = h->cache;
+  if (lo < hi)
+    hess_range(&c, lo, hi, b, NULL);
+  return EK_OK;
+}
+
+void EK_P(fvm_hessian_apply_rows)(const ek_fvm_hessian *h, size_t v0, size_t v1, real *y) {
+  const ek_tets *el = h->el;
+  const size_t n = el->nverts * 3;
+  const size_t *vlo = el->part_vlo[sizeof(real) == 8], *vhi = el->part_vhi[sizeof(real) == 8];
+  const real *buf = h->part_buf;
+  for (size_t v = v0; v < v1; v++)
+    for (size_t k = 0; k < 3; k++) {
+      real s = v >= vlo[0] && v < vhi[0] ? buf[v * 3 + k] : 0;
+      for (int p = 1; p < EK_FVM_PARTS; p++)
+        s += v >= vlo[p] && v < vhi[p] ? buf[(size_t)p * n + v * 3 + k] : 0;
+      y[v * 3 + k] = s;
+    }
+}
+
 int EK_P(fvm_hessian_diag)(const ek_fvm_hessian *h, real *blocks) {
   int rc = check_cached(h, "ek_fvm_hessian_diagonal", blocks, blocks);
   if (rc < 0)
@@ -305,7 +350,10 @@ ek_fvm_hessian *ek_fvm_hessian_create(const ek_tets *el, const ek_material *mat,
   h->cache_bytes = nslots * (size_t)h->planes * (h->precision == 32 ? 4 : 8);
   h->energy = ek_alloc(nslots * sizeof(double));
   h->cache = h->cache_bytes ? ek_alloc(h->cache_bytes) : NULL;
-  if (!h->energy || (h->cache_bytes && !h->cache)) {
+  if (h->scatter == EK_SCATTER_THREAD_BUFFERS)
+    h->part_buf = ek_alloc(EK_FVM_PARTS * el->nverts * 3 * (h->precision == 32 ? 4 : 8) + 64);
+  if (!h->energy || (h->cache_bytes && !h->cache) ||
+      (h->scatter == EK_SCATTER_THREAD_BUFFERS && !h->part_buf)) {
     ek_set_error("%s: out of memory for the eigensystem cache (%zu bytes)", fn, h->cache_bytes);
     ek_fvm_hessian_destroy(h);
     return NULL;
@@ -319,7 +367,13 @@ void ek_fvm_hessian_destroy(ek_fvm_hessian *h) {
   ek_hessian_assembly_free(h);
   ek_free(h->cache);
   ek_free(h->energy);
+  ek_free(h->part_buf);
   free(h);
+}
+
+int ek_fvm_hessian_apply_parts(const ek_fvm_hessian *h, int *parallel) {
+  *parallel = h && h->el->ntets >= EK_FVM_PARALLEL_MIN_TETS;
+  return h && h->part_buf ? EK_FVM_PARTS : 0;
 }
 
 size_t ek_fvm_hessian_cache_bytes(const ek_fvm_hessian *h) { return h ? h->cache_bytes : 0; }
@@ -337,7 +391,12 @@ static double sum_energy(const double *e, size_t n, int parallel) {
       s += e[i];
     return s;
   }
-#pragma omp parallel for schedule(static) if (parallel)
+  // A region only for 8 chunks or more (~10 us of additions): below, its
+  // fork/join cost more than the sum (one chunk left the second thread
+  // nothing to do, yet the join waited for it to be scheduled: on a busy
+  // machine a scheduler slice per gradient pass; sim/README.md, fifteenth
+  // round). The chunks and their order are the same either way.
+#pragma omp parallel for schedule(static) if (parallel && nc >= 8)
   for (size_t c = 0; c < nc; c++) {
     size_t hi = (c + 1) * ENERGY_CHUNK < n ? (c + 1) * ENERGY_CHUNK : n;
     double s = 0;

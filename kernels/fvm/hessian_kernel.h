@@ -116,6 +116,9 @@ struct ek_fvm_hessian {
   size_t cache_bytes;
   double *energy; // nslots
   int cached;     // a caching gradient pass ran
+  // The product in parts (ek_fvm_hessian_apply_part, THREAD_BUFFERS only):
+  // EK_FVM_PARTS buffers of nverts x 3 values of the precision, or NULL.
+  void *part_buf;
   // Assembly (hessian_assemble.c), built on first use: K's pattern over
   // vertex blocks (bptr nverts + 1, bcol: block rows, columns ascending),
   // the scalar CSR (row_ptr, col), and the element-to-nonzero map per slot
