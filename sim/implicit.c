@@ -118,7 +118,7 @@
 #include <string.h>
 
 #include "../kernels/elements/morton.h" // header-only
-#include "claim_team.h"
+#include "../kernels/team.h"
 #include "implicit_petsc.h"
 #include "sim_internal.h"
 
@@ -185,10 +185,9 @@ typedef struct {
   double *parts2; // per chunk: r.z (the preconditioner's pass)
   double *pre;    // nverts x 6: the preconditioner's blocks
   float *p32, *q32;
-  // The CG solve's team (claim_team.h) and the product in parts (body.h
-  // hessian_apply_parts: nparts 0 without it).
-  claim_team team;
-  int team_ready, nparts, apply_par;
+  // The product in parts (body.h hessian_apply_parts: nparts 0 without
+  // it), for the CG's passes on the helper team (kernels/team.h).
+  int nparts, apply_par;
   // Assembled solvers (linear_solver "amg", "direct"): K's pattern and
   // values, the system's values, PETSc's solver.
   ek_csr_pattern pat;
@@ -231,8 +230,6 @@ static void data_free(implicit_data *d) {
   free(d->acc);
   free(d->dm_inv);
   implicit_petsc_destroy(d->ps);
-  if (d->team_ready)
-    claim_team_destroy(&d->team);
   free(d);
 }
 
@@ -430,7 +427,6 @@ static int implicit_create(ek_sim *s, void **data) {
   ok &= (d->parts2 = calloc(d->nchunks, sizeof(double))) != NULL;
   if (!d->mpi && s->body->ops->hessian_apply_parts)
     d->nparts = s->body->ops->hessian_apply_parts(d->H, &d->apply_par);
-  d->team_ready = claim_team_init(&d->team) == 0;
   if (d->hes.f32)
     ok &= (d->p32 = calloc(d->n3, sizeof(float))) && (d->q32 = calloc(d->n3, sizeof(float)));
   if (ok && d->hes.residual_merit && s->body->corners == 4)
@@ -634,9 +630,9 @@ static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
 // ---- The CG iteration's passes ----
 // Each pass runs over the fixed chunks (CHUNK dofs; the product's parts)
 // and a chunk's result does not depend on the thread that runs it: the
-// same bits at any thread count. At more than one thread a CG solve is one
-// parallel region whose passes are claimed chunk by chunk (claim_team.h),
-// so no thread waits for one that is not running: with fork/join passes
+// same bits at any thread count. At more than one thread the passes run on
+// the helper team (kernels/team.h), chunks claimed by whichever thread
+// comes first, so no thread waits for one that is not running: with fork/join passes
 // (5 regions and a barrier per CG iteration, each needing every thread
 // scheduled) a core held by another process cost a scheduler slice per
 // pass (sim/README.md, fifteenth round). The update of dx and r and the
@@ -659,9 +655,9 @@ static void chunk_range(const implicit_data *d, size_t c, size_t *lo, size_t *hi
 
 // Runs fn over chunks [0, n): on the team, or in a parallel loop (or on
 // this thread alone where parallel is 0).
-static void run_pass(claim_team *team, claim_chunk_fn *fn, void *ctx, size_t n, int parallel) {
-  if (team)
-    claim_team_run(team, fn, ctx, n, parallel);
+static void run_pass(int team, ek_team_fn *fn, void *ctx, size_t n, int parallel) {
+  if (team && parallel)
+    ek_team_run(n, fn, ctx);
   else if (!parallel)
     for (size_t c = 0; c < n; c++)
       fn(ctx, c);
@@ -778,7 +774,7 @@ static double sum_of(const implicit_data *d, const double *parts) {
 
 // q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones);
 // returns p.q. For f32 products, d->p32 holds p (pass_direction).
-static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, claim_team *team, double *pq) {
+static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, int team, double *pq) {
   double t0 = sim_now();
   const double *p = d->p;
   double *q = d->q;
@@ -821,10 +817,10 @@ static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, claim_team *
   return 0;
 }
 
-// The PCG iterations from dx = 0, r = -g, r0 = |r|_{M^-1} (solve); on the
-// team where team is not NULL (its driver).
-static int cg(ek_sim *s, implicit_data *d, const double *blocks, claim_team *team, double r0,
-              long *iters, double *rel) {
+// The PCG iterations from dx = 0, r = -g, r0 = |r|_{M^-1} (solve); the
+// passes on the helper team and the product in parts where team is set.
+static int cg(ek_sim *s, implicit_data *d, const double *blocks, int team, double r0, long *iters,
+              double *rel) {
   const ek_scene_implicit *im = &s->scene.implicit;
   const double stop = im->cg_tol * r0;
   cg_pass cp = {.d = d, .blocks = blocks};
@@ -878,22 +874,10 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
   *iters = 0;
   *rel = r0 > 0 ? 1 : 0;
   s->times.cg_vectors += sim_now() - t0;
-  // The team where some pass runs on more than one thread (and not across
-  // MPI ranks, whose product sums over the ranks between its passes).
-  if (d->mpi || !d->nparts || !(d->par || d->apply_par) || omp_get_max_threads() < 2 ||
-      !d->team_ready)
-    return cg(s, d, blocks, NULL, r0, iters, rel);
-  int rc = 0;
-  claim_team_begin(&d->team);
-#pragma omp parallel
-  {
-    if (omp_get_thread_num() == 0) {
-      rc = cg(s, d, blocks, &d->team, r0, iters, rel);
-      claim_team_end(&d->team);
-    } else
-      claim_team_serve(&d->team);
-  }
-  return rc;
+  // The helper team where some pass runs on more than one thread (not
+  // across MPI ranks, whose product sums over the ranks between its passes).
+  const int team = !d->mpi && d->nparts && (d->par || d->apply_par) && omp_get_max_threads() > 1;
+  return cg(s, d, blocks, team, r0, iters, rel);
 }
 
 // The Newton system by an assembled solver (linear_solver "amg" or

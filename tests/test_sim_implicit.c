@@ -282,8 +282,8 @@ static void crush_test(const char *name) {
   finish(&r);
 }
 
-// 6. The CG solve runs its passes on a team of threads that claim fixed
-// chunks (sim/claim_team.h): at 1, 2 and 3 threads (more than this
+// 6. The CG solve runs its passes on the helper team, whose threads claim
+// fixed chunks (kernels/team.h): at 1, 2 and 3 threads (more than this
 // machine's cores, where a thread often waits for a core) every
 // coordinate keeps its bits, with f32 and with f64 products.
 static void threads_test(void) {
