@@ -28,4 +28,13 @@ typedef void ek_team_fn(void *ctx, size_t i);
 #define EK_TEAM_MAX_CHUNKS ((size_t)1 << 19)
 void ek_team_run(size_t n, ek_team_fn *fn, void *ctx);
 
+// ek_team_run where parallel, else the chunks in order on this thread.
+static inline void ek_team_run_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
+  if (parallel)
+    ek_team_run(n, fn, ctx);
+  else
+    for (size_t i = 0; i < n; i++)
+      fn(ctx, i);
+}
+
 #endif

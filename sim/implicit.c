@@ -656,11 +656,8 @@ static void chunk_range(const implicit_data *d, size_t c, size_t *lo, size_t *hi
 // Runs fn over chunks [0, n): on the team, or in a parallel loop (or on
 // this thread alone where parallel is 0).
 static void run_pass(int team, ek_team_fn *fn, void *ctx, size_t n, int parallel) {
-  if (team && parallel)
-    ek_team_run(n, fn, ctx);
-  else if (!parallel)
-    for (size_t c = 0; c < n; c++)
-      fn(ctx, c);
+  if (team || !parallel)
+    ek_team_run_if(parallel, n, fn, ctx);
   else {
 #pragma omp parallel for schedule(static)
     for (size_t c = 0; c < n; c++)

@@ -103,15 +103,18 @@ static inline double end_face_dz(const ek_mesh *mesh, const double *x, double L)
   return sum / count;
 }
 
-// `steps` steps of the scene text at 1 and at 2 threads: the coordinates
-// whose bits differ (*mismatches), the coordinate count (*n3) and the XPBD
+// `steps` steps of the scene text at 1, 2, ..., max_threads threads
+// (max_threads <= 3; 3 is more than this machine's 2 cores: a thread often
+// waits for a core): mismatches[t], the coordinates whose bits at t
+// threads differ from 1 thread's; the coordinate count (*n3) and the XPBD
 // constraints (*nc, 0 for other integrators). 0 if every step ran.
-static inline int thread_mismatches(const char *json, int steps, long *mismatches, size_t *n3,
-                                    size_t *nc) {
+static inline int thread_mismatches(const char *json, int steps, int max_threads,
+                                    long mismatches[4], size_t *n3, size_t *nc) {
   double *x1 = NULL;
   int ok = 1;
-  *mismatches = 0;
-  for (int threads = 1; threads <= 2 && ok; threads++) {
+  for (int t = 0; t < 4; t++)
+    mismatches[t] = 0;
+  for (int threads = 1; threads <= max_threads && threads <= 3 && ok; threads++) {
     omp_set_num_threads(threads);
     run r;
     if (start(&r, json, 0)) {
@@ -130,7 +133,7 @@ static inline int thread_mismatches(const char *json, int steps, long *mismatche
         memcpy(x1, x, *n3 * sizeof(double));
     } else {
       for (size_t i = 0; i < *n3; i++)
-        *mismatches += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
+        mismatches[threads] += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
     }
     finish(&r);
   }

@@ -299,32 +299,9 @@ static void threads_test(void) {
     char text[1024], what[80], detail[200];
     snprintf(text, sizeof text, json, precisions[pr]);
     const int steps = pr == 0 ? 2 : 1;
-    double *x1 = NULL;
-    size_t n3 = 0;
-    long mismatches[4] = {0};
-    int ok = 1;
-    for (int threads = 1; threads <= 3 && ok; threads++) {
-      omp_set_num_threads(threads);
-      run r;
-      if (start(&r, text, 0)) {
-        ok = 0;
-        break;
-      }
-      n3 = 3 * ek_mesh_nverts(r.mesh);
-      for (int n = 0; n < steps; n++)
-        ok &= ek_sim_step(r.sim) == 0;
-      const double *x = ek_sim_positions(r.sim);
-      if (threads == 1) {
-        ok &= (x1 = malloc(n3 * sizeof(double))) != NULL;
-        if (x1)
-          memcpy(x1, x, n3 * sizeof(double));
-      } else
-        for (size_t i = 0; i < n3; i++)
-          mismatches[threads] += memcmp(&x[i], &x1[i], sizeof(double)) != 0;
-      finish(&r);
-    }
-    omp_set_num_threads(2);
-    free(x1);
+    size_t n3 = 0, nc = 0;
+    long mismatches[4];
+    int ok = thread_mismatches(text, steps, 3, mismatches, &n3, &nc) == 0;
     snprintf(what, sizeof what, "same bits at 1, 2 and 3 threads (%s products)", precisions[pr]);
     snprintf(detail, sizeof detail,
              "%zu dofs, %d steps: %ld coordinates differ at 2 threads, %ld at 3", n3, steps,

@@ -160,14 +160,6 @@ static void force_gather(void *ctx, size_t i) {
   gather(j->cl, j->a->tri_corner, j->a->hinge_corner, j->f, v0, v1);
 }
 
-static void run_chunks(int par, size_t n, ek_team_fn *fn, void *ctx) {
-  if (par)
-    ek_team_run(n, fn, ctx);
-  else
-    for (size_t i = 0; i < n; i++)
-      fn(ctx, i);
-}
-
 int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real *x, real *f,
                        const ek_cloth_force_opts *opts) {
   int rc = check_args("ek_cloth_forces", cl, p, !x || !f, "x or f");
@@ -193,16 +185,16 @@ int EK_P(cloth_forces)(const ek_cloth *cl, const ek_cloth_params *p, const real 
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
   ek_cloth_phase_times *pt = opts ? opts->phase_times : NULL;
   if (!pt) {
-    run_chunks(par, j.ntc + j.nhc, force_elements, &j);
-    run_chunks(par, ngc, force_gather, &j);
+    ek_team_run_if(par, j.ntc + j.nhc, force_elements, &j);
+    ek_team_run_if(par, ngc, force_gather, &j);
     return 0;
   }
   double t0 = wall();
-  run_chunks(par, j.ntc, force_membrane, &j);
+  ek_team_run_if(par, j.ntc, force_membrane, &j);
   double t1 = wall();
-  run_chunks(par, j.nhc, force_bending, &j);
+  ek_team_run_if(par, j.nhc, force_bending, &j);
   double t2 = wall();
-  run_chunks(par, ngc, force_gather, &j);
+  ek_team_run_if(par, ngc, force_gather, &j);
   double t3 = wall();
   pt->membrane += t1 - t0;
   pt->bending += t2 - t1;

@@ -212,14 +212,6 @@ static void phase_P(void *ctx, size_t i) {
     atomic_store(&j->rc, rc);
 }
 
-static void run_chunks(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
-  if (parallel)
-    ek_team_run(n, fn, ctx);
-  else
-    for (size_t i = 0; i < n; i++)
-      fn(ctx, i);
-}
-
 // Phase split (ek_fvm_opts.phase_times): F pass, polar pass (timing only,
 // for models that need one), P pass through the material API, then H and
 // scatter from the stored P with the chosen strategy.
@@ -239,14 +231,14 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
   const size_t nchunks = (nb + PHASE_CHUNK - 1) / PHASE_CHUNK;
 
   double t0 = now();
-  run_chunks(par, nchunks, phase_F, &j);
+  ek_team_run_if(par, nchunks, phase_F, &j);
   double t1 = now();
   pt->deformation_gradient = t1 - t0;
 
   ek_model_needs need = ek_model_need(mat->model, mat->clamp);
   int takes_svd = need == EK_NEEDS_POLAR || need == EK_NEEDS_SVD;
   if (takes_svd) {
-    run_chunks(par, nchunks, phase_polar, &j);
+    ek_team_run_if(par, nchunks, phase_polar, &j);
     if (atomic_load(&j.rc) < 0) // the whole call again, for its message on this thread
       return EK_P(polar3_aosoa)(nb, F, R, NULL, so);
   }
@@ -270,7 +262,7 @@ static int phased(const ek_kernel_table *kt, const ek_tets *el, const ek_materia
     }
   }
   double t3 = now();
-  run_chunks(par, nchunks, phase_P, &j);
+  ek_team_run_if(par, nchunks, phase_P, &j);
   if (atomic_load(&j.rc) < 0)
     return EK_P(material_eval_aosoa)(mat, EK_MAT_PK1, isa, nb, F, R, NULL, P, 0);
   double t4 = now();
