@@ -42,9 +42,7 @@ static struct {
   ek_team_fn *fn;
   void *ctx;
   int helpers;     // started (under run)
-  atomic_int spin; // checks before a helper's wait for a job sleeps
-  int idle_spin;   // spin's value unless oversubscribed
-  int wait;        // checks before the caller's wait for the last chunks sleeps
+  atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
 } T = {.run = PTHREAD_MUTEX_INITIALIZER,
        .m = PTHREAD_MUTEX_INITIALIZER,
        .wake = PTHREAD_COND_INITIALIZER,
@@ -140,15 +138,8 @@ static void after_fork(void) {
 static int start_helpers(int count) {
   if (count > MAX_HELPERS)
     count = MAX_HELPERS;
-  if (T.helpers == 0) {
-    // As libgomp and xpbd.c's flow: a wait spins ~1 ms (2^20 checks), about
-    // libgomp's own spin, unless OMP_WAIT_POLICY=passive (then it sleeps
-    // almost at once).
-    const char *policy = getenv("OMP_WAIT_POLICY");
-    const int passive = policy && strcasecmp(policy, "passive") == 0;
-    T.idle_spin = T.wait = passive ? 1 << 8 : 1 << 20;
+  if (T.helpers == 0)
     pthread_atfork(NULL, NULL, after_fork);
-  }
   while (T.helpers < count) {
     pthread_attr_t attr;
     pthread_t th;
@@ -178,6 +169,17 @@ static void serial(size_t n, ek_team_fn *fn, void *ctx) {
     fn(ctx, i);
 }
 
+int ek_wait_spins(int threads) {
+  static atomic_int passive = -1; // OMP_WAIT_POLICY=passive, once read
+  int p = atomic_load_explicit(&passive, memory_order_relaxed);
+  if (p < 0) {
+    const char *policy = getenv("OMP_WAIT_POLICY");
+    p = policy && strcasecmp(policy, "passive") == 0;
+    atomic_store_explicit(&passive, p, memory_order_relaxed);
+  }
+  return p || threads > omp_get_num_procs() ? 1 << 8 : 1 << 20;
+}
+
 void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
   const int threads = omp_get_max_threads();
   if (n <= 1 || threads < 2 || n > EK_TEAM_MAX_CHUNKS || omp_in_parallel() ||
@@ -191,11 +193,8 @@ void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
     serial(n, fn, ctx);
     return;
   }
-  // More threads than processors: a spinning wait may hold the core of
-  // the thread it waits for; sleep almost at once, as libgomp then does.
-  const int over = threads > omp_get_num_procs();
-  const int spin = over ? 1 << 8 : T.wait;
-  atomic_store_explicit(&T.spin, over ? 1 << 8 : T.idle_spin, memory_order_relaxed);
+  const int spin = ek_wait_spins(threads);
+  atomic_store_explicit(&T.spin, spin, memory_order_relaxed);
   T.fn = fn;
   T.ctx = ctx;
   atomic_store_explicit(&T.want, threads, memory_order_relaxed);

@@ -28,6 +28,13 @@ typedef void ek_team_fn(void *ctx, size_t i);
 #define EK_TEAM_MAX_CHUNKS ((size_t)1 << 19)
 void ek_team_run(size_t n, ek_team_fn *fn, void *ctx);
 
+// Checks a wait spins before it sleeps, for `threads` threads: 2^20 (~1 ms,
+// about libgomp's own spin), 2^8 with more threads than processors (a
+// spinning thread may hold the core of the one it waits for) or
+// OMP_WAIT_POLICY=passive (read once, as libgomp does), where libgomp
+// sleeps almost at once too. The team's waits and xpbd.c's sweeps_flow.
+int ek_wait_spins(int threads);
+
 // ek_team_run where parallel, else the chunks in order on this thread.
 static inline void ek_team_run_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
   if (parallel)

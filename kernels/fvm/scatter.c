@@ -103,8 +103,8 @@ EK_INLINE void reduce_rows(real *buf, size_t n, size_t v0, size_t v1, size_t st,
 
 // out[v] for v in [v0, v1) from unpadded rows (st == nc), the buffers left
 // as they are.
-static void sum_rows(const real *buf, size_t n, size_t v0, size_t v1, size_t st, size_t nc,
-                     const size_t *vlo, const size_t *vhi, real *out) {
+EK_INLINE void sum_rows(const real *buf, size_t n, size_t v0, size_t v1, size_t st, size_t nc,
+                        const size_t *vlo, const size_t *vhi, real *out) {
   for (size_t v = v0; v < v1; v++)
     for (size_t k = 0; k < nc; k++) {
       real s = v >= vlo[0] && v < vhi[0] ? buf[v * st + k] : 0;
@@ -137,16 +137,21 @@ static void buffers_part(void *ctx, size_t p) {
     b->j->range(b->j->ctx, lo, hi, bp, NULL);
 }
 
-static void buffers_sum(void *ctx, size_t i) {
-  const buffers_job *b = ctx;
-  size_t v0, v1;
-  scatter_share(0, b->nv, (int)i, (int)b->nsum, &v0, &v1);
+// out over vertices [v0, v1): the parts' rows summed in part order.
+static void sum_vertices(const buffers_job *b, size_t v0, size_t v1) {
   if (!b->keep_zero)
     sum_rows(b->buf, b->n, v0, v1, b->st, b->nc, b->vlo, b->vhi, b->out);
   else if (b->st == 4 && b->nc == 3)
     reduce_rows(b->buf, b->n, v0, v1, 4, 3, b->vlo, b->vhi, b->out);
   else
     reduce_rows(b->buf, b->n, v0, v1, b->st, b->nc, b->vlo, b->vhi, b->out);
+}
+
+static void buffers_sum(void *ctx, size_t i) {
+  const buffers_job *b = ctx;
+  size_t v0, v1;
+  scatter_share(0, b->nv, (int)i, (int)b->nsum, &v0, &v1);
+  sum_vertices(b, v0, v1);
 }
 
 // Vertices per sum chunk of the team path (~4 us of adds on Zen 4).
@@ -183,46 +188,32 @@ static int run_buffers(const scatter_job *j, real *out, int team) {
   const int keep_zero = st != nc;
   if (keep_zero && !buffers_zero)
     memset(buf, 0, scratch[0].bytes);
+  buffers_job b = {
+      j,   buf, out,      n, nb, nv, st, nc, (nv + SUM_CHUNK_VERTS - 1) / SUM_CHUNK_VERTS,
+      vlo, vhi, keep_zero};
   if (team && j->parallel) {
-    buffers_job b = {
-        j,   buf, out,      n, nb, nv, st, nc, (nv + SUM_CHUNK_VERTS - 1) / SUM_CHUNK_VERTS,
-        vlo, vhi, keep_zero};
     ek_team_run(EK_FVM_PARTS, buffers_part, &b);
     ek_team_run(b.nsum, buffers_sum, &b);
-    buffers_zero = keep_zero;
-    return EK_OK;
-  }
+  } else {
 #pragma omp parallel if (j->parallel)
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    for (int p = t; p < EK_FVM_PARTS; p += nt) {
-      real *b = buf + (size_t)p * n;
-      if (!keep_zero)
-        memset(b + vlo[p] * st, 0, (vhi[p] - vlo[p]) * st * sizeof(real));
-      size_t lo, hi;
-      scatter_share(0, nb, p, EK_FVM_PARTS, &lo, &hi);
-      if (lo < hi)
-        j->range(j->ctx, lo, hi, b, NULL);
-    }
+    {
+      int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      for (int p = t; p < EK_FVM_PARTS; p += nt)
+        buffers_part(&b, (size_t)p);
 #pragma omp barrier
-    size_t v0, v1;
-    scatter_share(0, nv, t, nt, &v0, &v1);
-    if (!keep_zero) {
-      // Unpadded rows: the sum as it was (a flat loop over the same values
-      // with the share above ran the Hessian product ~4% slower at 998 250
-      // tets), buffers left as they are.
+      if (!keep_zero) {
+        // Unpadded rows: one vertex per call in a static loop (a flat loop
+        // over each thread's share ran the Hessian product ~4% slower at
+        // 998 250 tets), buffers left as they are.
 #pragma omp for schedule(static)
-      for (size_t v = 0; v < nv; v++)
-        for (size_t k = 0; k < nc; k++) {
-          real s = v >= vlo[0] && v < vhi[0] ? buf[v * st + k] : 0;
-          for (int p = 1; p < EK_FVM_PARTS; p++)
-            s += v >= vlo[p] && v < vhi[p] ? buf[(size_t)p * n + v * st + k] : 0;
-          out[v * nc + k] = s;
-        }
-    } else if (st == 4 && nc == 3)
-      reduce_rows(buf, n, v0, v1, 4, 3, vlo, vhi, out);
-    else
-      reduce_rows(buf, n, v0, v1, st, nc, vlo, vhi, out);
+        for (size_t v = 0; v < nv; v++)
+          sum_rows(buf, n, v, v + 1, st, nc, vlo, vhi, out);
+      } else {
+        size_t v0, v1;
+        scatter_share(0, nv, t, nt, &v0, &v1);
+        sum_vertices(&b, v0, v1);
+      }
+    }
   }
   buffers_zero = keep_zero;
   return EK_OK;

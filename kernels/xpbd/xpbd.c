@@ -10,7 +10,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 
 #include <ek/xpbd.h>
 
@@ -18,6 +17,7 @@
 #include "../elements/tets.h"
 #include "../kernels.h"
 #include "../real.h"
+#include "../team.h"
 #include "xpbd_kernel.h"
 
 #if defined(EK_REAL_F32)
@@ -166,10 +166,7 @@ static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
 // wait is for an earlier pair, so no wait is for ever.
 static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
   const int n = omp_get_num_threads(), me = omp_get_thread_num();
-  // More threads than processors (a spinning thread may hold the core of
-  // the one it waits for) or OMP_WAIT_POLICY=passive: the wait sleeps
-  // almost at once, as libgomp's barrier then does.
-  const int spin = xp->flow_passive || n > omp_get_num_procs() ? 1 << 8 : 1 << 20;
+  const int spin = ek_wait_spins(n);
   const size_t nt = xp->ntasks;
   for (int it = 0; it < iterations; it++)
     for (size_t t = 0; t < nt; t++) {
@@ -503,8 +500,6 @@ static int build_task_deps(ek_xpbd *xp) {
     pthread_mutex_destroy(&xp->flow_mutex);
     goto done;
   }
-  const char *policy = getenv("OMP_WAIT_POLICY"); // libgomp reads it once too
-  xp->flow_passive = policy && strcasecmp(policy, "passive") == 0;
   xp->flow_ready = 1;
   rc = EK_OK;
 done:

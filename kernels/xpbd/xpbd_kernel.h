@@ -103,8 +103,7 @@ struct ek_xpbd {
   pthread_mutex_t flow_mutex;
   pthread_cond_t flow_cond;
   atomic_int flow_sleepers;
-  int flow_ready;   // mutex and cond initialised
-  int flow_passive; // OMP_WAIT_POLICY=passive, read once at create
+  int flow_ready; // mutex and cond initialised
   // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
