@@ -38,9 +38,11 @@ static struct {
   _Atomic uint64_t claim;
   atomic_size_t done;
   atomic_int sleepers, caller_sleeps;
-  atomic_int want; // helpers 1 .. want - 1 take part in the current job
-  ek_team_fn *fn;
+  atomic_int want;        // helpers 1 .. want - 1 take part in the current job
+  ek_team_fn *fn;         // the job's chunks: fn(ctx, base + i), or
+  ek_team_worker_fn *wfn; // wfn(ctx, base + i, worker) where not NULL
   void *ctx;
+  size_t base;     // first chunk of this job (a run of more than EK_TEAM_MAX_CHUNKS)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
 } T = {.run = PTHREAD_MUTEX_INITIALIZER,
@@ -48,13 +50,17 @@ static struct {
        .wake = PTHREAD_COND_INITIALIZER,
        .idle = PTHREAD_COND_INITIALIZER};
 
-// Claims and runs chunks of the current job until none is left.
-static void work(void) {
+// Claims and runs chunks of the current job until none is left; id: the
+// worker index (0: the caller, else the helper's).
+static void work(int id) {
   for (;;) {
     uint64_t w = atomic_fetch_add_explicit(&T.claim, 1, memory_order_acq_rel);
     if (NEXT_OF(w) >= N_OF(w))
       return;
-    T.fn(T.ctx, NEXT_OF(w));
+    if (T.wfn)
+      T.wfn(T.ctx, T.base + NEXT_OF(w), id);
+    else
+      T.fn(T.ctx, T.base + NEXT_OF(w));
     size_t d = atomic_fetch_add_explicit(&T.done, 1, memory_order_acq_rel) + 1;
     if (d == N_OF(w) && atomic_load(&T.caller_sleeps)) {
       pthread_mutex_lock(&T.m);
@@ -98,7 +104,7 @@ static void *helper(void *arg) {
     }
     seen = EPOCH_OF(w);
     if (id < atomic_load_explicit(&T.want, memory_order_relaxed))
-      work();
+      work(id);
   }
   return NULL;
 }
@@ -164,9 +170,12 @@ static int start_helpers(int count) {
   return T.helpers;
 }
 
-static void serial(size_t n, ek_team_fn *fn, void *ctx) {
+static void serial(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
   for (size_t i = 0; i < n; i++)
-    fn(ctx, i);
+    if (wfn)
+      wfn(ctx, i, 0);
+    else
+      fn(ctx, i);
 }
 
 int ek_wait_spins(int threads) {
@@ -180,23 +189,14 @@ int ek_wait_spins(int threads) {
   return p || threads > omp_get_num_procs() ? 1 << 8 : 1 << 20;
 }
 
-void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
+int ek_team_threads(void) {
   const int threads = omp_get_max_threads();
-  if (n <= 1 || threads < 2 || n > EK_TEAM_MAX_CHUNKS || omp_in_parallel() ||
-      pthread_mutex_trylock(&T.run) != 0) {
-    serial(n, fn, ctx);
-    return;
-  }
-  const int helpers = start_helpers(threads - 1);
-  if (helpers == 0) {
-    pthread_mutex_unlock(&T.run);
-    serial(n, fn, ctx);
-    return;
-  }
-  const int spin = ek_wait_spins(threads);
-  atomic_store_explicit(&T.spin, spin, memory_order_relaxed);
-  T.fn = fn;
-  T.ctx = ctx;
+  return omp_in_parallel() || threads < 2 ? 1 : threads > MAX_HELPERS ? MAX_HELPERS + 1 : threads;
+}
+
+// One job of n <= EK_TEAM_MAX_CHUNKS chunks, base + [0, n), under run.
+static void job(size_t base, size_t n, int threads, int spin) {
+  T.base = base;
   atomic_store_explicit(&T.want, threads, memory_order_relaxed);
   atomic_store_explicit(&T.done, 0, memory_order_relaxed);
   const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
@@ -206,17 +206,42 @@ void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
     pthread_cond_broadcast(&T.wake);
     pthread_mutex_unlock(&T.m);
   }
-  work();
+  work(0);
   // Only chunks a helper claimed are left: wait for them.
   for (int spins = 0; spins < spin; spins++)
     if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
-      goto done;
+      return;
   pthread_mutex_lock(&T.m);
   atomic_store(&T.caller_sleeps, 1);
   while (atomic_load(&T.done) != n)
     pthread_cond_wait(&T.idle, &T.m);
   atomic_store(&T.caller_sleeps, 0);
   pthread_mutex_unlock(&T.m);
-done:
+}
+
+static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
+  const int threads = ek_team_threads();
+  if (n <= 1 || threads < 2 || pthread_mutex_trylock(&T.run) != 0) {
+    serial(n, fn, wfn, ctx);
+    return;
+  }
+  const int helpers = start_helpers(threads - 1);
+  if (helpers == 0) {
+    pthread_mutex_unlock(&T.run);
+    serial(n, fn, wfn, ctx);
+    return;
+  }
+  const int spin = ek_wait_spins(omp_get_max_threads());
+  atomic_store_explicit(&T.spin, spin, memory_order_relaxed);
+  T.fn = fn;
+  T.wfn = wfn;
+  T.ctx = ctx;
+  // The claim word holds at most EK_TEAM_MAX_CHUNKS: more run as several jobs.
+  for (size_t base = 0; base < n; base += EK_TEAM_MAX_CHUNKS)
+    job(base, n - base < EK_TEAM_MAX_CHUNKS ? n - base : EK_TEAM_MAX_CHUNKS, threads, spin);
   pthread_mutex_unlock(&T.run);
 }
+
+void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, ctx); }
+
+void ek_team_run_workers(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, ctx); }
