@@ -12,6 +12,12 @@
 // way. sleepers / caller_sleeps and the words they guard are sequentially
 // consistent: either the waker sees the sleeper, or the sleeper sees the
 // change before it waits (it holds the mutex from its check to the wait).
+// ek_team_run_ranges' jobs store no chunk count in the claim word (its new
+// epoch only wakes the helpers): a worker takes chunks from the range words
+// instead, each stored (release) after fn, ctx and base, and adds its count
+// to done once it finds every range empty; ranges are empty when a job ends,
+// so a helper still looking from an earlier job finds nothing, or this
+// job's chunks.
 #define _GNU_SOURCE
 #include <omp.h>
 #include <pthread.h>
@@ -39,34 +45,79 @@ static struct {
   atomic_size_t done;
   atomic_int sleepers, caller_sleeps;
   atomic_int want;        // helpers 1 .. want - 1 take part in the current job
-  ek_team_fn *fn;         // the job's chunks: fn(ctx, base + i), or
-  ek_team_worker_fn *wfn; // wfn(ctx, base + i, worker) where not NULL
+  ek_team_fn *fn;         // ek_team_run's chunks: fn(ctx, base + i)
+  ek_team_worker_fn *wfn; // ek_team_run_ranges': wfn(ctx, base + i, worker)
+  atomic_int ranged;      // the job is ek_team_run_ranges'
   void *ctx;
   size_t base;     // first chunk of this job (a run of more than EK_TEAM_MAX_CHUNKS)
+  size_t n;        // chunks of this job (ranges)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
+  // ek_team_run_ranges: worker w's range of chunks, front (low 32 bits:
+  // the next chunk its owner takes) and back (high 32: one past the last;
+  // other workers take from there), a line each.
+  struct {
+    _Alignas(64) _Atomic uint64_t w;
+  } range[MAX_HELPERS + 1];
 } T = {.run = PTHREAD_MUTEX_INITIALIZER,
        .m = PTHREAD_MUTEX_INITIALIZER,
        .wake = PTHREAD_COND_INITIALIZER,
        .idle = PTHREAD_COND_INITIALIZER};
 
+#define FRONT(w) ((size_t)((w)&0xffffffffu))
+#define BACK(w) ((size_t)((w) >> 32))
+
+// Tells the caller, if it sleeps, that the job's chunks are done.
+static void done_by(size_t count, size_t n) {
+  size_t d = atomic_fetch_add_explicit(&T.done, count, memory_order_acq_rel) + count;
+  if (d == n && atomic_load(&T.caller_sleeps)) {
+    pthread_mutex_lock(&T.m);
+    pthread_cond_broadcast(&T.idle);
+    pthread_mutex_unlock(&T.m);
+  }
+}
+
+// ek_team_run_ranges' work: worker id's own range from the front, then the
+// others' from their backs; the done count once, at the end (a chunk of a
+// later job cannot be among them: the job ends only after this count).
+static void work_ranges(int id) {
+  const int nr = atomic_load_explicit(&T.want, memory_order_relaxed);
+  size_t count = 0;
+  for (;;) {
+    uint64_t w = atomic_fetch_add_explicit(&T.range[id].w, 1, memory_order_acq_rel);
+    if (FRONT(w) >= BACK(w))
+      break;
+    T.wfn(T.ctx, T.base + FRONT(w), id);
+    count++;
+  }
+  for (int k = 1; k < nr; k++) {
+    const int r = (id + k) % nr;
+    uint64_t w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
+    while (FRONT(w) < BACK(w))
+      if (atomic_compare_exchange_weak_explicit(&T.range[r].w, &w, w - (UINT64_C(1) << 32),
+                                                memory_order_acq_rel, memory_order_acquire)) {
+        T.wfn(T.ctx, T.base + BACK(w) - 1, id);
+        count++;
+        w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
+      }
+  }
+  if (count)
+    done_by(count, T.n);
+}
+
 // Claims and runs chunks of the current job until none is left; id: the
 // worker index (0: the caller, else the helper's).
 static void work(int id) {
+  if (atomic_load_explicit(&T.ranged, memory_order_relaxed)) {
+    work_ranges(id);
+    return;
+  }
   for (;;) {
     uint64_t w = atomic_fetch_add_explicit(&T.claim, 1, memory_order_acq_rel);
     if (NEXT_OF(w) >= N_OF(w))
       return;
-    if (T.wfn)
-      T.wfn(T.ctx, T.base + NEXT_OF(w), id);
-    else
-      T.fn(T.ctx, T.base + NEXT_OF(w));
-    size_t d = atomic_fetch_add_explicit(&T.done, 1, memory_order_acq_rel) + 1;
-    if (d == N_OF(w) && atomic_load(&T.caller_sleeps)) {
-      pthread_mutex_lock(&T.m);
-      pthread_cond_broadcast(&T.idle);
-      pthread_mutex_unlock(&T.m);
-    }
+    T.fn(T.ctx, T.base + NEXT_OF(w));
+    done_by(1, N_OF(w));
   }
 }
 
@@ -197,10 +248,21 @@ int ek_team_threads(void) {
 // One job of n <= EK_TEAM_MAX_CHUNKS chunks, base + [0, n), under run.
 static void job(size_t base, size_t n, int threads, int spin) {
   T.base = base;
+  T.n = n;
   atomic_store_explicit(&T.want, threads, memory_order_relaxed);
   atomic_store_explicit(&T.done, 0, memory_order_relaxed);
+  // Ranges as OpenMP's static schedule splits a loop (release: a worker
+  // that takes a chunk from one sees this job's fn, ctx and base).
+  if (T.wfn)
+    for (int r = 0; r < threads; r++)
+      atomic_store_explicit(&T.range[r].w,
+                            (uint64_t)(n * (size_t)(r + 1) / (size_t)threads) << 32 |
+                                n * (size_t)r / (size_t)threads,
+                            memory_order_release);
+  // The claim word: a new epoch wakes the helpers; no chunk to claim there
+  // for ranges.
   const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
-  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)n << NEXT_BITS);
+  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)(T.wfn ? 0 : n) << NEXT_BITS);
   if (atomic_load(&T.sleepers) > 0) {
     pthread_mutex_lock(&T.m);
     pthread_cond_broadcast(&T.wake);
@@ -236,6 +298,7 @@ static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
   T.fn = fn;
   T.wfn = wfn;
   T.ctx = ctx;
+  atomic_store_explicit(&T.ranged, wfn != NULL, memory_order_relaxed);
   // The claim word holds at most EK_TEAM_MAX_CHUNKS: more run as several jobs.
   for (size_t base = 0; base < n; base += EK_TEAM_MAX_CHUNKS)
     job(base, n - base < EK_TEAM_MAX_CHUNKS ? n - base : EK_TEAM_MAX_CHUNKS, threads, spin);
@@ -244,4 +307,4 @@ static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
 
 void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, ctx); }
 
-void ek_team_run_workers(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, ctx); }
+void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, ctx); }

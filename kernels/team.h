@@ -43,9 +43,16 @@ typedef void ek_team_worker_fn(void *ctx, size_t i, int worker);
 // an OpenMP parallel region, else omp_get_max_threads() (at most 64).
 int ek_team_threads(void);
 
-// ek_team_run, passing each chunk its worker (worker 0 for every chunk
-// where it runs on the calling thread alone).
-void ek_team_run_workers(size_t n, ek_team_worker_fn *fn, void *ctx);
+// ek_team_run, passing each chunk its worker (0 for every chunk where it
+// runs on the calling thread alone), and with the chunks split as OpenMP's
+// static schedule splits a loop: worker w runs the w-th of
+// ek_team_threads() contiguous ranges from its front, then takes chunks
+// from the backs of the others' ranges (those of a helper that has not
+// started, or whose core is busy). While both cores are free a chunk runs
+// on the same core call after call, so a batch that fits the L2s stays in
+// them (one claim word shared by all moved the chunks between the cores);
+// each claim is on the worker's own line.
+void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx);
 
 // Checks a wait spins before it sleeps, for `threads` threads: 2^20 (~1 ms,
 // about libgomp's own spin), 2^8 with more threads than processors (a

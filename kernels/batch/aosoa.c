@@ -122,7 +122,7 @@ int EK_P(staged_chunks)(const char *fn, size_t n, size_t chunk_blocks, int nbuf,
     if (planes[k] > 0)
       ok = ok && (j.bufs[k] = ek_alloc((size_t)workers * chunk * (size_t)planes[k] * sizeof(real)));
   if (ok)
-    ek_team_run_workers(nchunks, staged_chunk, &j);
+    ek_team_run_ranges(nchunks, staged_chunk, &j);
   for (int k = 0; k < nbuf; k++)
     ek_free(j.bufs[k]);
   if (!ok) {

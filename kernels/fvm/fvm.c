@@ -77,7 +77,8 @@ typedef struct {
   double *F;
 } tet_F_job;
 
-static void tet_F_chunk(void *ctx, size_t c) {
+static void tet_F_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   const tet_F_job *j = ctx;
   const ek_tets *el = j->el;
   const size_t e1 = el->ntets - c * F_CHUNK < F_CHUNK ? el->ntets : (c + 1) * F_CHUNK;
@@ -97,8 +98,12 @@ static void tet_F_chunk(void *ctx, size_t c) {
 
 static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
   tet_F_job j = {el, x, F};
-  ek_team_run_if(el->ntets >= EK_FVM_PARALLEL_MIN_TETS, (el->ntets + F_CHUNK - 1) / F_CHUNK,
-                 tet_F_chunk, &j);
+  const size_t nchunks = (el->ntets + F_CHUNK - 1) / F_CHUNK;
+  if (el->ntets >= EK_FVM_PARALLEL_MIN_TETS)
+    ek_team_run_ranges(nchunks, tet_F_chunk, &j);
+  else
+    for (size_t c = 0; c < nchunks; c++)
+      tet_F_chunk(&j, c, 0);
 }
 
 // Per-tet output fields (ek_fvm_opts J, sigma_min, psi), in double.

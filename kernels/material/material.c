@@ -134,7 +134,8 @@ typedef struct {
   atomic_long count; // integer: the same total in any order
 } eval_job;
 
-static void aosoa_chunk(void *ctx, size_t c) {
+static void aosoa_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   eval_job *j = ctx;
   const int nout = j->nout;
   const real *F = j->F, *R = j->R, *dF = j->dF;
@@ -176,8 +177,12 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
                 .nout = out_planes(op),
                 .dom = counts_domain(m)};
   atomic_init(&j.count, 0);
-  ek_team_run_if(nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN,
-                 (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, aosoa_chunk, &j);
+  const size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
+  if (nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN)
+    ek_team_run_ranges(nchunks, aosoa_chunk, &j);
+  else
+    for (size_t c = 0; c < nchunks; c++)
+      aosoa_chunk(&j, c, 0);
   long count = atomic_load(&j.count);
   return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
 }
@@ -264,7 +269,7 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
   atomic_init(&j.count, 0);
   const size_t nchunks = (n + chunk - 1) / chunk;
   if (parallel)
-    ek_team_run_workers(nchunks, aos_chunk, &j);
+    ek_team_run_ranges(nchunks, aos_chunk, &j);
   else
     for (size_t c = 0; c < nchunks; c++)
       aos_chunk(&j, c, 0);

@@ -61,13 +61,15 @@ typedef struct {
   int iters;
 } warm_job;
 
-static void blocks_chunk(void *ctx, size_t c) {
+static void blocks_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   const warm_job *j = ctx;
   size_t b0 = c * CHUNK_BLOCKS, nb = j->n - b0 < CHUNK_BLOCKS ? j->n - b0 : CHUNK_BLOCKS;
   j->block(nb, j->A + b0 * 9 * EK_LANES, j->R + b0 * 9 * EK_LANES, j->iters);
 }
 
-static void aos_chunk(void *ctx, size_t c) {
+static void aos_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   const warm_job *j = ctx;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t i0 = c * chunk, m = j->n - i0 < chunk ? j->n - i0 : chunk;
@@ -90,7 +92,7 @@ int EK_P(polar3_warm_aosoa)(size_t nblocks, const real *A, real *R,
                            (const void *[]){A, R}, (const char *const[]){"A", "R"})))
     return rc;
   warm_job j = {block, nblocks, A, R, iters};
-  ek_team_run((nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, blocks_chunk, &j);
+  ek_team_run_ranges((nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, blocks_chunk, &j);
   return EK_OK;
 }
 
@@ -122,6 +124,6 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
   A += 9 * head, R += 9 * head, n -= head;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   warm_job j = {aos, n, A, R, iters};
-  ek_team_run((n + chunk - 1) / chunk, aos_chunk, &j);
+  ek_team_run_ranges((n + chunk - 1) / chunk, aos_chunk, &j);
   return EK_OK;
 }

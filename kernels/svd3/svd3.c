@@ -148,7 +148,8 @@ typedef struct {
   const ek_svd3_knobs *k;
 } batch_job;
 
-static void blocks_chunk(void *ctx, size_t c) {
+static void blocks_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   const batch_job *j = ctx;
   size_t b0 = c * CHUNK_BLOCKS, nb = j->n - b0 < CHUNK_BLOCKS ? j->n - b0 : CHUNK_BLOCKS;
   j->block(nb, j->A + b0 * 9 * EK_LANES, j->U + b0 * 9 * EK_LANES,
@@ -164,14 +165,15 @@ static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real
   if (kb.chains < kin->chains && nt_for(nblocks * EK_LANES, U, S, V) == all)
     kb.nt = all, kb.chains = kin->chains;
   batch_job j = {block, nblocks, A, U, S, V, &kb};
-  ek_team_run(nchunks, blocks_chunk, &j);
+  ek_team_run_ranges(nchunks, blocks_chunk, &j);
 }
 
 // AoS path: the kernel reads and writes the AoS arrays itself, transposing
 // in registers (svd3_block.c, k->aos), so nothing is staged or copied.
 // Chunks of whole blocks (a multiple of EK_W): every vector of a chunk is
 // full except at the very end of the batch and in the head (ek_aos_head).
-static void aos_chunk(void *ctx, size_t c) {
+static void aos_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
   const batch_job *j = ctx;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t i0 = c * chunk, m = j->n - i0 < chunk ? j->n - i0 : chunk;
@@ -201,7 +203,7 @@ static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real 
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
   batch_job j = {block, n, A, U, S && !k->polar ? S : NULL, V, &ka};
-  ek_team_run(nchunks, aos_chunk, &j);
+  ek_team_run_ranges(nchunks, aos_chunk, &j);
   return EK_OK;
 }
 
