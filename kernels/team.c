@@ -53,9 +53,9 @@ static struct {
   size_t n;        // chunks of this job (ranges)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
-  // ek_team_run_ranges: worker w's range of chunks, front (low 32 bits:
-  // the next chunk its owner takes) and back (high 32: one past the last;
-  // other workers take from there), a line each.
+  // ek_team_run_ranges: worker w's range of chunks, a line each: FRONT,
+  // the next chunk its owner takes; BACK, one past the last (other workers
+  // take from there); TAG, the job's epoch (low bits).
   struct {
     _Alignas(64) _Atomic uint64_t w;
   } range[MAX_HELPERS + 1];
@@ -64,8 +64,12 @@ static struct {
        .wake = PTHREAD_COND_INITIALIZER,
        .idle = PTHREAD_COND_INITIALIZER};
 
-#define FRONT(w) ((size_t)((w)&0xffffffffu))
-#define BACK(w) ((size_t)((w) >> 32))
+#define FRONT(w) ((size_t)((w) & ((UINT64_C(1) << 24) - 1)))
+#define BACK(w) ((size_t)(((w) >> 24) & ((UINT64_C(1) << 20) - 1)))
+#define BACK_ONE (UINT64_C(1) << 24)
+#define TAG(epoch) (((uint64_t)(epoch)&TAG_MASK) << 44)
+#define TAG_MASK ((UINT64_C(1) << 20) - 1)
+#define TAG_OF(w) ((w) >> 44)
 
 // Tells the caller, if it sleeps, that the job's chunks are done.
 static void done_by(size_t count, size_t n) {
@@ -80,7 +84,12 @@ static void done_by(size_t count, size_t n) {
 // ek_team_run_ranges' work: worker id's own range from the front, then the
 // others' from their backs; the done count once, at the end (a chunk of a
 // later job cannot be among them: the job ends only after this count).
-static void work_ranges(int id) {
+// epoch: the job this worker was called for. Its own range may hold a
+// later job's chunks (a helper still here when that job started: it is one
+// of that job's workers, or its range would not have been set), the others'
+// only this job's: a worker of an earlier, wider job takes nothing from a
+// later one, whose staging has no buffers for it.
+static void work_ranges(int id, uint64_t epoch) {
   const int nr = atomic_load_explicit(&T.want, memory_order_relaxed);
   size_t count = 0;
   for (;;) {
@@ -93,8 +102,8 @@ static void work_ranges(int id) {
   for (int k = 1; k < nr; k++) {
     const int r = (id + k) % nr;
     uint64_t w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
-    while (FRONT(w) < BACK(w))
-      if (atomic_compare_exchange_weak_explicit(&T.range[r].w, &w, w - (UINT64_C(1) << 32),
+    while (FRONT(w) < BACK(w) && TAG_OF(w) == (epoch & TAG_MASK))
+      if (atomic_compare_exchange_weak_explicit(&T.range[r].w, &w, w - BACK_ONE,
                                                 memory_order_acq_rel, memory_order_acquire)) {
         T.wfn(T.ctx, T.base + BACK(w) - 1, id);
         count++;
@@ -107,9 +116,9 @@ static void work_ranges(int id) {
 
 // Claims and runs chunks of the current job until none is left; id: the
 // worker index (0: the caller, else the helper's).
-static void work(int id) {
+static void work(int id, uint64_t epoch) {
   if (atomic_load_explicit(&T.ranged, memory_order_relaxed)) {
-    work_ranges(id);
+    work_ranges(id, epoch);
     return;
   }
   for (;;) {
@@ -155,7 +164,7 @@ static void *helper(void *arg) {
     }
     seen = EPOCH_OF(w);
     if (id < atomic_load_explicit(&T.want, memory_order_relaxed))
-      work(id);
+      work(id, seen);
   }
   return NULL;
 }
@@ -253,22 +262,22 @@ static void job(size_t base, size_t n, int threads, int spin) {
   atomic_store_explicit(&T.done, 0, memory_order_relaxed);
   // Ranges as OpenMP's static schedule splits a loop (release: a worker
   // that takes a chunk from one sees this job's fn, ctx and base).
+  const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
   if (T.wfn)
     for (int r = 0; r < threads; r++)
       atomic_store_explicit(&T.range[r].w,
-                            (uint64_t)(n * (size_t)(r + 1) / (size_t)threads) << 32 |
+                            TAG(epoch) | (uint64_t)(n * (size_t)(r + 1) / (size_t)threads) << 24 |
                                 n * (size_t)r / (size_t)threads,
                             memory_order_release);
   // The claim word: a new epoch wakes the helpers; no chunk to claim there
   // for ranges.
-  const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
   atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)(T.wfn ? 0 : n) << NEXT_BITS);
   if (atomic_load(&T.sleepers) > 0) {
     pthread_mutex_lock(&T.m);
     pthread_cond_broadcast(&T.wake);
     pthread_mutex_unlock(&T.m);
   }
-  work(0);
+  work(0, epoch);
   // Only chunks a helper claimed are left: wait for them.
   for (int spins = 0; spins < spin; spins++)
     if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
