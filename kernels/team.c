@@ -12,6 +12,12 @@
 // way. sleepers / caller_sleeps and the words they guard are sequentially
 // consistent: either the waker sees the sleeper, or the sleeper sees the
 // change before it waits (it holds the mutex from its check to the wait).
+// ek_team_run_ranges' jobs store no chunk count in the claim word (its new
+// epoch only wakes the helpers): a worker takes chunks from the range words
+// instead, each stored (release) after fn, ctx and base, and adds its count
+// to done once it finds every range empty; ranges are empty when a job ends,
+// so a helper still looking from an earlier job finds nothing, or this
+// job's chunks.
 #define _GNU_SOURCE
 #include <omp.h>
 #include <pthread.h>
@@ -38,29 +44,89 @@ static struct {
   _Atomic uint64_t claim;
   atomic_size_t done;
   atomic_int sleepers, caller_sleeps;
-  atomic_int want; // helpers 1 .. want - 1 take part in the current job
-  ek_team_fn *fn;
+  atomic_int want;        // helpers 1 .. want - 1 take part in the current job
+  ek_team_fn *fn;         // ek_team_run's chunks: fn(ctx, base + i)
+  ek_team_worker_fn *wfn; // ek_team_run_ranges': wfn(ctx, base + i, worker)
+  atomic_int ranged;      // the job is ek_team_run_ranges'
   void *ctx;
+  size_t base;     // first chunk of this job (a run of more than EK_TEAM_MAX_CHUNKS)
+  size_t n;        // chunks of this job (ranges)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
+  // ek_team_run_ranges: worker w's range of chunks, a line each: FRONT,
+  // the next chunk its owner takes; BACK, one past the last (other workers
+  // take from there); TAG, the job's epoch (low bits).
+  struct {
+    _Alignas(64) _Atomic uint64_t w;
+  } range[MAX_HELPERS + 1];
 } T = {.run = PTHREAD_MUTEX_INITIALIZER,
        .m = PTHREAD_MUTEX_INITIALIZER,
        .wake = PTHREAD_COND_INITIALIZER,
        .idle = PTHREAD_COND_INITIALIZER};
 
-// Claims and runs chunks of the current job until none is left.
-static void work(void) {
+#define FRONT(w) ((size_t)((w) & ((UINT64_C(1) << 24) - 1)))
+#define BACK(w) ((size_t)(((w) >> 24) & ((UINT64_C(1) << 20) - 1)))
+#define BACK_ONE (UINT64_C(1) << 24)
+#define TAG(epoch) (((uint64_t)(epoch)&TAG_MASK) << 44)
+#define TAG_MASK ((UINT64_C(1) << 20) - 1)
+#define TAG_OF(w) ((w) >> 44)
+
+// Tells the caller, if it sleeps, that the job's chunks are done.
+static void done_by(size_t count, size_t n) {
+  size_t d = atomic_fetch_add_explicit(&T.done, count, memory_order_acq_rel) + count;
+  if (d == n && atomic_load(&T.caller_sleeps)) {
+    pthread_mutex_lock(&T.m);
+    pthread_cond_broadcast(&T.idle);
+    pthread_mutex_unlock(&T.m);
+  }
+}
+
+// ek_team_run_ranges' work: worker id's own range from the front, then the
+// others' from their backs; the done count once, at the end (a chunk of a
+// later job cannot be among them: the job ends only after this count).
+// epoch: the job this worker was called for. Its own range may hold a
+// later job's chunks (a helper still here when that job started: it is one
+// of that job's workers, or its range would not have been set), the others'
+// only this job's: a worker of an earlier, wider job takes nothing from a
+// later one, whose staging has no buffers for it.
+static void work_ranges(int id, uint64_t epoch) {
+  const int nr = atomic_load_explicit(&T.want, memory_order_relaxed);
+  size_t count = 0;
+  for (;;) {
+    uint64_t w = atomic_fetch_add_explicit(&T.range[id].w, 1, memory_order_acq_rel);
+    if (FRONT(w) >= BACK(w))
+      break;
+    T.wfn(T.ctx, T.base + FRONT(w), id);
+    count++;
+  }
+  for (int k = 1; k < nr; k++) {
+    const int r = (id + k) % nr;
+    uint64_t w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
+    while (FRONT(w) < BACK(w) && TAG_OF(w) == (epoch & TAG_MASK))
+      if (atomic_compare_exchange_weak_explicit(&T.range[r].w, &w, w - BACK_ONE,
+                                                memory_order_acq_rel, memory_order_acquire)) {
+        T.wfn(T.ctx, T.base + BACK(w) - 1, id);
+        count++;
+        w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
+      }
+  }
+  if (count)
+    done_by(count, T.n);
+}
+
+// Claims and runs chunks of the current job until none is left; id: the
+// worker index (0: the caller, else the helper's).
+static void work(int id, uint64_t epoch) {
+  if (atomic_load_explicit(&T.ranged, memory_order_relaxed)) {
+    work_ranges(id, epoch);
+    return;
+  }
   for (;;) {
     uint64_t w = atomic_fetch_add_explicit(&T.claim, 1, memory_order_acq_rel);
     if (NEXT_OF(w) >= N_OF(w))
       return;
-    T.fn(T.ctx, NEXT_OF(w));
-    size_t d = atomic_fetch_add_explicit(&T.done, 1, memory_order_acq_rel) + 1;
-    if (d == N_OF(w) && atomic_load(&T.caller_sleeps)) {
-      pthread_mutex_lock(&T.m);
-      pthread_cond_broadcast(&T.idle);
-      pthread_mutex_unlock(&T.m);
-    }
+    T.fn(T.ctx, T.base + NEXT_OF(w));
+    done_by(1, N_OF(w));
   }
 }
 
@@ -98,7 +164,7 @@ static void *helper(void *arg) {
     }
     seen = EPOCH_OF(w);
     if (id < atomic_load_explicit(&T.want, memory_order_relaxed))
-      work();
+      work(id, seen);
   }
   return NULL;
 }
@@ -164,9 +230,12 @@ static int start_helpers(int count) {
   return T.helpers;
 }
 
-static void serial(size_t n, ek_team_fn *fn, void *ctx) {
+static void serial(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
   for (size_t i = 0; i < n; i++)
-    fn(ctx, i);
+    if (wfn)
+      wfn(ctx, i, 0);
+    else
+      fn(ctx, i);
 }
 
 int ek_wait_spins(int threads) {
@@ -180,43 +249,71 @@ int ek_wait_spins(int threads) {
   return p || threads > omp_get_num_procs() ? 1 << 8 : 1 << 20;
 }
 
-void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) {
+int ek_team_threads(void) {
   const int threads = omp_get_max_threads();
-  if (n <= 1 || threads < 2 || n > EK_TEAM_MAX_CHUNKS || omp_in_parallel() ||
-      pthread_mutex_trylock(&T.run) != 0) {
-    serial(n, fn, ctx);
-    return;
-  }
-  const int helpers = start_helpers(threads - 1);
-  if (helpers == 0) {
-    pthread_mutex_unlock(&T.run);
-    serial(n, fn, ctx);
-    return;
-  }
-  const int spin = ek_wait_spins(threads);
-  atomic_store_explicit(&T.spin, spin, memory_order_relaxed);
-  T.fn = fn;
-  T.ctx = ctx;
+  return omp_in_parallel() || threads < 2 ? 1 : threads > MAX_HELPERS ? MAX_HELPERS + 1 : threads;
+}
+
+// One job of n <= EK_TEAM_MAX_CHUNKS chunks, base + [0, n), under run.
+static void job(size_t base, size_t n, int threads, int spin) {
+  T.base = base;
+  T.n = n;
   atomic_store_explicit(&T.want, threads, memory_order_relaxed);
   atomic_store_explicit(&T.done, 0, memory_order_relaxed);
+  // Ranges as OpenMP's static schedule splits a loop (release: a worker
+  // that takes a chunk from one sees this job's fn, ctx and base).
   const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
-  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)n << NEXT_BITS);
+  if (T.wfn)
+    for (int r = 0; r < threads; r++)
+      atomic_store_explicit(&T.range[r].w,
+                            TAG(epoch) | (uint64_t)(n * (size_t)(r + 1) / (size_t)threads) << 24 |
+                                n * (size_t)r / (size_t)threads,
+                            memory_order_release);
+  // The claim word: a new epoch wakes the helpers; no chunk to claim there
+  // for ranges.
+  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)(T.wfn ? 0 : n) << NEXT_BITS);
   if (atomic_load(&T.sleepers) > 0) {
     pthread_mutex_lock(&T.m);
     pthread_cond_broadcast(&T.wake);
     pthread_mutex_unlock(&T.m);
   }
-  work();
+  work(0, epoch);
   // Only chunks a helper claimed are left: wait for them.
   for (int spins = 0; spins < spin; spins++)
     if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
-      goto done;
+      return;
   pthread_mutex_lock(&T.m);
   atomic_store(&T.caller_sleeps, 1);
   while (atomic_load(&T.done) != n)
     pthread_cond_wait(&T.idle, &T.m);
   atomic_store(&T.caller_sleeps, 0);
   pthread_mutex_unlock(&T.m);
-done:
+}
+
+static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
+  const int threads = ek_team_threads();
+  if (n <= 1 || threads < 2 || pthread_mutex_trylock(&T.run) != 0) {
+    serial(n, fn, wfn, ctx);
+    return;
+  }
+  const int helpers = start_helpers(threads - 1);
+  if (helpers == 0) {
+    pthread_mutex_unlock(&T.run);
+    serial(n, fn, wfn, ctx);
+    return;
+  }
+  const int spin = ek_wait_spins(omp_get_max_threads());
+  atomic_store_explicit(&T.spin, spin, memory_order_relaxed);
+  T.fn = fn;
+  T.wfn = wfn;
+  T.ctx = ctx;
+  atomic_store_explicit(&T.ranged, wfn != NULL, memory_order_relaxed);
+  // The claim word holds at most EK_TEAM_MAX_CHUNKS: more run as several jobs.
+  for (size_t base = 0; base < n; base += EK_TEAM_MAX_CHUNKS)
+    job(base, n - base < EK_TEAM_MAX_CHUNKS ? n - base : EK_TEAM_MAX_CHUNKS, threads, spin);
   pthread_mutex_unlock(&T.run);
 }
+
+void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, ctx); }
+
+void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, ctx); }

@@ -1,7 +1,12 @@
 // Internal: a team of helper threads that run fixed chunks claimed from a
-// counter, for the passes that must stay fast when a core is busy (the
+// counter, for the passes that must stay fast when a core is busy: the
 // explicit loop's FVM force and integration, the cloth force, the cloth
-// XPBD sweep).
+// XPBD sweep, the implicit loop's matrix-free CG, and (sixteenth round) the
+// public batch drivers: the SVD and polar batches (svd3.c, AoSoA and AoS),
+// the warm polar batches (polar.c), material_eval (material.c, AoSoA and
+// AoS), the staged AoS<->AoSoA chunks (batch/aosoa.c) and the FVM force's
+// per-tet F (fvm.c). A user's process then has one pool, not libgomp's and
+// this one spinning against each other.
 //
 // Why not an OpenMP region: a region's end is a barrier, so the thread that
 // called it waits for every team thread to arrive, and a thread that the
@@ -24,9 +29,30 @@ typedef void ek_team_fn(void *ctx, size_t i);
 // threads, and returns once every chunk is done (what the chunks wrote is
 // then visible to the caller). Runs everything on the calling thread when
 // n <= 1, at 1 thread, inside an OpenMP parallel region, or while another
-// thread's job runs. n at most EK_TEAM_MAX_CHUNKS.
+// thread's job runs. More than EK_TEAM_MAX_CHUNKS chunks (the claim word's
+// count) run as several jobs, one after the other.
 #define EK_TEAM_MAX_CHUNKS ((size_t)1 << 19)
 void ek_team_run(size_t n, ek_team_fn *fn, void *ctx);
+
+// Work of chunk i on worker `worker`: 0 for the calling thread, 1 ..
+// ek_team_threads() - 1 for the helpers; a worker runs one chunk at a time,
+// so per-worker scratch (staging buffers) needs no lock.
+typedef void ek_team_worker_fn(void *ctx, size_t i, int worker);
+
+// The workers an ek_team_run* called now from this thread may use: 1 inside
+// an OpenMP parallel region, else omp_get_max_threads() (at most 64).
+int ek_team_threads(void);
+
+// ek_team_run, passing each chunk its worker (0 for every chunk where it
+// runs on the calling thread alone), and with the chunks split as OpenMP's
+// static schedule splits a loop: worker w runs the w-th of
+// ek_team_threads() contiguous ranges from its front, then takes chunks
+// from the backs of the others' ranges (those of a helper that has not
+// started, or whose core is busy). While both cores are free a chunk runs
+// on the same core call after call, so a batch that fits the L2s stays in
+// them (one claim word shared by all moved the chunks between the cores);
+// each claim is on the worker's own line.
+void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx);
 
 // Checks a wait spins before it sleeps, for `threads` threads: 2^20 (~1 ms,
 // about libgomp's own spin), 2^8 with more threads than processors (a

@@ -9,8 +9,8 @@
 // 1| within the budget) for every input: guesses up to 180 degrees off,
 // inverted, rank-deficient and zero A, A at 1e+-30; a NaN matrix gives NaN
 // in its own R only; AoS and AoSoA entry points agree bit for bit (tails
-// included; on the extremes too, where a NaN may differ in sign), as do 1
-// and 2 threads; bad options and arguments give
+// included; on the extremes too, where a NaN may differ in sign), as do 1,
+// 2 and 3 threads (AoS and AoSoA); bad options and arguments give
 // EK_EINVAL and write nothing; the scene key parses; the cantilever and
 // twist with "polar": "warm" (fixed corotated, and corotated linear's R^n)
 // stay within the EK_POLAR_WARM_LOOP_* bounds of "polar": "svd", and give
@@ -267,7 +267,7 @@ static void extremes(int bits, ek_isa isa, uint64_t seed) {
   free(R1), free(As), free(A), free(G), free(R), free(Raos);
 }
 
-// ---- AoS = AoSoA bits (tails), 1 = 2 threads bits ----
+// ---- AoS = AoSoA bits (tails), 1 = 2 = 3 threads bits (AoS and AoSoA) ----
 static void layouts_and_threads(int bits, uint64_t seed) {
   ek_rng rng;
   ek_rng_seed(&rng, ek_check_stream_seed(seed, "threads"));
@@ -284,15 +284,25 @@ static void layouts_and_threads(int bits, uint64_t seed) {
   snprintf(label, sizeof label, "warm f%d AoS = AoSoA bits, n = %d", bits, N_TAIL);
   check(label, memcmp(R1, R2, N_TAIL * 9 * sizeof(double)) == 0, "");
   int threads = omp_get_max_threads();
-  omp_set_num_threads(1);
-  memcpy(R1, G, n * 9 * sizeof(double));
-  ek_check_run_polar_warm(bits, 0, n, A, R1, EK_ISA_AUTO, 0);
-  omp_set_num_threads(2);
-  memcpy(R2, G, n * 9 * sizeof(double));
-  ek_check_run_polar_warm(bits, 0, n, A, R2, EK_ISA_AUTO, 0);
-  omp_set_num_threads(threads);
-  snprintf(label, sizeof label, "warm f%d 1 thread = 2 threads bits, n = %d", bits, N_THREADS_TEST);
-  check(label, memcmp(R1, R2, n * 9 * sizeof(double)) == 0, "");
+  for (int aosoa = 0; aosoa < 2; aosoa++) {
+    omp_set_num_threads(1);
+    memcpy(R1, G, n * 9 * sizeof(double));
+    ek_check_run_polar_warm(bits, aosoa, n, A, R1, EK_ISA_AUTO, 0);
+    // Chunks go to whichever thread claims them first (kernels/team.h): a
+    // few calls per count, so that the helpers take some in most.
+    int same = 1;
+    for (int t = 2; t <= 3; t++)
+      for (int rep = 0; rep < 3; rep++) {
+        omp_set_num_threads(t);
+        memcpy(R2, G, n * 9 * sizeof(double));
+        ek_check_run_polar_warm(bits, aosoa, n, A, R2, EK_ISA_AUTO, 0);
+        same &= memcmp(R1, R2, n * 9 * sizeof(double)) == 0;
+      }
+    omp_set_num_threads(threads);
+    snprintf(label, sizeof label, "warm f%d %s 1 thread = 2 and 3 threads bits, n = %d", bits,
+             aosoa ? "AoSoA" : "AoS", N_THREADS_TEST);
+    check(label, same, "");
+  }
   free(A), free(G), free(R1), free(R2);
 }
 

@@ -78,8 +78,9 @@
 // lambda <= -2 mu / 3, clamp < 0, stable neo-Hookean with lambda == 0,
 // R == NULL for corotated linear, a NULL array with n > 0.
 //
-// Threads: OpenMP over blocks; results are bitwise identical for any
-// thread count. Batches below EK_MATERIAL_PARALLEL_MIN elements run on the
+// Threads: chunks of blocks on the library's helper threads, as many as
+// omp_get_max_threads(), the calling thread alone inside an OpenMP parallel
+// region; results are bitwise identical for any thread count. Batches below EK_MATERIAL_PARALLEL_MIN elements run on the
 // calling thread (a few us of work: less than waking a second one costs).
 #ifndef EK_MATERIAL_H
 #define EK_MATERIAL_H

@@ -33,7 +33,9 @@
 //     polar" has the measured errors.
 //   - A or guess with a NaN or infinity: NaN in all of that matrix's R; the
 //     other matrices are untouched by it.
-// Threads: OpenMP over blocks (OMP_NUM_THREADS).
+// Threads: chunks of blocks on the library's helper threads, as many as
+// omp_get_max_threads() (OMP_NUM_THREADS), the calling thread alone inside
+// an OpenMP parallel region.
 #ifndef EK_POLAR_H
 #define EK_POLAR_H
 

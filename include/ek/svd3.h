@@ -8,8 +8,10 @@
 //   det A < 0 (an inverted element).
 // A matrix with a NaN or infinity gives NaN in all of its U, S, V entries;
 // the other matrices of the batch are untouched by it.
-// Threads: OpenMP over blocks (OMP_NUM_THREADS); results are bitwise
-// identical for any thread count.
+// Threads: chunks of blocks on the library's helper threads, as many as
+// omp_get_max_threads() (OMP_NUM_THREADS), the calling thread alone inside
+// an OpenMP parallel region; results are bitwise identical for any thread
+// count.
 // Floating-point mode (core.h): results are the same bits whatever the
 // caller's FTZ/DAZ. Subnormal inputs (entries below FLT_MIN / DBL_MIN) are
 // decomposed like any other scale, even with the caller's DAZ on: a tiny

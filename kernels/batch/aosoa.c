@@ -1,11 +1,11 @@
 // AoS <-> AoSoA conversion (layout in include/ek/batch.h). Built once per
 // precision; EK_P() gives the public names.
-#include <omp.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "kernels.h"
 #include "real.h"
+#include "team.h"
 
 // n / LANES rounded up, written so that it cannot wrap (n + LANES - 1
 // would, near SIZE_MAX).
@@ -88,34 +88,44 @@ typedef ek_staged_chunk_f32_fn staged_chunk_fn;
 typedef ek_staged_chunk_f64_fn staged_chunk_fn;
 #endif
 
+typedef struct {
+  staged_chunk_fn *run;
+  void *ctx;
+  size_t n, chunk;
+  int nbuf;
+  real *bufs[EK_STAGED_MAX_BUFS]; // each worker's part: chunk * planes[k] reals
+  const int *planes;
+} staged_job;
+
+static void staged_chunk(void *ctx, size_t c, int worker) {
+  const staged_job *j = ctx;
+  real *bufs[EK_STAGED_MAX_BUFS] = {0};
+  for (int k = 0; k < j->nbuf; k++)
+    if (j->bufs[k])
+      bufs[k] = j->bufs[k] + (size_t)worker * j->chunk * (size_t)j->planes[k];
+  size_t i0 = c * j->chunk;
+  j->run(j->ctx, i0, j->n - i0 < j->chunk ? j->n - i0 : j->chunk, bufs);
+}
+
+// The chunks on the helper team (team.h), with staging buffers for every
+// worker allocated up front: a failed allocation runs no chunk, as the
+// OpenMP region this replaces did (each thread allocated its own, and a
+// barrier made every thread see a failure before any ran a chunk).
 int EK_P(staged_chunks)(const char *fn, size_t n, size_t chunk_blocks, int nbuf, const int *planes,
                         staged_chunk_fn *run, void *ctx) {
   const size_t chunk = chunk_blocks * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
-  int failed = 0;
-#pragma omp parallel if (nchunks > 1)
-  {
-    real *bufs[EK_STAGED_MAX_BUFS] = {0};
-    int ok = 1;
-    for (int k = 0; k < nbuf; k++)
-      if (planes[k] > 0)
-        ok = ok && (bufs[k] = ek_alloc(chunk * (size_t)planes[k] * sizeof(real)));
-    if (!ok) {
-#pragma omp atomic write
-      failed = 1;
-    }
-#pragma omp barrier
-    if (!failed) {
-#pragma omp for schedule(static)
-      for (size_t c = 0; c < nchunks; c++) {
-        size_t i0 = c * chunk;
-        run(ctx, i0, n - i0 < chunk ? n - i0 : chunk, bufs);
-      }
-    }
-    for (int k = 0; k < nbuf; k++)
-      ek_free(bufs[k]);
-  }
-  if (failed) {
+  const size_t nchunks = (n + chunk - 1) / chunk;
+  const int workers = nchunks > 1 ? ek_team_threads() : 1;
+  staged_job j = {.run = run, .ctx = ctx, .n = n, .chunk = chunk, .nbuf = nbuf, .planes = planes};
+  int ok = 1;
+  for (int k = 0; k < nbuf; k++)
+    if (planes[k] > 0)
+      ok = ok && (j.bufs[k] = ek_alloc((size_t)workers * chunk * (size_t)planes[k] * sizeof(real)));
+  if (ok)
+    ek_team_run_ranges(nchunks, staged_chunk, &j);
+  for (int k = 0; k < nbuf; k++)
+    ek_free(j.bufs[k]);
+  if (!ok) {
     ek_set_error("%s: out of memory for staging buffers", fn);
     return EK_ENOMEM;
   }

@@ -68,21 +68,42 @@ static void fvm_range(const void *ctx, size_t b0, size_t b1, real *f, real *corn
 }
 
 // F = Ds Dm^-1 per tet in double, caller order (Teran et al. 2003 sec. 4),
-// from positions in the working precision.
-static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
-#pragma omp parallel for schedule(static) if (el->ntets >= EK_FVM_PARALLEL_MIN_TETS)
-  for (size_t e = 0; e < el->ntets; e++) {
+// from positions in the working precision; chunks of F_CHUNK tets on the
+// helper team.
+#define F_CHUNK 1024
+typedef struct {
+  const ek_tets *el;
+  const real *x;
+  double *F;
+} tet_F_job;
+
+static void tet_F_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  const tet_F_job *j = ctx;
+  const ek_tets *el = j->el;
+  const size_t e1 = el->ntets - c * F_CHUNK < F_CHUNK ? el->ntets : (c + 1) * F_CHUNK;
+  for (size_t e = c * F_CHUNK; e < e1; e++) {
     const int32_t *t = el->tets + e * 4;
     const double *Dmi = el->Dm_inv + e * 9;
     double Ds[9];
-    for (int c = 0; c < 3; c++)
+    for (int k = 0; k < 3; k++)
       for (int i = 0; i < 3; i++)
-        Ds[i * 3 + c] = (double)x[(size_t)t[c + 1] * 3 + i] - (double)x[(size_t)t[0] * 3 + i];
+        Ds[i * 3 + k] = (double)j->x[(size_t)t[k + 1] * 3 + i] - (double)j->x[(size_t)t[0] * 3 + i];
     for (int i = 0; i < 3; i++)
-      for (int j = 0; j < 3; j++)
-        F[e * 9 + i * 3 + j] = Ds[i * 3 + 0] * Dmi[0 * 3 + j] + Ds[i * 3 + 1] * Dmi[1 * 3 + j] +
-                               Ds[i * 3 + 2] * Dmi[2 * 3 + j];
+      for (int k = 0; k < 3; k++)
+        j->F[e * 9 + i * 3 + k] = Ds[i * 3 + 0] * Dmi[0 * 3 + k] + Ds[i * 3 + 1] * Dmi[1 * 3 + k] +
+                                  Ds[i * 3 + 2] * Dmi[2 * 3 + k];
   }
+}
+
+static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
+  tet_F_job j = {el, x, F};
+  const size_t nchunks = (el->ntets + F_CHUNK - 1) / F_CHUNK;
+  if (el->ntets >= EK_FVM_PARALLEL_MIN_TETS)
+    ek_team_run_ranges(nchunks, tet_F_chunk, &j);
+  else
+    for (size_t c = 0; c < nchunks; c++)
+      tet_F_chunk(&j, c, 0);
 }
 
 // Per-tet output fields (ek_fvm_opts J, sigma_min, psi), in double.

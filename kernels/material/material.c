@@ -1,22 +1,24 @@
 // Material driver (built once per precision, baseline ISA): checks the
 // arguments, resolves the kernel table, and runs the block kernel over
-// OpenMP chunks of blocks. The AoS forms pack each chunk into a per-thread
-// AoSoA buffer, call the kernel and unpack, so the kernels only ever see
-// whole blocks (tails padded with the identity for F and R, zero for dF).
+// chunks of blocks on the helper team (kernels/team.h). The AoS forms pack
+// each chunk into its worker's AoSoA buffer, call the kernel and unpack,
+// so the kernels only ever see whole blocks (tails padded with the
+// identity for F and R, zero for dF).
 // Results do not depend on the thread count: each element is computed
 // alone, and the only reduction is an integer count.
 #include <ek/material.h>
 #include <limits.h>
 #include <math.h>
-#include <omp.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "../kernels.h"
 #include "../real.h"
+#include "../team.h"
 #include "models.h"
 
-// Blocks per OpenMP work item / staging chunk (16 blocks of 16 floats: F,
+// Blocks per team chunk / staging chunk (16 blocks of 16 floats: F,
 // dF and P of a chunk take 27 KB, a Hessian chunk 83 KB).
 #define CHUNK_BLOCKS 16
 
@@ -116,6 +118,42 @@ static int entries_finite(const real *a, size_t stride, int n) {
   return 1;
 }
 
+// One material_eval call's chunks on the helper team (team.h). Fs, Rs, dFs,
+// Os: the AoS form's staging, `per_worker` reals for each worker (a worker
+// runs one chunk at a time).
+typedef struct {
+  const ek_material *m;
+  const ek_kernel_table *t;
+  ek_material_knobs k;
+  size_t n; // blocks (AoSoA) or elements (AoS)
+  const real *F, *R, *dF;
+  real *out;
+  int nout, dom, use_R, use_dF;
+  real *buffers;
+  size_t per_worker;
+  atomic_long count; // integer: the same total in any order
+} eval_job;
+
+static void aosoa_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  eval_job *j = ctx;
+  const int nout = j->nout;
+  const real *F = j->F, *R = j->R, *dF = j->dF;
+  size_t b0 = c * CHUNK_BLOCKS, nb = j->n - b0 < CHUNK_BLOCKS ? j->n - b0 : CHUNK_BLOCKS;
+  const size_t in = b0 * 9 * EK_LANES;
+  real *o = j->out + b0 * (size_t)nout * EK_LANES;
+  j->t->EK_FIELD(material_block)[j->m->model](nb, F + in, R ? R + in : NULL, dF ? dF + in : NULL, o,
+                                              &j->k);
+  long count = 0;
+  if (j->dom)
+    for (size_t b = 0; b < nb; b++)
+      for (int l = 0; l < EK_LANES; l++)
+        count += outside(o[b * nout * EK_LANES + l], j->k.op) &&
+                 entries_finite(F + in + b * 9 * EK_LANES + l, EK_LANES, 9);
+  if (count)
+    atomic_fetch_add_explicit(&j->count, count, memory_order_relaxed);
+}
+
 int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa isa, size_t nblocks,
                               const real *F, const real *R, const real *dF, real *out,
                               int project) {
@@ -128,25 +166,65 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
     return EK_EISA;
   if (nblocks == 0)
     return 0;
-  ek_material_knobs k = knobs_of(m, op, project);
-  const int nout = out_planes(op), dom = counts_domain(m);
+  eval_job j = {.m = m,
+                .t = t,
+                .k = knobs_of(m, op, project),
+                .n = nblocks,
+                .F = F,
+                .R = R,
+                .dF = dF,
+                .out = out,
+                .nout = out_planes(op),
+                .dom = counts_domain(m)};
+  atomic_init(&j.count, 0);
   const size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-  long count = 0;
-#pragma omp parallel for schedule(static) reduction(+ : count) \
-    if (nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
-    const size_t in = b0 * 9 * EK_LANES;
-    real *o = out + b0 * (size_t)nout * EK_LANES;
-    t->EK_FIELD(material_block)[m->model](nb, F + in, R ? R + in : NULL, dF ? dF + in : NULL, o,
-                                          &k);
-    if (dom)
-      for (size_t b = 0; b < nb; b++)
-        for (int l = 0; l < EK_LANES; l++)
-          count += outside(o[b * nout * EK_LANES + l], op) &&
-                   entries_finite(F + in + b * 9 * EK_LANES + l, EK_LANES, 9);
-  }
+  if (nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN)
+    ek_team_run_ranges(nchunks, aosoa_chunk, &j);
+  else
+    for (size_t c = 0; c < nchunks; c++)
+      aosoa_chunk(&j, c, 0);
+  long count = atomic_load(&j.count);
   return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
+}
+
+static void aos_chunk(void *ctx, size_t c, int worker) {
+  eval_job *j = ctx;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES; // elements per chunk
+  const int nout = j->nout, use_R = j->use_R, use_dF = j->use_dF;
+  const real *F = j->F, *R = j->R, *dF = j->dF;
+  real *Fs = j->buffers + (size_t)worker * j->per_worker;
+  real *Rs = Fs + chunk * 9;
+  real *dFs = Rs + (use_R ? chunk * 9 : 0);
+  real *Os = dFs + (use_dF ? chunk * 9 : 0);
+  const size_t e0 = c * chunk, ne = j->n - e0 < chunk ? j->n - e0 : chunk;
+  const size_t nb = (ne + EK_LANES - 1) / EK_LANES;
+  // Pack (AoSoA layout of batch.h), tails: identity F and R, zero dF.
+  for (size_t b = 0; b < nb; b++)
+    for (int l = 0; l < EK_LANES; l++) {
+      const size_t e = b * EK_LANES + (size_t)l;
+      for (int q = 0; q < 9; q++) {
+        const size_t s = (b * 9 + (size_t)q) * EK_LANES + (size_t)l;
+        const real id = q % 4 == 0 ? 1 : 0;
+        Fs[s] = e < ne ? F[(e0 + e) * 9 + (size_t)q] : id;
+        if (use_R)
+          Rs[s] = e < ne ? R[(e0 + e) * 9 + (size_t)q] : id;
+        if (use_dF)
+          dFs[s] = e < ne ? dF[(e0 + e) * 9 + (size_t)q] : 0;
+      }
+    }
+  j->t->EK_FIELD(material_block)[j->m->model](nb, Fs, use_R ? Rs : NULL, use_dF ? dFs : NULL, Os,
+                                              &j->k);
+  long count = 0;
+  for (size_t e = 0; e < ne; e++) {
+    const size_t b = e / EK_LANES, l = e % EK_LANES;
+    real *dst = j->out + (e0 + e) * (size_t)nout;
+    for (int q = 0; q < nout; q++)
+      dst[q] = Os[(b * (size_t)nout + (size_t)q) * EK_LANES + l];
+    if (j->dom)
+      count += outside(dst[0], j->k.op) && entries_finite(F + (e0 + e) * 9, 1, 9);
+  }
+  if (count)
+    atomic_fetch_add_explicit(&j->count, count, memory_order_relaxed);
 }
 
 int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, size_t n,
@@ -160,58 +238,43 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
     return EK_EISA;
   if (n == 0)
     return 0;
-  ek_material_knobs k = knobs_of(m, op, project);
-  const int nout = out_planes(op), dom = counts_domain(m);
+  const int nout = out_planes(op);
   const int use_R = ek_models[m->model]->needs == EK_NEEDS_R_INPUT, use_dF = op == EK_MAT_PK1_DIFF;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES; // elements per chunk
-  const size_t nchunks = (n + chunk - 1) / chunk;
-  // Staging buffers for every thread, allocated up front so a failure leaves
+  const size_t per_worker = chunk * (9 + (use_R ? 9 : 0) + (use_dF ? 9 : 0) + (size_t)nout);
+  // Staging buffers for every worker, allocated up front so a failure leaves
   // the output untouched.
-  const int nthreads = omp_get_max_threads();
-  const size_t per_thread = chunk * (9 + (use_R ? 9 : 0) + (use_dF ? 9 : 0) + (size_t)nout);
-  real *buffers = ek_alloc((size_t)nthreads * per_thread * sizeof(real));
+  const int parallel = n >= EK_MATERIAL_PARALLEL_MIN;
+  const int workers = parallel ? ek_team_threads() : 1;
+  real *buffers = ek_alloc((size_t)workers * per_worker * sizeof(real));
   if (!buffers) {
     ek_set_error("%s: out of memory (%zu bytes of staging)", fn,
-                 (size_t)nthreads * per_thread * sizeof(real));
+                 (size_t)workers * per_worker * sizeof(real));
     return EK_ENOMEM;
   }
-  long count = 0;
-#pragma omp parallel num_threads(nthreads) reduction(+ : count) if (n >= EK_MATERIAL_PARALLEL_MIN)
-  {
-    real *Fs = buffers + (size_t)omp_get_thread_num() * per_thread;
-    real *Rs = Fs + chunk * 9;
-    real *dFs = Rs + (use_R ? chunk * 9 : 0);
-    real *Os = dFs + (use_dF ? chunk * 9 : 0);
-#pragma omp for schedule(static)
-    for (size_t c = 0; c < nchunks; c++) {
-      const size_t e0 = c * chunk, ne = n - e0 < chunk ? n - e0 : chunk;
-      const size_t nb = (ne + EK_LANES - 1) / EK_LANES;
-      // Pack (AoSoA layout of batch.h), tails: identity F and R, zero dF.
-      for (size_t b = 0; b < nb; b++)
-        for (int l = 0; l < EK_LANES; l++) {
-          const size_t e = b * EK_LANES + (size_t)l;
-          for (int q = 0; q < 9; q++) {
-            const size_t s = (b * 9 + (size_t)q) * EK_LANES + (size_t)l;
-            const real id = q % 4 == 0 ? 1 : 0;
-            Fs[s] = e < ne ? F[(e0 + e) * 9 + (size_t)q] : id;
-            if (use_R)
-              Rs[s] = e < ne ? R[(e0 + e) * 9 + (size_t)q] : id;
-            if (use_dF)
-              dFs[s] = e < ne ? dF[(e0 + e) * 9 + (size_t)q] : 0;
-          }
-        }
-      t->EK_FIELD(material_block)[m->model](nb, Fs, use_R ? Rs : NULL, use_dF ? dFs : NULL, Os, &k);
-      for (size_t e = 0; e < ne; e++) {
-        const size_t b = e / EK_LANES, l = e % EK_LANES;
-        real *dst = out + (e0 + e) * (size_t)nout;
-        for (int q = 0; q < nout; q++)
-          dst[q] = Os[(b * (size_t)nout + (size_t)q) * EK_LANES + l];
-        if (dom)
-          count += outside(dst[0], op) && entries_finite(F + (e0 + e) * 9, 1, 9);
-      }
-    }
-  }
+  eval_job j = {.m = m,
+                .t = t,
+                .k = knobs_of(m, op, project),
+                .n = n,
+                .F = F,
+                .R = R,
+                .dF = dF,
+                .out = out,
+                .nout = nout,
+                .dom = counts_domain(m),
+                .use_R = use_R,
+                .use_dF = use_dF,
+                .buffers = buffers,
+                .per_worker = per_worker};
+  atomic_init(&j.count, 0);
+  const size_t nchunks = (n + chunk - 1) / chunk;
+  if (parallel)
+    ek_team_run_ranges(nchunks, aos_chunk, &j);
+  else
+    for (size_t c = 0; c < nchunks; c++)
+      aos_chunk(&j, c, 0);
   ek_free(buffers);
+  long count = atomic_load(&j.count);
   return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
 }
 

@@ -1,11 +1,11 @@
 // Driver of the warm-started polar kernel (include/ek/polar.h): option
-// checks, dispatch once per batch, OpenMP over chunks of blocks. Built once
-// per precision (EK_P names).
+// checks, dispatch once per batch, chunks of blocks on the helper team
+// (team.h). Built once per precision (EK_P names).
 #include <ek/polar.h>
-#include <omp.h>
 
 #include "kernels.h"
 #include "real.h"
+#include "team.h"
 
 // Default iterations, from the error sweep in README ("Warm-started
 // polar"): from a guess within 10 degrees, two Newton steps leave < 1e-6
@@ -53,6 +53,29 @@ static int resolve(const char *fn, const ek_polar_warm_opts *o, int aos, int *it
   return EK_OK;
 }
 
+typedef struct {
+  polar_warm_block_fn *block;
+  size_t n; // blocks (AoSoA) or matrices (AoS)
+  const real *A;
+  real *R;
+  int iters;
+} warm_job;
+
+static void blocks_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  const warm_job *j = ctx;
+  size_t b0 = c * CHUNK_BLOCKS, nb = j->n - b0 < CHUNK_BLOCKS ? j->n - b0 : CHUNK_BLOCKS;
+  j->block(nb, j->A + b0 * 9 * EK_LANES, j->R + b0 * 9 * EK_LANES, j->iters);
+}
+
+static void aos_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  const warm_job *j = ctx;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t i0 = c * chunk, m = j->n - i0 < chunk ? j->n - i0 : chunk;
+  j->block(m, j->A + 9 * i0, j->R + 9 * i0, j->iters);
+}
+
 int EK_P(polar3_warm_aosoa)(size_t nblocks, const real *A, real *R,
                             const ek_polar_warm_opts *opts) {
   static const char *fn = "ek_polar3_warm_aosoa";
@@ -68,12 +91,8 @@ int EK_P(polar3_warm_aosoa)(size_t nblocks, const real *A, real *R,
   if ((rc = ek_batch_check(fn, nblocks, 9 * EK_LANES * sizeof(real), _Alignof(real), 2,
                            (const void *[]){A, R}, (const char *const[]){"A", "R"})))
     return rc;
-  size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
-    block(nb, A + b0 * 9 * EK_LANES, R + b0 * 9 * EK_LANES, iters);
-  }
+  warm_job j = {block, nblocks, A, R, iters};
+  ek_team_run_ranges((nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, blocks_chunk, &j);
   return EK_OK;
 }
 
@@ -104,11 +123,7 @@ int EK_P(polar3_warm)(size_t n, const real *A, real *R, const ek_polar_warm_opts
     aos(head, A, R, iters);
   A += 9 * head, R += 9 * head, n -= head;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
-  size_t nchunks = (n + chunk - 1) / chunk;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-    aos(m, A + 9 * i0, R + 9 * i0, iters);
-  }
+  warm_job j = {aos, n, A, R, iters};
+  ek_team_run_ranges((n + chunk - 1) / chunk, aos_chunk, &j);
   return EK_OK;
 }

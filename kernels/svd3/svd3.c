@@ -1,11 +1,13 @@
 // Driver of the SVD and polar kernels: option checks, dispatch once per
-// batch, OpenMP over blocks. Built once per precision (EK_P names).
+// batch, chunks of blocks on the helper team (team.h: the caller never
+// waits for a thread that has not started). Built once per precision (EK_P
+// names).
 #include <ek/svd3.h>
-#include <omp.h>
 #include <stdint.h>
 
 #include "kernels.h"
 #include "real.h"
+#include "team.h"
 
 // Default knobs, from the speed/accuracy sweep in README ("Accuracy"):
 // McAdams' 4 approximate Jacobi sweeps alone miss the float budget on ~1% of
@@ -27,7 +29,7 @@ typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define DEFAULT_EXACT_RSQRT 0 // the same (exact anyway on AVX2: no double estimate)
 #endif
 
-// Blocks per OpenMP work item (AoSoA), and matrices per AoS work item
+// Blocks per team chunk (AoSoA), and matrices per AoS work item
 // (32 blocks' worth): 32 blocks of 16 float matrices keep A, U, S, V of one
 // chunk (~60 KB) in L2.
 #define CHUNK_BLOCKS 32
@@ -138,6 +140,22 @@ static int nt_for(size_t n, const real *U, const real *S, const real *V) {
 // AVX-512 f32 17.9 against 17.4, polar 18.9 against 17.6 in a quiet
 // spell), so the rows that keep 2 chains keep their plain stores
 // (docs/perf.md, "Memory-bound paths", tenth round). Same bits.
+typedef struct {
+  svd3_block_fn *block;
+  size_t n; // blocks (AoSoA) or matrices (AoS)
+  const real *A;
+  real *U, *S, *V;
+  const ek_svd3_knobs *k;
+} batch_job;
+
+static void blocks_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  const batch_job *j = ctx;
+  size_t b0 = c * CHUNK_BLOCKS, nb = j->n - b0 < CHUNK_BLOCKS ? j->n - b0 : CHUNK_BLOCKS;
+  j->block(nb, j->A + b0 * 9 * EK_LANES, j->U + b0 * 9 * EK_LANES,
+           j->S ? j->S + b0 * 3 * EK_LANES : NULL, j->V ? j->V + b0 * 9 * EK_LANES : NULL, j->k);
+}
+
 static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real *U, real *S,
                        real *V, const ek_svd3_knobs *kin) {
   size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
@@ -146,19 +164,23 @@ static void run_blocks(svd3_block_fn *block, size_t nblocks, const real *A, real
   const int all = EK_SVD3_NT_U | (V ? EK_SVD3_NT_V : 0) | (S ? EK_SVD3_NT_S : 0);
   if (kb.chains < kin->chains && nt_for(nblocks * EK_LANES, U, S, V) == all)
     kb.nt = all, kb.chains = kin->chains;
-  const ek_svd3_knobs *k = &kb;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t b0 = c * CHUNK_BLOCKS, nb = nblocks - b0 < CHUNK_BLOCKS ? nblocks - b0 : CHUNK_BLOCKS;
-    block(nb, A + b0 * 9 * EK_LANES, U + b0 * 9 * EK_LANES, S ? S + b0 * 3 * EK_LANES : NULL,
-          V ? V + b0 * 9 * EK_LANES : NULL, k);
-  }
+  batch_job j = {block, nblocks, A, U, S, V, &kb};
+  ek_team_run_ranges(nchunks, blocks_chunk, &j);
 }
 
 // AoS path: the kernel reads and writes the AoS arrays itself, transposing
 // in registers (svd3_block.c, k->aos), so nothing is staged or copied.
 // Chunks of whole blocks (a multiple of EK_W): every vector of a chunk is
 // full except at the very end of the batch and in the head (ek_aos_head).
+static void aos_chunk(void *ctx, size_t c, int worker) {
+  (void)worker;
+  const batch_job *j = ctx;
+  const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
+  size_t i0 = c * chunk, m = j->n - i0 < chunk ? j->n - i0 : chunk;
+  j->block(m, j->A + 9 * i0, j->U ? j->U + 9 * i0 : NULL, j->S ? j->S + 3 * i0 : NULL,
+           j->V ? j->V + 9 * i0 : NULL, j->k);
+}
+
 static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real *S, real *V,
                    const ek_svd3_knobs *k) {
   ek_svd3_knobs ka = *k;
@@ -180,12 +202,8 @@ static int run_aos(svd3_block_fn *block, size_t n, const real *A, real *U, real 
     ka.chains = k->chains;
   const size_t chunk = (size_t)CHUNK_BLOCKS * EK_LANES;
   size_t nchunks = (n + chunk - 1) / chunk;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t i0 = c * chunk, m = n - i0 < chunk ? n - i0 : chunk;
-    block(m, A + 9 * i0, U ? U + 9 * i0 : NULL, S && !k->polar ? S + 3 * i0 : NULL,
-          V ? V + 9 * i0 : NULL, &ka);
-  }
+  batch_job j = {block, n, A, U, S && !k->polar ? S : NULL, V, &ka};
+  ek_team_run_ranges(nchunks, aos_chunk, &j);
   return EK_OK;
 }
 
