@@ -348,14 +348,7 @@ static double *rest_inverses(const sim_body *b) {
   return inv;
 }
 
-// 1 if some tet of x has a singular value below the clamp (or is inverted,
-// or not finite): there the clamped model's energy is not the potential of
-// its force (material.h). The smallest singular value from the smallest
-// eigenvalue of C = F^T F in closed form (Smith 1961, CACM 4(4)); near the
-// clamp, where this and the kernel's SVD may round apart, psi and P agree
-// to first order either way. Elements are independent (an OR): the same
-// answer at any thread count and on every MPI rank (x is replicated).
-// Elements per chunk of any_clamped (~20 us on Zen 4).
+// Elements per chunk of any_clamped.
 #define CLAMP_CHUNK 1024
 
 typedef struct {
@@ -365,6 +358,7 @@ typedef struct {
   atomic_int any;
 } clamp_job;
 
+// any_clamped over chunk ch's elements (it stops at the first clamped one).
 static void clamp_chunk(void *ctx, size_t ch) {
   clamp_job *job = ctx;
   const sim_body *b = job->d->body;
@@ -406,8 +400,14 @@ static void clamp_chunk(void *ctx, size_t ch) {
     atomic_store_explicit(&job->any, 1, memory_order_relaxed);
 }
 
-// Chunks of elements on the helper team (kernels/team.h) where d->par: an
-// OR, the same answer whoever runs a chunk.
+// 1 if some tet of x has a singular value below the clamp (or is inverted,
+// or not finite): there the clamped model's energy is not the potential of
+// its force (material.h). The smallest singular value from the smallest
+// eigenvalue of C = F^T F in closed form (Smith 1961, CACM 4(4)); near the
+// clamp, where this and the kernel's SVD may round apart, psi and P agree
+// to first order either way. Elements are independent (an OR): the same
+// answer at any thread count and on every MPI rank (x is replicated). In
+// chunks of elements on the helper team (kernels/team.h) where d->par.
 static int any_clamped(const ek_sim *s, const implicit_data *d, const double *x) {
   clamp_job j = {d, x, s->mat.clamp * s->mat.clamp, 0};
   ek_team_run_if(d->par, (d->body->ne + CLAMP_CHUNK - 1) / CLAMP_CHUNK, clamp_chunk, &j);
