@@ -348,22 +348,26 @@ static double *rest_inverses(const sim_body *b) {
   return inv;
 }
 
-// 1 if some tet of x has a singular value below the clamp (or is inverted,
-// or not finite): there the clamped model's energy is not the potential of
-// its force (material.h). The smallest singular value from the smallest
-// eigenvalue of C = F^T F in closed form (Smith 1961, CACM 4(4)); near the
-// clamp, where this and the kernel's SVD may round apart, psi and P agree
-// to first order either way. Elements are independent (an OR): the same
-// answer at any thread count and on every MPI rank (x is replicated).
-static int any_clamped(const ek_sim *s, const implicit_data *d, const double *x) {
-  const sim_body *b = d->body;
-  const double c2 = s->mat.clamp * s->mat.clamp;
-  const long ne = (long)b->ne;
+// Elements per chunk of any_clamped.
+#define CLAMP_CHUNK 1024
+
+typedef struct {
+  const implicit_data *d;
+  const double *x;
+  double c2;
+  atomic_int any;
+} clamp_job;
+
+// any_clamped over chunk ch's elements (it stops at the first clamped one).
+static void clamp_chunk(void *ctx, size_t ch) {
+  clamp_job *job = ctx;
+  const sim_body *b = job->d->body;
+  const double *x = job->x, c2 = job->c2;
+  const size_t e1 = (ch + 1) * CLAMP_CHUNK < b->ne ? (ch + 1) * CLAMP_CHUNK : b->ne;
   int any = 0;
-#pragma omp parallel for schedule(static) reduction(| : any) if (d->par)
-  for (long e = 0; e < ne; e++) {
+  for (size_t e = ch * CLAMP_CHUNK; e < e1 && !any; e++) {
     const int32_t *t = b->elems + 4 * e;
-    const double *m = d->dm_inv + 9 * e;
+    const double *m = job->d->dm_inv + 9 * e;
     double D[9], F[9], C[6];
     for (int i = 0; i < 3; i++)
       for (int c = 0; c < 3; c++)
@@ -390,9 +394,24 @@ static int any_clamped(const ek_sim *s, const implicit_data *d, const double *x)
       // The smallest of q + 2 p cos(phi + 2 pi k / 3), phi = acos(r) / 3.
       lmin = q + 2 * p * cos(acos(r) / 3 + 2.0943951023931957);
     }
-    any |= !(J > 0 && lmin > c2);
+    any = !(J > 0 && lmin > c2);
   }
-  return any;
+  if (any)
+    atomic_store_explicit(&job->any, 1, memory_order_relaxed);
+}
+
+// 1 if some tet of x has a singular value below the clamp (or is inverted,
+// or not finite): there the clamped model's energy is not the potential of
+// its force (material.h). The smallest singular value from the smallest
+// eigenvalue of C = F^T F in closed form (Smith 1961, CACM 4(4)); near the
+// clamp, where this and the kernel's SVD may round apart, psi and P agree
+// to first order either way. Elements are independent (an OR): the same
+// answer at any thread count and on every MPI rank (x is replicated). In
+// chunks of elements on the helper team (kernels/team.h) where d->par.
+static int any_clamped(const ek_sim *s, const implicit_data *d, const double *x) {
+  clamp_job j = {d, x, s->mat.clamp * s->mat.clamp, 0};
+  ek_team_run_if(d->par, (d->body->ne + CLAMP_CHUNK - 1) / CLAMP_CHUNK, clamp_chunk, &j);
+  return atomic_load(&j.any);
 }
 
 static int implicit_create(ek_sim *s, void **data) {
@@ -486,30 +505,59 @@ static double sum_parts(const implicit_data *d) {
   return s;
 }
 
-// The body runs for each dof i of each chunk and adds its term to
-// acc_[i & 3]: four independent partial sums (a single one would chain
-// every addition's latency), combined in a fixed order.
-#define CHUNK_LOOP(d, ...)                                                                         \
-  _Pragma("omp parallel for schedule(static) if ((d)->par)") for (size_t c_ = 0;                   \
-                                                                  c_ < (d)->nchunks; c_++) {       \
-    size_t lo_ = c_ * CHUNK, hi_ = lo_ + CHUNK < (d)->n3 ? lo_ + CHUNK : (d)->n3;                  \
+// Chunk c's dofs [*lo, *hi).
+static void chunk_range(const implicit_data *d, size_t c, size_t *lo, size_t *hi) {
+  *lo = c * CHUNK;
+  *hi = *lo + CHUNK < d->n3 ? *lo + CHUNK : d->n3;
+}
+
+// A vector pass over the fixed chunks: its vectors and scalars.
+typedef struct {
+  implicit_data *d;
+  const double *a, *b;
+  double *out;
+  double alpha, beta;
+  const ek_sim *s;
+} vec_job;
+
+// Runs fn(job, c) for every chunk: on the helper team (kernels/team.h)
+// where d->par, the caller never waiting for a thread that has not
+// started; a chunk writes the same values whoever runs it.
+static void run_chunks(const implicit_data *d, ek_team_fn *fn, vec_job *job) {
+  ek_team_run_if(d->par, d->nchunks, fn, job);
+}
+
+// A chunk function whose body runs for each dof i of the chunk and adds
+// its term to acc_[i & 3]: four independent partial sums (a single one
+// would chain every addition's latency), combined in a fixed order into
+// d->parts[c].
+#define CHUNK_FN(name, ...)                                                                        \
+  static void name(void *ctx_, size_t c_) {                                                        \
+    const vec_job *j = ctx_;                                                                       \
+    implicit_data *d = j->d;                                                                       \
+    size_t lo_, hi_;                                                                               \
+    chunk_range(d, c_, &lo_, &hi_);                                                                \
     double acc_[4] = {0, 0, 0, 0};                                                                 \
     for (size_t i = lo_; i < hi_; i++) {                                                           \
       __VA_ARGS__                                                                                  \
     }                                                                                              \
-    (d)->parts[c_] = (acc_[0] + acc_[1]) + (acc_[2] + acc_[3]);                                    \
+    d->parts[c_] = (acc_[0] + acc_[1]) + (acc_[2] + acc_[3]);                                      \
   }
+
+CHUNK_FN(dot_chunk, acc_[i & 3] += j->a[i] * j->b[i];)
+CHUNK_FN(norm2_minv_chunk, acc_[i & 3] += d->minv[i] * j->a[i] * j->a[i];)
 
 // a.b over the free dofs (held dofs of a and b are 0 in every use).
 static double dot(implicit_data *d, const double *a, const double *b) {
-  CHUNK_LOOP(d, acc_[i & 3] += a[i] * b[i];)
+  vec_job j = {.d = d, .a = a, .b = b};
+  run_chunks(d, dot_chunk, &j);
   return sum_parts(d);
 }
 
 // g^T M^-1 g over the free dofs.
 static double norm2_minv(implicit_data *d, const double *g) {
-  const double *w = d->minv;
-  CHUNK_LOOP(d, acc_[i & 3] += w[i] * g[i] * g[i];)
+  vec_job j = {.d = d, .a = g};
+  run_chunks(d, norm2_minv_chunk, &j);
   return sum_parts(d);
 }
 
@@ -519,11 +567,23 @@ static double residual(implicit_data *d, const ek_sim *s, const double *g, doubl
   return dt * dt * sqrt(norm2_minv(d, g) / free_mass) / s->body_size;
 }
 
+// Inertia, gravity and damping at x = j->a of the free vertices into
+// acc_, their gradient added into j->out (0 at held dofs); alpha 1 / dt^2,
+// beta c / dt.
+CHUNK_FN(
+    inertia_chunk, const double *x = j->a, *xn = j->s->x, *g = j->s->scene.gravity;
+    double *gr = j->out; if (d->is_free[i] != 0) {
+      const int k = (int)(i % 3);
+      const double mi = j->s->mass[i / 3], u = x[i] - d->xtil[i], w = x[i] - xn[i];
+      acc_[i & 3] += mi * (0.5 * j->alpha * u * u - g[k] * x[i] + 0.5 * j->beta * w * w);
+      gr[i] += mi * (j->alpha * u - g[k] + j->beta * w);
+    } else gr[i] = 0;)
+
 // Phi(x) and grad Phi (into gr) from one gradient pass; +inf outside the
 // model's domain. Caches the eigensystems for the products at x.
 static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, double *phi) {
   const ek_scene *sc = &s->scene;
-  const double dt = sc->dt, c = sc->damping, *g = sc->gravity;
+  const double dt = sc->dt, c = sc->damping;
   const sim_body_ops *ops = d->body->ops;
   double E, t0 = sim_now();
   if (s->time_phases && d->hes.split_timing) {
@@ -556,15 +616,8 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
     t1 = t2;
   }
   // Inertia, gravity and damping of the free vertices, and their gradient.
-  const double a = 1 / (dt * dt), b = c / dt;
-  const double *xn = s->x, *xtil = d->xtil, *m = s->mass;
-  CHUNK_LOOP(
-      d, if (d->is_free[i] != 0) {
-        const int k = (int)(i % 3);
-        const double mi = m[i / 3], u = x[i] - xtil[i], w = x[i] - xn[i];
-        acc_[i & 3] += mi * (0.5 * a * u * u - g[k] * x[i] + 0.5 * b * w * w);
-        gr[i] += mi * (a * u - g[k] + b * w);
-      } else gr[i] = 0;)
+  vec_job j = {.d = d, .a = x, .out = gr, .alpha = 1 / (dt * dt), .beta = c / dt, .s = s};
+  run_chunks(d, inertia_chunk, &j);
   *phi = isfinite(E) ? E + sum_parts(d) : INFINITY;
   s->times.line_search += sim_now() - t1;
   return 0;
@@ -572,38 +625,31 @@ static int objective(ek_sim *s, implicit_data *d, const double *x, double *gr, d
 
 // A line-search trial: xt = x + alpha dx, its Phi and gradient (gt) and
 // the body's eigensystems at xt.
+static void trial_chunk(void *ctx, size_t c) {
+  const vec_job *j = ctx;
+  size_t lo, hi;
+  chunk_range(j->d, c, &lo, &hi);
+  for (size_t i = lo; i < hi; i++)
+    j->out[i] = j->a[i] + j->alpha * j->b[i];
+}
+
 static int trial(ek_sim *s, implicit_data *d, const double *x, double alpha, double *phi) {
   const double t0 = sim_now();
-#pragma omp parallel for schedule(static) if (d->par)
-  for (size_t i = 0; i < d->n3; i++)
-    d->xt[i] = x[i] + alpha * d->dx[i];
+  vec_job j = {.d = d, .a = x, .b = d->dx, .out = d->xt, .alpha = alpha};
+  run_chunks(d, trial_chunk, &j);
   s->times.line_search += sim_now() - t0;
   return objective(s, d, d->xt, d->gt, phi);
 }
 
-// The preconditioner at the current eigensystems: inverse diagonal or
-// inverse 3x3 vertex blocks of M (1 + c dt) / dt^2 + K, 0 at held dofs.
-// blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
-// the inverse diagonal's 3 out).
-static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
-  int rc = d->body->ops->hessian_diagonal(d->H, blocks);
-  if (rc < 0)
-    return sim_fail(s, "diagonal blocks: %s", ek_last_error());
-  if (d->mpi) {
-    // This rank's elements' blocks, summed over the ranks (the same bits on
-    // every rank, as the gradient).
-    char err[256];
-    const double t0 = sim_now();
-    rc = implicit_mpi_sum(blocks, 2 * d->n3, err, sizeof err);
-    s->times.mpi_sum += sim_now() - t0;
-    if (rc < 0)
-      return sim_fail(s, "diagonal blocks: %s", err);
-  }
-  const double dt = s->scene.dt, am = (1 + s->scene.damping * dt) / (dt * dt);
-  long nv = (long)s->nv;
-#pragma omp parallel for schedule(static) if (d->par)
-  for (long v = 0; v < nv; v++) {
-    double *B = blocks + 6 * v, m = am * s->mass[v];
+// The preconditioner's blocks of chunk c's vertices (build_preconditioner;
+// j->out the blocks, alpha (1 + c dt) / dt^2).
+static void precondition_build_chunk(void *ctx, size_t c) {
+  const vec_job *j = ctx;
+  const implicit_data *d = j->d;
+  size_t lo, hi;
+  chunk_range(d, c, &lo, &hi);
+  for (size_t v = lo / 3; v < hi / 3; v++) {
+    double *B = j->out + 6 * v, m = j->alpha * j->s->mass[v];
     if (d->is_free[3 * v] == 0) {
       for (int k = 0; k < 6; k++)
         B[k] = 0;
@@ -624,6 +670,29 @@ static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
     B[4] = (a01 * a02 - a00 * a12) / det;
     B[5] = (a00 * a11 - a01 * a01) / det;
   }
+}
+
+// The preconditioner at the current eigensystems: inverse diagonal or
+// inverse 3x3 vertex blocks of M (1 + c dt) / dt^2 + K, 0 at held dofs.
+// blocks: 6 values per vertex (the diagonal blocks in, the inverse's 6 or
+// the inverse diagonal's 3 out).
+static int build_preconditioner(ek_sim *s, implicit_data *d, double *blocks) {
+  int rc = d->body->ops->hessian_diagonal(d->H, blocks);
+  if (rc < 0)
+    return sim_fail(s, "diagonal blocks: %s", ek_last_error());
+  if (d->mpi) {
+    // This rank's elements' blocks, summed over the ranks (the same bits on
+    // every rank, as the gradient).
+    char err[256];
+    const double t0 = sim_now();
+    rc = implicit_mpi_sum(blocks, 2 * d->n3, err, sizeof err);
+    s->times.mpi_sum += sim_now() - t0;
+    if (rc < 0)
+      return sim_fail(s, "diagonal blocks: %s", err);
+  }
+  const double dt = s->scene.dt;
+  vec_job j = {.d = d, .out = blocks, .alpha = (1 + s->scene.damping * dt) / (dt * dt), .s = s};
+  run_chunks(d, precondition_build_chunk, &j);
   return 0;
 }
 
@@ -647,22 +716,10 @@ typedef struct {
   atomic_int failed; // a part's product failed (the message is in ek_last_error)
 } cg_pass;
 
-// Chunk c's dofs [*lo, *hi).
-static void chunk_range(const implicit_data *d, size_t c, size_t *lo, size_t *hi) {
-  *lo = c * CHUNK;
-  *hi = *lo + CHUNK < d->n3 ? *lo + CHUNK : d->n3;
-}
-
-// Runs fn over chunks [0, n): on the team, or in a parallel loop (or on
-// this thread alone where parallel is 0).
-static void run_pass(int team, ek_team_fn *fn, void *ctx, size_t n, int parallel) {
-  if (team || !parallel)
-    ek_team_run_if(parallel, n, fn, ctx);
-  else {
-#pragma omp parallel for schedule(static)
-    for (size_t c = 0; c < n; c++)
-      fn(ctx, c);
-  }
+// Runs fn over chunks [0, n): on the team (or on this thread alone where
+// parallel is 0).
+static void run_pass(ek_team_fn *fn, void *ctx, size_t n, int parallel) {
+  ek_team_run_if(parallel, n, fn, ctx);
 }
 
 // z = P^-1 r over chunk c's vertices; returns their r.z.
@@ -769,6 +826,23 @@ static double sum_of(const implicit_data *d, const double *parts) {
   return s;
 }
 
+// Across MPI ranks: this rank's K p (j->out; in q32 for f32 products) at
+// the free dofs, 0 at held ones.
+static void free_rows_chunk(void *ctx, size_t c) {
+  const vec_job *j = ctx;
+  const implicit_data *d = j->d;
+  const double *w = d->is_free;
+  const float *q32 = d->q32;
+  double *q = j->out;
+  size_t lo, hi;
+  chunk_range(d, c, &lo, &hi);
+  for (size_t i = lo; i < hi; i++)
+    q[i] = w[i] * (d->hes.f32 ? (double)q32[i] : q[i]);
+}
+
+// Then (the sum over the ranks) the mass term, and p.q (p = j->a).
+CHUNK_FN(mass_term_chunk, j->out[i] += d->mdiag[i] * j->a[i]; acc_[i & 3] += j->a[i] * j->out[i];)
+
 // q = (M (1 + c dt) / dt^2 + K) p at the free dofs (0 at held ones);
 // returns p.q. For f32 products, d->p32 holds p (pass_direction).
 static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, int team, double *pq) {
@@ -778,7 +852,7 @@ static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, int team, do
   int rc;
   if (team) {
     atomic_store(&cp->failed, 0);
-    run_pass(team, pass_part, cp, (size_t)d->nparts, d->apply_par);
+    run_pass(pass_part, cp, (size_t)d->nparts, d->apply_par);
     if (atomic_load(&cp->failed))
       return sim_fail(s, "Hessian product: %s", ek_last_error());
     cp->rows = 1;
@@ -788,15 +862,12 @@ static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, int team, do
       return sim_fail(s, "Hessian product: %s", ek_last_error());
     cp->rows = 0;
   }
-  const double *w = d->is_free, *md = d->mdiag;
-  const float *q32 = d->q32;
   if (d->mpi) {
     // This rank's elements' K p at the free dofs, summed over the ranks
     // (the same bits on every rank: every rank then runs the same CG
     // iterations and stops at the same one), then the mass term.
-#pragma omp parallel for schedule(static) if (d->par)
-    for (size_t i = 0; i < d->n3; i++)
-      q[i] = w[i] * (d->hes.f32 ? (double)q32[i] : q[i]);
+    vec_job j = {.d = d, .a = p, .out = q};
+    run_chunks(d, free_rows_chunk, &j);
     char err[256];
     const double t1 = sim_now();
     rc = implicit_mpi_sum(q, d->n3, err, sizeof err);
@@ -805,9 +876,9 @@ static int system_product(ek_sim *s, implicit_data *d, cg_pass *cp, int team, do
     t0 += t2 - t1;
     if (rc < 0)
       return sim_fail(s, "Hessian product: %s", err);
-    CHUNK_LOOP(d, q[i] += md[i] * p[i]; acc_[i & 3] += p[i] * q[i];)
+    run_chunks(d, mass_term_chunk, &j);
   } else
-    run_pass(team, pass_product, cp, d->nchunks, d->par || (team && d->apply_par));
+    run_pass(pass_product, cp, d->nchunks, d->par || (team && d->apply_par));
   *pq = sum_parts(d);
   s->times.matvec += sim_now() - t0;
   s->times.matvecs++;
@@ -822,9 +893,9 @@ static int cg(ek_sim *s, implicit_data *d, const double *blocks, int team, doubl
   const double stop = im->cg_tol * r0;
   cg_pass cp = {.d = d, .blocks = blocks};
   double t0 = sim_now();
-  run_pass(team, pass_precondition, &cp, d->nchunks, d->par);
+  run_pass(pass_precondition, &cp, d->nchunks, d->par);
   double rz = sum_of(d, d->parts2);
-  run_pass(team, pass_direction, &cp, d->nchunks, d->par);
+  run_pass(pass_direction, &cp, d->nchunks, d->par);
   s->times.preconditioner += sim_now() - t0;
   for (long k = 0; k < im->max_cg && r0 > 0; k++) {
     double pq = 0;
@@ -839,7 +910,7 @@ static int cg(ek_sim *s, implicit_data *d, const double *blocks, int team, doubl
       break; // p = 0 to rounding: nothing left to solve
     t0 = sim_now();
     cp.alpha = rz / pq;
-    run_pass(team, pass_update, &cp, d->nchunks, d->par);
+    run_pass(pass_update, &cp, d->nchunks, d->par);
     double rn = sqrt(sum_parts(d));
     s->times.cg_iterations++;
     ++*iters;
@@ -851,7 +922,7 @@ static int cg(ek_sim *s, implicit_data *d, const double *blocks, int team, doubl
     const double rz_new = sum_of(d, d->parts2);
     cp.beta = rz_new / rz;
     rz = rz_new;
-    run_pass(team, pass_direction, &cp, d->nchunks, d->par);
+    run_pass(pass_direction, &cp, d->nchunks, d->par);
     s->times.cg_vectors += sim_now() - t0;
   }
   return 0;
@@ -877,6 +948,27 @@ static int solve(ek_sim *s, implicit_data *d, const double *blocks, long *iters,
   return cg(s, d, blocks, team, r0, iters, rel);
 }
 
+// The system matrix's rows of chunk c (solve_assembled).
+static void system_rows_chunk(void *ctx, size_t ch) {
+  const implicit_data *d = ((const vec_job *)ctx)->d;
+  const int32_t *rp = d->pat.row_ptr, *col = d->pat.col;
+  const double *w = d->is_free, *md = d->mdiag, *kv = d->kvals;
+  double *sv = d->svals;
+  const int share = d->mpi;
+  size_t lo, hi;
+  chunk_range(d, ch, &lo, &hi);
+  for (size_t r = lo; r < hi; r++) {
+    const int fr = w[r] != 0;
+    for (int32_t k = rp[r]; k < rp[r + 1]; k++) {
+      const int32_t c = col[k];
+      double v = fr && w[c] != 0 ? kv[k] : 0;
+      if ((size_t)c == r && !share)
+        v = fr ? v + md[r] : 1;
+      sv[k] = v;
+    }
+  }
+}
+
 // The Newton system by an assembled solver (linear_solver "amg" or
 // "direct"): K assembled at the current eigensystems (hessian.h), the
 // system matrix M (1 + c dt) / dt^2 + K over the free dofs with held dofs
@@ -888,27 +980,13 @@ static int solve_assembled(ek_sim *s, implicit_data *d, long *iters, double *rel
   int rc = d->body->ops->hessian_assemble(d->H, d->kvals);
   if (rc < 0)
     return sim_fail(s, "Hessian assembly: %s", ek_last_error());
-  const int32_t *rp = d->pat.row_ptr, *col = d->pat.col;
-  const double *w = d->is_free, *md = d->mdiag, *kv = d->kvals;
-  double *sv = d->svals;
-  const long n3 = (long)d->n3;
   // Across ranks: this rank's share of K at free rows and columns; the
   // diagonal term is added once, by the row's owner (implicit_petsc.h).
-  const int share = d->mpi;
-  if (share)
-    for (long r = 0; r < n3; r++)
-      d->diag[r] = w[r] != 0 ? md[r] : 1;
-#pragma omp parallel for schedule(static) if (d->par)
-  for (long r = 0; r < n3; r++) {
-    const int fr = w[r] != 0;
-    for (int32_t k = rp[r]; k < rp[r + 1]; k++) {
-      const int32_t c = col[k];
-      double v = fr && w[c] != 0 ? kv[k] : 0;
-      if (c == r && !share)
-        v = fr ? v + md[r] : 1;
-      sv[k] = v;
-    }
-  }
+  if (d->mpi)
+    for (size_t r = 0; r < d->n3; r++)
+      d->diag[r] = d->is_free[r] != 0 ? d->mdiag[r] : 1;
+  vec_job j = {.d = d};
+  run_chunks(d, system_rows_chunk, &j);
   for (size_t i = 0; i < d->n3; i++)
     d->r[i] = -d->g[i]; // 0 at held dofs (objective)
   s->times.assembly += sim_now() - t0;

@@ -174,11 +174,24 @@ int ek_linear_solver_available(ek_linear_solver s) { return (unsigned)s < EK_LIN
     }                                                                                              \
   } while (0)
 
+// OpenBLAS's own threading (Debian's openblas-pthread: a thread per core),
+// set where the library is loaded; a weak reference, so a build on another
+// BLAS links and runs without it.
+extern void openblas_set_num_threads(int) __attribute__((weak));
+
 static int petsc_start(char *err, size_t errlen) {
   PetscBool up = PETSC_FALSE;
   PetscInitialized(&up);
   if (up)
     return 0;
+  // The BLAS under CHOLMOD's supernodal factorisation (and PETSc's LAPACK
+  // calls) on one thread, as the rest of PETSc's solve: OpenBLAS's threads
+  // spin beside ek's and wait for one another, so on a busy core the direct
+  // solve ran 2-12x slower, at 1 ek thread too (cantilever_implicit with
+  // "direct", 2 busy loops: 324-2130 ms per step against 156-180;
+  // sim/README.md, sixteenth round). OPENBLAS_NUM_THREADS, where set, stays.
+  if (openblas_set_num_threads && !getenv("OPENBLAS_NUM_THREADS"))
+    openblas_set_num_threads(1);
   PCHK(PetscOptionsSetValue(NULL, "-no_signal_handler", NULL));
   PCHK(PetscInitializeNoArguments());
   PCHK(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));

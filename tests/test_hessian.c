@@ -12,14 +12,14 @@
 //   4. the diagonal blocks equal the vertex blocks of K read off products
 //      with unit vectors;
 //   5. gradient, energy, products and diagonal blocks have the same bits
-//      at 1 and 2 threads (every strategy but ATOMIC), on a mesh above the
+//      at 1, 2 and 3 threads (every strategy but ATOMIC), on a mesh above the
 //      one-thread grains;
 //   7. the assembled K (check_assembly): entries = the plain assembly of
 //      the double reference, CSR K p = the product, symmetric to the bit,
-//      projected PSD (LAPACK eigenvalues); same bits at 1 and 2 threads;
+//      projected PSD (LAPACK eigenvalues); same bits at 1, 2 and 3 threads;
 //      its upper block triangle in the cache's precision
 //      (ek_fvm_hessian_assemble_upper_*): entries = the same reference
-//      within the same budgets, same bits at 1 and 2 threads;
+//      within the same budgets, same bits at 1, 2 and 3 threads;
 //   8. the force's thread buffers reused across meshes after a diagonal
 //      pass give a fresh call's bits (check_buffer_reuse);
 //   6. neo-Hookean with an inverted tet: energy +inf; bad arguments are
@@ -461,7 +461,8 @@ static void check_assembly(const test_model *tm, const test_mesh *t, const setup
   free(ys);
 }
 
-// 5: bits at 1 and 2 threads.
+// 5: bits at 1, 2 and 3 threads (3: more threads than this machine's
+// cores, the assembly's plan in 3 parts).
 static void check_threads(ek_rng *rng) {
   test_mesh t = test_mesh_random(rng, 12, 10, 8, 0.2); // 5760 tets: above the grains
   ek_tets *el = ek_tets_create(t.nverts, t.X, t.ntets, t.T);
@@ -470,9 +471,9 @@ static void check_threads(ek_rng *rng) {
   test_deform(rng, &t, 0.2, 0.1, x);
   for (size_t i = 0; i < n3; i++)
     p[i] = 2 * ek_rng_uniform(rng) - 1;
-  double *out[2][4];
-  float *o32[2];
-  for (int r = 0; r < 2; r++) {
+  double *out[3][4];
+  float *o32[3];
+  for (int r = 0; r < 3; r++) {
     for (int k = 0; k < 4; k++)
       out[r][k] = malloc(t.nverts * 6 * sizeof(double));
     o32[r] = malloc(n3 * sizeof(float));
@@ -487,8 +488,8 @@ static void check_threads(ek_rng *rng) {
     for (int si = 0; si < NSTRAT; si++) {
       if (strategies[si] == EK_SCATTER_ATOMIC)
         continue;
-      double E[2];
-      for (int r = 0; r < 2; r++) {
+      double E[3];
+      for (int r = 0; r < 3; r++) {
         omp_set_num_threads(r + 1);
         ek_fvm_hessian_opts o = {.scatter = strategies[si]};
         ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[mi], &o);
@@ -502,11 +503,13 @@ static void check_threads(ek_rng *rng) {
         ek_fvm_hessian_apply_f32(h, p32, o32[r]);
         ek_fvm_hessian_destroy(h);
       }
-      same &= memcmp(&E[0], &E[1], sizeof(double)) == 0;
-      same &= memcmp(out[0][0], out[1][0], n3 * sizeof(double)) == 0;
-      same &= memcmp(out[0][1], out[1][1], n3 * sizeof(double)) == 0;
-      same &= memcmp(out[0][2], out[1][2], t.nverts * 6 * sizeof(double)) == 0;
-      same &= memcmp(o32[0], o32[1], n3 * sizeof(float)) == 0;
+      for (int r = 1; r < 3; r++) {
+        same &= memcmp(&E[0], &E[r], sizeof(double)) == 0;
+        same &= memcmp(out[0][0], out[r][0], n3 * sizeof(double)) == 0;
+        same &= memcmp(out[0][1], out[r][1], n3 * sizeof(double)) == 0;
+        same &= memcmp(out[0][2], out[r][2], t.nverts * 6 * sizeof(double)) == 0;
+        same &= memcmp(o32[0], o32[r], n3 * sizeof(float)) == 0;
+      }
       cases++;
     }
   // The assembled matrix (f64 and f32 element kernels, both slot orders)
@@ -515,10 +518,10 @@ static void check_threads(ek_rng *rng) {
   int asame = 1, usame = 1;
   for (int oi = 0; oi < 2; oi++)
     for (int prec = 32; prec <= 64; prec += 32) {
-      double *v[2] = {NULL, NULL};
-      void *u[2] = {NULL, NULL};
+      double *v[3] = {NULL, NULL, NULL};
+      void *u[3] = {NULL, NULL, NULL};
       size_t nnz = 0, ub = 0;
-      for (int r = 0; r < 2; r++) {
+      for (int r = 0; r < 3; r++) {
         omp_set_num_threads(r + 1);
         ek_fvm_hessian_opts o = {.scatter = oi ? EK_SCATTER_COLORED : EK_SCATTER_AUTO,
                                  .precision = prec};
@@ -541,25 +544,27 @@ static void check_threads(ek_rng *rng) {
         }
         ek_fvm_hessian_destroy(h);
       }
-      asame &= v[0] && v[1] && memcmp(v[0], v[1], nnz * sizeof(double)) == 0;
-      usame &= u[0] && u[1] && memcmp(u[0], u[1], ub) == 0;
-      for (int r = 0; r < 2; r++) {
+      for (int r = 1; r < 3; r++) {
+        asame &= v[0] && v[r] && memcmp(v[0], v[r], nnz * sizeof(double)) == 0;
+        usame &= u[0] && u[r] && memcmp(u[0], u[r], ub) == 0;
+      }
+      for (int r = 0; r < 3; r++) {
         free(v[r]);
         free(u[r]);
       }
     }
-  printf("1 and 2 threads: same bits for the upper block triangle (f32, f64; both orders): %s\n",
+  printf("1, 2 and 3 threads: same bits for the upper block triangle (f32, f64; both orders): %s\n",
          usame ? "PASS" : "FAIL");
   failures += !usame;
-  printf("1 and 2 threads: same bits for the assembled K (f32, f64 elements; both orders): %s\n",
+  printf("1, 2 and 3 threads: same bits for the assembled K (f32, f64 elements; both orders): %s\n",
          asame ? "PASS" : "FAIL");
   failures += !asame;
   omp_set_num_threads(2);
-  printf("1 and 2 threads: same bits for gradient, energy, K p (f64, f32), diagonal blocks, "
+  printf("1, 2 and 3 threads: same bits for gradient, energy, K p (f64, f32), diagonal blocks, "
          "%zu tets, %d cases: %s\n",
          t.ntets, cases, same ? "PASS" : "FAIL");
   failures += !same;
-  for (int r = 0; r < 2; r++) {
+  for (int r = 0; r < 3; r++) {
     for (int k = 0; k < 4; k++)
       free(out[r][k]);
     free(o32[r]);

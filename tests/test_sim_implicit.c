@@ -285,7 +285,10 @@ static void crush_test(const char *name) {
 // 6. The CG solve runs its passes on the helper team, whose threads claim
 // fixed chunks (kernels/team.h): at 1, 2 and 3 threads (more than this
 // machine's cores, where a thread often waits for a core) every
-// coordinate keeps its bits, with f32 and with f64 products.
+// coordinate keeps its bits, with f32 and with f64 products; so do the
+// assembled solvers ("amg", "direct" where PETSc is built in), whose
+// assembly (kernels/fvm/hessian.c) runs the plan's parts, 1, 2 or 3 of
+// them, on the team, and the system's rows and the line search in chunks.
 static void threads_test(void) {
   const char *json =
       "{\"mesh\": {\"box\": [48, 16, 12], \"size\": [1.2, 0.4, 0.3]},"
@@ -293,16 +296,23 @@ static void threads_test(void) {
       "1000},"
       " \"precision\": \"%s\", \"boundary\": [{\"type\": \"pin\", \"region\": {\"min\": [0, 0, 0],"
       " \"max\": [0, 0.4, 0.3]}}], \"gravity\": [0, 0, -9.81], \"dt\": 0.0333333333333,"
-      " \"steps\": 2, \"integrator\": {\"type\": \"implicit\", \"cg_tol\": 1e-3}}";
-  static const char *precisions[] = {"f32", "f64"};
-  for (int pr = 0; pr < 2; pr++) {
+      " \"steps\": 2, \"integrator\": {\"type\": \"implicit\", \"cg_tol\": 1e-3, "
+      "\"linear_solver\": \"%s\"}}";
+  static const char *precisions[] = {"f32", "f64", "f32", "f32"};
+  static const char *solvers[] = {"matrix_free", "matrix_free", "amg", "direct"};
+  for (int pr = 0; pr < 4; pr++) {
     char text[1024], what[80], detail[200];
-    snprintf(text, sizeof text, json, precisions[pr]);
+    if (pr >= 2 && !ek_linear_solver_available(pr == 2 ? EK_LINSOLVE_AMG : EK_LINSOLVE_DIRECT)) {
+      printf("same bits at 1, 2 and 3 threads (%s): skipped (built without PETSc)\n", solvers[pr]);
+      continue;
+    }
+    snprintf(text, sizeof text, json, precisions[pr], solvers[pr]);
     const int steps = pr == 0 ? 2 : 1;
     size_t n3 = 0, nc = 0;
     long mismatches[4];
     int ok = thread_mismatches(text, steps, 3, mismatches, &n3, &nc) == 0;
-    snprintf(what, sizeof what, "same bits at 1, 2 and 3 threads (%s products)", precisions[pr]);
+    snprintf(what, sizeof what, "same bits at 1, 2 and 3 threads (%s, %s products)", solvers[pr],
+             precisions[pr]);
     snprintf(detail, sizeof detail,
              "%zu dofs, %d steps: %ld coordinates differ at 2 threads, %ld at 3", n3, steps,
              mismatches[2], mismatches[3]);

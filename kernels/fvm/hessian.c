@@ -4,7 +4,6 @@
 // of each precision here; creation and the (double) gradient pass in the
 // f64 instance.
 #include <math.h>
-#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -15,6 +14,7 @@
 #include "../kernels.h"
 #include "../material/models.h"
 #include "../real.h"
+#include "../team.h"
 #include "hessian_kernel.h"
 #include "scatter.h"
 
@@ -66,11 +66,13 @@ static hess_args args_for(const ek_fvm_hessian *h, int op) {
 }
 
 // A product or a diagonal pass costs about what a force evaluation
-// without an SVD does: the same grain (fvm.h).
+// without an SVD does: the same grain (fvm.h). THREAD_BUFFERS runs on the
+// helper team (scatter_run_team: the caller never waits for a thread that
+// has not started), with the region's bits.
 static int run(const ek_fvm_hessian *h, const hess_args *a, int ncomp, int parallel, real *out) {
   hess_ctx c = {h->kt, *a};
   scatter_job j = {h->el, h->scatter, ncomp, parallel, hess_range, &c, ncomp};
-  int rc = EK_P(scatter_run)(&j, out);
+  int rc = EK_P(scatter_run_team)(&j, out);
   if (rc == EK_ENOMEM)
     ek_set_error("ek_fvm_hessian: out of memory for scratch buffers");
   return rc;
@@ -203,7 +205,7 @@ static void copy_lower(const ek_fvm_hessian *h, double *values, int t, int cross
   }
 }
 
-// K's values (ek_fvm_hessian_assemble): per thread t of the plan
+// K's values (ek_fvm_hessian_assemble): per part t of the plan
 // (hessian_kernel.h), the slot blocks touching its rows in ascending order;
 // per block, the element Hessians of its lanes (HESS_ELEMENT) into a
 // buffer that stays in L1 (144 planes), then the element blocks on or
@@ -213,14 +215,62 @@ static void copy_lower(const ek_fvm_hessian *h, double *values, int t, int cross
 // loaded and stored once; a block's first contribution written as 0 + e:
 // the sum from 0 in ascending slot order, as a plain assembly); then the
 // blocks below the diagonal copied from their mirrors (copy_lower). Each
-// nonzero is summed by one thread in ascending slot order, so any thread
-// count gives the same bits; a block touching rows of two threads is
+// nonzero is summed by one part in ascending slot order, so any thread
+// count gives the same bits; a block touching rows of two parts is
 // computed by both (the Morton order keeps those few: 8% of the blocks at
-// 2 threads on the bench's box). Why this order (docs/perf.md,
+// 2 parts on the bench's box). Why this order (docs/perf.md,
 // "Hessian assembly"): the old gather per nonzero read a 58 MB element
 // buffer at random, ~70% of its time.
+// The parts run as chunks of the helper team (kernels/team.h): a part
+// writes the same values whoever runs it, and the caller never waits for
+// a helper that has not started (an OpenMP region's barriers did: a
+// scheduler slice per assembly on a busy core; sim/README.md, sixteenth
+// round). Job 1 the parts' sums and the lower blocks whose mirror the part
+// sums, job 2 (after every sum) the lower blocks across the cuts.
 // values (the scalar CSR, double) or uvalues (the upper block triangle in
 // this precision: no mirror copy, ek_fvm_hessian_assemble_upper_*).
+typedef struct {
+  const ek_fvm_hessian *h;
+  hess_args a;
+  double *values;
+  int iso;
+} assemble_job;
+
+static void assemble_part(void *ctx, size_t t) {
+  const assemble_job *j = ctx;
+  const ek_fvm_hessian *h = j->h;
+  // The part's element Hessian buffer of the plan (on the heap, not on a
+  // thread's stack, which may be small): one part runs on one thread.
+  real *buf = (real *)((char *)h->abuf + t * HESS_ABUF_BYTES);
+  hess_args la = j->a;
+  for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
+    const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
+    const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
+    for (int32_t k = k0; k < k1; k++) {
+      const size_t b = (size_t)h->tblk[k];
+      la.corner = buf + (size_t)(k - k0) * 144 * EK_LANES;
+      if (j->iso)
+        h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
+      else
+        h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
+    }
+    la.asm_k = g;
+    la.corner = buf;
+    h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
+  }
+  // The blocks below the diagonal whose mirror row this part sums (done):
+  // most of them, copied while other parts still sum.
+  if (j->values)
+    copy_lower(h, j->values, (int)t, 0);
+}
+
+// Those whose mirror another part sums (rows across the cut: at 2 parts on
+// the bench's box 3 of part 0's 60 589 and 3 418 of part 1's 63 716).
+static void assemble_cross(void *ctx, size_t t) {
+  const assemble_job *j = ctx;
+  copy_lower(j->h, j->values, (int)t, 1);
+}
+
 static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
   int rc = check_cached(h, uvalues ? "ek_fvm_hessian_assemble_upper" : "ek_fvm_hessian_assemble",
                         uvalues ? (const void *)uvalues : (const void *)values,
@@ -230,49 +280,16 @@ static int assemble(const ek_fvm_hessian *h, double *values, real *uvalues) {
   const int iso = ek_models[h->mat.model]->isotropic, nt = h->plan_threads;
   // The upper triangle's element Hessians from the frame's rank-one
   // columns (HESS_ELEMENT_R1, isotropic models); the CSR's keep theirs.
-  hess_args a = args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT);
-  a.cache = h->cache;
+  assemble_job j = {h, args_for(h, uvalues && iso ? HESS_ELEMENT_R1 : HESS_ELEMENT), values, iso};
+  j.a.cache = h->cache;
+  j.a.values = values;
+  j.a.uvalues = uvalues;
+  j.a.asm_h = h;
   _Static_assert((size_t)HESS_GROUP * EK_LANES * 144 * sizeof(real) == HESS_ABUF_BYTES,
                  "the plan's element Hessian buffers");
-#pragma omp parallel num_threads(nt) if (nt > 1)
-  {
-    // The groups' element Hessians: the thread's buffer of the plan (on
-    // the heap, not on a caller's thread stack, which may be small).
-    real *buf = (real *)((char *)h->abuf + (size_t)omp_get_thread_num() * HESS_ABUF_BYTES);
-    hess_args la = a;
-    la.values = values;
-    la.uvalues = uvalues;
-    la.asm_h = h;
-    const int team = omp_get_num_threads();
-    for (int t = omp_get_thread_num(); t < nt; t += team)
-      for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
-        const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;
-        const int32_t k1 = k0 + HESS_GROUP < h->tptr[t + 1] ? k0 + HESS_GROUP : h->tptr[t + 1];
-        for (int32_t k = k0; k < k1; k++) {
-          const size_t b = (size_t)h->tblk[k];
-          la.corner = buf + (size_t)(k - k0) * 144 * EK_LANES;
-          if (iso)
-            h->kt->EK_FIELD(hessian_frame_block)(&la, b, b + 1);
-          else
-            h->kt->EK_FIELD(hessian_block)[la.mat->model](&la, b, b + 1);
-        }
-        la.asm_k = g;
-        la.corner = buf;
-        h->kt->EK_FIELD(hessian_sum)(&la, 0, 1);
-      }
-    if (!uvalues) {
-      // The blocks below the diagonal: first those whose mirror row this
-      // thread sums (done), then, after the barrier, those whose mirror
-      // another thread sums (rows across the cut: at 2 threads on the
-      // bench's box 3 of thread 0's 60 589 and 3 418 of thread 1's 63 716),
-      // so a thread copies most of its blocks while the others still sum.
-      for (int t = omp_get_thread_num(); t < nt; t += team)
-        copy_lower(h, values, t, 0);
-#pragma omp barrier
-      for (int t = omp_get_thread_num(); t < nt; t += team)
-        copy_lower(h, values, t, 1);
-    }
-  }
+  ek_team_run((size_t)nt, assemble_part, &j);
+  if (values)
+    ek_team_run((size_t)nt, assemble_cross, &j);
   return EK_OK;
 }
 
@@ -382,6 +399,21 @@ int ek_fvm_hessian_cache_planes(const ek_fvm_hessian *h) { return h ? h->planes 
 // Fixed chunks of the slot range, summed in parallel, then in chunk order:
 // the same bits for any thread count.
 #define ENERGY_CHUNK 4096
+typedef struct {
+  const double *e;
+  size_t n;
+  double *parts;
+} energy_job;
+
+static void energy_chunk(void *ctx, size_t c) {
+  const energy_job *j = ctx;
+  size_t hi = (c + 1) * ENERGY_CHUNK < j->n ? (c + 1) * ENERGY_CHUNK : j->n;
+  double s = 0;
+  for (size_t i = c * ENERGY_CHUNK; i < hi; i++)
+    s += j->e[i];
+  j->parts[c] = s;
+}
+
 static double sum_energy(const double *e, size_t n, int parallel) {
   size_t nc = (n + ENERGY_CHUNK - 1) / ENERGY_CHUNK;
   double part[256], *parts = nc <= 256 ? part : malloc(nc * sizeof(double));
@@ -391,19 +423,11 @@ static double sum_energy(const double *e, size_t n, int parallel) {
       s += e[i];
     return s;
   }
-  // A region only for 8 chunks or more (~10 us of additions): below, its
-  // fork/join cost more than the sum (one chunk left the second thread
-  // nothing to do, yet the join waited for it to be scheduled: on a busy
-  // machine a scheduler slice per gradient pass; sim/README.md, fifteenth
-  // round). The chunks and their order are the same either way.
-#pragma omp parallel for schedule(static) if (parallel && nc >= 8)
-  for (size_t c = 0; c < nc; c++) {
-    size_t hi = (c + 1) * ENERGY_CHUNK < n ? (c + 1) * ENERGY_CHUNK : n;
-    double s = 0;
-    for (size_t i = c * ENERGY_CHUNK; i < hi; i++)
-      s += e[i];
-    parts[c] = s;
-  }
+  // On the helper team (kernels/team.h) only for 8 chunks or more (~10 us
+  // of additions): below, handing chunks out costs more than the sum. The
+  // chunks and their order are the same either way.
+  energy_job j = {e, n, parts};
+  ek_team_run_if(parallel && nc >= 8, nc, energy_chunk, &j);
   double s = 0;
   for (size_t c = 0; c < nc; c++)
     s += parts[c];

@@ -151,13 +151,14 @@ struct ek_fvm_hessian {
   uint8_t *slot_own, *row_own; // row_own: per vertex, its row's thread
   int32_t *tptr, *tblk, *tgrp;
   // The CSR's lower blocks (v, w), w < v, whose mirror row w another thread
-  // owns than row v (copied after the barrier, hessian.c copy_lower): per
+  // owns than row v (copied once every part has summed, hessian.c
+  // copy_lower, the team's second job): per
   // thread t the pairs xlow[2 i] = v, xlow[2 i + 1] = the block's index in
   // bcol, i in xptr[t] .. xptr[t + 1].
   int32_t *xptr, *xlow;
   // The groups' element Hessians, HESS_GROUP * 144 * LANES values of the
-  // cache's precision per thread (144 KB in both precisions), thread t's
-  // at t * HESS_ABUF_BYTES: allocated with the plan, kept across calls (no
+  // cache's precision per part (144 KB in both precisions; a part runs on
+  // one thread), part t's at t * HESS_ABUF_BYTES: allocated with the plan, kept across calls (no
   // allocation, page faults or heap trims in the timed call).
   void *abuf;
   // Per group g: the runs runs[krun[g] .. krun[g + 1]) and their element
