@@ -1,15 +1,15 @@
 // Driver of the cloth kernels (include/ek/cloth.h): argument checks,
-// dispatch once per call, OpenMP over chunks of blocks, AoS <-> AoSoA
+// dispatch once per call, the helper team over chunks of blocks, AoS <-> AoSoA
 // staging per thread (no batch-sized copy). Built once per precision
 // (EK_P names); the triangle rest data is double only.
 #include <ek/cloth.h>
 #include <math.h>
-#include <omp.h>
 #include <string.h>
 
 #include "elements/tris.h"
 #include "kernels.h"
 #include "real.h"
+#include "team.h"
 
 #if defined(EK_REAL_F32)
 typedef ek_cloth_block_f32_fn cloth_block_fn;
@@ -30,7 +30,7 @@ typedef ek_svd3_block_f64_fn svd3_block_fn;
 #define SPREAD_EPS (8 * 0x1p-52)
 #endif
 
-// Blocks per OpenMP work item and per staging chunk (the svd3 driver's
+// Blocks per team chunk and per staging chunk (the svd3 driver's
 // choice: a chunk's inputs and outputs stay in L2).
 #define CHUNK_BLOCKS 32
 
@@ -62,26 +62,42 @@ static int check_io(const char *fn, size_t count, size_t lanes, const io *a) {
                         names);
 }
 
-// OpenMP over chunks of `chunk` items of `lanes` records each: blocks of
-// an AoSoA batch (lanes = EK_LANES, aos = 0) or AoS records (lanes = 1,
-// aos = 1: the kernel transposes in registers, cloth_block.c; no staging).
+// Chunks of `chunk` items of `lanes` records each, as jobs of the helper
+// team (kernels/team.h: the caller never waits for a thread that has not
+// started; a chunk writes its own items whoever runs it): blocks of an
+// AoSoA batch (lanes = EK_LANES, aos = 0) or AoS records (lanes = 1, aos =
+// 1: the kernel transposes in registers, cloth_block.c; no staging).
+typedef struct {
+  cloth_block_fn *block;
+  size_t count, lanes, chunk, first; // first: the job's first chunk
+  int aos;
+  const io *a;
+} chunks_job;
+
+static void run_chunk(void *ctx, size_t i) {
+  const chunks_job *j = ctx;
+  const size_t c = j->first + i, i0 = c * j->chunk;
+  const size_t m = j->count - i0 < j->chunk ? j->count - i0 : j->chunk;
+  const real *in[2];
+  real *out[3];
+  for (int k = 0; k < 2; k++)
+    in[k] = j->a->in[k] ? j->a->in[k] + i0 * (size_t)j->a->in_planes[k] * j->lanes : NULL;
+  for (int k = 0; k < 3; k++)
+    out[k] = j->a->out[k] ? j->a->out[k] + i0 * (size_t)j->a->out_planes[k] * j->lanes : NULL;
+  j->block(m, j->aos, in[0], in[1], out[0], out[1], out[2]);
+}
+
 static int run_chunks(const char *fn, cloth_block_fn *block, size_t count, size_t lanes, int aos,
                       const io *a) {
   int rc = check_io(fn, count, lanes, a);
   if (rc)
     return rc;
-  const size_t chunk = aos ? (size_t)CHUNK_BLOCKS * EK_LANES : CHUNK_BLOCKS;
-  size_t nchunks = (count + chunk - 1) / chunk;
-#pragma omp parallel for schedule(static) if (nchunks > 1)
-  for (size_t c = 0; c < nchunks; c++) {
-    size_t i0 = c * chunk, m = count - i0 < chunk ? count - i0 : chunk;
-    const real *in[2];
-    real *out[3];
-    for (int k = 0; k < 2; k++)
-      in[k] = a->in[k] ? a->in[k] + i0 * (size_t)a->in_planes[k] * lanes : NULL;
-    for (int k = 0; k < 3; k++)
-      out[k] = a->out[k] ? a->out[k] + i0 * (size_t)a->out_planes[k] * lanes : NULL;
-    block(m, aos, in[0], in[1], out[0], out[1], out[2]);
+  chunks_job j = {block, count, lanes, aos ? (size_t)CHUNK_BLOCKS * EK_LANES : CHUNK_BLOCKS,
+                  0,     aos,   a};
+  const size_t nchunks = (count + j.chunk - 1) / j.chunk;
+  for (; j.first < nchunks; j.first += EK_TEAM_MAX_CHUNKS) {
+    const size_t n = nchunks - j.first;
+    ek_team_run(n < EK_TEAM_MAX_CHUNKS ? n : EK_TEAM_MAX_CHUNKS, run_chunk, &j);
   }
   return EK_OK;
 }

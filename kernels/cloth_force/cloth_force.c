@@ -9,7 +9,9 @@
 // when the phases are asked for): the membrane and hinge blocks, each
 // writing its corners, then every vertex sums its corners in element order.
 // No vertex is written by two threads and no sum depends on the partition:
-// the same bits at any thread count. The other entry points use OpenMP.
+// the same bits at any thread count. The Hessian products, the diagonal
+// blocks, the fields and the f32 energy run on the team too; the f64
+// energy's ordered sum keeps its OpenMP region (energy_sum).
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>
@@ -84,11 +86,13 @@ static void gather(const ek_cloth *cl, const real *tc, const real *hc, real *f, 
   }
 }
 
-// Static partition of [0, n) for thread t of nt.
+#if defined(EK_REAL_F64)
+// Static partition of [0, n) for thread t of nt (the f64 energy's region).
 static void part(size_t n, int t, int nt, size_t *a, size_t *b) {
   *a = n * (size_t)t / (size_t)nt;
   *b = n * (size_t)(t + 1) / (size_t)nt;
 }
+#endif
 
 // The arguments the cloth kernels share (each reads what it needs): the
 // cloth's arrays in this precision, the parameters, the positions and the
@@ -114,7 +118,7 @@ static cloth_args base_args(const ek_cloth *cl, const ek_cloth_params *p, const 
 // The force's passes as jobs of the helper team (kernels/team.h: the caller
 // never waits for a thread that has not started): chunks of CHUNK_BLOCKS
 // membrane blocks, then of hinge blocks, then of GATHER_VERTS vertices.
-// Every chunk writes what the region's thread wrote for it: the same bits.
+// Every chunk writes what an OpenMP thread wrote for it: the same bits.
 #define CHUNK_BLOCKS 32
 #define GATHER_VERTS 1024
 typedef struct {
@@ -369,49 +373,71 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
 // fixed by EB alone, so any thread count gives the same bits, and no
 // thread runs a chain longer than one block's (the f64 paths' single
 // chain of nt + nh adds, thread 0's, held f32 at ~1.5x at 2 threads).
-// Static contiguous shares:
-// each thread finds the lines it wrote in the previous call (triangle
-// energies, positions in double) in its own cache, and its hinges mostly
-// read the positions it converted (the hinges read each 12 times, so
-// they are converted once per call); a dynamic schedule measured ~15%
-// more busy time per thread at 2 threads (lines moving between cores).
+// Two team jobs: the positions to double (the hinges read each 12 times,
+// so they are converted once per call) in 3 GATHER_VERTS chunks and the
+// triangles, then the hinges; EG partial sums per chunk.
+// (Before: an OpenMP region of static contiguous shares, chosen because a
+// dynamic schedule had measured ~15% more busy time per thread at 2
+// threads: lines moving between cores; docs/perf.md, sixteenth round.)
+#define EG 4
+typedef struct {
+  const ek_cloth *cl;
+  const energy_job *j;
+  double kb, *xd, *ps;
+  const real *x;
+  size_t nh, ntri, nx, ntp, nhp, nxc;
+} energy32_job;
+
+static void energy_tris(void *ctx, size_t c) {
+  const energy32_job *e = ctx;
+  if (c < e->nxc) {
+    size_t i0, i1;
+    chunk_range(e->nx, c, 3 * GATHER_VERTS, &i0, &i1);
+    for (size_t i = i0; i < i1; ++i)
+      e->xd[i] = (double)e->x[i];
+    return;
+  }
+  const energy_job *j = e->j;
+  for (size_t i = (c - e->nxc) * EG; i < e->ntp && i < (c - e->nxc + 1) * EG; ++i) {
+    // The kernel SUB blocks at a time, each followed by its adds: a
+    // short chain that overlaps the next call (a block's 256 adds,
+    // ~200 ns, would stall it).
+    size_t t0 = i * EB, t1 = t0 + EB < e->ntri ? t0 + EB : e->ntri;
+    double s = 0;
+    for (size_t a = t0; a < t1; a += SUB * L) {
+      size_t end = a + SUB * L < t1 ? a + SUB * L : t1;
+      j->blocks(j->ctx, a / L, (end + L - 1) / L);
+      s = add_tris(s, j->te, a, end);
+    }
+    e->ps[i] = s;
+  }
+}
+
+static void energy_hinges(void *ctx, size_t c) {
+  const energy32_job *e = ctx;
+  for (size_t k = c * EG; k < e->nhp && k < (c + 1) * EG; ++k) {
+    double s = 0;
+    for (size_t h = k * EB; h < e->nh && h < (k + 1) * EB; ++h)
+      s += hinge_energy(e->cl, e->kb, e->xd, h);
+    e->ps[e->ntp + k] = s;
+  }
+}
+
 static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, const real *x,
                          int par) {
-  double *xd = cl->energy_buf, *ps = xd + 3 * cl->nv;
-  const size_t nh = kb > 0 ? cl->nh : 0, ntri = cl->nt, nx = nh > 0 ? 3 * cl->nv : 0;
-  const size_t ntp = (ntri + EB - 1) / EB, nhp = (nh + EB - 1) / EB;
-  const real *te = j->te;
-#pragma omp parallel if (par)
-  {
-#pragma omp for schedule(static) nowait
-    for (size_t c = 0; c < nx; ++c)
-      xd[c] = (double)x[c];
-#pragma omp for schedule(static)
-    for (size_t i = 0; i < ntp; ++i) {
-      // The kernel SUB blocks at a time, each followed by its adds: a
-      // short chain that overlaps the next call (a block's 256 adds,
-      // ~200 ns, would stall it).
-      size_t t0 = i * EB, t1 = t0 + EB < ntri ? t0 + EB : ntri;
-      double s = 0;
-      for (size_t a = t0; a < t1; a += SUB * L) {
-        size_t e = a + SUB * L < t1 ? a + SUB * L : t1;
-        j->blocks(j->ctx, a / L, (e + L - 1) / L);
-        s = add_tris(s, te, a, e);
-      }
-      ps[i] = s;
-    }
-    // (the loop's barrier: every position converted before the hinges)
-#pragma omp for schedule(static) nowait
-    for (size_t k = 0; k < nhp; ++k) {
-      double s = 0;
-      for (size_t h = k * EB; h < nh && h < (k + 1) * EB; ++h)
-        s += hinge_energy(cl, kb, xd, h);
-      ps[ntp + k] = s;
-    }
-  }
+  energy32_job e = {.cl = cl, .j = j, .kb = kb, .xd = cl->energy_buf, .x = x};
+  e.ps = e.xd + 3 * cl->nv;
+  e.nh = kb > 0 ? cl->nh : 0;
+  e.ntri = cl->nt;
+  e.nx = e.nh > 0 ? 3 * cl->nv : 0;
+  e.ntp = (e.ntri + EB - 1) / EB;
+  e.nhp = (e.nh + EB - 1) / EB;
+  e.nxc = (e.nx + 3 * GATHER_VERTS - 1) / (3 * GATHER_VERTS);
+  ek_team_run_if(par, e.nxc + (e.ntp + EG - 1) / EG, energy_tris, &e);
+  ek_team_run_if(par, (e.nhp + EG - 1) / EG, energy_hinges, &e);
   double sum = 0;
-  for (size_t k = 0; k < ntp + nhp; ++k)
-    sum += ps[k];
+  for (size_t k = 0; k < e.ntp + e.nhp; ++k)
+    sum += e.ps[k];
   return sum;
 }
 #endif
@@ -441,6 +467,51 @@ int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const re
   return 0;
 }
 
+// The Hessian product as two team jobs: chunks of CHUNK_BLOCKS membrane
+// blocks, then of CHUNK_BLOCKS L hinges (each writes its own corners), then
+// the gather in GATHER_VERTS-vertex chunks.
+typedef struct {
+  const ek_cloth *cl;
+  const ek_cloth_params *p;
+  const cloth_args *a;
+  void (*hessian)(const cloth_args *, size_t, size_t);
+  size_t ntb, nh, ntc;
+  real *q;
+} hessian_job;
+
+static void hessian_elements(void *ctx, size_t i) {
+  const hessian_job *j = ctx;
+  size_t b0, b1;
+  if (i < j->ntc) {
+    chunk_range(j->ntb, i, CHUNK_BLOCKS, &b0, &b1);
+    j->hessian(j->a, b0, b1);
+    return;
+  }
+  // Bending: k_b Q (x) I3, Q = k k^T, in double.
+  const ek_cloth *cl = j->cl;
+  const real *dx = j->a->dx;
+  chunk_range(j->nh, i - j->ntc, CHUNK_BLOCKS * L, &b0, &b1);
+  for (size_t h = b0; h < b1; ++h) {
+    const int32_t *hq = cl->hinges + 4 * h;
+    const double *k = cl->hinge_k + 4 * h;
+    double s[3] = {0, 0, 0};
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i)
+        s[i] += k[c] * (double)dx[3 * (size_t)hq[c] + i];
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i)
+        j->a->hinge_corner[(h / L * 12 + (size_t)(c * 3 + i)) * L + h % L] =
+            (real)(j->p->bending * k[c] * s[i]);
+  }
+}
+
+static void hessian_gather(void *ctx, size_t i) {
+  const hessian_job *j = ctx;
+  size_t v0, v1;
+  chunk_range(j->cl->nv, i, GATHER_VERTS, &v0, &v1);
+  gather(j->cl, j->a->tri_corner, j->a->hinge_corner, j->q, v0, v1);
+}
+
 int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, const real *x,
                                  int project, const real *dx, real *q,
                                  const ek_cloth_force_opts *opts) {
@@ -456,31 +527,12 @@ int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, c
   const size_t ntb = SFX(cl->ntb), nh = p->bending > 0 ? cl->nh : 0;
   if (nh == 0 && SFX(cl->nhb) > 0) // no bending: the gather reads zeros
     memset(a.hinge_corner, 0, SFX(cl->nhb) * 12 * L * sizeof(real));
-  void (*hessian)(const cloth_args *, size_t, size_t) = MEMBRANE_HESSIAN(kt);
-#pragma omp parallel if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    size_t b0, b1;
-    part(ntb, t, nt, &b0, &b1);
-    hessian(&a, b0, b1);
-    // Bending: k_b Q (x) I3, Q = k k^T, in double.
-    part(nh, t, nt, &b0, &b1);
-    for (size_t h = b0; h < b1; ++h) {
-      const int32_t *hq = cl->hinges + 4 * h;
-      const double *k = cl->hinge_k + 4 * h;
-      double s[3] = {0, 0, 0};
-      for (int c = 0; c < 4; ++c)
-        for (int i = 0; i < 3; ++i)
-          s[i] += k[c] * (double)dx[3 * (size_t)hq[c] + i];
-      for (int c = 0; c < 4; ++c)
-        for (int i = 0; i < 3; ++i)
-          a.hinge_corner[(h / L * 12 + (size_t)(c * 3 + i)) * L + h % L] =
-              (real)(p->bending * k[c] * s[i]);
-    }
-#pragma omp barrier
-    part(cl->nv, t, nt, &b0, &b1);
-    gather(cl, a.tri_corner, a.hinge_corner, q, b0, b1);
-  }
+  hessian_job j = {
+      cl, p, &a, MEMBRANE_HESSIAN(kt), ntb, nh, (ntb + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, q};
+  const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
+  ek_team_run_if(par, j.ntc + (nh + CHUNK_BLOCKS * L - 1) / (CHUNK_BLOCKS * L), hessian_elements,
+                 &j);
+  ek_team_run_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, hessian_gather, &j);
   return 0;
 }
 
@@ -654,6 +706,59 @@ static void tri_hess(const ek_cloth *cl, const ek_cloth_params *p, const double 
   }
 }
 
+// The plain-double Hessian product as two team jobs: chunks of
+// CHUNK_BLOCKS L triangles, then of as many hinges (each writes its own
+// corners), then the gather in GATHER_VERTS-vertex chunks.
+typedef struct {
+  const ek_cloth *cl;
+  const ek_cloth_params *p;
+  const double *x, *dx;
+  int project;
+  double *tc, *hc, *q;
+} arap_job;
+
+static void arap_elements(void *ctx, size_t i) {
+  const arap_job *j = ctx;
+  const ek_cloth *cl = j->cl;
+  const size_t per = CHUNK_BLOCKS * L, ntc = (cl->nt + per - 1) / per;
+  size_t e0, e1;
+  if (i < ntc) {
+    chunk_range(cl->nt, i, per, &e0, &e1);
+    for (size_t t = e0; t < e1; ++t) {
+      const int32_t *tri = cl->tris + 3 * t;
+      double dxc[9], qc[9];
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 3; ++k)
+          dxc[3 * c + k] = j->dx[3 * (size_t)tri[c] + k];
+      tri_hess(cl, j->p, j->x, t, dxc, j->project, qc);
+      for (int c = 0; c < 3; ++c)
+        for (int k = 0; k < 3; ++k)
+          j->tc[(t / L * 9 + (size_t)(c * 3 + k)) * L + t % L] = qc[3 * c + k];
+    }
+    return;
+  }
+  chunk_range(cl->nh, i - ntc, per, &e0, &e1);
+  for (size_t h = e0; h < e1; ++h) {
+    // Bending: k_b Q (x) I3, Q = k k^T.
+    const int32_t *hq = cl->hinges + 4 * h;
+    const double *k = cl->hinge_k + 4 * h;
+    double s[3] = {0, 0, 0};
+    for (int c = 0; c < 4; ++c)
+      for (int d = 0; d < 3; ++d)
+        s[d] += k[c] * j->dx[3 * (size_t)hq[c] + d];
+    for (int c = 0; c < 4; ++c)
+      for (int d = 0; d < 3; ++d)
+        j->hc[(h / L * 12 + (size_t)(c * 3 + d)) * L + h % L] = j->p->bending * k[c] * s[d];
+  }
+}
+
+static void arap_gather(void *ctx, size_t i) {
+  const arap_job *j = ctx;
+  size_t v0, v1;
+  chunk_range(j->cl->nv, i, GATHER_VERTS, &v0, &v1);
+  gather(j->cl, j->tc, j->hc, j->q, v0, v1);
+}
+
 int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
                                int project, const double *dx, double *q) {
   int rc = check_args("ek_cloth_hessian_apply_f64", cl, p, !x || !dx || !q, "x, dx or q");
@@ -663,43 +768,71 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
   if (p->model == EK_MEMBRANE_STVK)
     return ek_cloth_hessian_apply_ex_f64(cl, p, x, project, dx, q, NULL);
   ek_cloth *mut = (ek_cloth *)cl;
-  double *tc = mut->tri_corner_f64, *hc = mut->hinge_corner_f64;
+  arap_job j = {cl, p, x, dx, project, mut->tri_corner_f64, mut->hinge_corner_f64, q};
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
-  long nt = (long)cl->nt, nh = (long)cl->nh;
-#pragma omp parallel if (par)
-  {
-#pragma omp for schedule(static)
-    for (long t = 0; t < nt; ++t) {
-      const int32_t *tri = cl->tris + 3 * t;
-      double dxc[9], qc[9];
-      for (int c = 0; c < 3; ++c)
-        for (int i = 0; i < 3; ++i)
-          dxc[3 * c + i] = dx[3 * (size_t)tri[c] + i];
-      tri_hess(cl, p, x, (size_t)t, dxc, project, qc);
-      for (int c = 0; c < 3; ++c)
-        for (int i = 0; i < 3; ++i)
-          tc[((size_t)t / L * 9 + (size_t)(c * 3 + i)) * L + (size_t)t % L] = qc[3 * c + i];
-    }
-#pragma omp for schedule(static)
-    for (long h = 0; h < nh; ++h) {
-      // Bending: k_b Q (x) I3, Q = k k^T.
-      const int32_t *hq = cl->hinges + 4 * h;
-      const double *k = cl->hinge_k + 4 * h;
-      double s[3] = {0, 0, 0};
-      for (int c = 0; c < 4; ++c)
-        for (int i = 0; i < 3; ++i)
-          s[i] += k[c] * dx[3 * (size_t)hq[c] + i];
-      for (int c = 0; c < 4; ++c)
-        for (int i = 0; i < 3; ++i)
-          hc[((size_t)h / L * 12 + (size_t)(c * 3 + i)) * L + (size_t)h % L] =
-              p->bending * k[c] * s[i];
-    }
-    size_t v0, v1;
-    part(cl->nv, omp_get_thread_num(), omp_get_num_threads(), &v0, &v1);
-    // The implicit omp-for barrier above orders the corners before the gather.
-    gather(cl, tc, hc, q, v0, v1);
-  }
+  const size_t per = CHUNK_BLOCKS * L, ntc = (cl->nt + per - 1) / per;
+  ek_team_run_if(par, ntc + (cl->nh + per - 1) / per, arap_elements, &j);
+  ek_team_run_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, arap_gather, &j);
   return 0;
+}
+
+// The diagonal blocks and the fields as team jobs (each vertex's or
+// triangle's values alone): GATHER_VERTS vertices, CHUNK_BLOCKS L triangles
+// per chunk.
+typedef struct {
+  const ek_cloth *cl;
+  const ek_cloth_params *p;
+  const double *x;
+  double *blocks, *J, *s1, *s2, *psi;
+} diag_job;
+
+static void diag_chunk(void *ctx, size_t i) {
+  const diag_job *j = ctx;
+  const ek_cloth *cl = j->cl;
+  const ek_cloth_params *p = j->p;
+  size_t v0, v1;
+  chunk_range(cl->nv, i, GATHER_VERTS, &v0, &v1);
+  for (size_t v = v0; v < v1; ++v) {
+    double b[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    for (size_t r = cl->tri_off[v]; r < cl->tri_off[v + 1]; ++r) {
+      size_t e = cl->tri_ref[r], t = e / 3;
+      int c = (int)(e % 3);
+      for (int k = 0; k < 3; ++k) {
+        double dxc[9] = {0}, qc[9];
+        dxc[3 * c + k] = 1;
+        tri_hess(cl, p, j->x, t, dxc, 1, qc);
+        for (int d = 0; d < 3; ++d)
+          b[3 * d + k] += qc[3 * c + d];
+      }
+    }
+    for (size_t r = cl->hinge_off[v]; r < cl->hinge_off[v + 1]; ++r) {
+      size_t e = cl->hinge_ref[r];
+      double kk = p->bending * cl->hinge_k[e] * cl->hinge_k[e];
+      for (int d = 0; d < 3; ++d)
+        b[4 * d] += kk;
+    }
+    memcpy(j->blocks + 9 * v, b, sizeof b);
+  }
+}
+
+static void fields_chunk(void *ctx, size_t i) {
+  const diag_job *j = ctx;
+  size_t t0, t1;
+  chunk_range(j->cl->nt, i, CHUNK_BLOCKS * L, &t0, &t1);
+  for (size_t t = t0; t < t1; ++t) {
+    double F[6];
+    tri_F(j->cl, j->x, t, F);
+    cloth_svd32 d;
+    cloth_svd32_of(F, &d);
+    if (j->J)
+      j->J[t] = d.sigma[0] * d.sigma[1];
+    if (j->s1)
+      j->s1[t] = d.sigma[0];
+    if (j->s2)
+      j->s2[t] = d.sigma[1];
+    if (j->psi)
+      j->psi[t] = membrane_psi(j->p, F);
+  }
 }
 
 int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, const double *x,
@@ -711,29 +844,9 @@ int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, 
   // product with e_j at corner c. Each vertex sums its corners in element
   // order (triangles, then hinges), the order of the serial scatter this
   // replaces: the same bits, vertices in parallel.
-  long nv = (long)cl->nv;
-#pragma omp parallel for schedule(static) if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
-  for (long v = 0; v < nv; ++v) {
-    double b[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    for (size_t r = cl->tri_off[v]; r < cl->tri_off[v + 1]; ++r) {
-      size_t e = cl->tri_ref[r], t = e / 3;
-      int c = (int)(e % 3);
-      for (int j = 0; j < 3; ++j) {
-        double dxc[9] = {0}, qc[9];
-        dxc[3 * c + j] = 1;
-        tri_hess(cl, p, x, t, dxc, 1, qc);
-        for (int i = 0; i < 3; ++i)
-          b[3 * i + j] += qc[3 * c + i];
-      }
-    }
-    for (size_t r = cl->hinge_off[v]; r < cl->hinge_off[v + 1]; ++r) {
-      size_t e = cl->hinge_ref[r];
-      double kk = p->bending * cl->hinge_k[e] * cl->hinge_k[e];
-      for (int i = 0; i < 3; ++i)
-        b[4 * i] += kk;
-    }
-    memcpy(blocks + 9 * (size_t)v, b, sizeof b);
-  }
+  diag_job j = {cl, p, x, blocks, NULL, NULL, NULL, NULL};
+  ek_team_run_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS,
+                 diag_chunk, &j);
   return 0;
 }
 
@@ -743,22 +856,9 @@ int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const doub
   if (rc)
     return rc;
   // Each triangle's values alone: any partition gives the same bits.
-  long nt = (long)cl->nt;
-#pragma omp parallel for schedule(static) if (cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS)
-  for (long t = 0; t < nt; ++t) {
-    double F[6];
-    tri_F(cl, x, (size_t)t, F);
-    cloth_svd32 d;
-    cloth_svd32_of(F, &d);
-    if (J)
-      J[t] = d.sigma[0] * d.sigma[1];
-    if (s1)
-      s1[t] = d.sigma[0];
-    if (s2)
-      s2[t] = d.sigma[1];
-    if (psi)
-      psi[t] = membrane_psi(p, F);
-  }
+  diag_job j = {cl, p, x, NULL, J, s1, s2, psi};
+  ek_team_run_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS,
+                 (cl->nt + CHUNK_BLOCKS * L - 1) / (CHUNK_BLOCKS * L), fields_chunk, &j);
   return 0;
 }
 #endif

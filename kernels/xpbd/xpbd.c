@@ -90,24 +90,43 @@ static int check(const ek_xpbd *xp, const char *fn, const void *x, int need_begi
   return EK_OK;
 }
 
-// One pass of `op` over every block, fixed ranges split among threads
-// (called inside a parallel region or not).
-static void all_blocks(const ek_xpbd *xp, const xpbd_args *a) {
-  const long nr = (long)((xp->nblocks + XPBD_RANGE - 1) / XPBD_RANGE);
-#pragma omp for schedule(static)
-  for (long r = 0; r < nr; r++) {
-    size_t b0 = (size_t)r * XPBD_RANGE, b1 = b0 + XPBD_RANGE;
-    KERNEL(xp->kt)(a, b0, b1 < xp->nblocks ? b1 : xp->nblocks);
-  }
+// The passes as jobs of the helper team (kernels/team.h: the caller never
+// waits for a thread that has not started, and runs the chunks no helper
+// claims): a chunk does the same work whoever runs it, so the bits are the
+// same at any thread count. GATHER_VERTS vertices per chunk of the Jacobi
+// gather.
+#define GATHER_VERTS 1024
+typedef struct {
+  const ek_xpbd *xp;
+  const xpbd_args *a;
+  real *x;
+  size_t t0, t1, per; // a phase's tasks [t0, t1), tasks per chunk
+  size_t nt;          // tasks per sweep (the flow)
+  int it0, spin;      // the flow's first sweep, its wait's spins
+} sweep_job;
+
+// Chunk r of one pass of `op` over every block: blocks [r R, r R + R).
+static void blocks_chunk(void *ctx, size_t r) {
+  const sweep_job *j = ctx;
+  const size_t b0 = r * XPBD_RANGE, b1 = b0 + XPBD_RANGE;
+  KERNEL(j->xp->kt)(j->a, b0, b1 < j->xp->nblocks ? b1 : j->xp->nblocks);
 }
 
-// x_v += w_v * (sum of v's corr entries, in entry order).
-static void gather_corrections(const ek_xpbd *xp, real *x) {
+static void all_blocks(const ek_xpbd *xp, const xpbd_args *a) {
+  sweep_job j = {.xp = xp, .a = a};
+  ek_team_run_if(parallel_for(xp), (xp->nblocks + XPBD_RANGE - 1) / XPBD_RANGE, blocks_chunk, &j);
+}
+
+// x_v += w_v * (sum of v's corr entries, in entry order), chunk i's
+// vertices.
+static void gather_chunk(void *ctx, size_t i) {
+  const sweep_job *j = ctx;
+  const ek_xpbd *xp = j->xp;
   const real *corr = xp->corr, *w = xp->w;
-  const size_t L = (size_t)xp->lanes;
-  const long nv = (long)xp->nverts;
-#pragma omp for schedule(static)
-  for (long v = 0; v < nv; v++) {
+  const size_t L = (size_t)xp->lanes, v0 = i * GATHER_VERTS;
+  const size_t v1 = v0 + GATHER_VERTS < xp->nverts ? v0 + GATHER_VERTS : xp->nverts;
+  real *x = j->x;
+  for (size_t v = v0; v < v1; v++) {
     const size_t e0 = xp->vert_start[v], e1 = xp->vert_start[v + 1];
     if (e0 == e1 || w[v] == 0)
       continue;
@@ -120,13 +139,23 @@ static void gather_corrections(const ek_xpbd *xp, real *x) {
   }
 }
 
-// Until *done >= need: spins up to 2^20 checks (~1 ms, about libgomp's
-// barrier spin; a chunk takes ~20 us), then sleeps on the condition
-// variable that each finished chunk broadcasts to while anyone sleeps, so
-// a thread waiting for a descheduled one frees its core. (Tried: 2^15
-// spins then sleep: on the loaded VM every handoff paid a wake-up, the
-// 2-thread median 5x the barrier's; spins then sched_yield() for ever:
-// 30-60x; docs/perf.md.)
+// Chunk i of a Gauss-Seidel phase: tasks t0 + [i per, i per + per) of the
+// phase (which share no vertex).
+static void phase_chunk(void *ctx, size_t i) {
+  const sweep_job *j = ctx;
+  const ek_xpbd *xp = j->xp;
+  const size_t t0 = j->t0 + i * j->per, t1 = t0 + j->per;
+  for (size_t t = t0; t < t1 && t < j->t1; t++)
+    KERNEL(xp->kt)(j->a, xp->task_block[t], xp->task_block[t + 1]);
+}
+
+// Until *done >= need: spins `spin` checks (ek_wait_spins: 2^20, ~1 ms,
+// about libgomp's barrier spin; a chunk takes ~20 us), then sleeps on the
+// condition variable that each finished chunk broadcasts to while anyone
+// sleeps, so a thread waiting for a descheduled one frees its core.
+// (Tried: 2^15 spins then sleep: on the loaded VM every handoff paid a
+// wake-up, the 2-thread median 5x the barrier's; spins then sched_yield()
+// for ever: 30-60x; docs/perf.md.)
 // sleepers and done are sequentially consistent: either the waiter sees
 // the new count or the finisher sees the sleeper, whose wait has begun by
 // the time the finisher holds the mutex.
@@ -153,63 +182,137 @@ static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
   }
 }
 
-// Gauss-Seidel on tets at n > 1 threads without a barrier per phase: the
-// phase barrier serialised the 13 phases of a 1e5-tet box (65 chunks, 9 ..
-// 1 per phase: at 2 threads the odd counts left one thread idle for 37 - 32.5
-// chunks of 65, docs/perf.md). Each thread runs the tasks (chunks) of its
-// share of the Morton order (rank * n / ntasks == its number), sweep by
-// sweep in task order, and starts task t of sweep i once every neighbour
-// u (a task sharing a vertex with t) has done its turns before it: sweep i
-// for u < t (an earlier phase), sweep i - 1 for u > t. Every task then
-// reads and writes its vertices in the order of the phased sweep, so the
-// bits are the same; the order is (sweep, task) on every thread and each
-// wait is for an earlier pair, so no wait is for ever.
-static void sweeps_flow(const ek_xpbd *xp, const xpbd_args *a, int iterations) {
-  const int n = omp_get_num_threads(), me = omp_get_thread_num();
-  const int spin = ek_wait_spins(n);
-  const size_t nt = xp->ntasks;
-  for (int it = 0; it < iterations; it++)
-    for (size_t t = 0; t < nt; t++) {
-      if ((size_t)xp->task_rank[t] * (size_t)n / nt != (size_t)me)
-        continue;
-      for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
-        const size_t u = (size_t)xp->task_dep[e];
-        wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it, spin);
-      }
-      KERNEL(xp->kt)(a, xp->task_block[t], xp->task_block[t + 1]);
-      mark_done(xp, &xp->task_done[t], it + 1);
-    }
+// Gauss-Seidel on tets without a barrier per phase (the phase barrier
+// serialised the 13 phases of a 1e5-tet box: docs/perf.md): chunk c of the
+// job is task t = task_order[c mod nt] of sweep it = it0 + c / nt, and
+// starts once every neighbour u of t (a task sharing a vertex with it) has
+// done its turns before it: sweep it for u < t (an earlier phase), sweep
+// it - 1 for u > t. Every task then reads and writes its vertices in the
+// order of the phased sweep, so the bits are the same. The team claims
+// chunks in increasing c and each wait is for a smaller chunk (task_order
+// puts a task after its neighbours of smaller index), so each wait is for a
+// chunk that a running thread has claimed (never for one no thread has
+// started), and the least unfinished chunk can always run: no wait is for
+// ever, at any thread count (one thread runs them in order, waiting for
+// none).
+static void flow_chunk(void *ctx, size_t c) {
+  const sweep_job *j = ctx;
+  const ek_xpbd *xp = j->xp;
+  const size_t t = (size_t)xp->task_order[c % j->nt];
+  const int it = j->it0 + (int)(c / j->nt);
+  for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
+    const size_t u = (size_t)xp->task_dep[e];
+    wait_done(xp, &xp->task_done[u], u < t ? it + 1 : it, j->spin);
+  }
+  KERNEL(xp->kt)(j->a, xp->task_block[t], xp->task_block[t + 1]);
+  mark_done(xp, &xp->task_done[t], it + 1);
 }
 
-// `iterations` sweeps; the parallel region spans them all (one wake-up).
+// The order the team claims a sweep's tasks in, for n threads: any order
+// that puts each task after its neighbours of smaller index is correct (the
+// waits of flow_chunk are then for claimed chunks); this one is a list
+// schedule of n simulated threads, highest level first (Adam, Chandy and
+// Dickson 1974), a task's cost its block count: a thread that comes free
+// takes the ready task with the longest chain of later neighbours behind
+// it. Task index order, the
+// phased sweep's, left a thread waiting at the phase ends (the last phases
+// hold 1 or 2 chunks; docs/perf.md, sixteenth round). On allocation
+// failure the index order.
+static void plan_order(ek_xpbd *xp, int n) {
+  const size_t nt = xp->ntasks;
+  double *prio = malloc(nt * sizeof(double)), *finish = malloc(nt * sizeof(double));
+  double *free_at = malloc((size_t)n * sizeof(double));
+  for (size_t t = 0; t < nt; t++)
+    xp->task_order[t] = (int32_t)t;
+  xp->order_threads = n;
+  if (!prio || !finish || !free_at)
+    goto done;
+  for (size_t t = nt; t-- > 0;) {
+    double tail = 0;
+    for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
+      const size_t u = (size_t)xp->task_dep[e];
+      if (u > t && prio[u] > tail)
+        tail = prio[u];
+    }
+    prio[t] = (double)(xp->task_block[t + 1] - xp->task_block[t]) + tail;
+    finish[t] = -1; // not taken
+  }
+  for (int w = 0; w < n; w++)
+    free_at[w] = 0;
+  for (size_t k = 0; k < nt;) {
+    int w = 0;
+    for (int v = 1; v < n; v++)
+      if (free_at[v] < free_at[w])
+        w = v;
+    const double now = free_at[w];
+    size_t best = nt;
+    double next = -1; // the first finish after now, if nothing is ready
+    for (size_t t = 0; t < nt; t++) {
+      if (finish[t] >= 0)
+        continue;
+      int ready = 1;
+      for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1] && ready; e++) {
+        const size_t u = (size_t)xp->task_dep[e];
+        if (u < t && !(finish[u] >= 0 && finish[u] <= now)) {
+          ready = 0;
+          if (finish[u] > now && (next < 0 || finish[u] < next))
+            next = finish[u];
+        }
+      }
+      if (ready && (best == nt || prio[t] > prio[best]))
+        best = t;
+    }
+    if (best == nt) { // wait for the next task to finish
+      free_at[w] = next;
+      continue;
+    }
+    finish[best] = now + (double)(xp->task_block[best + 1] - xp->task_block[best]);
+    free_at[w] = finish[best];
+    xp->task_order[k++] = (int32_t)best;
+  }
+done:
+  free(prio);
+  free(finish);
+  free(free_at);
+}
+
+// `iterations` sweeps.
 static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
-  const int jacobi = xp->solver == EK_XPBD_JACOBI;
+  const int jacobi = xp->solver == EK_XPBD_JACOBI, par = parallel_for(xp);
   xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, xb, x);
   if (jacobi)
     a.corr = xp->corr;
-  const int flow = !jacobi && xp->flow_ready;
-  if (flow)
+  sweep_job j = {.xp = xp, .a = &a, .x = x, .nt = xp->ntasks};
+  if (!jacobi && xp->flow_ready && par && xp->ntasks > 0) {
     for (size_t t = 0; t < xp->ntasks; t++)
       atomic_store_explicit(&xp->task_done[t], 0, memory_order_relaxed);
-#pragma omp parallel if (parallel_for(xp))
-  {
-    if (flow && omp_get_num_threads() > 1)
-      sweeps_flow(xp, &a, iterations);
-    else
-      for (int it = 0; it < iterations; it++) {
-        if (jacobi) {
-          all_blocks(xp, &a);
-          gather_corrections(xp, x);
-          continue;
-        }
-        // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
-        for (size_t p = 0; p < xp->nphases; p++) {
-          const long t0 = (long)xp->phase_task[p], t1 = (long)xp->phase_task[p + 1];
-#pragma omp for schedule(static)
-          for (long t = t0; t < t1; t++)
-            KERNEL(xp->kt)(&a, xp->task_block[t], xp->task_block[t + 1]);
-        }
-      }
+    j.spin = ek_wait_spins(omp_get_max_threads());
+    if (xp->order_threads != omp_get_max_threads())
+      plan_order((ek_xpbd *)xp, omp_get_max_threads());
+    // Whole sweeps per job, at most EK_TEAM_MAX_CHUNKS chunks.
+    const size_t per_job = EK_TEAM_MAX_CHUNKS / xp->ntasks;
+    for (int it = 0; it < iterations;) {
+      const size_t k = (size_t)(iterations - it) < per_job ? (size_t)(iterations - it) : per_job;
+      j.it0 = it;
+      ek_team_run(k * xp->ntasks, flow_chunk, &j);
+      it += (int)k;
+    }
+    return;
+  }
+  // Clusters: a task is one block, XPBD_RANGE of them per chunk.
+  j.per = xp->elements == EK_XPBD_TETS ? 1 : XPBD_RANGE;
+  for (int it = 0; it < iterations; it++) {
+    if (jacobi) {
+      all_blocks(xp, &a);
+      ek_team_run_if(par, (xp->nverts + GATHER_VERTS - 1) / GATHER_VERTS, gather_chunk, &j);
+      continue;
+    }
+    // Gauss-Seidel: phases in order; a phase's tasks share no vertex.
+    for (size_t p = 0; p < xp->nphases; p++) {
+      j.t0 = xp->phase_task[p];
+      j.t1 = xp->phase_task[p + 1];
+      ek_team_run_if(par, (j.t1 - j.t0 + j.per - 1) / j.per, phase_chunk, &j);
+    }
   }
 }
 
@@ -231,7 +334,6 @@ int EK_P(xpbd_residual)(const ek_xpbd *xp, const real *x_base, const real *x, do
   if (rc < 0)
     return rc;
   xpbd_args a = args_for(xp, XPBD_RESIDUAL, x_base, (real *)x);
-#pragma omp parallel if (parallel_for(xp))
   all_blocks(xp, &a);
   // Maxima do not depend on the order; a NaN anywhere is kept.
   const real *s = xp->sink;
@@ -276,7 +378,6 @@ int EK_P(xpbd_profile)(ek_xpbd *xp, const real *x_base, const real *x, double se
   for (int k = 0; k < 2; k++) {
     xpbd_args a = args_for(xp, ops[k], x_base, copy);
     double t0 = now();
-#pragma omp parallel if (parallel_for(xp))
     all_blocks(xp, &a);
     seconds[k] = now() - t0;
   }
@@ -320,7 +421,7 @@ void ek_xpbd_destroy(ek_xpbd *xp) {
   free(xp->task_block);
   free(xp->task_dep_start);
   free(xp->task_dep);
-  free(xp->task_rank);
+  free(xp->task_order);
   free(xp->task_done);
   if (xp->flow_ready) {
     pthread_mutex_destroy(&xp->flow_mutex);
@@ -410,26 +511,19 @@ static int build_tets(ek_xpbd *xp, double **stiff64) {
   return build_task_deps(xp);
 }
 
-static int cmp_key(const void *a, const void *b) {
-  const size_t *x = a, *y = b;
-  return (x[0] > y[0]) - (x[0] < y[0]);
-}
-
-// The point-to-point schedule's data (sweeps_flow): each task's
-// neighbours through the tasks of each vertex, and each task's rank by its
-// first Morton slot (a chunk is a range of the Morton order).
+// The point-to-point schedule's data (flow_chunk): each task's neighbours
+// through the tasks of each vertex.
 static int build_task_deps(ek_xpbd *xp) {
   const size_t nt = xp->ntasks, nv = xp->nverts, L = (size_t)xp->lanes;
-  const int32_t *morton_slot = xp->el->morton_slot;
-  size_t *vstart = calloc(nv + 1, sizeof(size_t)), *key = malloc(2 * (nt + 1) * sizeof(size_t));
+  size_t *vstart = calloc(nv + 1, sizeof(size_t));
   int32_t *stamp = malloc((nv > nt ? nv : nt) * sizeof(int32_t)), *vtask = NULL;
   size_t cap = 8 * nt + 8, nd = 0;
   xp->task_dep_start = malloc((nt + 1) * sizeof(size_t));
   xp->task_dep = malloc(cap * sizeof(int32_t));
-  xp->task_rank = malloc((nt ? nt : 1) * sizeof(int32_t));
+  xp->task_order = malloc((nt ? nt : 1) * sizeof(int32_t));
   xp->task_done = malloc((nt ? nt : 1) * sizeof(atomic_int));
   int rc = EK_ENOMEM;
-  if (!vstart || !key || !stamp || !xp->task_dep_start || !xp->task_dep || !xp->task_rank ||
+  if (!vstart || !stamp || !xp->task_dep_start || !xp->task_dep || !xp->task_order ||
       !xp->task_done)
     goto done;
   // Vertex -> tasks (CSR, each task once), in two passes.
@@ -462,15 +556,11 @@ static int build_task_deps(ek_xpbd *xp) {
     stamp[t] = -1;
   for (size_t t = 0; t < nt; t++) {
     xp->task_dep_start[t] = nd;
-    key[2 * t] = SIZE_MAX;
-    key[2 * t + 1] = t;
     stamp[t] = (int32_t)t;
     for (size_t s = xp->task_block[t] * 4 * L; s < xp->task_block[t + 1] * 4 * L; s++) {
       const int32_t v = xp->idx[s];
       if (v < 0)
         continue;
-      const size_t slot = (s / (4 * L)) * L + s % L, m = (size_t)morton_slot[xp->cid[slot]];
-      key[2 * t] = m < key[2 * t] ? m : key[2 * t];
       for (size_t e = vstart[v]; e < vstart[v + 1]; e++) {
         const int32_t u = vtask[e];
         if (stamp[u] == (int32_t)t)
@@ -488,9 +578,6 @@ static int build_task_deps(ek_xpbd *xp) {
     }
   }
   xp->task_dep_start[nt] = nd;
-  qsort(key, nt, 2 * sizeof(size_t), cmp_key);
-  for (size_t r = 0; r < nt; r++)
-    xp->task_rank[key[2 * r + 1]] = (int32_t)r;
   for (size_t t = 0; t < nt; t++)
     atomic_init(&xp->task_done[t], 0);
   atomic_init(&xp->flow_sleepers, 0);
@@ -504,7 +591,6 @@ static int build_task_deps(ek_xpbd *xp) {
   rc = EK_OK;
 done:
   free(vstart);
-  free(key);
   free(stamp);
   free(vtask);
   return rc;

@@ -91,12 +91,13 @@ struct ek_xpbd {
   size_t nphases, ntasks;
   size_t *phase_task, *task_block;
   // Tets (task = chunk): task t's neighbours, the tasks sharing a vertex
-  // with it, are task_dep[task_dep_start[t] .. task_dep_start[t+1]); its
-  // rank in the Morton order task_rank[t]; task_done[t] the sweeps it has
-  // done in the current ek_xpbd_iterate call (the point-to-point schedule
-  // of xpbd.c).
+  // with it, are task_dep[task_dep_start[t] .. task_dep_start[t+1]);
+  // task_done[t] the sweeps it has done in the current ek_xpbd_iterate
+  // call; task_order the order the team claims a sweep's tasks in, planned
+  // for order_threads threads (xpbd.c, plan_order; 0: not yet).
   size_t *task_dep_start;
-  int32_t *task_dep, *task_rank;
+  int32_t *task_dep, *task_order;
+  int order_threads;
   atomic_int *task_done;
   // Where a thread sleeps once its wait outlasts the spin (sleepers: how
   // many do).
