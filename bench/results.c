@@ -1,7 +1,7 @@
 // Benchmark results: metadata, rows, HDF5 and JSON writers (see results.h).
+#define _DEFAULT_SOURCE // getloadavg (before any header: results.h includes system headers)
 #include "results.h"
 
-#define _DEFAULT_SOURCE // getloadavg
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <hdf5.h>

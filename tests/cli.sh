@@ -480,10 +480,39 @@ stopped() {
   grep -q "stopped by SIGTERM" "$err" || fail "$what: not said: $(tail -1 "$err")"
 }
 mkdir "$work/stop"
+# ek-bench keeps the rows it finished (an 8-minute suite stopped near its
+# end lost them all): named and marked partial, never under the whole run's
+# names; the reports (perf_md.py, results_md.py) refuse such a file. "[1/"
+# on a redirected stderr: row 1 is finished.
 stopped "ek-bench SIGTERM" "[1/" "$bin/ek-bench" --threads 1 --min-time 0.5 \
   --filter '^svd3/aosoa/scalar' --out "$work/stop/b.h5"
-grep -q "(row [0-9]* of 18); no results written" "$err" ||
-  fail "ek-bench SIGTERM: the row reached not named: $(tail -1 "$err")"
+grep -q "stopped by SIGTERM after [1-9][0-9]* of 18 rows; they are in $work/stop/b.partial.h5 and $work/stop/b.partial.json (marked partial)" "$err" ||
+  fail "ek-bench SIGTERM: the partial files not named: $(tail -1 "$err")"
+for f in b.h5 b.json; do
+  [ -e "$work/stop/$f" ] && fail "ek-bench SIGTERM: wrote $f, the name of a whole run"
+done
+[ -s "$work/stop/b.partial.h5" ] || fail "ek-bench SIGTERM: no b.partial.h5"
+if command -v python3 >/dev/null; then
+  python3 -c '
+import json, sys
+c = json.load(open(sys.argv[1]))["context"]
+# (Google Benchmark context values are strings)
+assert c["partial"] == "true" and 1 <= int(c["rows_done"]) < 18 and c["rows_total"] == "18", c
+assert c["partial_reason"].startswith("stopped by SIGTERM after"), c' "$work/stop/b.partial.json" ||
+    fail "ek-bench SIGTERM: b.partial.json not marked partial"
+  tools=$(cd "$(dirname "$0")/../tools" && pwd)
+  for tool in perf_md.py results_md.py; do
+    expect "$tool on a partial run" 1 python3 "$tools/$tool" --bench "$work/stop/b.partial.json" \
+      --cpu x --out "$work/stop/r.md" &&
+      { grep -q "a partial ek-bench run (stopped by SIGTERM" "$err" || fail "$tool on a partial run: $(cat "$err")"; }
+  done
+fi
+# A stale partial file is not overwritten either (before the run starts).
+expect "ek-bench, b.partial.h5 exists" 1 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+  --filter "$one_row" --out "$work/stop/b.h5" && one_error "ek-bench, b.partial.h5 exists"
+grep -q "b.partial.h5' exists; not overwritten (use --force)" "$err" ||
+  fail "ek-bench, b.partial.h5 exists: $(cat "$err")"
+rm -f "$work"/stop/b.partial.*
 stopped "ek-verify SIGTERM" "" "$bin/ek-verify" --json "$work/stop/v.json"
 grep -q "no verdict, and the --json file is not written" "$err" ||
   fail "ek-verify SIGTERM: $(tail -1 "$err")"
