@@ -773,6 +773,8 @@ int main(int argc, char **argv) {
     return rc;
   // EK_ISA naming an ISA this CPU lacks stops the run before it starts.
   ek_isa auto_isa;
+  if (ek_cli_env_check("ek-bench")) // every EK_* variable is one of its values
+    return EK_EXIT_USAGE;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
     return ek_cli_usage_error("ek-bench", "%s", ek_last_error());
 

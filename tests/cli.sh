@@ -83,8 +83,29 @@ for prog in ek-bench ek-verify; do
 done
 expect "OMP_NUM_THREADS=4,5000 ek-sim" 2 env OMP_NUM_THREADS=4,5000 "$bin/ek-sim" \
   "$scenes/cantilever.json" --no-output --steps 1 && one_error "OMP_NUM_THREADS=4,5000 ek-sim"
+# A nested level's threads (libgomp takes "2,3" as 3 threads per nested
+# region): ek opens none, so they would go unused; "2,1" is what ek does.
+expect "OMP_NUM_THREADS=2,3 ek-sim" 2 env OMP_NUM_THREADS=2,3 "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1 && one_error "OMP_NUM_THREADS=2,3 ek-sim" &&
+  { grep -qF "OMP_NUM_THREADS='2,3': item 2 (3 threads) is for nested parallel regions" "$err" ||
+    fail "OMP_NUM_THREADS=2,3 ek-sim: $(cat "$err")"; }
+expect "OMP_NUM_THREADS=2,1 ek-sim" 0 env OMP_NUM_THREADS=2,1 "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1
 expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantilever.json" \
   --no-output --steps 1 && one_error "EK_ISA=bogus ek-sim"
+# Every EK_* variable as EK_ISA (kernels/env.c): a value not among its words
+# is bad usage naming the variable and the value (EK_FVM_PREFETCH=yes was
+# read by atoi: silently off).
+for e in EK_FVM_PREFETCH=yes EK_SVD3_CHAINS=3 EK_VERBOSE=2; do
+  for cmd in "ek-bench --filter nothing" "ek-verify --filter nothing" "ek-hash --threads 1" \
+    "ek-sim $scenes/cantilever.json --no-output --steps 1"; do
+    # shellcheck disable=SC2086
+    expect "$e $cmd" 2 env "$e" "$bin"/$cmd && one_error "$e $cmd" &&
+      { grep -qF "${e%%=*}='${e#*=}' is not one of" "$err" || fail "$e $cmd: $(cat "$err")"; }
+  done
+done
+expect "EK_FVM_PREFETCH=1 EK_SVD3_CHAINS=4 EK_VERBOSE=0 ek-sim" 0 env EK_FVM_PREFETCH=1 \
+  EK_SVD3_CHAINS=4 EK_VERBOSE=0 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1
 # A scene that cannot be read is a failed run (1), not a usage error.
 expect "ek-sim on a missing scene" 1 "$bin/ek-sim" "$scenes/no-such-scene.json" --no-output &&
   one_error "ek-sim on a missing scene"
@@ -437,7 +458,8 @@ for v in 0 -1 abc "" "4," "2x"; do
         fail "OMP_NUM_THREADS='$v' $prog: not said: $(cat "$err")"; }
   done
 done
-expect "OMP_NUM_THREADS=' 1,2' ek-sim" 0 env OMP_NUM_THREADS=" 1,2" "$bin/ek-sim" \
+# (Blanks around an item are libgomp's; a nested level is 1: ek opens none.)
+expect "OMP_NUM_THREADS=' 2, 1' ek-sim" 0 env OMP_NUM_THREADS=" 2, 1" "$bin/ek-sim" \
   "$scenes/cantilever.json" --no-output --steps 1
 # An output named .xmf: the name is the HDF5 file's (its XDMF is written
 # beside it); it wrote HDF5 into x.xmf and the XDMF into x.xmf.xmf.
@@ -530,6 +552,12 @@ if command -v script >/dev/null; then
   grep -q "1 rows, 0 failing -> PASS" "$work/vt.txt" ||
     fail "ek-verify redirected: the table is not whole: $(tail -1 "$work/vt.txt")"
   grep -q "ek-verify: family" "$work/vt.txt" && fail "ek-verify redirected: progress in the table"
+  # The default mode (table and stderr on the terminal): a status line under
+  # the table with the rows done and the time left (it showed the table
+  # only: minutes without knowing how many). Stopped after 8 s.
+  script -qec "timeout -s TERM 8 '$bin/ek-verify' --quick" /dev/null >"$out" 2>&1 </dev/null
+  grep -aEq "\[[0-9]+ (of about [0-9]+ )?rows, 0 failing, [0-9]+ s, about [0-9]+ s left; family [a-z_0-9]+, [1-7] of 7\]" "$out" ||
+    fail "ek-verify on a terminal: no status line with the time left: $(tr '\r' '\n' <"$out" | tail -2)"
 fi
 # A folder that root's access(W_OK) passes but that takes no new file
 # (/proc): refused before the first row (ek-bench timed its rows, ek-verify
