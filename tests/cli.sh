@@ -27,6 +27,11 @@ expect() {
   fi
   return 0
 }
+# fail WHAT: a failed check, said.
+fail() {
+  echo "FAIL $1"
+  failures=$((failures + 1))
+}
 # one_error WHAT: stderr is exactly one line (the error, printed once).
 one_error() {
   local n
@@ -123,10 +128,6 @@ expect "ek-sim --advise --steps" 2 "$bin/ek-sim" "$scenes/small_strain.json" --a
 # Issue 28: faults and hostile input.
 work=$(mktemp -d)
 trap 'rm -f "$out" "$err"; rm -rf "$work"' EXIT
-fail() {
-  echo "FAIL $1"
-  failures=$((failures + 1))
-}
 # Output paths that are not regular files: refused, even with --force, and
 # left as they were (the commit renames over the path).
 mkfifo "$work/fifo.h5"
@@ -556,7 +557,7 @@ if command -v script >/dev/null; then
   # the table with the rows done and the time left (it showed the table
   # only: minutes without knowing how many). Stopped after 8 s.
   script -qec "timeout -s TERM 8 '$bin/ek-verify' --quick" /dev/null >"$out" 2>&1 </dev/null
-  grep -aEq "\[[0-9]+ (of about [0-9]+ )?rows, 0 failing, [0-9]+ s, about [0-9]+ s left; family [a-z_0-9]+, [1-7] of 7\]" "$out" ||
+  grep -aEq "\[[0-9]+(/~[0-9]+)? rows, 0 failing, [0-9]+ s, ~[0-9]+ s left; [a-z_0-9]+ [1-7]/7\]" "$out" ||
     fail "ek-verify on a terminal: no status line with the time left: $(tr '\r' '\n' <"$out" | tail -2)"
 fi
 # A folder that root's access(W_OK) passes but that takes no new file
