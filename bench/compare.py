@@ -62,6 +62,10 @@ def load(path, name_filter):
         raise BadInput(f"{path}: 'context' is not an object")
     if context.get("json_schema_version", 1) != 1:
         raise BadInput(f"{path}: json_schema_version {context['json_schema_version']!r}, expected 1")
+    if str(context.get("partial")).lower() == "true":
+        # An interrupted or failed ek-bench run: its rows compare, the rest is missing.
+        print(f"compare.py: warning: {path} is a partial ek-bench run "
+              f"({context.get('partial_reason', '?')}); only its rows are compared", file=sys.stderr)
     runs = data.get("benchmarks")
     if not isinstance(runs, list):
         raise BadInput(f"{path}: no 'benchmarks' array")

@@ -6,6 +6,7 @@
 #include <math.h>
 #include <omp.h>
 #include <regex.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -82,14 +83,56 @@ struct ek_bench {
   double row_start;                    // wall time the current row started
   double row_s[ETA_WINDOW], row_s_sum; // the last rows' wall times, for the ETA
   int rows_timed;
+  int stop_said; // the "stopping" line printed
   ek_results results;
   ek_machine machine;
 };
 
 int ek_bench_listing(const ek_bench *b) { return b->listing; }
 
+// SIGINT, SIGTERM, SIGHUP during the default suite's rows: the handler only
+// records the signal (async-signal-safe). The timer stops between samples
+// (the row in progress is dropped), the rows not started are skipped (their
+// setup too: ek_bench_wants says no), and main writes the rows finished as
+// a partial run. SA_RESETHAND: a second signal ends the process at once.
+static volatile sig_atomic_t stop_signal;
+
+static void on_stop_signal(int sig) { stop_signal = sig; }
+
+static void catch_stop_signals(void) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop_signal;
+  sa.sa_flags = SA_RESETHAND;
+  sigemptyset(&sa.sa_mask);
+  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
+  for (int i = 0; i < 3; ++i) {
+    struct sigaction old; // a signal the shell ignores (a background job's SIGINT) stays ignored
+    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+      sigaction(sigs[i], &sa, NULL);
+  }
+}
+
+static const char *signal_name(int sig) {
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "SIGHUP";
+}
+
+// Whether the run is stopping (a signal came); says so once.
+static int stopping(const ek_bench *b) {
+  if (!stop_signal || b->listing)
+    return 0;
+  if (!b->stop_said) {
+    ((ek_bench *)b)->stop_said = 1;
+    fprintf(stderr,
+            "%sek-bench: %s: stopping after %zu of %d rows; writing them as a partial run (a "
+            "second signal ends at once)\n",
+            b->tty ? "\r\033[K" : "", signal_name(stop_signal), b->results.nrows, b->total);
+  }
+  return 1;
+}
+
 int ek_bench_wants(const ek_bench *b, const char *name) {
-  if (!name)
+  if (!name || stopping(b))
     return 0;
   return !b->has_filter || regexec(&b->filter, name, 0, NULL, 0) == 0;
 }
@@ -267,6 +310,8 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
       printf("%s\n", row->name);
     return 0;
   }
+  if (stopping(b))
+    return 0; // not started: the run is stopping
   b->index++;
   if (b->tty) {
     const int k = b->rows_timed < ETA_WINDOW ? b->rows_timed : ETA_WINDOW;
@@ -279,7 +324,12 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   b->row_start = omp_get_wtime();
   omp_set_num_threads(row->threads);
   ek_timing t;
-  if (ek_time(row->fn, row->ctx, row->items, &b->timer, &t) != 0) {
+  const int timed = ek_time(row->fn, row->ctx, row->items, &b->timer, &t);
+  if (timed == EK_TIME_STOPPED) {
+    stopping(b);
+    return 0; // the row in progress is dropped: the run is stopping
+  }
+  if (timed != 0) {
     ek_bench_fail(b, "row '%s': timing failed", row->name);
     return -1;
   }
@@ -466,6 +516,9 @@ static void usage(FILE *f) {
              "  --quick         tradeoff suite: small sets, short timings (a test run)\n"
              "  -h, --help      this text\n"
              "  --version       print the version\n"
+             "SIGINT, SIGTERM or SIGHUP: the row in progress is dropped and the rows finished\n"
+             "are written to FILE.partial.h5 and FILE.partial.json (marked partial; so is a run\n"
+             "with a failed row); the exit status is the signal's. A second signal ends at once.\n"
              "OMP_PROC_BIND / OMP_PLACES default to close / cores; EK_ISA is ignored for rows\n"
              "that force an ISA. The sim/ rows (and the polar/ rows of input:cantilever and\n"
              "input:twist) load the shipped scenes from EK_SCENES_DIR if set, else the\n"
@@ -482,6 +535,18 @@ typedef struct {
   const char *out, *json;
   int force;
 } outputs;
+
+// The name of a partial run's file: ".partial" before the file name's
+// extension ("results/b.h5" -> "results/b.partial.h5"), else appended.
+// 0, or -1 when it does not fit.
+static int partial_name(char *buf, size_t cap, const char *path) {
+  const char *base = strrchr(path, '/');
+  base = base ? base + 1 : path;
+  const char *dot = strrchr(base, '.');
+  int n = dot && dot > base ? snprintf(buf, cap, "%.*s.partial%s", (int)(dot - path), path, dot)
+                            : snprintf(buf, cap, "%s.partial", path);
+  return n >= 0 && (size_t)n < cap ? 0 : -1;
+}
 
 // The run's metadata "arguments": the command line's arguments, each
 // followed by a space, whole (a --filter may be thousands of characters).
@@ -708,6 +773,8 @@ int main(int argc, char **argv) {
     return rc;
   // EK_ISA naming an ISA this CPU lacks stops the run before it starts.
   ek_isa auto_isa;
+  if (ek_cli_env_check("ek-bench")) // every EK_* variable is one of its values
+    return EK_EXIT_USAGE;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
     return ek_cli_usage_error("ek-bench", "%s", ek_last_error());
 
@@ -715,6 +782,9 @@ int main(int argc, char **argv) {
   // lost to an existing file.
   // json has room for out with ".json" appended.
   char out[4096], json[4096 + 8];
+  // Where a partial run's rows go (an interrupted or failed run): never
+  // under the names of a whole run.
+  char out_partial[sizeof out + 16], json_partial[sizeof json + 16];
   if (!b->list_only) {
     if ((o.out && strlen(o.out) >= sizeof out) || (o.json && strlen(o.json) >= sizeof out))
       return bad_arg(o.out && strlen(o.out) >= sizeof out ? "--out" : "--json", NULL,
@@ -745,8 +815,14 @@ int main(int argc, char **argv) {
     }
     if (!strcmp(out, json))
       return bad_arg("--json", json, "same file as --out");
-    for (int i = 0; i < 2; i++) {
-      const char *path = i ? json : out;
+    if (partial_name(out_partial, sizeof out_partial, out) ||
+        partial_name(json_partial, sizeof json_partial, json))
+      return bad_arg("--out", NULL, "file name too long");
+    // The partial names are checked too: an interrupted run must not lose
+    // its rows to an existing file either.
+    const char *paths[4] = {out, json, out_partial, json_partial};
+    for (int i = 0; i < (b->suite_tradeoff ? 2 : 4); i++) {
+      const char *path = paths[i];
       // The folder must exist and be writable now, not after the run.
       char folder[sizeof json];
       int e = ek_cli_folder_error(path, folder, sizeof folder);
@@ -762,19 +838,26 @@ int main(int argc, char **argv) {
         return EK_EXIT_FAILED;
       }
       if (!o.force && ek_results_file_exists(path)) {
-        fprintf(stderr, "ek-bench: output file '%s' exists; not overwritten (use --force)\n", path);
+        fprintf(stderr, "ek-bench: output file '%s' exists; not overwritten (use --force)%s\n",
+                path, i >= 2 ? " (an interrupted or failed run writes its rows there)" : "");
         return EK_EXIT_FAILED;
       }
     }
   }
 
-  // Interrupted, a run leaves nothing behind (the files are written at its
-  // end, each whole or not at all): said, with the row it had reached.
-  if (!b->list_only)
+  // Interrupted, the tradeoff suite leaves nothing behind (its files are
+  // written at its end, each whole or not at all): said, with the point it
+  // had reached. The default suite keeps the rows it finished (a partial
+  // run, see catch_stop_signals).
+  if (b->suite_tradeoff) {
     ek_cli_stop_notice("ek-bench", &b->index, &b->total,
                        "no results written (they are written at the end of the run)");
-  if (b->suite_tradeoff)
     return run_tradeoff(b, argc, argv, out, json, o.force);
+  }
+  if (!b->list_only) {
+    catch_stop_signals();
+    b->timer.stop = &stop_signal;
+  }
 
   ek_results_init(&b->results);
   ek_machine_init(&b->machine);
@@ -890,17 +973,64 @@ int main(int argc, char **argv) {
     }
   }
 
+  // A run that a signal stopped before its last row, or that failed, is
+  // partial: said in the files (partial, rows_done, rows_total,
+  // partial_reason) and in their names (out_partial, json_partial), so that
+  // it is never taken for a whole run.
+  const int sig = stop_signal;
+  const int partial = (sig && r->nrows < (size_t)b->total) || b->failures;
+  char reason[160];
+  if (sig)
+    snprintf(reason, sizeof reason, "stopped by %s after %zu of %d rows", signal_name(sig),
+             r->nrows, b->total);
+  else
+    snprintf(reason, sizeof reason, "%d failure(s), %zu of %d rows timed", b->failures, r->nrows,
+             b->total);
+  ek_results_meta_bool(r, "partial", partial);
+  ek_results_meta_number(r, "rows_done", (double)r->nrows);
+  ek_results_meta_number(r, "rows_total", b->total);
+  if (partial)
+    ek_results_meta_text(r, "partial_reason", reason);
+
   ek_results_derive(r);
   print_table(b);
+  const char *h5 = partial ? out_partial : out, *js = partial ? json_partial : json;
   int werr = 0;
   if (r->nrows > 0) {
-    werr |= ek_results_write_h5(r, out, o.force) != 0;
-    werr |= ek_results_write_json(r, json, o.force, b->json_samples) != 0;
-    if (!werr)
-      printf("wrote %s and %s (%zu rows)\n", out, json, r->nrows);
+    werr |= ek_results_write_h5(r, h5, o.force) != 0;
+    werr |= ek_results_write_json(r, js, o.force, b->json_samples) != 0;
+    if (!werr && partial)
+      printf("wrote %s and %s (%zu of %d rows: partial, %s)\n", h5, js, r->nrows, b->total, reason);
+    else if (!werr)
+      printf("wrote %s and %s (%zu rows)\n", h5, js, r->nrows);
   }
   if (b->failures)
-    fprintf(stderr, "ek-bench: %d failure(s); see FAILED lines above\n", b->failures);
+    fprintf(stderr, "ek-bench: %d failure(s); see FAILED lines above%s%s%s\n", b->failures,
+            r->nrows && !werr ? "; the rows timed are in " : "", r->nrows && !werr ? js : "",
+            r->nrows && !werr ? " (partial)" : "");
+  if (sig) {
+    // Die of the signal, as the caller asked, now that the files are
+    // closed: a shell or a job runner sees the signal, not an exit code.
+    if (!partial)
+      fprintf(stderr, "ek-bench: stopped by %s after the last row; %s and %s are whole\n",
+              signal_name(sig), h5, js);
+    else if (r->nrows == 0)
+      fprintf(stderr, "ek-bench: stopped by %s after 0 of %d rows; nothing written\n",
+              signal_name(sig), b->total);
+    else if (werr)
+      fprintf(stderr, "ek-bench: stopped by %s after %zu of %d rows; writing them failed\n",
+              signal_name(sig), r->nrows, b->total);
+    else
+      fprintf(stderr,
+              "ek-bench: stopped by %s after %zu of %d rows; they are in %s and %s (marked "
+              "partial)\n",
+              signal_name(sig), r->nrows, b->total, h5, js);
+    fflush(stdout);
+    fflush(stderr);
+    ek_results_free(r);
+    signal(sig, SIG_DFL);
+    raise(sig);
+  }
   ek_results_free(r);
   if (b->has_filter)
     regfree(&b->filter);

@@ -165,6 +165,8 @@ int ek_time(ek_bench_fn *fn, void *ctx, size_t items, const ek_timer_opts *opts,
   // Warm-up: caches, page faults, frequency ramp; at least one call.
   double start = ek_now_ns();
   do {
+    if (o.stop && *o.stop)
+      return EK_TIME_STOPPED;
     fn(ctx);
     ek_clobber();
   } while (ek_now_ns() - start < o.warmup_time * 1e9);
@@ -175,6 +177,8 @@ int ek_time(ek_bench_fn *fn, void *ctx, size_t items, const ek_timer_opts *opts,
   double target_ns = o.min_sample_time * 1e9;
   long iters = 1;
   for (;;) {
+    if (o.stop && *o.stop)
+      return EK_TIME_STOPPED;
     double t = run_calls(fn, ctx, iters, overhead, NULL);
     if (t >= target_ns) {
       out->growth_ns = t;
@@ -197,6 +201,10 @@ int ek_time(ek_bench_fn *fn, void *ctx, size_t items, const ek_timer_opts *opts,
   double total = 0;
   int n = 0;
   while (n < o.max_samples && (n < o.min_samples || total < o.min_time * 1e9)) {
+    if (o.stop && *o.stop) {
+      ek_timing_free(out);
+      return EK_TIME_STOPPED;
+    }
     double cpu;
     double t = run_calls(fn, ctx, iters, overhead, &cpu);
     out->sample_ns[n] = t / per_call_items;

@@ -10,6 +10,7 @@
 #ifndef EK_BENCH_TIMER_H
 #define EK_BENCH_TIMER_H
 
+#include <signal.h>
 #include <stddef.h>
 
 #ifdef __cplusplus
@@ -37,7 +38,14 @@ typedef struct {
   double min_sample_time; // a sample lasts at least this, seconds (default 1e-3)
   double warmup_time;     // warm-up before sampling, seconds (default 0.05;
                           // at least one call is always made)
+  // Read between calls of the warm-up and the growth, and between samples:
+  // once nonzero (a signal handler's flag), the timing stops unfinished
+  // (EK_TIME_STOPPED). NULL (the default): never.
+  const volatile sig_atomic_t *stop;
 } ek_timer_opts;
+
+// ek_time's return when opts->stop was set: nothing is filled in.
+#define EK_TIME_STOPPED 1
 
 // Defaults as listed above.
 ek_timer_opts ek_timer_defaults(void);
@@ -73,8 +81,9 @@ double ek_thread_cpu_ns(void);
 double ek_timer_overhead_ns(void);
 
 // Time fn(ctx) (one call = `items` items). opts may be NULL (defaults).
-// Fills *out (free with ek_timing_free). 0 on success, < 0 on bad arguments
-// or allocation failure (message on stderr).
+// Fills *out (free with ek_timing_free). 0 on success, EK_TIME_STOPPED (see
+// ek_timer_opts.stop), < 0 on bad arguments or allocation failure (message
+// on stderr).
 int ek_time(ek_bench_fn *fn, void *ctx, size_t items, const ek_timer_opts *opts, ek_timing *out);
 void ek_timing_free(ek_timing *t);
 

@@ -18,8 +18,7 @@ void ek_set_error(const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(last_error, sizeof last_error, fmt, ap);
   va_end(ap);
-  const char *verbose = getenv("EK_VERBOSE");
-  if (verbose && *verbose && strcmp(verbose, "0") != 0)
+  if (ek_env_verbose())
     fprintf(stderr, "ek: %s\n", last_error);
 }
 

@@ -45,15 +45,13 @@ static pthread_once_t rows_once = PTHREAD_ONCE_INIT;
 
 // Per-microarchitecture tuning of a row (kernels.h: svd3_chains): the CPU's
 // choice (cpu_x86.c), or EK_SVD3_CHAINS=2|4 to compare both on one machine
-// (any other value is reported on stderr and ignored: a tuning, the same
-// bits either way). Read once, with the rows.
+// (any other value is an error through ek_set_error, env.c, and ignored: a
+// tuning, the same bits either way). Read once, with the rows.
 static int svd3_chains_for(ek_isa isa) {
-  const char *env = getenv("EK_SVD3_CHAINS");
-  if (env && *env) {
-    if (strcmp(env, "2") == 0 || strcmp(env, "4") == 0)
-      return env[0] - '0';
-    fprintf(stderr, "ek: EK_SVD3_CHAINS='%s' ignored: must be 2 or 4\n", env);
-  }
+  static const char *const chains[] = {"2", "4"};
+  int k;
+  if (ek_env_choice("EK_SVD3_CHAINS", 2, chains, &k) == 1)
+    return k ? 4 : 2;
   return ek_cpu_svd3_chains(isa);
 }
 
@@ -147,8 +145,7 @@ static int resolve_auto(ek_isa *out) {
         break;
       }
   }
-  const char *verbose = getenv("EK_VERBOSE");
-  if (verbose && *verbose && strcmp(verbose, "0") != 0)
+  if (ek_env_verbose())
     fprintf(stderr, "ek: using ISA %s%s\n", ek_isa_name(pick), env && *env ? " (EK_ISA)" : "");
   atomic_store(&auto_isa, (int)pick);
   *out = pick;

@@ -204,6 +204,13 @@ const ek_kernel_table *ek_kernels_resolve(ek_isa requested);
 // Record an error message for ek_last_error (printed only with EK_VERBOSE).
 void ek_set_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+// An EK_* environment variable (env.c, the one rule): 0 when unset or
+// empty; 1 when it is one of the n words, exactly (*index = which); else
+// EK_EINVAL with ek_last_error "NAME='value' is not one of w0, w1".
+int ek_env_choice(const char *name, int n, const char *const *words, int *index);
+// EK_VERBOSE=1 (any other value is off here; ek_env_check reports it).
+int ek_env_verbose(void);
+
 // The batch argument check every batch entry point makes before it reads or
 // writes anything (EK_OK, or EK_EINVAL with ek_last_error set):
 //   - count items of item_bytes each (AoS: n and the bytes of its largest

@@ -505,11 +505,12 @@ static int refine_reference(const ek_scene *scene, const ek_mesh *mesh, const ek
   }
   if (best < 0) {
     // A reference step the scene states: named at its place in the file.
-    char where[EK_SCENE_AT_MAX];
+    char where[EK_SCENE_AT_MAX], why[sizeof runs[0].error];
+    ek_advise_reason_text(runs[f->runs - 1].error, why, sizeof why); // the setting named once
     snprintf(err, errlen, "%s: the reference (explicit f64, dt %g) failed: %s",
              ek_scene_at(scene, trusted ? scene->where.reference_dt : (ek_scene_pos){0, 0}, where,
                          sizeof where),
-             f->dt[f->runs - 1], runs[f->runs - 1].error);
+             f->dt[f->runs - 1], why);
     goto fail;
   }
   f->extrapolated = best_ext;
@@ -814,6 +815,15 @@ oom:
   return EK_ENOMEM;
 }
 
+void ek_advise_reason_text(const char *reason, char *out, size_t n) {
+  const char *p = strstr(reason, " (trial ");
+  const char *q = p ? strchr(p, ')') : NULL; // a setting's text has no parenthesis
+  if (q)
+    snprintf(out, n, "%.*s%s", (int)(p - reason), reason, q + 1);
+  else
+    snprintf(out, n, "%s", reason);
+}
+
 void ek_advice_print(const ek_advice *a, FILE *out) {
   const ek_trial_monitor *m = &a->reach;
   const ek_advise_refinement *f = &a->refine;
@@ -903,6 +913,8 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
     if (!r->skipped && !isnan(r->cost))
       snprintf(cost, sizeof cost, "%.4g [%.4g %.4g] %d", r->cost, r->cost_lo, r->cost_hi,
                r->rounds);
+    char reason[sizeof r->reason];
+    ek_advise_reason_text(r->reason, reason, sizeof reason);
     fprintf(out, "%4zu  %-10s  %-7s  %-8s  %-8s  %-30s  %-4s  %-9s  %s%s%s%s%s\n", i + 1, dev, at,
             en, mj, cost,
             r->skipped    ? "-"
@@ -910,7 +922,7 @@ void ek_advice_print(const ek_advice *a, FILE *out) {
                           : "no",
             verdict, r->text, i == a->reference ? " (reference)" : "",
             (long)i == a->scene_row ? " (the scene's)" : "", r->skipped || r->failed ? ": " : "",
-            r->skipped || r->failed ? r->reason : "");
+            r->skipped || r->failed ? reason : "");
   }
   fprintf(out, "rule       among the rows within tol with no failed check, the cheapest median "
                "cost; rows whose [min max] overlaps it are tied; of the tied the smallest "

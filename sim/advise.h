@@ -206,6 +206,11 @@ long ek_advice_pick(const ek_advice *a, double tol);
 // The table the choice was made from, one row per candidate (setting,
 // deviation, cost, drift, verdict), and the pick.
 void ek_advice_print(const ek_advice *a, FILE *out);
+// A row's reason as printed: a trial's message names "FILE (trial
+// SETTING)" (trial.c), and the row names its setting already, so the
+// parenthesis is dropped ("x.json (trial model=stvk;dt=0.1): step 3: ..."
+// -> "x.json: step 3: ..."). out receives the text.
+void ek_advise_reason_text(const char *reason, char *out, size_t n);
 void ek_advice_free(ek_advice *a);
 
 #ifdef __cplusplus

@@ -1,6 +1,8 @@
 // The command-line conventions of ek's programs (see cli.h).
 #include "cli.h"
 
+#include <ek/core.h>
+
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
@@ -20,8 +22,12 @@ void ek_cli_footer(FILE *out) {
         "  EK_ISA=scalar|avx2|avx512  force one kernel ISA (default: the best this CPU runs;\n"
         "                             one the CPU lacks is an error, exit 2)\n"
         "  EK_VERBOSE=1               print the ISA chosen, and each library error as it happens\n"
+        "  EK_SVD3_CHAINS=2|4, EK_FVM_PREFETCH=0|1  tunings (the same bits; default: the CPU's\n"
+        "                             choice); an EK_ variable set to any other value is an\n"
+        "                             error, exit 2\n"
         "  OMP_NUM_THREADS=N          OpenMP threads, 1..4096 (default: all cores; another\n"
-        "                             value is an error, exit 2)\n"
+        "                             value, or a nested level's N > 1 as in 4,2, is an\n"
+        "                             error, exit 2)\n"
         "Exit status: 0 done, 1 a check or the run failed, 2 bad usage.\n",
         out);
 }
@@ -36,6 +42,10 @@ void ek_cli_common(const char *program, const char *arg, void (*help)(FILE *out)
     printf("%s (ek %s)\n", program, EK_VERSION_STRING);
     exit(EK_EXIT_OK);
   }
+}
+
+int ek_cli_env_check(const char *program) {
+  return ek_env_check() == EK_OK ? 0 : ek_cli_usage_error(program, "%s", ek_last_error());
 }
 
 int ek_cli_usage_error(const char *program, const char *fmt, ...) {

@@ -72,6 +72,11 @@ int ek_cli_folder_error(const char *path, char *folder, size_t n);
 // calls async-signal-safe functions; program and note must stay valid.
 void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note);
 
+// The EK_* environment variables (ek_env_check): 0, or the usage error
+// naming the variable and its value (printed; returns EK_EXIT_USAGE), as a
+// bad EK_ISA. Every program calls it first.
+int ek_cli_env_check(const char *program);
+
 // Test binaries: parses [--seed N] [--help] [--version], and [--scenes DIR]
 // when scenes is not NULL (*scenes is set to DIR); anything else is a usage
 // error (exit 2). Returns the seed (fallback when not given).

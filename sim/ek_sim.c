@@ -1039,6 +1039,10 @@ static int run(int argc, char **argv) {
                               : steps >= 0 ? "--steps"
                               : force      ? "--force"
                                            : "--residuals");
+  // Every EK_* variable: unset, empty or one of its values (exit 2 as for a
+  // bad EK_ISA, before the scene is read).
+  if (ek_cli_env_check("ek-sim"))
+    return EK_EXIT_USAGE;
   char err[1024];
   // SCENE is a file, or the name of a shipped scene ("drop"), found in the
   // build or the installed tree (scene_find.h).

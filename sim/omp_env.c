@@ -62,7 +62,11 @@ int omp_env_check_threads(const char *program) {
   // ("0", "x", "-1", "") and runs on every core, which a user who set it
   // never meant; a number too large it takes (99999999999 wrapped to
   // 1215752191) and aborts at the first parallel region, "out of memory".
-  for (const char *p = v;; ++p) {
+  // Items after the first are the threads of nested parallel regions,
+  // which ek never opens (kernels/team.c runs its own team instead of
+  // nesting): more than 1 there would be silently unused.
+  int item = 0;
+  for (const char *p = v;; ++p, ++item) {
     p += strspn(p, " \t");
     size_t digits = strspn(p, "0123456789");
     const char *q = p + digits;
@@ -75,6 +79,12 @@ int omp_env_check_threads(const char *program) {
                                 "OMP_NUM_THREADS='%s': each comma-separated item must be a whole "
                                 "number of threads in 1..4096",
                                 v);
+    if (item > 0 && n > 1)
+      return ek_cli_usage_error(program,
+                                "OMP_NUM_THREADS='%s': item %d (%ld threads) is for nested "
+                                "parallel regions, which ek never opens; give one number, the "
+                                "threads of its parallel regions",
+                                v, item + 1, n);
     if (!*q)
       return 0;
     p = q;

@@ -27,6 +27,11 @@ expect() {
   fi
   return 0
 }
+# fail WHAT: a failed check, said.
+fail() {
+  echo "FAIL $1"
+  failures=$((failures + 1))
+}
 # one_error WHAT: stderr is exactly one line (the error, printed once).
 one_error() {
   local n
@@ -83,8 +88,29 @@ for prog in ek-bench ek-verify; do
 done
 expect "OMP_NUM_THREADS=4,5000 ek-sim" 2 env OMP_NUM_THREADS=4,5000 "$bin/ek-sim" \
   "$scenes/cantilever.json" --no-output --steps 1 && one_error "OMP_NUM_THREADS=4,5000 ek-sim"
+# A nested level's threads (libgomp takes "2,3" as 3 threads per nested
+# region): ek opens none, so they would go unused; "2,1" is what ek does.
+expect "OMP_NUM_THREADS=2,3 ek-sim" 2 env OMP_NUM_THREADS=2,3 "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1 && one_error "OMP_NUM_THREADS=2,3 ek-sim" &&
+  { grep -qF "OMP_NUM_THREADS='2,3': item 2 (3 threads) is for nested parallel regions" "$err" ||
+    fail "OMP_NUM_THREADS=2,3 ek-sim: $(cat "$err")"; }
+expect "OMP_NUM_THREADS=2,1 ek-sim" 0 env OMP_NUM_THREADS=2,1 "$bin/ek-sim" \
+  "$scenes/cantilever.json" --no-output --steps 1
 expect "EK_ISA=bogus ek-sim" 2 env EK_ISA=bogus "$bin/ek-sim" "$scenes/cantilever.json" \
   --no-output --steps 1 && one_error "EK_ISA=bogus ek-sim"
+# Every EK_* variable as EK_ISA (kernels/env.c): a value not among its words
+# is bad usage naming the variable and the value (EK_FVM_PREFETCH=yes was
+# read by atoi: silently off).
+for e in EK_FVM_PREFETCH=yes EK_SVD3_CHAINS=3 EK_VERBOSE=2; do
+  for cmd in "ek-bench --filter nothing" "ek-verify --filter nothing" "ek-hash --threads 1" \
+    "ek-sim $scenes/cantilever.json --no-output --steps 1"; do
+    # shellcheck disable=SC2086
+    expect "$e $cmd" 2 env "$e" "$bin"/$cmd && one_error "$e $cmd" &&
+      { grep -qF "${e%%=*}='${e#*=}' is not one of" "$err" || fail "$e $cmd: $(cat "$err")"; }
+  done
+done
+expect "EK_FVM_PREFETCH=1 EK_SVD3_CHAINS=4 EK_VERBOSE=0 ek-sim" 0 env EK_FVM_PREFETCH=1 \
+  EK_SVD3_CHAINS=4 EK_VERBOSE=0 "$bin/ek-sim" "$scenes/cantilever.json" --no-output --steps 1
 # A scene that cannot be read is a failed run (1), not a usage error.
 expect "ek-sim on a missing scene" 1 "$bin/ek-sim" "$scenes/no-such-scene.json" --no-output &&
   one_error "ek-sim on a missing scene"
@@ -102,10 +128,6 @@ expect "ek-sim --advise --steps" 2 "$bin/ek-sim" "$scenes/small_strain.json" --a
 # Issue 28: faults and hostile input.
 work=$(mktemp -d)
 trap 'rm -f "$out" "$err"; rm -rf "$work"' EXIT
-fail() {
-  echo "FAIL $1"
-  failures=$((failures + 1))
-}
 # Output paths that are not regular files: refused, even with --force, and
 # left as they were (the commit renames over the path).
 mkfifo "$work/fifo.h5"
@@ -437,7 +459,8 @@ for v in 0 -1 abc "" "4," "2x"; do
         fail "OMP_NUM_THREADS='$v' $prog: not said: $(cat "$err")"; }
   done
 done
-expect "OMP_NUM_THREADS=' 1,2' ek-sim" 0 env OMP_NUM_THREADS=" 1,2" "$bin/ek-sim" \
+# (Blanks around an item are libgomp's; a nested level is 1: ek opens none.)
+expect "OMP_NUM_THREADS=' 2, 1' ek-sim" 0 env OMP_NUM_THREADS=" 2, 1" "$bin/ek-sim" \
   "$scenes/cantilever.json" --no-output --steps 1
 # An output named .xmf: the name is the HDF5 file's (its XDMF is written
 # beside it); it wrote HDF5 into x.xmf and the XDMF into x.xmf.xmf.
@@ -480,10 +503,39 @@ stopped() {
   grep -q "stopped by SIGTERM" "$err" || fail "$what: not said: $(tail -1 "$err")"
 }
 mkdir "$work/stop"
+# ek-bench keeps the rows it finished (an 8-minute suite stopped near its
+# end lost them all): named and marked partial, never under the whole run's
+# names; the reports (perf_md.py, results_md.py) refuse such a file. "[1/"
+# on a redirected stderr: row 1 is finished.
 stopped "ek-bench SIGTERM" "[1/" "$bin/ek-bench" --threads 1 --min-time 0.5 \
   --filter '^svd3/aosoa/scalar' --out "$work/stop/b.h5"
-grep -q "(row [0-9]* of 18); no results written" "$err" ||
-  fail "ek-bench SIGTERM: the row reached not named: $(tail -1 "$err")"
+grep -q "stopped by SIGTERM after [1-9][0-9]* of 18 rows; they are in $work/stop/b.partial.h5 and $work/stop/b.partial.json (marked partial)" "$err" ||
+  fail "ek-bench SIGTERM: the partial files not named: $(tail -1 "$err")"
+for f in b.h5 b.json; do
+  [ -e "$work/stop/$f" ] && fail "ek-bench SIGTERM: wrote $f, the name of a whole run"
+done
+[ -s "$work/stop/b.partial.h5" ] || fail "ek-bench SIGTERM: no b.partial.h5"
+if command -v python3 >/dev/null; then
+  python3 -c '
+import json, sys
+c = json.load(open(sys.argv[1]))["context"]
+# (Google Benchmark context values are strings)
+assert c["partial"] == "true" and 1 <= int(c["rows_done"]) < 18 and c["rows_total"] == "18", c
+assert c["partial_reason"].startswith("stopped by SIGTERM after"), c' "$work/stop/b.partial.json" ||
+    fail "ek-bench SIGTERM: b.partial.json not marked partial"
+  tools=$(cd "$(dirname "$0")/../tools" && pwd)
+  for tool in perf_md.py results_md.py; do
+    expect "$tool on a partial run" 1 python3 "$tools/$tool" --bench "$work/stop/b.partial.json" \
+      --cpu x --out "$work/stop/r.md" &&
+      { grep -q "a partial ek-bench run (stopped by SIGTERM" "$err" || fail "$tool on a partial run: $(cat "$err")"; }
+  done
+fi
+# A stale partial file is not overwritten either (before the run starts).
+expect "ek-bench, b.partial.h5 exists" 1 "$bin/ek-bench" --threads 1 --min-time 0.1 \
+  --filter "$one_row" --out "$work/stop/b.h5" && one_error "ek-bench, b.partial.h5 exists"
+grep -q "b.partial.h5' exists; not overwritten (use --force)" "$err" ||
+  fail "ek-bench, b.partial.h5 exists: $(cat "$err")"
+rm -f "$work"/stop/b.partial.*
 stopped "ek-verify SIGTERM" "" "$bin/ek-verify" --json "$work/stop/v.json"
 grep -q "no verdict, and the --json file is not written" "$err" ||
   fail "ek-verify SIGTERM: $(tail -1 "$err")"
@@ -501,6 +553,12 @@ if command -v script >/dev/null; then
   grep -q "1 rows, 0 failing -> PASS" "$work/vt.txt" ||
     fail "ek-verify redirected: the table is not whole: $(tail -1 "$work/vt.txt")"
   grep -q "ek-verify: family" "$work/vt.txt" && fail "ek-verify redirected: progress in the table"
+  # The default mode (table and stderr on the terminal): a status line under
+  # the table with the rows done and the time left (it showed the table
+  # only: minutes without knowing how many). Stopped after 8 s.
+  script -qec "timeout -s TERM 8 '$bin/ek-verify' --quick" /dev/null >"$out" 2>&1 </dev/null
+  grep -aEq "\[[0-9]+(/~[0-9]+)? rows, 0 failing, [0-9]+ s, ~[0-9]+ s left; [a-z_0-9]+ [1-7]/7\]" "$out" ||
+    fail "ek-verify on a terminal: no status line with the time left: $(tr '\r' '\n' <"$out" | tail -2)"
 fi
 # A folder that root's access(W_OK) passes but that takes no new file
 # (/proc): refused before the first row (ek-bench timed its rows, ek-verify

@@ -475,6 +475,16 @@ static void trial_messages(void) {
         rc == 0 && t.failed && strncmp(t.error, want, strlen(want)) == 0 &&
             strstr(t.error, "material.model = linear: XPBD"),
         detail);
+  // The advisor's row names its setting before the reason: the reason as
+  // printed names it no more ("SETTING: FILE (trial SETTING): ..." said it
+  // twice), and keeps the file and the rest of the message.
+  char reason[sizeof t.error], want_reason[sizeof t.error + 64];
+  ek_advise_reason_text(t.error, reason, sizeof reason);
+  snprintf(want_reason, sizeof want_reason, "column.json: %s",
+           strlen(t.error) > strlen(want) ? t.error + strlen(want) : "");
+  snprintf(detail, sizeof detail, "'%s' (want '%s')", reason, want_reason);
+  check("an advisor row's reason names the setting once",
+        strcmp(reason, want_reason) == 0 && !strstr(reason, setting), detail);
   ek_trial_free(&t);
   ek_mesh_destroy(mesh);
 }

@@ -141,6 +141,42 @@ static int child_auto(const char *env_value) {
   return ok ? 0 : 1;
 }
 
+// The EK_* variables' one rule (kernels/env.c): unset, empty or exactly one
+// of the variable's values is EK_OK; anything else (atoi read "yes" as 0,
+// and " 1" as 1) is EK_EINVAL naming the variable and the value.
+static void check_env_rule(void) {
+  static const struct {
+    const char *name, *good[3], *bad[6];
+  } vars[] = {
+      {"EK_VERBOSE", {"0", "1", ""}, {"2", "yes", " 1", "1 ", "01", "-0"}},
+      {"EK_FVM_PREFETCH", {"0", "1", ""}, {"2", "yes", "on", "1x", "01", "+1"}},
+      {"EK_SVD3_CHAINS", {"2", "4", ""}, {"3", "8", "0", "4 ", "two", "04"}},
+      {"EK_ISA", {"scalar", "avx2", ""}, {"AVX2", "sse", " avx2", "auto", "x", "avx"}},
+  };
+  for (size_t k = 0; k < sizeof vars / sizeof vars[0]; k++) {
+    const char *saved = getenv(vars[k].name);
+    char keep[64];
+    snprintf(keep, sizeof keep, "%s", saved ? saved : "");
+    for (int i = 0; i < 3; i++) {
+      setenv(vars[k].name, vars[k].good[i], 1);
+      check(ek_env_check() == EK_OK, "%s='%s' is accepted", vars[k].name, vars[k].good[i]);
+    }
+    for (int i = 0; i < 6; i++) {
+      setenv(vars[k].name, vars[k].bad[i], 1);
+      char named[96];
+      snprintf(named, sizeof named, "%s='%s' is not one of", vars[k].name, vars[k].bad[i]);
+      int rc = ek_env_check();
+      check(rc == EK_EINVAL && strstr(ek_last_error(), named) != NULL,
+            "%s='%s' is EK_EINVAL, naming the variable and the value", vars[k].name,
+            vars[k].bad[i]);
+    }
+    if (saved)
+      setenv(vars[k].name, keep, 1);
+    else
+      unsetenv(vars[k].name);
+  }
+}
+
 static void in_child(const char *env_value) {
   fflush(stdout);
   pid_t pid = fork();
@@ -162,6 +198,7 @@ int main(int argc, char **argv) {
   printf("test_dispatch: seed %llu (unused)\n", (unsigned long long)seed);
 
   check_against_cpuinfo();
+  check_env_rule();
   check(ek_isa_available(EK_ISA_SCALAR), "scalar is always available%s%s", "", "");
   check(!ek_isa_available(EK_ISA_AUTO) && !ek_isa_available((ek_isa)99),
         "AUTO and out-of-range values are not 'available' ISAs%s%s", "", "");

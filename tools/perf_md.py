@@ -162,6 +162,12 @@ def main():
         except (OSError, ValueError) as e:
             print(f"perf_md.py: {path}: {e}", file=sys.stderr)
             return 1
+        ctx = doc.get("context", {}) if isinstance(doc, dict) else {}
+        if str(ctx.get("partial")).lower() == "true":
+            # An interrupted or failed ek-bench run (ek-bench names it *.partial.json).
+            print(f"perf_md.py: {path}: a partial ek-bench run ({ctx.get('partial_reason', '?')}); "
+                  "the tables need a whole run", file=sys.stderr)
+            return 1
         gen += section(doc, label)
     gen.append(END)
     try:

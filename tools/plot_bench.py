@@ -49,6 +49,9 @@ def main():
     if not rows:
         sys.exit(f"plot_bench: no median rows in {args.json} match the filter")
     ctx = run.get("context", {})
+    if str(ctx.get("partial")).lower() == "true":
+        print(f"plot_bench: {args.json} is a partial ek-bench run "
+              f"({ctx.get('partial_reason', '?')}): PARTIAL", file=sys.stderr)
     print(f"{ctx.get('cpu_model', '?')}, {ctx.get('num_cpus', '?')} CPUs, "
           f"ISAs {ctx.get('isas_available', '?')}, git {ctx.get('git_revision', '?')}, "
           f"{ctx.get('date', '?')}")

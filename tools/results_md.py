@@ -167,6 +167,10 @@ def main(argv):
 
     bench = load(args.bench)
     ctx = bench.get("context", {})
+    if str(ctx.get("partial")).lower() == "true":
+        # An interrupted or failed ek-bench run (ek-bench names it *.partial.json).
+        raise SystemExit(f"results_md.py: {args.bench}: a partial ek-bench run "
+                         f"({ctx.get('partial_reason', '?')}); the results page needs a whole run")
     cpu = ctx.get("cpu_model", "unknown CPU")
     isas = (ctx.get("isas_available") or "").split()
     best = isas[-1] if isas else "unknown-isa"

@@ -1373,6 +1373,8 @@ int main(int argc, char **argv) {
       return ek_cli_usage_error("ek-hash", "unexpected argument \"%s\"", a);
     }
   }
+  if (ek_cli_env_check("ek-hash")) // every EK_* variable is one of its values
+    return EK_EXIT_USAGE;
   // Resolve AUTO once: an EK_ISA naming an unavailable target stops here.
   ek_isa best;
   if (ek_isa_resolve(EK_ISA_AUTO, &best)) {

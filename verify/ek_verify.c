@@ -52,17 +52,80 @@ struct ek_verify_ctx {
   cJSON *rows, *notes;
   int failures, rows_printed;
   const char *last_kernel;
-  // Progress on stderr when the table goes to a file or pipe and stderr
-  // is a terminal (the table itself is the progress on a terminal): each
-  // family as it starts, and the rows every 5 s.
-  int progress;
+  // Progress on stderr when stderr is a terminal: with the table
+  // redirected, a line as each family starts and every 5 s; with the table
+  // on the terminal too, a status line under it (rows done, family, time
+  // left), cleared before each line of the table.
+  int progress; // 1: lines, 2: a status line
+  int status_shown;
   double t0, last_progress;
+  size_t family;     // the family running
+  int family_rows0;  // rows before it
+  double done_share; // the reference run's time share of the families before it
 };
 
 static double now_s(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+// The time left: each family's share of a whole run's time (the reference
+// run: ek-verify and ek-verify --quick on the 2-core Zen 4, 3 ISAs, round 16:
+// 181 s and 117 s), the family running counted by its rows against that
+// run's. An estimate ("about"); none under --filter, whose rows are another
+// set. Rows of the reference run per family, in the order of families[].
+static const double ref_seconds[2][7] = {{47, 12, 74, 0.3, 0.3, 10, 38},
+                                         {2, 15, 90, 0.3, 0.3, 2, 8}};
+static const int ref_rows[2][7] = {{864, 96, 288, 12, 24, 18, 40}, {648, 96, 288, 12, 24, 18, 40}};
+
+// Rows of the whole run ("about": the reference CPU's ISAs) and the seconds
+// left; 0 when there is no estimate.
+static int progress_estimate(const ek_verify_ctx *ctx, int *total, double *left) {
+  const int q = ctx->quick ? 1 : 0;
+  if (ctx->has_filter || ctx->family >= 7)
+    return 0;
+  double sum = 0;
+  *total = 0;
+  for (int f = 0; f < 7; f++)
+    sum += ref_seconds[q][f], *total += ref_rows[q][f];
+  // Another CPU runs other ISAs: its rows differ, the shares stand.
+  int isas = 0;
+  for (int i = EK_ISA_SCALAR; i < EK_ISA_COUNT; i++)
+    isas += ek_isa_available((ek_isa)i);
+  if (isas != 3)
+    *total = 0;
+  double in_family = (double)(ctx->rows_printed - ctx->family_rows0) / ref_rows[q][ctx->family];
+  in_family = in_family < 0.95 ? in_family : 0.95;
+  const double done = (ctx->done_share + ref_seconds[q][ctx->family] * in_family) / sum;
+  const double elapsed = now_s() - ctx->t0;
+  if (done < 0.005 || elapsed < 1)
+    return 0;
+  *left = elapsed * (1 - done) / done;
+  return 1;
+}
+
+// The status line's text: "N of about T rows, family F (k of 7), E s, about L s left".
+static void progress_text(const ek_verify_ctx *ctx, char *buf, size_t cap) {
+  int total = 0;
+  double left = 0;
+  const int est = progress_estimate(ctx, &total, &left);
+  char of[48] = "";
+  if (est && total)
+    snprintf(of, sizeof of, " of about %d", total);
+  char eta[48] = "";
+  if (est)
+    snprintf(eta, sizeof eta, ", about %.0f s left", left);
+  snprintf(buf, cap, "%d%s rows, %d failing, %.0f s%s", ctx->rows_printed, of, ctx->failures,
+           now_s() - ctx->t0, eta);
+}
+
+// Before a line of the table on the terminal: the status line cleared.
+static void status_clear(ek_verify_ctx *ctx) {
+  if (ctx->status_shown) {
+    fputs("\r\033[K", stderr);
+    ctx->status_shown = 0;
+  }
 }
 
 uint64_t ek_verify_seed(const ek_verify_ctx *ctx) { return ctx->seed; }
@@ -85,6 +148,7 @@ void ek_verify_note(ek_verify_ctx *ctx, const char *fmt, ...) {
   va_start(ap, fmt);
   vsnprintf(msg, sizeof msg, fmt, ap);
   va_end(ap);
+  status_clear(ctx);
   printf("note: %s\n", msg);
   cJSON_AddItemToArray(ctx->notes, cJSON_CreateString(msg));
 }
@@ -110,6 +174,7 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
     failed = v == EK_FAIL;
   }
   ctx->failures += failed;
+  status_clear(ctx);
   if (!ctx->last_kernel || strcmp(ctx->last_kernel, r->kernel) != 0) {
     printf("\n%-7s %-32s %-16s %7s", "kernel", "variant", "inputs", "n");
     for (int k = 0; k < r->nmetrics; k++)
@@ -131,10 +196,27 @@ void ek_verify_emit(ek_verify_ctx *ctx, const ek_verify_row *r) {
     printf(" [first in %s]", r->nonfinite_case);
   printf("\n");
   ctx->rows_printed++;
-  if (ctx->progress && now_s() - ctx->last_progress > 5.0) {
+  fflush(stdout); // the row on the terminal before the status line under it
+  char text[160];
+  if (ctx->progress == 1 && now_s() - ctx->last_progress > 5.0) {
     ctx->last_progress = now_s();
-    fprintf(stderr, "ek-verify: %d rows, %d failing, %.0f s\n", ctx->rows_printed, ctx->failures,
-            ctx->last_progress - ctx->t0);
+    progress_text(ctx, text, sizeof text);
+    fprintf(stderr, "ek-verify: %s\n", text);
+  } else if (ctx->progress == 2 && now_s() - ctx->last_progress > 0.5) {
+    ctx->last_progress = now_s();
+    // Short (under 80 columns: a wrapped line is not cleared by \r):
+    // "[1126/~1342 rows, 0 failing, 95 s, ~87 s left; fvm 3/7]".
+    int total = 0;
+    double left = 0;
+    const int est = progress_estimate(ctx, &total, &left);
+    char of[24] = "", eta[32] = "";
+    if (est && total)
+      snprintf(of, sizeof of, "/~%d", total);
+    if (est)
+      snprintf(eta, sizeof eta, ", ~%.0f s left", left);
+    fprintf(stderr, "[%d%s rows, %d failing, %.0f s%s; %s %zu/7]", ctx->rows_printed, of,
+            ctx->failures, now_s() - ctx->t0, eta, families[ctx->family].name, ctx->family + 1);
+    ctx->status_shown = 1;
   }
 
   cJSON *j = cJSON_CreateObject();
@@ -280,7 +362,10 @@ static void usage(FILE *out) {
         "  -h, --help     this text\n"
         "  --version      print the version\n"
         "Every ISA this CPU runs is verified by name; EK_ISA picks what 'auto' means.\n"
-        "With the table redirected and stderr a terminal, progress goes to stderr.\n",
+        "Progress goes to stderr when it is a terminal: rows done, of about how many, and\n"
+        "about how long is left (an estimate from a reference run's time per family; none\n"
+        "under --filter); a status line under the table, or lines when the table is\n"
+        "redirected.\n",
         out);
 }
 
@@ -333,6 +418,8 @@ int main(int argc, char **argv) {
   // AUTO means. One the CPU lacks is an error, not a silent pass without it.
   // Checked before the filter is compiled, which every later return frees.
   ek_isa auto_isa;
+  if (ek_cli_env_check("ek-verify")) // every EK_* variable is one of its values
+    return EK_EXIT_USAGE;
   if (ek_isa_resolve(EK_ISA_AUTO, &auto_isa) != EK_OK)
     return ek_cli_usage_error("ek-verify", "%s", ek_last_error());
   if (force && !json_path)
@@ -368,15 +455,26 @@ int main(int argc, char **argv) {
          "the default sweeps (either rsqrt mode); 'trade' rows are reported only\n");
   int setup_errors = 0;
   const size_t nfamilies = sizeof families / sizeof families[0];
-  ctx.progress = !isatty(STDOUT_FILENO) && isatty(STDERR_FILENO);
+  _Static_assert(sizeof families / sizeof families[0] == 7, "ref_seconds, ref_rows: a family each");
+  ctx.progress = !isatty(STDERR_FILENO) ? 0 : isatty(STDOUT_FILENO) ? 2 : 1;
   ctx.t0 = ctx.last_progress = now_s();
   for (size_t f = 0; f < nfamilies; f++) {
-    if (ctx.progress)
-      fprintf(stderr, "ek-verify: family %s (%zu of %zu), %d rows so far, %.0f s\n",
-              families[f].name, f + 1, nfamilies, ctx.rows_printed, now_s() - ctx.t0);
+    if (f > 0)
+      ctx.done_share += ref_seconds[ctx.quick ? 1 : 0][f - 1];
+    ctx.family = f;
+    ctx.family_rows0 = ctx.rows_printed;
+    if (ctx.progress == 1) {
+      char text[160];
+      progress_text(&ctx, text, sizeof text);
+      fprintf(stderr, "ek-verify: family %s (%zu of %zu), %d rows so far, %.0f s; %s\n",
+              families[f].name, f + 1, nfamilies, ctx.rows_printed, now_s() - ctx.t0, text);
+    }
+    status_clear(&ctx);
     printf("\n== %s: %s\n", families[f].name, families[f].note);
     setup_errors += families[f].run(&ctx) != 0;
   }
+  status_clear(&ctx);
+  ctx.family = nfamilies; // no estimate past the last family
 
   if (ctx.has_filter && ctx.rows_printed == 0 && !setup_errors) {
     // Nothing verified is no PASS (a mistyped filter exited 0), as

@@ -39,6 +39,15 @@ int ek_isa_resolve(ek_isa requested, ek_isa *resolved);
 // also writes each error to stderr as it happens.
 const char *ek_last_error(void);
 
+// The EK_* environment variables the library reads, each unset, empty or
+// exactly one of its values: EK_ISA=scalar|avx2|avx512, EK_VERBOSE=0|1,
+// EK_SVD3_CHAINS=2|4, EK_FVM_PREFETCH=0|1. EK_OK, or EK_EINVAL with
+// ek_last_error naming the variable and its value ("EK_FVM_PREFETCH='yes'
+// is not one of 0, 1"). Where the library reads a bad value it sets that
+// error and keeps the default (a tuning) or fails the call (EK_ISA); a
+// program calls this first and refuses to run (ek's programs exit 2).
+int ek_env_check(void);
+
 // Batch arguments (every entry point that takes a count n or nblocks:
 // batch.h, svd3.h, material.h):
 //   - alignment: a float array must be aligned to 4 bytes and a double

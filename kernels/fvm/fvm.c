@@ -148,8 +148,9 @@ static int tet_fields(const ek_tets *el, const ek_material *mat, const real *x, 
 static int prefetch_for(const ek_tets *el) {
   static _Atomic int forced = -2; // -2: not read yet, -1: not set
   if (forced == -2) {
-    const char *e = getenv("EK_FVM_PREFETCH");
-    forced = e && *e ? atoi(e) != 0 : -1;
+    static const char *const bits[] = {"0", "1"};
+    int k; // a bad value: an error through ek_set_error (env.c), the default kept
+    forced = ek_env_choice("EK_FVM_PREFETCH", 2, bits, &k) == 1 ? k : -1;
   }
   if (forced >= 0)
     return forced;
