@@ -89,6 +89,13 @@ static void done_by(size_t count, size_t n) {
 // of that job's workers, or its range would not have been set), the others'
 // only this job's: a worker of an earlier, wider job takes nothing from a
 // later one, whose staging has no buffers for it.
+static void chunk(size_t i, int id) {
+  if (T.wfn)
+    T.wfn(T.ctx, i, id);
+  else
+    T.fn(T.ctx, i);
+}
+
 static void work_ranges(int id, uint64_t epoch) {
   const int nr = atomic_load_explicit(&T.want, memory_order_relaxed);
   size_t count = 0;
@@ -96,7 +103,7 @@ static void work_ranges(int id, uint64_t epoch) {
     uint64_t w = atomic_fetch_add_explicit(&T.range[id].w, 1, memory_order_acq_rel);
     if (FRONT(w) >= BACK(w))
       break;
-    T.wfn(T.ctx, T.base + FRONT(w), id);
+    chunk(T.base + FRONT(w), id);
     count++;
   }
   for (int k = 1; k < nr; k++) {
@@ -105,7 +112,7 @@ static void work_ranges(int id, uint64_t epoch) {
     while (FRONT(w) < BACK(w) && TAG_OF(w) == (epoch & TAG_MASK))
       if (atomic_compare_exchange_weak_explicit(&T.range[r].w, &w, w - BACK_ONE,
                                                 memory_order_acq_rel, memory_order_acquire)) {
-        T.wfn(T.ctx, T.base + BACK(w) - 1, id);
+        chunk(T.base + BACK(w) - 1, id);
         count++;
         w = atomic_load_explicit(&T.range[r].w, memory_order_acquire);
       }
@@ -263,7 +270,8 @@ static void job(size_t base, size_t n, int threads, int spin) {
   // Ranges as OpenMP's static schedule splits a loop (release: a worker
   // that takes a chunk from one sees this job's fn, ctx and base).
   const uint64_t epoch = EPOCH_OF(atomic_load_explicit(&T.claim, memory_order_relaxed)) + 1;
-  if (T.wfn)
+  const int ranged = atomic_load_explicit(&T.ranged, memory_order_relaxed);
+  if (ranged)
     for (int r = 0; r < threads; r++)
       atomic_store_explicit(&T.range[r].w,
                             TAG(epoch) | (uint64_t)(n * (size_t)(r + 1) / (size_t)threads) << 24 |
@@ -271,7 +279,7 @@ static void job(size_t base, size_t n, int threads, int spin) {
                             memory_order_release);
   // The claim word: a new epoch wakes the helpers; no chunk to claim there
   // for ranges.
-  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)(T.wfn ? 0 : n) << NEXT_BITS);
+  atomic_store(&T.claim, epoch << (NEXT_BITS + N_BITS) | (uint64_t)(ranged ? 0 : n) << NEXT_BITS);
   if (atomic_load(&T.sleepers) > 0) {
     pthread_mutex_lock(&T.m);
     pthread_cond_broadcast(&T.wake);
@@ -290,7 +298,7 @@ static void job(size_t base, size_t n, int threads, int spin) {
   pthread_mutex_unlock(&T.m);
 }
 
-static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
+static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, int ranged, void *ctx) {
   const int threads = ek_team_threads();
   if (n <= 1 || threads < 2 || pthread_mutex_trylock(&T.run) != 0) {
     serial(n, fn, wfn, ctx);
@@ -307,13 +315,15 @@ static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, void *ctx) {
   T.fn = fn;
   T.wfn = wfn;
   T.ctx = ctx;
-  atomic_store_explicit(&T.ranged, wfn != NULL, memory_order_relaxed);
+  atomic_store_explicit(&T.ranged, ranged, memory_order_relaxed);
   // The claim word holds at most EK_TEAM_MAX_CHUNKS: more run as several jobs.
   for (size_t base = 0; base < n; base += EK_TEAM_MAX_CHUNKS)
     job(base, n - base < EK_TEAM_MAX_CHUNKS ? n - base : EK_TEAM_MAX_CHUNKS, threads, spin);
   pthread_mutex_unlock(&T.run);
 }
 
-void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, ctx); }
+void ek_team_run(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, 0, ctx); }
 
-void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, ctx); }
+void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx) { run(n, NULL, fn, 1, ctx); }
+
+void ek_team_run_static(size_t n, ek_team_fn *fn, void *ctx) { run(n, fn, NULL, 1, ctx); }

@@ -54,6 +54,11 @@ int ek_team_threads(void);
 // each claim is on the worker's own line.
 void ek_team_run_ranges(size_t n, ek_team_worker_fn *fn, void *ctx);
 
+// ek_team_run with ek_team_run_ranges' split (a chunk on the same core call
+// after call while both cores are free), for passes whose chunks need no
+// order among themselves and no per-worker scratch.
+void ek_team_run_static(size_t n, ek_team_fn *fn, void *ctx);
+
 // Checks a wait spins before it sleeps, for `threads` threads: 2^20 (~1 ms,
 // about libgomp's own spin), 2^8 with more threads than processors (a
 // spinning thread may hold the core of the one it waits for) or
@@ -65,6 +70,15 @@ int ek_wait_spins(int threads);
 static inline void ek_team_run_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
   if (parallel)
     ek_team_run(n, fn, ctx);
+  else
+    for (size_t i = 0; i < n; i++)
+      fn(ctx, i);
+}
+
+// ek_team_run_static where parallel, else the chunks in order on this thread.
+static inline void ek_team_run_static_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
+  if (parallel)
+    ek_team_run_static(n, fn, ctx);
   else
     for (size_t i = 0; i < n; i++)
       fn(ctx, i);

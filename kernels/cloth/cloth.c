@@ -69,14 +69,14 @@ static int check_io(const char *fn, size_t count, size_t lanes, const io *a) {
 // 1: the kernel transposes in registers, cloth_block.c; no staging).
 typedef struct {
   cloth_block_fn *block;
-  size_t count, lanes, chunk, first; // first: the job's first chunk
+  size_t count, lanes, chunk;
   int aos;
   const io *a;
 } chunks_job;
 
 static void run_chunk(void *ctx, size_t i) {
   const chunks_job *j = ctx;
-  const size_t c = j->first + i, i0 = c * j->chunk;
+  const size_t i0 = i * j->chunk;
   const size_t m = j->count - i0 < j->chunk ? j->count - i0 : j->chunk;
   const real *in[2];
   real *out[3];
@@ -93,12 +93,8 @@ static int run_chunks(const char *fn, cloth_block_fn *block, size_t count, size_
   if (rc)
     return rc;
   chunks_job j = {block, count, lanes, aos ? (size_t)CHUNK_BLOCKS * EK_LANES : CHUNK_BLOCKS,
-                  0,     aos,   a};
-  const size_t nchunks = (count + j.chunk - 1) / j.chunk;
-  for (; j.first < nchunks; j.first += EK_TEAM_MAX_CHUNKS) {
-    const size_t n = nchunks - j.first;
-    ek_team_run(n < EK_TEAM_MAX_CHUNKS ? n : EK_TEAM_MAX_CHUNKS, run_chunk, &j);
-  }
+                  aos,   a};
+  ek_team_run_static((count + j.chunk - 1) / j.chunk, run_chunk, &j);
   return EK_OK;
 }
 

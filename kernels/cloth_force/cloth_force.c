@@ -433,8 +433,8 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
   e.ntp = (e.ntri + EB - 1) / EB;
   e.nhp = (e.nh + EB - 1) / EB;
   e.nxc = (e.nx + 3 * GATHER_VERTS - 1) / (3 * GATHER_VERTS);
-  ek_team_run_if(par, e.nxc + (e.ntp + EG - 1) / EG, energy_tris, &e);
-  ek_team_run_if(par, (e.nhp + EG - 1) / EG, energy_hinges, &e);
+  ek_team_run_static_if(par, e.nxc + (e.ntp + EG - 1) / EG, energy_tris, &e);
+  ek_team_run_static_if(par, (e.nhp + EG - 1) / EG, energy_hinges, &e);
   double sum = 0;
   for (size_t k = 0; k < e.ntp + e.nhp; ++k)
     sum += e.ps[k];
@@ -467,9 +467,11 @@ int EK_P(cloth_energy_ex)(const ek_cloth *cl, const ek_cloth_params *p, const re
   return 0;
 }
 
-// The Hessian product as two team jobs: chunks of CHUNK_BLOCKS membrane
-// blocks, then of CHUNK_BLOCKS L hinges (each writes its own corners), then
-// the gather in GATHER_VERTS-vertex chunks.
+// The Hessian product as two team jobs: chunk i its CHUNK_BLOCKS membrane
+// blocks and the i-th of ntc equal runs of hinges (each writes its own
+// corners: so each worker's range holds its share of both, and its
+// triangles are about those its gather reads), then the gather in
+// GATHER_VERTS-vertex chunks.
 typedef struct {
   const ek_cloth *cl;
   const ek_cloth_params *p;
@@ -482,16 +484,13 @@ typedef struct {
 static void hessian_elements(void *ctx, size_t i) {
   const hessian_job *j = ctx;
   size_t b0, b1;
-  if (i < j->ntc) {
-    chunk_range(j->ntb, i, CHUNK_BLOCKS, &b0, &b1);
-    j->hessian(j->a, b0, b1);
-    return;
-  }
+  chunk_range(j->ntb, i, CHUNK_BLOCKS, &b0, &b1);
+  j->hessian(j->a, b0, b1);
   // Bending: k_b Q (x) I3, Q = k k^T, in double.
   const ek_cloth *cl = j->cl;
   const real *dx = j->a->dx;
-  chunk_range(j->nh, i - j->ntc, CHUNK_BLOCKS * L, &b0, &b1);
-  for (size_t h = b0; h < b1; ++h) {
+  const size_t h0 = j->nh * i / j->ntc, h1 = j->nh * (i + 1) / j->ntc;
+  for (size_t h = h0; h < h1; ++h) {
     const int32_t *hq = cl->hinges + 4 * h;
     const double *k = cl->hinge_k + 4 * h;
     double s[3] = {0, 0, 0};
@@ -530,9 +529,8 @@ int EK_P(cloth_hessian_apply_ex)(const ek_cloth *cl, const ek_cloth_params *p, c
   hessian_job j = {
       cl, p, &a, MEMBRANE_HESSIAN(kt), ntb, nh, (ntb + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, q};
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
-  ek_team_run_if(par, j.ntc + (nh + CHUNK_BLOCKS * L - 1) / (CHUNK_BLOCKS * L), hessian_elements,
-                 &j);
-  ek_team_run_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, hessian_gather, &j);
+  ek_team_run_static_if(par, j.ntc, hessian_elements, &j);
+  ek_team_run_static_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, hessian_gather, &j);
   return 0;
 }
 
@@ -771,8 +769,8 @@ int ek_cloth_hessian_apply_f64(const ek_cloth *cl, const ek_cloth_params *p, con
   arap_job j = {cl, p, x, dx, project, mut->tri_corner_f64, mut->hinge_corner_f64, q};
   const int par = cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS;
   const size_t per = CHUNK_BLOCKS * L, ntc = (cl->nt + per - 1) / per;
-  ek_team_run_if(par, ntc + (cl->nh + per - 1) / per, arap_elements, &j);
-  ek_team_run_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, arap_gather, &j);
+  ek_team_run_static_if(par, ntc + (cl->nh + per - 1) / per, arap_elements, &j);
+  ek_team_run_static_if(par, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, arap_gather, &j);
   return 0;
 }
 
@@ -845,8 +843,8 @@ int ek_cloth_hessian_diagonal_f64(const ek_cloth *cl, const ek_cloth_params *p, 
   // order (triangles, then hinges), the order of the serial scatter this
   // replaces: the same bits, vertices in parallel.
   diag_job j = {cl, p, x, blocks, NULL, NULL, NULL, NULL};
-  ek_team_run_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS, (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS,
-                 diag_chunk, &j);
+  ek_team_run_static_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS,
+                        (cl->nv + GATHER_VERTS - 1) / GATHER_VERTS, diag_chunk, &j);
   return 0;
 }
 
@@ -857,8 +855,8 @@ int ek_cloth_fields_f64(const ek_cloth *cl, const ek_cloth_params *p, const doub
     return rc;
   // Each triangle's values alone: any partition gives the same bits.
   diag_job j = {cl, p, x, NULL, J, s1, s2, psi};
-  ek_team_run_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS,
-                 (cl->nt + CHUNK_BLOCKS * L - 1) / (CHUNK_BLOCKS * L), fields_chunk, &j);
+  ek_team_run_static_if(cl->nt >= EK_CLOTH_PARALLEL_MIN_TRIS,
+                        (cl->nt + CHUNK_BLOCKS * L - 1) / (CHUNK_BLOCKS * L), fields_chunk, &j);
   return 0;
 }
 #endif
