@@ -44,8 +44,8 @@ typedef struct {
 int EK_P(scatter_run)(const scatter_job *job, real *out);
 // The same, THREAD_BUFFERS run on the helper team (kernels/team.h: the
 // caller never waits for a thread that has not started) instead of an
-// OpenMP region; the same bits (the FVM force; the Hessian passes keep the
-// region).
+// OpenMP region; the same bits (the FVM force, the implicit loop's gradient
+// and diagonal; the other strategies keep their regions).
 int EK_P(scatter_run_team)(const scatter_job *job, real *out);
 
 // The slot order a strategy runs over: the coloured one for COLORED, the
