@@ -94,24 +94,10 @@ int ek_bench_listing(const ek_bench *b) { return b->listing; }
 // records the signal (async-signal-safe). The timer stops between samples
 // (the row in progress is dropped), the rows not started are skipped (their
 // setup too: ek_bench_wants says no), and main writes the rows finished as
-// a partial run. SA_RESETHAND: a second signal ends the process at once.
+// a partial run. A second signal ends the process at once (ek_cli_catch_stop_signals).
 static volatile sig_atomic_t stop_signal;
 
 static void on_stop_signal(int sig) { stop_signal = sig; }
-
-static void catch_stop_signals(void) {
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_stop_signal;
-  sa.sa_flags = SA_RESETHAND;
-  sigemptyset(&sa.sa_mask);
-  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
-  for (int i = 0; i < 3; ++i) {
-    struct sigaction old; // a signal the shell ignores (a background job's SIGINT) stays ignored
-    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
-      sigaction(sigs[i], &sa, NULL);
-  }
-}
 
 static const char *signal_name(int sig) {
   return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "SIGHUP";
@@ -848,14 +834,14 @@ int main(int argc, char **argv) {
   // Interrupted, the tradeoff suite leaves nothing behind (its files are
   // written at its end, each whole or not at all): said, with the point it
   // had reached. The default suite keeps the rows it finished (a partial
-  // run, see catch_stop_signals).
+  // run, see on_stop_signal).
   if (b->suite_tradeoff) {
     ek_cli_stop_notice("ek-bench", &b->index, &b->total,
                        "no results written (they are written at the end of the run)");
     return run_tradeoff(b, argc, argv, out, json, o.force);
   }
   if (!b->list_only) {
-    catch_stop_signals();
+    ek_cli_catch_stop_signals(on_stop_signal);
     b->timer.stop = &stop_signal;
   }
 

@@ -223,21 +223,25 @@ static void on_stop(int sig) {
   raise(sig);
 }
 
+void ek_cli_catch_stop_signals(void (*handler)(int)) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = handler;
+  sa.sa_flags = SA_RESETHAND; // a second signal ends at once
+  sigemptyset(&sa.sa_mask);
+  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
+  for (int i = 0; i < 3; ++i) {
+    struct sigaction old; // a signal the shell ignores (a background job's SIGINT) stays ignored
+    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
+      sigaction(sigs[i], &sa, NULL);
+  }
+}
+
 void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note) {
   stop_program = program;
   stop_note = note;
   stop_row = row;
   stop_total = total;
   stop_tty = isatty(STDERR_FILENO);
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_stop;
-  sa.sa_flags = SA_RESETHAND;
-  sigemptyset(&sa.sa_mask);
-  const int sigs[3] = {SIGINT, SIGTERM, SIGHUP};
-  for (int i = 0; i < 3; ++i) {
-    struct sigaction old;
-    if (sigaction(sigs[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN)
-      sigaction(sigs[i], &sa, NULL);
-  }
+  ek_cli_catch_stop_signals(on_stop);
 }

@@ -71,6 +71,9 @@ int ek_cli_folder_error(const char *path, char *folder, size_t n);
 // what was not written, where the shell said nothing. The handler only
 // calls async-signal-safe functions; program and note must stay valid.
 void ek_cli_stop_notice(const char *program, const int *row, const int *total, const char *note);
+// Installs handler for SIGINT, SIGTERM and SIGHUP, once (SA_RESETHAND: a
+// second signal ends the process); a signal the shell ignores stays ignored.
+void ek_cli_catch_stop_signals(void (*handler)(int));
 
 // The EK_* environment variables (ek_env_check): 0, or the usage error
 // naming the variable and its value (printed; returns EK_EXIT_USAGE), as a
