@@ -29,9 +29,11 @@
 // with both edge matrices taken in the triangle's own plane instead of
 // dropping z (seed 003 eq. 13, "only applied for 2D problem").
 //
-// Threads: OpenMP over blocks; every output has the same bits at any
-// thread count. Every kernel is built per ISA x precision and dispatched
-// once per call (EK_ISA, or opts->isa in the _ex / element forms).
+// Threads: chunks of blocks on the library's helper threads (as many as
+// omp_get_max_threads(); the calling thread alone inside an OpenMP parallel
+// region); every output has the same bits at any thread count. Every
+// kernel is built per ISA x precision and dispatched once per call
+// (EK_ISA, or opts->isa in the _ex / element forms).
 #ifndef EK_CLOTH_H
 #define EK_CLOTH_H
 

@@ -17,10 +17,12 @@
 // product is then one fused pass (gather p, dF, dP from the cache, scatter)
 // with no SVD and no assembled matrix.
 //
-// Threads: one OpenMP region per pass; with every scatter strategy but
-// EK_SCATTER_ATOMIC the gradient, the energy (summed in slot order), the
-// products and the diagonal blocks have the same bits for any thread
-// count.
+// Threads: each pass in fixed chunks on the library's helper threads (as
+// many as omp_get_max_threads()), the scatter too with the default
+// THREAD_BUFFERS (an OpenMP region with the others); with every scatter
+// strategy but EK_SCATTER_ATOMIC the gradient, the energy (summed in slot
+// order), the products and the diagonal blocks have the same bits for any
+// thread count.
 #ifndef EK_HESSIAN_H
 #define EK_HESSIAN_H
 

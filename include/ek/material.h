@@ -80,8 +80,9 @@
 //
 // Threads: chunks of blocks on the library's helper threads, as many as
 // omp_get_max_threads(), the calling thread alone inside an OpenMP parallel
-// region; results are bitwise identical for any thread count. Batches below EK_MATERIAL_PARALLEL_MIN elements run on the
-// calling thread (a few us of work: less than waking a second one costs).
+// region; results are bitwise identical for any thread count. Batches
+// below EK_MATERIAL_PARALLEL_MIN elements run on the calling thread (a few
+// us of work: less than waking a second one costs).
 #ifndef EK_MATERIAL_H
 #define EK_MATERIAL_H
 
