@@ -75,6 +75,16 @@ static inline void ek_team_run_if(int parallel, size_t n, ek_team_fn *fn, void *
       fn(ctx, i);
 }
 
+// ek_team_run_ranges where parallel, else the chunks in order on this
+// thread (worker 0).
+static inline void ek_team_run_ranges_if(int parallel, size_t n, ek_team_worker_fn *fn, void *ctx) {
+  if (parallel)
+    ek_team_run_ranges(n, fn, ctx);
+  else
+    for (size_t i = 0; i < n; i++)
+      fn(ctx, i, 0);
+}
+
 // ek_team_run_static where parallel, else the chunks in order on this thread.
 static inline void ek_team_run_static_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
   if (parallel)

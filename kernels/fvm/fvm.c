@@ -99,11 +99,7 @@ static void tet_F_chunk(void *ctx, size_t c, int worker) {
 static void tet_F_f64(const ek_tets *el, const real *x, double *F) {
   tet_F_job j = {el, x, F};
   const size_t nchunks = (el->ntets + F_CHUNK - 1) / F_CHUNK;
-  if (el->ntets >= EK_FVM_PARALLEL_MIN_TETS)
-    ek_team_run_ranges(nchunks, tet_F_chunk, &j);
-  else
-    for (size_t c = 0; c < nchunks; c++)
-      tet_F_chunk(&j, c, 0);
+  ek_team_run_ranges_if(el->ntets >= EK_FVM_PARALLEL_MIN_TETS, nchunks, tet_F_chunk, &j);
 }
 
 // Per-tet output fields (ek_fvm_opts J, sigma_min, psi), in double.

@@ -154,6 +154,23 @@ static void aosoa_chunk(void *ctx, size_t c, int worker) {
     atomic_fetch_add_explicit(&j->count, count, memory_order_relaxed);
 }
 
+// Fills the job's fields both forms share, runs its chunks and returns the
+// count of elements outside the domain, saturated.
+static int run_eval(eval_job *j, const ek_material *m, const ek_kernel_table *t, ek_material_op op,
+                    int project, const real *F, const real *R, const real *dF, real *out,
+                    int parallel, size_t nchunks, ek_team_worker_fn *chunk) {
+  j->m = m;
+  j->t = t;
+  j->k = knobs_of(m, op, project);
+  j->F = F, j->R = R, j->dF = dF, j->out = out;
+  j->nout = out_planes(op);
+  j->dom = counts_domain(m);
+  atomic_init(&j->count, 0);
+  ek_team_run_ranges_if(parallel, nchunks, chunk, j);
+  long count = atomic_load(&j->count);
+  return count > INT_MAX ? INT_MAX : (int)count;
+}
+
 int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa isa, size_t nblocks,
                               const real *F, const real *R, const real *dF, real *out,
                               int project) {
@@ -166,25 +183,10 @@ int EK_P(material_eval_aosoa)(const ek_material *m, ek_material_op op, ek_isa is
     return EK_EISA;
   if (nblocks == 0)
     return 0;
-  eval_job j = {.m = m,
-                .t = t,
-                .k = knobs_of(m, op, project),
-                .n = nblocks,
-                .F = F,
-                .R = R,
-                .dF = dF,
-                .out = out,
-                .nout = out_planes(op),
-                .dom = counts_domain(m)};
-  atomic_init(&j.count, 0);
-  const size_t nchunks = (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS;
-  if (nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN)
-    ek_team_run_ranges(nchunks, aosoa_chunk, &j);
-  else
-    for (size_t c = 0; c < nchunks; c++)
-      aosoa_chunk(&j, c, 0);
-  long count = atomic_load(&j.count);
-  return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
+  eval_job j = {.n = nblocks};
+  return run_eval(&j, m, t, op, project, F, R, dF, out,
+                  nblocks * EK_LANES >= EK_MATERIAL_PARALLEL_MIN,
+                  (nblocks + CHUNK_BLOCKS - 1) / CHUNK_BLOCKS, aosoa_chunk);
 }
 
 static void aos_chunk(void *ctx, size_t c, int worker) {
@@ -252,30 +254,11 @@ int EK_P(material_eval)(const ek_material *m, ek_material_op op, ek_isa isa, siz
                  (size_t)workers * per_worker * sizeof(real));
     return EK_ENOMEM;
   }
-  eval_job j = {.m = m,
-                .t = t,
-                .k = knobs_of(m, op, project),
-                .n = n,
-                .F = F,
-                .R = R,
-                .dF = dF,
-                .out = out,
-                .nout = nout,
-                .dom = counts_domain(m),
-                .use_R = use_R,
-                .use_dF = use_dF,
-                .buffers = buffers,
-                .per_worker = per_worker};
-  atomic_init(&j.count, 0);
-  const size_t nchunks = (n + chunk - 1) / chunk;
-  if (parallel)
-    ek_team_run_ranges(nchunks, aos_chunk, &j);
-  else
-    for (size_t c = 0; c < nchunks; c++)
-      aos_chunk(&j, c, 0);
+  eval_job j = {
+      .n = n, .use_R = use_R, .use_dF = use_dF, .buffers = buffers, .per_worker = per_worker};
+  rc = run_eval(&j, m, t, op, project, F, R, dF, out, parallel, (n + chunk - 1) / chunk, aos_chunk);
   ek_free(buffers);
-  long count = atomic_load(&j.count);
-  return count > INT_MAX ? INT_MAX : (int)count; // a count, saturated
+  return rc;
 }
 
 int EK_P(pk1)(const ek_material *m, size_t n, const real *F, const real *R, real *P) {
