@@ -12,15 +12,15 @@
 // rsqrt, the rotation that the next pair reads), so the core overlaps
 // independent vectors only. Two fill a core whose 512-bit FMAs run as two
 // 256-bit halves (Zen 4, where this was tuned); a core with two full-width
-// FMA pipes (Zen 5) has twice the throughput to fill and takes 4, even at
+// FMA pipes (Zen 5, Intel Xeons) has twice the throughput to fill and takes 4, even at
 // the cost of spills (4 states do not fit 32 zmm registers; the stack
 // traffic goes to the load/store pipes, not the FMA pipes). Measured on
 // Zen 5 (EPYC, AVX-512 float, default knobs, 1 thread): 1 vector 15.5 ns,
 // 2: 10.3, 3: 10.0, 4: 9.0-9.3 ns per matrix; but on a batch far bigger
 // than the caches 4 took 31-39 ns against 22-27 with plain stores (the
-// drivers keep 2 there unless they stream the outputs, svd3.c), and on an
-// Intel Xeon (Emerald Rapids, full width) 4 gained nothing cache-resident
-// (docs/perf.md).
+// drivers keep 2 there unless they stream the outputs, svd3.c). On an
+// Intel Xeon (Emerald Rapids, full width) 4 took 14.6 against 15.8 ns
+// cache-resident (seventeenth round; kernels/cpu_x86.c).
 #define SVD3_IL 2
 #define SVD3_IL_WIDE 4
 
