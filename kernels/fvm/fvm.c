@@ -1,15 +1,15 @@
 // FVM force driver (ek_fvm_tet_* API on the element layer; sim/fvm_mesh.c
 // forwards the ek_mesh forms): argument checks and dispatch; the scatter
-// strategies (scatter.c) own the OpenMP region and the block kernel in
-// fvm_block.c does one range of blocks. Built once per precision.
+// strategies (scatter.c) decide which thread adds what where, and the block
+// kernel in fvm_block.c does one range of blocks. Built once per precision.
 //
 // Threads: THREAD_BUFFERS (the default) runs as two jobs of the helper
 // team (kernels/team.h: parts, then sums; the caller never waits for a
-// thread that has not started), the other strategies as one parallel
-// region; a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling
-// thread alone (waking a second thread costs more than it saves there).
-// Every strategy but ATOMIC gives the same bits for any thread count
-// (scatter.h).
+// thread that has not started), COLORED and GATHER as team jobs too,
+// ATOMIC as one parallel region; a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD)
+// runs on the calling thread alone (waking a second thread costs more than
+// it saves there). Every strategy but ATOMIC gives the same bits for any
+// thread count (scatter.h).
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>
@@ -174,7 +174,7 @@ static int run_strategy(const ek_kernel_table *kt, const ek_tets *el, fvm_args a
   const int rows4 = s == EK_SCATTER_THREAD_BUFFERS && (isa == EK_ISA_AVX512 || isa == EK_ISA_AVX2);
   c.a.fstride = rows4 ? 4 : 3;
   scatter_job j = {el, s, 3, parallel_for(el, a.mat), fvm_range, &c, c.a.fstride};
-  return EK_P(scatter_run_team)(&j, f);
+  return EK_P(scatter_run)(&j, f);
 }
 
 // The phase split's passes, each a job of PHASE_CHUNK blocks per chunk on

@@ -66,13 +66,11 @@ static hess_args args_for(const ek_fvm_hessian *h, int op) {
 }
 
 // A product or a diagonal pass costs about what a force evaluation
-// without an SVD does: the same grain (fvm.h). THREAD_BUFFERS runs on the
-// helper team (scatter_run_team: the caller never waits for a thread that
-// has not started), with the region's bits.
+// without an SVD does: the same grain (fvm.h).
 static int run(const ek_fvm_hessian *h, const hess_args *a, int ncomp, int parallel, real *out) {
   hess_ctx c = {h->kt, *a};
   scatter_job j = {h->el, h->scatter, ncomp, parallel, hess_range, &c, ncomp};
-  int rc = EK_P(scatter_run_team)(&j, out);
+  int rc = EK_P(scatter_run)(&j, out);
   if (rc == EK_ENOMEM)
     ek_set_error("ek_fvm_hessian: out of memory for scratch buffers");
   return rc;

@@ -1,6 +1,9 @@
 // The scatter strategies (scatter.h), shared by the FVM force and the
-// Hessian passes. One parallel region per call, static partitions; the
-// force's THREAD_BUFFERS runs on the helper team instead (run_buffers).
+// Hessian passes. COLORED, THREAD_BUFFERS and GATHER run as jobs of the
+// helper team (team.h: the caller never waits for a thread that has not
+// started; seventeenth round for COLORED and GATHER, which had one OpenMP
+// region per call). ATOMIC, the non-deterministic baseline, keeps its
+// region.
 #include <omp.h>
 #include <string.h>
 
@@ -36,23 +39,54 @@ static void zero_out(real *out, size_t n) {
     out[i] = 0;
 }
 
-// COLORED: chunks of one phase (chunk colour) share no vertex, so threads
-// split each phase's chunks and add straight into out, with a barrier
-// between phases; a chunk runs on one thread, its colour groups in order,
-// its vertices in cache.
+// Values per chunk of the team's zeroing and vertices per chunk of its
+// sums (~4 us of work on Zen 4).
+#define ZERO_CHUNK_VALUES 16384
+#define SUM_CHUNK_VERTS 1024
+
+// COLORED: chunks of one phase (chunk colour) share no vertex, so the
+// workers split each phase's chunks and add straight into out, one team
+// job per phase (a job returns when its chunks are done: the phases'
+// order). A job's piece is a contiguous run of the phase's chunks, run as
+// one range (a range call per mesh chunk took colored fixed corotated f32
+// at 998 250 tets 1.3-1.5x as long at 1 thread: the chunks are a few
+// blocks), 4 pieces per worker so that one whose core is busy leaves its
+// pieces to the other. Each vertex gets its adds in phase order, and
+// within a phase from one chunk in block order, whoever runs the piece:
+// the bits of the former OpenMP region (a contiguous share of the phase's
+// chunks per thread).
+typedef struct {
+  const scatter_job *j;
+  real *out;
+  size_t n, c0, c1, pieces; // values to zero; the phase's chunks; pieces
+} colored_job;
+
+static void colored_zero(void *ctx, size_t i) {
+  const colored_job *c = ctx;
+  size_t lo = i * ZERO_CHUNK_VALUES,
+         hi = lo + ZERO_CHUNK_VALUES < c->n ? lo + ZERO_CHUNK_VALUES : c->n;
+  memset(c->out + lo, 0, (hi - lo) * sizeof(real));
+}
+
+static void colored_piece(void *ctx, size_t i) {
+  const colored_job *c = ctx;
+  const ek_tets *el = c->j->el;
+  size_t lo, hi;
+  scatter_share(c->c0, c->c1, (int)i, (int)c->pieces, &lo, &hi);
+  if (lo < hi)
+    c->j->range(c->j->ctx, el->chunk_slot[lo] / L, el->chunk_slot[hi] / L, c->out, NULL);
+}
+
 static void run_colored(const scatter_job *j, real *out) {
   const ek_tets *el = j->el;
-#pragma omp parallel if (j->parallel)
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    zero_out(out, el->nverts * (size_t)j->ncomp);
-    for (int p = 0; p < el->nphases; p++) {
-      size_t lo, hi;
-      scatter_share(el->phase_chunk[p], el->phase_chunk[p + 1], t, nt, &lo, &hi);
-      if (lo < hi)
-        j->range(j->ctx, el->chunk_slot[lo] / L, el->chunk_slot[hi] / L, out, NULL);
-#pragma omp barrier
-    }
+  const size_t per_phase = j->parallel ? 4 * (size_t)ek_team_threads() : 1;
+  colored_job c = {j, out, el->nverts * (size_t)j->ncomp, 0, 0, 0};
+  ek_team_run_static_if(j->parallel, (c.n + ZERO_CHUNK_VALUES - 1) / ZERO_CHUNK_VALUES,
+                        colored_zero, &c);
+  for (int p = 0; p < el->nphases; p++) {
+    c.c0 = el->phase_chunk[p], c.c1 = el->phase_chunk[p + 1];
+    c.pieces = c.c1 - c.c0 < per_phase ? c.c1 - c.c0 : per_phase;
+    ek_team_run_static_if(j->parallel, c.pieces, colored_piece, &c);
   }
 }
 
@@ -114,10 +148,9 @@ EK_INLINE void sum_rows(const real *buf, size_t n, size_t v0, size_t v1, size_t 
     }
 }
 
-// THREAD_BUFFERS on the helper team (j->team): job 1 runs the parts
-// (chunk p: part p into buffer p, as the OpenMP region's thread did), job 2
-// the sums over fixed vertex ranges. Which thread runs a chunk changes
-// nothing in what it writes: the same bits as the region.
+// THREAD_BUFFERS on the helper team: job 1 runs the parts (chunk p: part p
+// into buffer p), job 2 the sums over fixed vertex ranges. Which worker
+// runs a chunk changes nothing in what it writes.
 typedef struct {
   const scatter_job *j;
   real *buf, *out;
@@ -154,9 +187,6 @@ static void buffers_sum(void *ctx, size_t i) {
   sum_vertices(b, v0, v1);
 }
 
-// Vertices per sum chunk of the team path (~4 us of adds on Zen 4).
-#define SUM_CHUNK_VERTS 1024
-
 // THREAD_BUFFERS: EK_FVM_PARTS fixed parts of the block range, one buffer
 // each; threads take parts round-robin, then out = sum of the buffers in
 // part order (parallel over vertices). Part p's tets touch only the
@@ -165,7 +195,7 @@ static void buffers_sum(void *ctx, size_t i) {
 // outside adds the 0 the buffer would have held (x + 0 is x but for x =
 // -0, so the sums keep their bits). About half the vertices per part on a
 // box mesh: half the reads of the sum (and of the Hessian's zeroing).
-static int run_buffers(const scatter_job *j, real *out, int team) {
+static int run_buffers(const scatter_job *j, real *out) {
   const size_t nc = (size_t)j->ncomp, st = j->buf_stride ? (size_t)j->buf_stride : nc;
   size_t nv = j->el->nverts, n = nv * st, nb = j->el->morton.nslots / L;
   const size_t *vlo = j->el->part_vlo[sizeof(real) == 8], *vhi = j->el->part_vhi[sizeof(real) == 8];
@@ -191,36 +221,50 @@ static int run_buffers(const scatter_job *j, real *out, int team) {
   buffers_job b = {
       j,   buf, out,      n, nb, nv, st, nc, (nv + SUM_CHUNK_VERTS - 1) / SUM_CHUNK_VERTS,
       vlo, vhi, keep_zero};
-  if (team && j->parallel) {
-    ek_team_run(EK_FVM_PARTS, buffers_part, &b);
-    ek_team_run(b.nsum, buffers_sum, &b);
-  } else {
-#pragma omp parallel if (j->parallel)
-    {
-      int t = omp_get_thread_num(), nt = omp_get_num_threads();
-      for (int p = t; p < EK_FVM_PARTS; p += nt)
-        buffers_part(&b, (size_t)p);
-#pragma omp barrier
-      if (!keep_zero) {
-        // Unpadded rows: one vertex per call in a static loop (a flat loop
-        // over each thread's share ran the Hessian product ~4% slower at
-        // 998 250 tets), buffers left as they are.
-#pragma omp for schedule(static)
-        for (size_t v = 0; v < nv; v++)
-          sum_rows(buf, n, v, v + 1, st, nc, vlo, vhi, out);
-      } else {
-        size_t v0, v1;
-        scatter_share(0, nv, t, nt, &v0, &v1);
-        sum_vertices(&b, v0, v1);
-      }
-    }
-  }
+  ek_team_run_if(j->parallel, EK_FVM_PARTS, buffers_part, &b);
+  ek_team_run_static_if(j->parallel, b.nsum, buffers_sum, &b);
   buffers_zero = keep_zero;
   return EK_OK;
 }
 
-// GATHER: corner values of every tet into a scratch array, then each
-// vertex sums its (slot, corner) list in ascending order.
+// GATHER: corner values of every tet into a scratch array (job 1: a
+// block's corners are its own), then each vertex sums its (slot, corner)
+// list in ascending order (job 2: a vertex's sum is its own).
+typedef struct {
+  const scatter_job *j;
+  real *out, *corner;
+  size_t nb;
+} gather_job;
+
+// Blocks per chunk of the corner job (~4 us of a force's blocks).
+#define GATHER_CHUNK_BLOCKS 16
+
+static void gather_corners(void *ctx, size_t i) {
+  const gather_job *g = ctx;
+  size_t lo = i * GATHER_CHUNK_BLOCKS,
+         hi = lo + GATHER_CHUNK_BLOCKS < g->nb ? lo + GATHER_CHUNK_BLOCKS : g->nb;
+  g->j->range(g->j->ctx, lo, hi, NULL, g->corner);
+}
+
+static void gather_sums(void *ctx, size_t i) {
+  const gather_job *g = ctx;
+  const ek_tets *el = g->j->el;
+  const size_t nc = (size_t)g->j->ncomp;
+  size_t v0 = i * SUM_CHUNK_VERTS,
+         v1 = v0 + SUM_CHUNK_VERTS < el->nverts ? v0 + SUM_CHUNK_VERTS : el->nverts;
+  for (size_t v = v0; v < v1; v++) {
+    real s[6] = {0};
+    for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
+      size_t slot = (size_t)el->vert_entries[e] >> 2, c = (size_t)el->vert_entries[e] & 3;
+      const real *h = g->corner + ((slot / L) * 4 * nc + c * nc) * L + slot % L;
+      for (size_t k = 0; k < nc; k++)
+        s[k] += h[k * L];
+    }
+    for (size_t k = 0; k < nc; k++)
+      g->out[v * nc + k] = s[k];
+  }
+}
+
 static int run_gather(const scatter_job *j, real *out) {
   const ek_tets *el = j->el;
   const int nc = j->ncomp;
@@ -228,27 +272,11 @@ static int run_gather(const scatter_job *j, real *out) {
   real *corner = EK_P(scratch_get)(1, nb * 4 * (size_t)nc * L * sizeof(real));
   if (!corner)
     return EK_ENOMEM;
-#pragma omp parallel if (j->parallel)
-  {
-    int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    size_t lo, hi;
-    scatter_share(0, nb, t, nt, &lo, &hi);
-    if (lo < hi)
-      j->range(j->ctx, lo, hi, NULL, corner);
-#pragma omp barrier
-#pragma omp for schedule(static)
-    for (size_t v = 0; v < el->nverts; v++) {
-      real s[6] = {0};
-      for (int32_t e = el->vert_start[v]; e < el->vert_start[v + 1]; e++) {
-        size_t slot = (size_t)el->vert_entries[e] >> 2, c = (size_t)el->vert_entries[e] & 3;
-        const real *h = corner + ((slot / L) * 4 * (size_t)nc + c * (size_t)nc) * L + slot % L;
-        for (int i = 0; i < nc; i++)
-          s[i] += h[(size_t)i * L];
-      }
-      for (int i = 0; i < nc; i++)
-        out[v * (size_t)nc + (size_t)i] = s[i];
-    }
-  }
+  gather_job g = {j, out, corner, nb};
+  ek_team_run_static_if(j->parallel, (nb + GATHER_CHUNK_BLOCKS - 1) / GATHER_CHUNK_BLOCKS,
+                        gather_corners, &g);
+  ek_team_run_static_if(j->parallel, (el->nverts + SUM_CHUNK_VERTS - 1) / SUM_CHUNK_VERTS,
+                        gather_sums, &g);
   return EK_OK;
 }
 
@@ -305,7 +333,7 @@ int EK_P(scatter_run)(const scatter_job *j, real *out) {
     run_colored(j, out);
     return EK_OK;
   case EK_SCATTER_THREAD_BUFFERS:
-    return run_buffers(j, out, 0);
+    return run_buffers(j, out);
   case EK_SCATTER_GATHER:
     return run_gather(j, out);
   case EK_SCATTER_ATOMIC:
@@ -315,9 +343,4 @@ int EK_P(scatter_run)(const scatter_job *j, real *out) {
     break; // resolved or refused by the caller
   }
   return EK_EINVAL;
-}
-
-int EK_P(scatter_run_team)(const scatter_job *j, real *out) {
-  return j->strategy == EK_SCATTER_THREAD_BUFFERS ? run_buffers(j, out, 1)
-                                                  : EK_P(scatter_run)(j, out);
 }

@@ -2,7 +2,7 @@
 // by every kernel that sums per-tet corner values into vertices: the FVM
 // force (fvm.c) and the Hessian passes (hessian.c). A job names a range
 // function over AoSoA blocks of the strategy's slot order; the strategy
-// owns the OpenMP region and decides who adds what where. Built once per
+// decides which thread adds what where. Built once per
 // precision (real.h).
 //
 // Determinism: COLORED, THREAD_BUFFERS and GATHER sum every vertex's
@@ -40,13 +40,10 @@ typedef struct {
 } scatter_job;
 
 // out (nverts x ncomp) = the sum of the job's corner values; overwritten.
-// EK_OK or EK_ENOMEM (scratch buffers).
+// COLORED, THREAD_BUFFERS and GATHER run on the helper team (kernels/team.h:
+// the caller never waits for a thread that has not started), ATOMIC in an
+// OpenMP region. EK_OK or EK_ENOMEM (scratch buffers).
 int EK_P(scatter_run)(const scatter_job *job, real *out);
-// The same, THREAD_BUFFERS run on the helper team (kernels/team.h: the
-// caller never waits for a thread that has not started) instead of an
-// OpenMP region; the same bits (the FVM force, the implicit loop's gradient
-// and diagonal; the other strategies keep their regions).
-int EK_P(scatter_run_team)(const scatter_job *job, real *out);
 
 // The slot order a strategy runs over: the coloured one for COLORED, the
 // Morton one for the others.
