@@ -110,7 +110,10 @@ double ek_bench_median_ns(const ek_bench *b, const char *name);
 // Print a note (stderr) and record it with the run's metadata.
 void ek_bench_note(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 // Report a failure (kernel returned an error, setup failed): printed, and
-// ek-bench exits non-zero at the end. Rows already timed are still written.
+// ek-bench exits non-zero at the end. Rows already timed are still written
+// (as a partial run, the first failure in its partial_reason); a row whose
+// function reports one while ek_bench_run times it is not recorded, and the
+// message is prefixed with the row's name.
 // Notes and failures are not thread-safe: call them outside OpenMP regions.
 void ek_bench_fail(ek_bench *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 

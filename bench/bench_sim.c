@@ -91,15 +91,16 @@ static void run_steps(void *p) {
 // after the row, not inside the timed steps.
 // Also the state check of ek-sim's summary (ek_sim_check, issue 25): a
 // row whose run blew up fails, one that ends with inverted elements is
-// flagged, unless the scene's "allow" key says so.
-static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim) {
+// flagged, unless the scene's "allow" key says so. A row whose step failed
+// (`failed`) has its failure already: the blow-up is not counted again.
+static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim, int failed) {
   const char *w = sim ? ek_sim_warning(sim) : NULL;
   if (w)
     ek_bench_note(b, "warning: %s: %s", name, w);
   ek_sim_health h;
   if (!sim || ek_sim_check(sim, &h) != 0)
     return;
-  if (h.blown_up && !h.allow_nonfinite)
+  if (h.blown_up && !h.allow_nonfinite && !failed)
     ek_bench_fail(b,
                   "%s: the positions blew up after step %ld (t = %g s): vertex %zu %.3g body "
                   "sizes from the rest centre, %zu non-finite values",
@@ -340,7 +341,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
         row.precision = scene.precision == 32 ? "f32" : "f64";
       }
       const int run_rc = ek_bench_run(b, &row);
-      note_sim_warning(b, name, ctx.sim);
+      note_sim_warning(b, name, ctx.sim, ctx.failed);
       if (run_rc != 0 || ctx.failed) {
         rc = -1;
         ek_sim_destroy(ctx.sim);
@@ -516,7 +517,7 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts, int *unneede
                           .ctx = &ctx};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
-      note_sim_warning(b, name, ctx.sim);
+      note_sim_warning(b, name, ctx.sim, ctx.failed);
       const ek_sim_times *t = ctx.sim && !ctx.failed ? ek_sim_timings(ctx.sim) : NULL;
       if (t && t->steps > 0) {
         const double n = (double)t->steps;
@@ -611,7 +612,7 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
                             .ctx = &ctx};
         if (ek_bench_run(b, &row) != 0)
           rc = -1;
-        note_sim_warning(b, name, ctx.sim);
+        note_sim_warning(b, name, ctx.sim, ctx.failed);
         if (ctx.sim && !ctx.failed) {
           ek_sim_times before, after;
           double n = phase_timed_steps(ctx.sim, &before, &after);
@@ -802,7 +803,7 @@ int bench_sim(ek_bench *b) {
                           .ctx = &ctx};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
-      note_sim_warning(b, name, ctx.sim);
+      note_sim_warning(b, name, ctx.sim, ctx.failed);
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
       } else if (ctx.sim && !ctx.failed && xpbd) {

@@ -75,6 +75,10 @@ struct ek_bench {
   int total;   // rows selected (from the listing pass)
   int index;   // rows timed so far
   int failures;
+  // The first failure's message, for the partial files' partial_reason (a
+  // count alone left the reader to find the FAILED line in a log).
+  char first_failure[1200];
+  const char *timing_row; // the row being timed, named by a failure inside it
   int tty;
   int isa_notes_done;
   int second_passes;         // rows timed a second time (capped)
@@ -169,9 +173,7 @@ double ek_bench_median_ns(const ek_bench *b, const char *name) {
   return r ? r->stats.median : NAN;
 }
 
-static void vnote(ek_bench *b, const char *prefix, const char *fmt, va_list ap) {
-  char msg[512];
-  vsnprintf(msg, sizeof msg, fmt, ap);
+static void note_text(ek_bench *b, const char *prefix, const char *msg) {
   // On its own line, named: the progress line (\r) is cleared first.
   if (b->tty)
     fputs("\r\033[K", stderr);
@@ -182,17 +184,30 @@ static void vnote(ek_bench *b, const char *prefix, const char *fmt, va_list ap) 
 }
 
 void ek_bench_note(ek_bench *b, const char *fmt, ...) {
+  char msg[512];
   va_list ap;
   va_start(ap, fmt);
-  vnote(b, "", fmt, ap);
+  vsnprintf(msg, sizeof msg, fmt, ap);
   va_end(ap);
+  note_text(b, "", msg);
 }
 
+// A failure inside a timed call (a sim step that failed, a kernel that
+// returned an error) is named by its row: the family's message alone
+// ("sim: step failed ...") did not say which row.
 void ek_bench_fail(ek_bench *b, const char *fmt, ...) {
+  char msg[1024], full[sizeof b->first_failure];
   va_list ap;
   va_start(ap, fmt);
-  vnote(b, "FAILED: ", fmt, ap);
+  vsnprintf(msg, sizeof msg, fmt, ap);
   va_end(ap);
+  if (b->timing_row && !strstr(msg, b->timing_row))
+    snprintf(full, sizeof full, "%s: %s", b->timing_row, msg);
+  else
+    snprintf(full, sizeof full, "%s", msg);
+  note_text(b, "FAILED: ", full);
+  if (!b->failures)
+    snprintf(b->first_failure, sizeof b->first_failure, "%s", full);
   b->failures++;
 }
 
@@ -310,7 +325,10 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   b->row_start = omp_get_wtime();
   omp_set_num_threads(row->threads);
   ek_timing t;
+  const int failures = b->failures;
+  b->timing_row = row->name;
   const int timed = ek_time(row->fn, row->ctx, row->items, &b->timer, &t);
+  b->timing_row = NULL;
   if (timed == EK_TIME_STOPPED) {
     stopping(b);
     return 0; // the row in progress is dropped: the run is stopping
@@ -332,9 +350,12 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   int max_second_passes = b->total / 10 + 5;
   int suspect =
       ek_results_stats_noisy(&t.stats) || twin_test(&t.stats, twin, cores) == EK_TWIN_SLOW;
-  if (suspect && b->second_passes < max_second_passes) {
+  if (suspect && b->second_passes < max_second_passes && b->failures == failures) {
     ek_timing t2;
-    if (ek_time(row->fn, row->ctx, row->items, &b->timer, &t2) == 0) {
+    b->timing_row = row->name;
+    const int timed2 = ek_time(row->fn, row->ctx, row->items, &b->timer, &t2);
+    b->timing_row = NULL;
+    if (timed2 == 0) {
       b->second_passes++;
       passes = 2;
       if (t2.stats.median < t.stats.median) {
@@ -347,6 +368,16 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
     }
   } else if (suspect) {
     b->second_passes_skipped++;
+  }
+  // A row whose calls failed while timed (ek_bench_fail from its function:
+  // a sim step that failed) is not a result: its later calls did nothing
+  // (a failed drop scene's row was written at 0.2 ns per step, counted in
+  // rows_done). Dropped, so the partial files hold only rows that ran.
+  if (b->failures > failures) {
+    ek_timing_free(&t);
+    fprintf(stderr, "%s[%d/%d] %s: not recorded (failed while timed)%s", b->tty ? "\r\033[K" : "",
+            b->index, b->total, row->name, b->tty ? "" : "\n");
+    return -1;
   }
   ek_result_row *r = ek_results_add(&b->results, row->name, &t);
   ek_timing_free(&t);
@@ -965,13 +996,19 @@ int main(int argc, char **argv) {
   // it is never taken for a whole run.
   const int sig = stop_signal;
   const int partial = (sig && r->nrows < (size_t)b->total) || b->failures;
-  char reason[160];
+  // The reason names the first failure (its row or scene, file and line or
+  // value, as the FAILED line said it).
+  char reason[256 + sizeof b->first_failure], failed[64] = "";
+  if (b->failures)
+    snprintf(failed, sizeof failed, "%s%d failure(s)", sig ? "; " : "", b->failures);
   if (sig)
-    snprintf(reason, sizeof reason, "stopped by %s after %zu of %d rows", signal_name(sig),
-             r->nrows, b->total);
+    snprintf(reason, sizeof reason, "stopped by %s after %zu of %d rows%s", signal_name(sig),
+             r->nrows, b->total, failed);
   else
-    snprintf(reason, sizeof reason, "%d failure(s), %zu of %d rows timed", b->failures, r->nrows,
-             b->total);
+    snprintf(reason, sizeof reason, "%s, %zu of %d rows timed", failed, r->nrows, b->total);
+  if (b->failures)
+    snprintf(reason + strlen(reason), sizeof reason - strlen(reason), "; the first: %.*s",
+             (int)sizeof b->first_failure - 1, b->first_failure);
   ek_results_meta_bool(r, "partial", partial);
   ek_results_meta_number(r, "rows_done", (double)r->nrows);
   ek_results_meta_number(r, "rows_total", b->total);

@@ -536,6 +536,89 @@ expect "ek-bench, b.partial.h5 exists" 1 "$bin/ek-bench" --threads 1 --min-time 
 grep -q "b.partial.h5' exists; not overwritten (use --force)" "$err" ||
   fail "ek-bench, b.partial.h5 exists: $(cat "$err")"
 rm -f "$work"/stop/b.partial.*
+# A row that fails in the middle of a run keeps the rows before it, as a
+# signal does: b.partial.{h5,json}, marked partial, partial_reason naming
+# the first failure (it gave only a count), never the whole run's names;
+# exit 1; the FAILED line names what broke. The shipped scenes are copied
+# and drop.json broken in ways that only drop's row meets, after twist's
+# row (the listing pass reads every scene's JSON, but no mesh file and no
+# step): (a) its mesh.file, read when the row starts, names node tag 9 of a
+# 4-node mesh on line 13; (b) its dt is 0.5, 356 times its CFL limit, so a
+# step fails while the row is timed (its later calls did nothing: the row
+# was recorded at 0.2 ns per step and counted in rows_done; now dropped).
+# ~2 s each on the 2-core Zen 4 machine.
+rf=$work/rowfail
+mkdir "$rf"
+cp -R "$scenes" "$rf/scenes"
+printf '%s\n' '$MeshFormat' '2.2 0 8' '$EndMeshFormat' '$Nodes' 4 '1 0 0 0' '2 0.2 0 0' \
+  '3 0 0.2 0' '4 0 0 0.2' '$EndNodes' '$Elements' 1 '1 4 2 0 1 1 2 3 9' '$EndElements' \
+  >"$rf/scenes/meshes/broken.msh"
+# broken_drop SED: the copy of drop.json edited by SED; 1 if SED changed nothing.
+broken_drop() {
+  sed -E "$1" "$scenes/drop.json" >"$rf/scenes/drop.json"
+  ! cmp -s "$scenes/drop.json" "$rf/scenes/drop.json" || { fail "drop.json not edited by $1"; return 1; }
+}
+# row_fails WHAT SED FAILED_ERE [ERE...]: twist and the broken drop run;
+# FAILED_ERE is the FAILED line after "FAILED: ", each ERE a line of stderr.
+row_fails() {
+  local what="ek-bench, a failing row ($1)" edit=$2 failed=$3 f
+  shift 3
+  broken_drop "$edit" || return
+  expect "$what" 1 env EK_SCENES_DIR="$rf/scenes" "$bin/ek-bench" --threads 1 --min-time 0.1 \
+    --filter '^sim/(twist|drop)/' --out "$rf/b.h5" || return
+  grep -q "^\[1/2\] sim/twist/.* ns/item" "$err" || fail "$what: twist's row not timed: $(cat "$err")"
+  grep -Eq "^ek-bench: FAILED: $failed" "$err" || fail "$what: the FAILED line: $(grep FAILED "$err")"
+  for f in "$@"; do
+    grep -Eq "$f" "$err" || fail "$what: not on stderr: $f"
+  done
+  grep -q "^ek-bench: 1 failure(s); see FAILED lines above; the rows timed are in $rf/b.partial.json (partial)$" "$err" ||
+    fail "$what: the partial file not named: $(tail -1 "$err")"
+  grep -Eq "^wrote $rf/b.partial.h5 and $rf/b.partial.json \(1 of 2 rows: partial, 1 failure\(s\), 1 of 2 rows timed; the first: $failed" "$out" ||
+    fail "$what: $(tail -1 "$out")"
+  for f in b.h5 b.json; do
+    [ -e "$rf/$f" ] && fail "$what: wrote $f, the name of a whole run"
+  done
+  [ -s "$rf/b.partial.h5" ] && [ -s "$rf/b.partial.json" ] || fail "$what: no b.partial.h5 or .json"
+  if command -v h5dump >/dev/null; then
+    for f in partial rows_done; do
+      h5dump -a "$f" "$rf/b.partial.h5" | grep -q "(0): 1$" || fail "$what: b.partial.h5: $f is not 1"
+    done
+  fi
+  if command -v python3 >/dev/null; then
+    python3 -c '
+import json, re, sys
+d = json.load(open(sys.argv[1]))
+c = d["context"]
+c = {k: c.get(k) for k in ("partial", "rows_done", "rows_total", "partial_reason")}
+assert c["partial"] == "true" and c["rows_done"] == "1" and c["rows_total"] == "2", c
+assert re.match("1 failure\\(s\\), 1 of 2 rows timed; the first: " + sys.argv[2], c["partial_reason"]), c
+names = {b["run_name"] for b in d["benchmarks"]}
+assert len(names) == 1 and names.pop().startswith("sim/twist/"), d["benchmarks"]' \
+      "$rf/b.partial.json" "$failed" || fail "$what: b.partial.json"
+    expect "perf_md.py on $what" 1 python3 "$(dirname "$0")/../tools/perf_md.py" --bench \
+      "$rf/b.partial.json" --cpu x --out "$rf/r.md" &&
+      { grep -q "a partial ek-bench run (1 failure(s), 1 of 2 rows timed; the first: " "$err" ||
+        fail "perf_md.py on $what: $(cat "$err")"; }
+    [ -e "$rf/r.md" ] && fail "perf_md.py on $what: wrote r.md"
+  fi
+  rm -f "$rf"/b.*
+}
+row_fails "mesh file" 's|"mesh": \{[^}]*\}|"mesh": {"file": "meshes/broken.msh"}|' \
+  "sim: drop: $rf/scenes/drop.json:3:[0-9]+: mesh.file: $rf/scenes/meshes/broken.msh:13: element 1: node tag 9 out of range"
+row_fails "step" 's|"dt": [^,]*,|"dt": 0.5,|' \
+  "sim/drop/[^ ]*/threads:1: sim: step failed \(rc -?[0-9]+\): step [0-9]+ \(t = .*dt 0.5 is [0-9]+ times the CFL limit" \
+  "^\[2/2\] sim/drop/[^ ]*: not recorded \(failed while timed\)$" \
+  "^ek-bench: warning: sim/drop/[^ ]*: $rf/scenes/drop.json:[0-9]+:[0-9]+: dt = 0.5 is above the CFL limit"
+# A bad value in a scene's JSON is found by the listing pass: no row runs,
+# nothing is written.
+if broken_drop 's|"damping": [^,]*,|"damping": -0.5,|'; then
+  expect "ek-bench, a bad value" 1 env EK_SCENES_DIR="$rf/scenes" "$bin/ek-bench" --threads 1 \
+    --min-time 0.1 --filter '^sim/(twist|drop)/' --out "$rf/b.h5" &&
+    { grep -q "^ek-bench: FAILED: sim: $rf/scenes/drop.json:[0-9]*:[0-9]*: damping = -0.5: must be >= 0" "$err" ||
+      fail "ek-bench, a bad value: $(cat "$err")"; }
+fi
+rm -rf "$rf/scenes"
+[ -z "$(ls -A "$rf")" ] || fail "ek-bench, a failing row: left $(ls "$rf")"
 stopped "ek-verify SIGTERM" "" "$bin/ek-verify" --json "$work/stop/v.json"
 grep -q "no verdict, and the --json file is not written" "$err" ||
   fail "ek-verify SIGTERM: $(tail -1 "$err")"
