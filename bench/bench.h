@@ -81,6 +81,9 @@ typedef struct {
   // The timed work: one call processes the whole batch of `items` items.
   ek_bench_fn *fn;
   void *ctx;
+  // Where fn leaves its call's return code (0: success), or NULL: a
+  // nonzero one while timed fails the row, which is then not recorded.
+  const int *rc;
 } ek_bench_row;
 
 // 1 under a listing pass (counting rows, or --list): do no expensive setup.

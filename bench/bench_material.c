@@ -131,7 +131,7 @@ static int models_init(void) {
   return n;
 }
 
-static void run_row(ek_bench *b, const ek_bench_row *row, material_ctx *c) {
+static void run_row(ek_bench *b, ek_bench_row *row, material_ctx *c) {
   if (ek_bench_listing(b)) {
     ek_bench_run(b, row);
     return;
@@ -141,9 +141,8 @@ static void run_row(ek_bench *b, const ek_bench_row *row, material_ctx *c) {
     ek_bench_fail(b, "%s: the call returned %d (%s)", row->name, c->rc, ek_last_error());
     return;
   }
+  row->rc = &c->rc;
   ek_bench_run(b, row);
-  if (c->rc != 0)
-    ek_bench_fail(b, "%s: a timed call returned %d", row->name, c->rc);
 }
 
 int bench_material(ek_bench *b) {

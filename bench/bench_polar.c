@@ -229,7 +229,8 @@ static int input_rows(ek_bench *b, const char *in, size_t n, const double *A, co
                               .bytes_per_item = (k < 0 ? 18 : 27) * (f64 ? 8.0 : 4.0),
                               .baseline = k < 0 ? NULL : base,
                               .fn = call_polar,
-                              .ctx = &c};
+                              .ctx = &c,
+                              .rc = &c.rc};
           if (!listing) {
             c.isa = isas[i], c.svd = k < 0, c.iterations = k < 0 ? 0 : its[k];
             reset_guess(&c);
@@ -331,7 +332,8 @@ static int aos_rows(ek_bench *b, size_t n, const ek_isa *isas, int nisa, const i
                               .bytes_per_item = 27 * (f64 ? 8.0 : 4.0),
                               .baseline = aos ? base : NULL,
                               .fn = call_polar,
-                              .ctx = x};
+                              .ctx = x,
+                              .rc = &x->rc};
           if (!listing) {
             x->isa = isas[i], x->svd = 0, x->iterations = its;
             if (aos)

@@ -296,6 +296,35 @@ static ek_twin_verdict twin_test(const ek_stats *s, const ek_result_row *twin, i
   return twin ? ek_results_twin_test(s->median, twin->stats.median, cores) : EK_TWIN_OK;
 }
 
+// A row's calls while timed, each return code checked where the row says
+// where its function leaves one (row->rc): the first nonzero one fails the
+// row (then not recorded, ek_bench_run) with the row named.
+typedef struct {
+  const ek_bench_row *row;
+  int bad;
+} checked_call;
+
+static void call_checked(void *ctx) {
+  checked_call *c = ctx;
+  c->row->fn(c->row->ctx);
+  if (*c->row->rc && !c->bad)
+    c->bad = *c->row->rc;
+}
+
+static int time_row(ek_bench *b, const ek_bench_row *row, ek_timing *t) {
+  checked_call c = {row, 0};
+  b->timing_row = row->name;
+  const int timed = row->rc ? ek_time(call_checked, &c, row->items, &b->timer, t)
+                            : ek_time(row->fn, row->ctx, row->items, &b->timer, t);
+  b->timing_row = NULL;
+  if (c.bad) {
+    const char *why = ek_last_error();
+    ek_bench_fail(b, "%s: a timed call returned %d%s%s%s", row->name, c.bad, *why ? " (" : "", why,
+                  *why ? ")" : "");
+  }
+  return timed;
+}
+
 int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   if (!row || !row->name) {
     ek_bench_fail(b, "ek_bench_run: row without a name");
@@ -326,9 +355,7 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   omp_set_num_threads(row->threads);
   ek_timing t;
   const int failures = b->failures;
-  b->timing_row = row->name;
-  const int timed = ek_time(row->fn, row->ctx, row->items, &b->timer, &t);
-  b->timing_row = NULL;
+  const int timed = time_row(b, row, &t);
   if (timed == EK_TIME_STOPPED) {
     stopping(b);
     return 0; // the row in progress is dropped: the run is stopping
@@ -352,10 +379,7 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
       ek_results_stats_noisy(&t.stats) || twin_test(&t.stats, twin, cores) == EK_TWIN_SLOW;
   if (suspect && b->second_passes < max_second_passes && b->failures == failures) {
     ek_timing t2;
-    b->timing_row = row->name;
-    const int timed2 = ek_time(row->fn, row->ctx, row->items, &b->timer, &t2);
-    b->timing_row = NULL;
-    if (timed2 == 0) {
+    if (time_row(b, row, &t2) == 0) {
       b->second_passes++;
       passes = 2;
       if (t2.stats.median < t.stats.median) {
@@ -369,8 +393,8 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   } else if (suspect) {
     b->second_passes_skipped++;
   }
-  // A row whose calls failed while timed (ek_bench_fail from its function:
-  // a sim step that failed) is not a result: its later calls did nothing
+  // A row whose calls failed while timed (ek_bench_fail from its function,
+  // a sim step that failed; or a nonzero row->rc) is not a result: its later calls did nothing
   // (a failed drop scene's row was written at 0.2 ns per step, counted in
   // rows_done). Dropped, so the partial files hold only rows that ran.
   if (b->failures > failures) {
