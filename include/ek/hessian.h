@@ -18,8 +18,7 @@
 // with no SVD and no assembled matrix.
 //
 // Threads: each pass in fixed chunks on the library's helper threads (as
-// many as omp_get_max_threads()), the scatter too (an OpenMP region with
-// EK_SCATTER_ATOMIC alone); with every scatter
+// many as omp_get_max_threads()), the scatter too; with every scatter
 // strategy but EK_SCATTER_ATOMIC the gradient, the energy (summed in slot
 // order), the products and the diagonal blocks have the same bits for any
 // thread count.

@@ -5,11 +5,10 @@
 //
 // Threads: THREAD_BUFFERS (the default) runs as two jobs of the helper
 // team (kernels/team.h: parts, then sums; the caller never waits for a
-// thread that has not started), COLORED and GATHER as team jobs too,
-// ATOMIC as one parallel region; a mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD)
-// runs on the calling thread alone (waking a second thread costs more than
-// it saves there). Every strategy but ATOMIC gives the same bits for any
-// thread count (scatter.h).
+// thread that has not started), the other strategies as team jobs too; a
+// mesh below EK_FVM_PARALLEL_MIN_TETS(_SVD) runs on the calling thread
+// alone (waking a second thread costs more than it saves there). Every strategy but ATOMIC gives
+// the same bits for any thread count (scatter.h).
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>

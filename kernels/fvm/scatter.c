@@ -1,10 +1,7 @@
 // The scatter strategies (scatter.h), shared by the FVM force and the
-// Hessian passes. COLORED, THREAD_BUFFERS and GATHER run as jobs of the
-// helper team (team.h: the caller never waits for a thread that has not
-// started; seventeenth round for COLORED and GATHER, which had one OpenMP
-// region per call). ATOMIC, the non-deterministic baseline, keeps its
-// region.
-#include <omp.h>
+// Hessian passes, all run as jobs of the helper team (team.h: the caller
+// never waits for a thread that has not started; seventeenth round for
+// COLORED, GATHER and ATOMIC, which had one OpenMP region per call).
 #include <string.h>
 
 #include "../inline.h"
@@ -33,16 +30,28 @@ real *EK_P(scratch_get)(int which, size_t bytes) {
   return scratch[which].p;
 }
 
-static void zero_out(real *out, size_t n) {
-#pragma omp for schedule(static)
-  for (size_t i = 0; i < n; i++)
-    out[i] = 0;
-}
-
 // Values per chunk of the team's zeroing and vertices per chunk of its
 // sums (~4 us of work on Zen 4).
 #define ZERO_CHUNK_VALUES 16384
 #define SUM_CHUNK_VERTS 1024
+
+// out[0 .. n) = +0, in chunks of ZERO_CHUNK_VALUES (a team job).
+typedef struct {
+  real *out;
+  size_t n;
+} zero_job;
+
+static void zero_chunk(void *ctx, size_t i) {
+  const zero_job *z = ctx;
+  size_t lo = i * ZERO_CHUNK_VALUES,
+         hi = lo + ZERO_CHUNK_VALUES < z->n ? lo + ZERO_CHUNK_VALUES : z->n;
+  memset(z->out + lo, 0, (hi - lo) * sizeof(real));
+}
+
+static void zero_out(int parallel, real *out, size_t n) {
+  zero_job z = {out, n};
+  ek_team_run_static_if(parallel, (n + ZERO_CHUNK_VALUES - 1) / ZERO_CHUNK_VALUES, zero_chunk, &z);
+}
 
 // COLORED: chunks of one phase (chunk colour) share no vertex, so the
 // workers split each phase's chunks and add straight into out, one team
@@ -58,15 +67,8 @@ static void zero_out(real *out, size_t n) {
 typedef struct {
   const scatter_job *j;
   real *out;
-  size_t n, c0, c1, pieces; // values to zero; the phase's chunks; pieces
+  size_t c0, c1, pieces; // the phase's chunks; pieces
 } colored_job;
-
-static void colored_zero(void *ctx, size_t i) {
-  const colored_job *c = ctx;
-  size_t lo = i * ZERO_CHUNK_VALUES,
-         hi = lo + ZERO_CHUNK_VALUES < c->n ? lo + ZERO_CHUNK_VALUES : c->n;
-  memset(c->out + lo, 0, (hi - lo) * sizeof(real));
-}
 
 static void colored_piece(void *ctx, size_t i) {
   const colored_job *c = ctx;
@@ -80,9 +82,8 @@ static void colored_piece(void *ctx, size_t i) {
 static void run_colored(const scatter_job *j, real *out) {
   const ek_tets *el = j->el;
   const size_t per_phase = j->parallel ? 4 * (size_t)ek_team_threads() : 1;
-  colored_job c = {j, out, el->nverts * (size_t)j->ncomp, 0, 0, 0};
-  ek_team_run_static_if(j->parallel, (c.n + ZERO_CHUNK_VALUES - 1) / ZERO_CHUNK_VALUES,
-                        colored_zero, &c);
+  colored_job c = {j, out, 0, 0, 0};
+  zero_out(j->parallel, out, el->nverts * (size_t)j->ncomp);
   for (int p = 0; p < el->nphases; p++) {
     c.c0 = el->phase_chunk[p], c.c1 = el->phase_chunk[p + 1];
     c.pieces = c.c1 - c.c0 < per_phase ? c.c1 - c.c0 : per_phase;
@@ -280,51 +281,53 @@ static int run_gather(const scatter_job *j, real *out) {
   return EK_OK;
 }
 
-// ATOMIC (baseline): one parallel loop over all blocks; each thread
-// computes corner values for a chunk into its own small buffer and adds
-// them with atomics. The order of the additions depends on the schedule:
-// not deterministic.
+// ATOMIC (baseline): chunks of ATOMIC_CHUNK blocks on the team; a worker
+// computes a chunk's corner values into its own buffer and adds them with
+// atomics. The order of the additions depends on which worker runs which
+// chunk when: not deterministic.
 #define ATOMIC_CHUNK 64
+typedef struct {
+  const scatter_job *j;
+  real *out, *corners; // corners: ATOMIC_CHUNK blocks per worker
+  size_t nb, cb;       // blocks; reals per block's corners
+} atomic_job;
+
+static void atomic_chunk(void *ctx, size_t i, int worker) {
+  const atomic_job *a = ctx;
+  const ek_tets *el = a->j->el;
+  const size_t nc = (size_t)a->j->ncomp, cb = a->cb;
+  size_t b0 = i * ATOMIC_CHUNK, b1 = b0 + ATOMIC_CHUNK < a->nb ? b0 + ATOMIC_CHUNK : a->nb;
+  real *corner = a->corners + (size_t)worker * ATOMIC_CHUNK * cb;
+  // The range writes block b at corner + b * cb: shift the base so block
+  // b0 lands at the start of the worker's buffer.
+  a->j->range(a->j->ctx, b0, b1, NULL, corner - b0 * cb);
+  for (size_t b = b0; b < b1; b++) {
+    const int32_t *bi = MORTON_IDX(el) + b * 4 * L;
+    const real *h = corner + (b - b0) * cb;
+    for (int l = 0; l < L; l++) {
+      if (bi[l] < 0)
+        continue;
+      for (size_t c = 0; c < 4; c++)
+        for (size_t k = 0; k < nc; k++) {
+          real *dst = a->out + (size_t)bi[c * L + (size_t)l] * nc + k;
+          real val = h[(c * nc + k) * L + (size_t)l];
+#pragma omp atomic update
+          *dst += val;
+        }
+    }
+  }
+}
+
 static int run_atomic(const scatter_job *j, real *out) {
   const ek_tets *el = j->el;
-  const int nc = j->ncomp;
-  size_t nb = el->morton.nslots / L, cb = 4 * (size_t)nc * L;
-  int err = 0;
-#pragma omp parallel if (j->parallel)
-  {
-    real *corner = ek_alloc(ATOMIC_CHUNK * cb * sizeof(real));
-    if (!corner) {
-#pragma omp atomic write
-      err = 1;
-    }
-    zero_out(out, el->nverts * (size_t)nc);
-#pragma omp for schedule(static)
-    for (size_t b0 = 0; b0 < nb; b0 += ATOMIC_CHUNK) {
-      if (!corner)
-        continue;
-      size_t b1 = b0 + ATOMIC_CHUNK < nb ? b0 + ATOMIC_CHUNK : nb;
-      // The range writes block b at corner + b * cb: shift the base so
-      // block b0 lands at the start of the chunk buffer.
-      j->range(j->ctx, b0, b1, NULL, corner - b0 * cb);
-      for (size_t b = b0; b < b1; b++) {
-        const int32_t *bi = MORTON_IDX(el) + b * 4 * L;
-        const real *h = corner + (b - b0) * cb;
-        for (int l = 0; l < L; l++) {
-          if (bi[l] < 0)
-            continue;
-          for (int c = 0; c < 4; c++)
-            for (int i = 0; i < nc; i++) {
-              real *dst = out + (size_t)bi[c * L + l] * (size_t)nc + (size_t)i;
-              real val = h[((size_t)c * (size_t)nc + (size_t)i) * L + (size_t)l];
-#pragma omp atomic update
-              *dst += val;
-            }
-        }
-      }
-    }
-    ek_free(corner);
-  }
-  return err ? EK_ENOMEM : EK_OK;
+  const size_t cb = 4 * (size_t)j->ncomp * L, workers = j->parallel ? (size_t)ek_team_threads() : 1;
+  real *corners = EK_P(scratch_get)(1, workers * ATOMIC_CHUNK * cb * sizeof(real));
+  if (!corners)
+    return EK_ENOMEM;
+  atomic_job a = {j, out, corners, el->morton.nslots / L, cb};
+  zero_out(j->parallel, out, el->nverts * (size_t)j->ncomp);
+  ek_team_run_ranges_if(j->parallel, (a.nb + ATOMIC_CHUNK - 1) / ATOMIC_CHUNK, atomic_chunk, &a);
+  return EK_OK;
 }
 
 int EK_P(scatter_run)(const scatter_job *j, real *out) {

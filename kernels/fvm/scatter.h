@@ -40,9 +40,9 @@ typedef struct {
 } scatter_job;
 
 // out (nverts x ncomp) = the sum of the job's corner values; overwritten.
-// COLORED, THREAD_BUFFERS and GATHER run on the helper team (kernels/team.h:
-// the caller never waits for a thread that has not started), ATOMIC in an
-// OpenMP region. EK_OK or EK_ENOMEM (scratch buffers).
+// Every strategy runs on the helper team (kernels/team.h: the caller never
+// waits for a thread that has not started). EK_OK or EK_ENOMEM (scratch
+// buffers).
 int EK_P(scatter_run)(const scatter_job *job, real *out);
 
 // The slot order a strategy runs over: the coloured one for COLORED, the
