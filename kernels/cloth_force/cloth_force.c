@@ -10,8 +10,8 @@
 // writing its corners, then every vertex sums its corners in element order.
 // No vertex is written by two threads and no sum depends on the partition:
 // the same bits at any thread count. The Hessian products, the diagonal
-// blocks, the fields and the f32 energy run on the team too; the f64
-// energy's ordered sum keeps its OpenMP region (energy_sum).
+// blocks, the fields and the f32 energy (one job) run on the team too; the
+// f64 energy's ordered sum keeps its OpenMP region (energy_sum).
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>
@@ -373,52 +373,78 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
 // fixed by EB alone, so any thread count gives the same bits, and no
 // thread runs a chain longer than one block's (the f64 paths' single
 // chain of nt + nh adds, thread 0's, held f32 at ~1.5x at 2 threads).
-// Two team jobs: the positions to double (the hinges read each 12 times,
-// so they are converted once per call) in 3 GATHER_VERTS chunks and the
-// triangles, then the hinges; EG partial sums per chunk.
+// One team job: first the positions to double (the hinges read each 12
+// times; f32 reads measured ~1 ns more per hinge) in chunks of
+// 3 GATHER_VERTS, then chunk i: triangle block i and the i-th of ntp
+// equal runs of hinge blocks (as the Hessian product's chunks: each
+// worker's range holds its share of both). A hinge block reads the
+// doubles once every conversion chunk is done, else the f32 positions,
+// each converted as read (the same values: the same bits), so no chunk
+// waits for another (at 2 threads ~6% of the hinge blocks, the helper's
+// first). Against the former two jobs (the triangles, then the hinges)
+// on a shared 2-core Zen 4, ek-bench cloth/membrane_energy/.*avx512/f32,
+// 64 x 64 grid, 16 interleaved rounds at load 1-1.6, minima in ns/item:
+// 1 thread StVK 9.42 (9.55 before), ARAP 12.28 (12.39); 2 threads StVK
+// 5.24 (5.35), ARAP 6.74 (7.10). Chunks of 4 blocks (fewer, so a longer
+// tail when one worker takes the other's last chunk) were ~4% slower at
+// 2 threads.
 // (Before: an OpenMP region of static contiguous shares, chosen because a
 // dynamic schedule had measured ~15% more busy time per thread at 2
 // threads: lines moving between cores; docs/perf.md, sixteenth round.)
-#define EG 4
 typedef struct {
   const ek_cloth *cl;
   const energy_job *j;
   double kb, *xd, *ps;
   const real *x;
-  size_t nh, ntri, nx, ntp, nhp, nxc;
+  size_t nh, ntri, nx, ntp, nhp, nxc, nc;
+  atomic_size_t converted; // conversion chunks done
 } energy32_job;
 
-static void energy_tris(void *ctx, size_t c) {
-  const energy32_job *e = ctx;
+// hinge_energy on the f32 positions: (double)x[i] is xd[i] exactly.
+static double hinge_energy32(const ek_cloth *cl, double kb, const float *x, size_t h) {
+  const int32_t *q = cl->hinges + 4 * h;
+  const double *k = cl->hinge_k + 4 * h;
+  double s[3] = {0, 0, 0};
+  for (int c = 0; c < 4; ++c)
+    for (int i = 0; i < 3; ++i)
+      s[i] += k[c] * (double)x[3 * (size_t)q[c] + i];
+  return 0.5 * kb * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+}
+
+static void energy_chunk(void *ctx, size_t c) {
+  energy32_job *e = ctx;
   if (c < e->nxc) {
     size_t i0, i1;
     chunk_range(e->nx, c, 3 * GATHER_VERTS, &i0, &i1);
     for (size_t i = i0; i < i1; ++i)
       e->xd[i] = (double)e->x[i];
+    atomic_fetch_add_explicit(&e->converted, 1, memory_order_release);
     return;
   }
-  const energy_job *j = e->j;
-  for (size_t i = (c - e->nxc) * EG; i < e->ntp && i < (c - e->nxc + 1) * EG; ++i) {
+  c -= e->nxc;
+  if (c < e->ntp) {
     // The kernel SUB blocks at a time, each followed by its adds: a
     // short chain that overlaps the next call (a block's 256 adds,
     // ~200 ns, would stall it).
-    size_t t0 = i * EB, t1 = t0 + EB < e->ntri ? t0 + EB : e->ntri;
+    const energy_job *j = e->j;
+    size_t t0 = c * EB, t1 = t0 + EB < e->ntri ? t0 + EB : e->ntri;
     double s = 0;
     for (size_t a = t0; a < t1; a += SUB * L) {
       size_t end = a + SUB * L < t1 ? a + SUB * L : t1;
       j->blocks(j->ctx, a / L, (end + L - 1) / L);
       s = add_tris(s, j->te, a, end);
     }
-    e->ps[i] = s;
+    e->ps[c] = s;
   }
-}
-
-static void energy_hinges(void *ctx, size_t c) {
-  const energy32_job *e = ctx;
-  for (size_t k = c * EG; k < e->nhp && k < (c + 1) * EG; ++k) {
+  for (size_t k = e->nhp * c / e->nc; k < e->nhp * (c + 1) / e->nc; ++k) {
+    const size_t h1 = (k + 1) * EB < e->nh ? (k + 1) * EB : e->nh;
     double s = 0;
-    for (size_t h = k * EB; h < e->nh && h < (k + 1) * EB; ++h)
-      s += hinge_energy(e->cl, e->kb, e->xd, h);
+    if (atomic_load_explicit(&e->converted, memory_order_acquire) == e->nxc)
+      for (size_t h = k * EB; h < h1; ++h)
+        s += hinge_energy(e->cl, e->kb, e->xd, h);
+    else
+      for (size_t h = k * EB; h < h1; ++h)
+        s += hinge_energy32(e->cl, e->kb, e->x, h);
     e->ps[e->ntp + k] = s;
   }
 }
@@ -433,8 +459,9 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
   e.ntp = (e.ntri + EB - 1) / EB;
   e.nhp = (e.nh + EB - 1) / EB;
   e.nxc = (e.nx + 3 * GATHER_VERTS - 1) / (3 * GATHER_VERTS);
-  ek_team_run_static_if(par, e.nxc + (e.ntp + EG - 1) / EG, energy_tris, &e);
-  ek_team_run_static_if(par, (e.nhp + EG - 1) / EG, energy_hinges, &e);
+  e.nc = e.ntp > 0 ? e.ntp : e.nhp > 0; // no triangles: one chunk of the hinges
+  atomic_init(&e.converted, 0);
+  ek_team_run_static_if(par, e.nxc + e.nc, energy_chunk, &e);
   double sum = 0;
   for (size_t k = 0; k < e.ntp + e.nhp; ++k)
     sum += e.ps[k];
