@@ -400,7 +400,9 @@ typedef struct {
   atomic_size_t converted; // conversion chunks done
 } energy32_job;
 
-// hinge_energy on the f32 positions: (double)x[i] is xd[i] exactly.
+// hinge_energy on the f32 positions: (double)x[i] is xd[i] exactly. A copy
+// on purpose: one form over the gathered corners for both (p[4][3]) ran the
+// f64 energy 2.5x slower (StVK 26.6 against 10.5 ns per triangle, Zen 4).
 static double hinge_energy32(const ek_cloth *cl, double kb, const float *x, size_t h) {
   const int32_t *q = cl->hinges + 4 * h;
   const double *k = cl->hinge_k + 4 * h;
