@@ -38,7 +38,8 @@ int ek_cpu_runs_isa(ek_isa isa) {
 // plus the extended family when the base is 0xf: AMD's and Intel's
 // documented rule).
 static int cpuid_vendor_is(unsigned eb, unsigned ec, unsigned ed) {
-  unsigned a, b, c, d;
+  // Set: GCC -O1 (the asan preset) warned "may be used uninitialized".
+  unsigned a = 0, b = 0, c = 0, d = 0;
   return __get_cpuid(0, &a, &b, &c, &d) && b == eb && c == ec && d == ed;
 }
 
