@@ -84,6 +84,11 @@ typedef struct {
   // Where fn leaves its call's return code (0: success), or NULL: a
   // nonzero one while timed fails the row, which is then not recorded.
   const int *rc;
+  // A check of what the timed calls left (a sim row's blow-up), called
+  // once after the timing and before the row is recorded, or NULL. It
+  // returns nonzero when it failed the row (saying why with
+  // ek_bench_fail): the row is then not recorded.
+  int (*after)(void *ctx);
 } ek_bench_row;
 
 // 1 under a listing pass (counting rows, or --list): do no expensive setup.

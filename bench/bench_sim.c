@@ -68,7 +68,8 @@ typedef struct {
   ek_sim *sim;
   ek_bench *b;
   int failed, steps;
-  double *x0, *v0; // a call's start state, or NULL: go on from the last
+  double *x0, *v0;  // a call's start state, or NULL: go on from the last
+  const char *name; // the row's, for its after-row check
 } sim_ctx;
 
 static void run_steps(void *p) {
@@ -86,26 +87,36 @@ static void run_steps(void *p) {
   }
 }
 
+// A sim row's after-row check (ek_bench_row.after), the state check of
+// ek-sim's summary (ek_sim_check, issue 25): a row whose run blew up fails
+// and is not recorded, unless the scene's "allow" key says so. A row whose
+// step failed has its failure already: the blow-up is not counted again.
+// A blown-up row is marked failed, so no phase note follows it.
+static int sim_blew_up(void *p) {
+  sim_ctx *c = p;
+  ek_sim_health h;
+  if (!c->sim || c->failed || ek_sim_check(c->sim, &h) != 0 || !h.blown_up || h.allow_nonfinite)
+    return 0;
+  ek_bench_fail(c->b,
+                "%s: the positions blew up after step %ld (t = %g s): vertex %zu %.3g body "
+                "sizes from the rest centre, %zu non-finite values",
+                c->name, ek_sim_steps_done(c->sim), ek_sim_time(c->sim), h.farthest, h.extent,
+                h.nonfinite);
+  c->failed = 1;
+  return 1;
+}
+
 // The library's pending warning for a row's sim (ek_sim_warning: a CFL or
-// Newton warning of its steps), as an ek-bench note on its own line. Read
-// after the row, not inside the timed steps.
-// Also the state check of ek-sim's summary (ek_sim_check, issue 25): a
-// row whose run blew up fails, one that ends with inverted elements is
-// flagged, unless the scene's "allow" key says so. A row whose step failed
-// (`failed`) has its failure already: the blow-up is not counted again.
-static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim, int failed) {
+// Newton warning of its steps), as an ek-bench note on its own line, and
+// a run that ends with inverted elements (unless the scene's "allow" key
+// says so). Read after the row, not inside the timed steps.
+static void note_sim_warning(ek_bench *b, const char *name, ek_sim *sim) {
   const char *w = sim ? ek_sim_warning(sim) : NULL;
   if (w)
     ek_bench_note(b, "warning: %s: %s", name, w);
   ek_sim_health h;
   if (!sim || ek_sim_check(sim, &h) != 0)
     return;
-  if (h.blown_up && !h.allow_nonfinite && !failed)
-    ek_bench_fail(b,
-                  "%s: the positions blew up after step %ld (t = %g s): vertex %zu %.3g body "
-                  "sizes from the rest centre, %zu non-finite values",
-                  name, ek_sim_steps_done(sim), ek_sim_time(sim), h.farthest, h.extent,
-                  h.nonfinite);
   if (h.inverted > 0 && !h.allow_inverted)
     ek_bench_note(b,
                   "warning: %s: the run ends (step %ld, t = %g s) with %zu of %zu elements "
@@ -298,7 +309,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
                xpbd_grid[g].iterations, xpbd_grid[g].substeps, counts[t]);
       if (!ek_bench_wants(b, name))
         continue;
-      sim_ctx ctx = {NULL, b, 0, 1, NULL, NULL};
+      sim_ctx ctx = {NULL, b, 0, 1, NULL, NULL, name};
       if (!ek_bench_listing(b)) {
         if (!loaded) {
           if (load_shipped(scene_name, &scene, err, sizeof err) != 0 ||
@@ -331,7 +342,8 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
                           .knobs = knobs,
                           .items = 1,
                           .fn = run_steps,
-                          .ctx = &ctx};
+                          .ctx = &ctx,
+                          .after = sim_blew_up};
       if (!ek_bench_listing(b)) {
         // The row's ISA and precision are the scene's (the name leaves
         // them out: it is the same scene in every row).
@@ -341,7 +353,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
         row.precision = scene.precision == 32 ? "f32" : "f64";
       }
       const int run_rc = ek_bench_run(b, &row);
-      note_sim_warning(b, name, ctx.sim, ctx.failed);
+      note_sim_warning(b, name, ctx.sim);
       if (run_rc != 0 || ctx.failed) {
         rc = -1;
         ek_sim_destroy(ctx.sim);
@@ -476,7 +488,7 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts, int *unneede
         continue;
       }
       scene.implicit.linear_solver = (ek_linear_solver)ls;
-      sim_ctx ctx = {NULL, b, 0, SOLVER_WINDOW, NULL, NULL};
+      sim_ctx ctx = {NULL, b, 0, SOLVER_WINDOW, NULL, NULL, name};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
           ek_bench_fail(b, "sim: %s: %s", cases[k].scene, ek_last_error());
@@ -514,10 +526,11 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts, int *unneede
                           .knobs = knobs,
                           .items = SOLVER_WINDOW,
                           .fn = run_steps,
-                          .ctx = &ctx};
+                          .ctx = &ctx,
+                          .after = sim_blew_up};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
-      note_sim_warning(b, name, ctx.sim, ctx.failed);
+      note_sim_warning(b, name, ctx.sim);
       const ek_sim_times *t = ctx.sim && !ctx.failed ? ek_sim_timings(ctx.sim) : NULL;
       if (t && t->steps > 0) {
         const double n = (double)t->steps;
@@ -587,7 +600,7 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
                  CELLS, CELLS, models[mi], prec);
         static ek_scene scene;
         ek_trimesh *mesh = NULL;
-        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL, NULL, NULL};
+        sim_ctx ctx = {NULL, b, 0, STEPS_PER_CALL, NULL, NULL, name};
         if (!ek_bench_listing(b)) {
           if (ek_scene_parse(json, "cloth_hang_1e5", ".", &scene) != 0 ||
               !(mesh = ek_scene_trimesh(&scene)) ||
@@ -609,10 +622,11 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
                             .knobs = knobs,
                             .items = (size_t)ctx.steps,
                             .fn = run_steps,
-                            .ctx = &ctx};
+                            .ctx = &ctx,
+                            .after = sim_blew_up};
         if (ek_bench_run(b, &row) != 0)
           rc = -1;
-        note_sim_warning(b, name, ctx.sim, ctx.failed);
+        note_sim_warning(b, name, ctx.sim);
         if (ctx.sim && !ctx.failed) {
           ek_sim_times before, after;
           double n = phase_timed_steps(ctx.sim, &before, &after);
@@ -776,7 +790,7 @@ int bench_sim(ek_bench *b) {
         continue;
       const int implicit = scene.integrator == EK_INTEGRATOR_IMPLICIT,
                 xpbd = scene.integrator == EK_INTEGRATOR_XPBD;
-      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL, NULL, NULL};
+      sim_ctx ctx = {NULL, b, 0, implicit || xpbd ? 1 : STEPS_PER_CALL, NULL, NULL, name};
       if (!ek_bench_listing(b)) {
         if (!mesh && !(mesh = ek_scene_mesh(&scene))) {
           ek_bench_fail(b, "sim: %s: %s", scenes[k], ek_last_error());
@@ -800,10 +814,11 @@ int bench_sim(ek_bench *b) {
                           .knobs = knobs,
                           .items = (size_t)ctx.steps,
                           .fn = run_steps,
-                          .ctx = &ctx};
+                          .ctx = &ctx,
+                          .after = sim_blew_up};
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
-      note_sim_warning(b, name, ctx.sim, ctx.failed);
+      note_sim_warning(b, name, ctx.sim);
       if (ctx.sim && !ctx.failed && implicit) {
         implicit_note(b, name, &scene, mesh, ctx.sim);
       } else if (ctx.sim && !ctx.failed && xpbd) {

@@ -396,11 +396,15 @@ int ek_bench_run(ek_bench *b, const ek_bench_row *row) {
   // A row whose calls failed while timed (ek_bench_fail from its function,
   // a sim step that failed; or a nonzero row->rc) is not a result: its later calls did nothing
   // (a failed drop scene's row was written at 0.2 ns per step, counted in
-  // rows_done). Dropped, so the partial files hold only rows that ran.
-  if (b->failures > failures) {
+  // rows_done). Nor is one that fails its after-row check (a sim whose
+  // positions blew up without a failed step was recorded, then failed).
+  // Dropped, so the partial files hold only rows that ran.
+  const int failed_timed = b->failures > failures;
+  if (failed_timed || (row->after && row->after(row->ctx))) {
     ek_timing_free(&t);
-    fprintf(stderr, "%s[%d/%d] %s: not recorded (failed while timed)%s", b->tty ? "\r\033[K" : "",
-            b->index, b->total, row->name, b->tty ? "" : "\n");
+    fprintf(stderr, "%s[%d/%d] %s: not recorded (failed %s)%s", b->tty ? "\r\033[K" : "", b->index,
+            b->total, row->name, failed_timed ? "while timed" : "its check after the timing",
+            b->tty ? "" : "\n");
     return -1;
   }
   ek_result_row *r = ek_results_add(&b->results, row->name, &t);

@@ -545,8 +545,8 @@ rm -f "$work"/stop/b.partial.*
 # step): (a) its mesh.file, read when the row starts, names node tag 9 of a
 # 4-node mesh on line 13; (b) its dt is 0.5, 356 times its CFL limit, so a
 # step fails while the row is timed (its later calls did nothing: the row
-# was recorded at 0.2 ns per step and counted in rows_done; now dropped).
-# ~2 s each on the 2-core Zen 4 machine.
+# was recorded at 0.2 ns per step and counted in rows_done; now dropped);
+# (c) below. ~2 s each on the 2-core Zen 4 machine.
 rf=$work/rowfail
 mkdir "$rf"
 cp -R "$scenes" "$rf/scenes"
@@ -609,6 +609,12 @@ row_fails "step" 's|"dt": [^,]*,|"dt": 0.5,|' \
   "sim/drop/[^ ]*/threads:1: sim: step failed \(rc -?[0-9]+\): step [0-9]+ \(t = .*dt 0.5 is [0-9]+ times the CFL limit" \
   "^\[2/2\] sim/drop/[^ ]*: not recorded \(failed while timed\)$" \
   "^ek-bench: warning: sim/drop/[^ ]*: $rf/scenes/drop.json:[0-9]+:[0-9]+: dt = 0.5 is above the CFL limit"
+# (c) f64 and an initial velocity of 1e7 m/s: a rigid flight, no step fails,
+# but the positions end 1e7 body sizes away, which the after-row check
+# fails (the row was recorded, then failed).
+row_fails "blow-up" 's|"translate": \[0, 0, 0.5\]|"translate": [0, 0, 0.5], "velocity": [1e7, 0, 0]|; s|"f32"|"f64"|' \
+  "sim/drop/[^ ]*/f64/[^ ]*/threads:1: the positions blew up after step [0-9]+ \(t = .*\): vertex [0-9]+ [0-9.e+]+ body sizes from the rest centre, 0 non-finite values" \
+  "^\[2/2\] sim/drop/[^ ]*: not recorded \(failed its check after the timing\)$"
 # A bad value in a scene's JSON is found by the listing pass: no row runs,
 # nothing is written.
 if broken_drop 's|"damping": [^,]*,|"damping": -0.5,|'; then
