@@ -67,6 +67,39 @@ EK_INLINE vmask gather_member(const xpbd_args *a, const int32_t *idx, vreal p[3]
   return pad;
 }
 
+// F of one vector of constraints (seed 001: F = sum_{k>=1} (x_k - x_0)
+// b_k^T, differences first: no cancellation of large coordinates) from
+// the member indices idx and rest vectors bv at the vector's lanes; with
+// reg, the members' x as loaded into xo (the in-register update). Returns
+// the padding lanes' mask.
+EK_INLINE vmask members_F(const xpbd_args *a, const int32_t *idx, const real *bv, int K, int reg,
+                          vreal x0[3], vreal F[9], vreal xo[4][3]) {
+  const vmask pad = gather_member(a, idx, x0, reg ? xo[0] : NULL);
+  for (int i = 0; i < 9; i++)
+    F[i] = vzero();
+  for (int k = 1; k < K; k++) {
+    vreal xk[3], bk[3];
+    gather_member(a, idx + k * L, xk, reg ? xo[k] : NULL);
+    for (int j = 0; j < 3; j++)
+      bk[j] = vload(bv + (k * 3 + j) * L);
+    for (int i = 0; i < 3; i++) {
+      const vreal d = vsub(xk[i], x0[i]);
+      for (int j = 0; j < 3; j++)
+        F[3 * i + j] = vfma(d, bk[j], F[3 * i + j]);
+    }
+  }
+  return pad;
+}
+
+// XPBD_F_ONLY (xpbd_kernel.h): the sum of F's entries to sink, so that no
+// part of F is dead code.
+EK_INLINE void sink_F(real *sink, const vreal F[9]) {
+  vreal t = F[0];
+  for (int i = 1; i < 9; i++)
+    t = vadd(t, F[i]);
+  vstore(sink, t);
+}
+
 // Gauss-Seidel on tets where the target stores points from registers
 // (vstore_points: AVX-512, AVX2): the members' x as loaded (a block's lanes
 // share no vertex, so nothing else wrote them since), x + w (g s) per lane
@@ -96,29 +129,11 @@ EK_INLINE void xpbd_blocks(int tets, int op, const xpbd_args *a, size_t b0, size
     const real *bv = a->bv + m0 * 3 * L;
     real *corr = a->corr ? a->corr + m0 * 3 * L : hb;
     for (int o = 0; o < L; o += EK_W) {
-      // F from the members' offsets to member 0 (differences first: no
-      // cancellation of large coordinates).
       const int reg = XPBD_REG_SCATTER && tets && op == XPBD_GS;
       vreal x0[3], F[9], xo[4][3], wk[4];
-      const vmask pad = gather_member(a, idx + o, x0, reg ? xo[0] : NULL);
-      for (int i = 0; i < 9; i++)
-        F[i] = zero;
-      for (int k = 1; k < K; k++) {
-        vreal xk[3], bk[3];
-        gather_member(a, idx + k * L + o, xk, reg ? xo[k] : NULL);
-        for (int j = 0; j < 3; j++)
-          bk[j] = vload(bv + (k * 3 + j) * L + o);
-        for (int i = 0; i < 3; i++) {
-          const vreal d = vsub(xk[i], x0[i]);
-          for (int j = 0; j < 3; j++)
-            F[3 * i + j] = vfma(d, bk[j], F[3 * i + j]);
-        }
-      }
+      const vmask pad = members_F(a, idx + o, bv + o, K, reg, x0, F, xo);
       if (op == XPBD_F_ONLY) {
-        vreal t = F[0];
-        for (int i = 1; i < 9; i++)
-          t = vadd(t, F[i]);
-        vstore(a->sink + b * L + o, t);
+        sink_F(a->sink + b * L + o, F);
         continue;
       }
       // W and P = F S (S = 2 mu e + lambda tr(e) I, e the Green strain).
@@ -226,25 +241,9 @@ EK_INLINE void snh_blocks(int tets, int op, const xpbd_args *a, size_t b0, size_
     for (int o = 0; o < L; o += EK_W) {
       const int reg = XPBD_REG_SCATTER && tets && op == XPBD_GS;
       vreal x0[3], F[9], xo[4][3], wk[4];
-      const vmask pad = gather_member(a, idx + o, x0, reg ? xo[0] : NULL);
-      for (int i = 0; i < 9; i++)
-        F[i] = zero;
-      for (int k = 1; k < K; k++) {
-        vreal xk[3], bk[3];
-        gather_member(a, idx + k * L + o, xk, reg ? xo[k] : NULL);
-        for (int j = 0; j < 3; j++)
-          bk[j] = vload(bv + (k * 3 + j) * L + o);
-        for (int i = 0; i < 3; i++) {
-          const vreal d = vsub(xk[i], x0[i]);
-          for (int j = 0; j < 3; j++)
-            F[3 * i + j] = vfma(d, bk[j], F[3 * i + j]);
-        }
-      }
+      const vmask pad = members_F(a, idx + o, bv + o, K, reg, x0, F, xo);
       if (op == XPBD_F_ONLY) {
-        vreal t = F[0];
-        for (int i = 1; i < 9; i++)
-          t = vadd(t, F[i]);
-        vstore(a->sink + b * L + o, t);
+        sink_F(a->sink + b * L + o, F);
         continue;
       }
       vreal cof[9];
