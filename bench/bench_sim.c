@@ -106,6 +106,22 @@ static int sim_blew_up(void *p) {
   return 1;
 }
 
+// A sim row: ctx's steps timed, then the state they left checked
+// (sim_blew_up) before the row is recorded.
+static ek_bench_row sim_row(const char *name, ek_isa isa, const char *precision, int threads,
+                            const char *knobs, size_t items, sim_ctx *ctx) {
+  return (ek_bench_row){.name = name,
+                        .family = "sim",
+                        .isa = isa,
+                        .precision = precision,
+                        .threads = threads,
+                        .knobs = knobs,
+                        .items = items,
+                        .fn = run_steps,
+                        .ctx = ctx,
+                        .after = sim_blew_up};
+}
+
 // The library's pending warning for a row's sim (ek_sim_warning: a CFL or
 // Newton warning of its steps), as an ek-bench note on its own line, and
 // a run that ends with inverted elements (unless the scene's "allow" key
@@ -334,16 +350,7 @@ static int xpbd_grid_rows(ek_bench *b, const int *counts, int ncounts) {
                "steps_per_call=1",
                scene_name, xpbd_grid[g].iterations, xpbd_grid[g].substeps,
                xpbd_grid[g].iterations * xpbd_grid[g].substeps);
-      ek_bench_row row = {.name = name,
-                          .family = "sim",
-                          .isa = EK_ISA_AUTO,
-                          .precision = "f32",
-                          .threads = counts[t],
-                          .knobs = knobs,
-                          .items = 1,
-                          .fn = run_steps,
-                          .ctx = &ctx,
-                          .after = sim_blew_up};
+      ek_bench_row row = sim_row(name, EK_ISA_AUTO, "f32", counts[t], knobs, 1, &ctx);
       if (!ek_bench_listing(b)) {
         // The row's ISA and precision are the scene's (the name leaves
         // them out: it is the same scene in every row).
@@ -518,16 +525,7 @@ static int solver_rows(ek_bench *b, const int *counts, int ncounts, int *unneede
                "from=start;dt=%g",
                cases[k].scene, scene.model_name, ek_linear_solver_name((ek_linear_solver)ls),
                SOLVER_WINDOW, scene.dt);
-      ek_bench_row row = {.name = name,
-                          .family = "sim",
-                          .isa = isa,
-                          .precision = prec,
-                          .threads = threads,
-                          .knobs = knobs,
-                          .items = SOLVER_WINDOW,
-                          .fn = run_steps,
-                          .ctx = &ctx,
-                          .after = sim_blew_up};
+      ek_bench_row row = sim_row(name, isa, prec, threads, knobs, SOLVER_WINDOW, &ctx);
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
       note_sim_warning(b, name, ctx.sim);
@@ -614,16 +612,8 @@ static int cloth_rows(ek_bench *b, const int *counts, int ncounts) {
         snprintf(knobs, sizeof knobs,
                  "scene=cloth_hang;cells=%d;model=%s;integrator=explicit;steps_per_call=%d;dt=3e-5",
                  CELLS, models[mi], ctx.steps);
-        ek_bench_row row = {.name = name,
-                            .family = "sim",
-                            .isa = isa,
-                            .precision = prec == 32 ? "f32" : "f64",
-                            .threads = counts[t],
-                            .knobs = knobs,
-                            .items = (size_t)ctx.steps,
-                            .fn = run_steps,
-                            .ctx = &ctx,
-                            .after = sim_blew_up};
+        ek_bench_row row = sim_row(name, isa, prec == 32 ? "f32" : "f64", counts[t], knobs,
+                                   (size_t)ctx.steps, &ctx);
         if (ek_bench_run(b, &row) != 0)
           rc = -1;
         note_sim_warning(b, name, ctx.sim);
@@ -806,16 +796,7 @@ int bench_sim(ek_bench *b) {
       snprintf(knobs, sizeof knobs, "scene=%s;model=%s;integrator=%s;steps_per_call=%d;dt=%g",
                scenes[k], scene.model_name, ek_scene_integrator_name(scene.integrator), ctx.steps,
                scene.dt);
-      ek_bench_row row = {.name = name,
-                          .family = "sim",
-                          .isa = isa,
-                          .precision = prec,
-                          .threads = counts[t],
-                          .knobs = knobs,
-                          .items = (size_t)ctx.steps,
-                          .fn = run_steps,
-                          .ctx = &ctx,
-                          .after = sim_blew_up};
+      ek_bench_row row = sim_row(name, isa, prec, counts[t], knobs, (size_t)ctx.steps, &ctx);
       if (ek_bench_run(b, &row) != 0)
         rc = -1;
       note_sim_warning(b, name, ctx.sim);
