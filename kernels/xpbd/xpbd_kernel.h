@@ -98,6 +98,9 @@ struct ek_xpbd {
   size_t *task_dep_start;
   int32_t *task_dep, *task_order;
   int order_threads;
+  // Bit s - 1: s sweeps per call (the last bit: that many or more) run on
+  // the calling thread at order_threads threads (xpbd.c, flow_gain).
+  unsigned flow_alone;
   atomic_int *task_done;
   // Where a thread sleeps once its wait outlasts the spin (sleepers: how
   // many do).
