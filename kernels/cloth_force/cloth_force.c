@@ -240,33 +240,36 @@ _Static_assert(EK_CLOTH_ENERGY_TRIS % L == 0, "whole blocks per triangle chunk")
 // E = the triangles' energies summed in double in triangle order, then the
 // hinges' in hinge order: one dependent chain of nt + nh adds (an add's
 // latency each, 0.8 ns on Zen 4, against ~4 ns per hinge energy), the same
-// bits at any thread count. One team job: its chunks (k below) compute
-// EK_CLOTH_ENERGY_TRIS triangles' energies into te ([0, ntc)) or HCHUNK
-// hinges' into eh ([ntc, nc)) and flag themselves ready (release). The sum
-// is the calling thread's alone, made as its own chunks run: with each
-// element it computes it adds up to RATE of the values ready before its
-// chunk, and once caught up its chunk's own as computed (at 1 thread every
-// chunk, as before: one loop adding each as computed). It never waits for a
-// chunk: what is left when the job ends (about a chunk per helper) it adds
-// then. Worker w's range of the job (team.h: ek_team_run_static splits as
-// OpenMP's static schedule) holds the w-th contiguous share of the triangle
-// chunks, then hinge chunks w, w + nw, ...: the caller's triangles come
-// first in the order, so it adds them as computed, and at 2 threads it
-// adds the helper's triangles and hinges while it computes its hinges in
-// step with the helper's. Against c129528's OpenMP region (the same
-// scheme: thread 0 the first share of the triangles, adding them, then the
-// hinges from a shared counter) on a shared 2-core Zen 4, ek-bench
-// cloth/membrane_energy/(stvk|arap)/(default|avx512)/f64, least samples in
-// ns per triangle: 1 thread level (StVK 10.30 / 10.39), 2 threads 0.3-2%
-// slower (StVK 5.83 / 5.75, ARAP 9.51 / 9.32). Measured and dropped: the
-// triangle chunks interleaved as the hinges' (the caller adding two values
-// per triangle it computes) ~4% slower at 2 threads; all chunks claimed in
-// order from one counter (ek_team_run: a chunk on another core each call)
-// 7-10%; the triangles and the hinges as two jobs ~5%. Where a helper is
-// off its core for the whole call the caller runs its share from the back
-// (team.h), so the sum of those values waits for the job's end: ~16 000
-// adds (13 us, 64 x 64 cells) after the job, where the region would have
-// waited for the thread. docs/perf.md, eighteenth round.
+// bits at any thread count. One team job: each chunk takes one element
+// chunk k (take) and computes EK_CLOTH_ENERGY_TRIS triangles' energies into
+// te ([0, ntc)) or HCHUNK hinges' into eh ([ntc, nc)), then flags it ready
+// (release). The sum is the calling thread's alone, made as its own chunks
+// run: with each element it computes it adds up to RATE of the values ready
+// before its chunk, and once caught up its chunk's own as computed (at 1
+// thread every chunk, as before: one loop adding each as computed). It
+// never waits for a chunk: what is left when the job ends (about a chunk
+// per helper) it adds then. Worker w's range of the job (team.h:
+// ek_team_run_static splits as OpenMP's static schedule) holds the w-th
+// contiguous share of the triangle chunks, then hinge chunks w, w + nw, ...:
+// the caller's triangles come first in the order, so it adds them as
+// computed, and at 2 threads it adds the helper's triangles and hinges
+// while it computes its hinges in step with the helper's; the same chunks
+// on the same core call after call. A chunk the caller takes from a late
+// helper's range (the team hands it the back of that range) computes the
+// first element chunk still free instead, so the caller keeps adding as it
+// goes: with the helper off its core for the whole call, the fixed mapping
+// had left ~16 000 adds (~13 us on 64 x 64 cells) to after the job.
+// Against c129528's OpenMP region (thread 0 the first share of the
+// triangles, adding them, then the hinges from a shared counter) on a
+// shared 2-core Zen 4, ek-bench cloth/membrane_energy/(stvk|arap)/
+// (default|avx512)/f64, least samples in ns per triangle: 1 thread level
+// (StVK 10.32 / 10.45), 2 threads level (StVK 5.78 / 5.78, ARAP 9.44 /
+// 9.38), medians 5-10% better beside another session's load. Measured and
+// dropped: the triangle chunks interleaved as the hinges' (the caller
+// adding two values per triangle it computes) ~4% slower at 2 threads; all
+// chunks claimed in order from one counter (ek_team_run: a chunk on another
+// core each call) 7-10%; the triangles and the hinges as two jobs ~5%.
+// docs/perf.md, eighteenth round.
 typedef struct {
   const ek_cloth *cl;
   const energy_job *j;
@@ -275,10 +278,14 @@ typedef struct {
   double *eh;
   atomic_uchar *ready;
   size_t ntri, nh, ntc, nc;
-  size_t nw, per;    // workers the job is split for; chunks per worker
-  double s;          // the caller's sum of values [0, p)
-  size_t p, lc, lim; // lc: the first chunk not seen ready; lim = its first value
+  size_t nw, per; // workers the job is split for; chunks per worker
+  // ready[k]: FREE, TAKEN (by the thread computing it), READY (its values
+  // written); below free_hint none is FREE.
+  _Alignas(64) atomic_size_t free_hint;
+  _Alignas(64) double s; // the caller's sum of values [0, p)
+  size_t p, lc, lim;     // lc: the first chunk not seen ready; lim = its first value
 } energy64_job;
+enum { FREE, TAKEN, READY };
 
 // The job whose chunks this thread sums (the calling thread's own job).
 static _Thread_local const energy64_job *summing;
@@ -294,7 +301,7 @@ static size_t chunk_start(const energy64_job *e, size_t k) {
 // The first chunk from lc not flagged ready (acquire: the values of those
 // before it are visible).
 static size_t first_unready(const energy64_job *e, size_t lc) {
-  while (lc < e->nc && atomic_load_explicit(&e->ready[lc], memory_order_acquire))
+  while (lc < e->nc && atomic_load_explicit(&e->ready[lc], memory_order_acquire) == READY)
     lc++;
   return lc;
 }
@@ -371,17 +378,40 @@ static void hinge_chunk(const ek_cloth *cl, double kb, const double *x, double *
     eh[h] = hinge_energy(cl, kb, x, h);
 }
 
+// Takes chunk k if FREE, else the first FREE one; nc where none is left
+// (every team chunk takes one at most, and there are at least nc of them).
+static size_t take(energy64_job *e, size_t k) {
+  unsigned char f = FREE;
+  if (k < e->nc && atomic_compare_exchange_strong_explicit(
+                       &e->ready[k], &f, TAKEN, memory_order_relaxed, memory_order_relaxed))
+    return k;
+  for (k = atomic_load_explicit(&e->free_hint, memory_order_relaxed); k < e->nc; ++k) {
+    f = FREE;
+    if (atomic_load_explicit(&e->ready[k], memory_order_relaxed) == FREE &&
+        atomic_compare_exchange_strong_explicit(&e->ready[k], &f, TAKEN, memory_order_relaxed,
+                                                memory_order_relaxed)) {
+      atomic_store_explicit(&e->free_hint, k + 1, memory_order_relaxed);
+      return k;
+    }
+  }
+  return e->nc;
+}
+
 // Chunk i of the job: worker w = i / per's (i % per)-th, which is its
 // share's triangle chunk or, after those, hinge chunk w + nw (i % per -
 // share); none past the last (the shares differ by up to one of each).
+// Where that one is taken (its worker ran ahead), the first one free; and
+// the caller's chunks from another worker's range (taken from its back:
+// that worker is late, or off its core) take the first one free, so it
+// computes them in order and adds them as it goes.
 static void energy_chunk(void *ctx, size_t i) {
   energy64_job *e = ctx;
   const size_t w = i / e->per, q = i % e->per, t0 = e->ntc * w / e->nw,
                tw = e->ntc * (w + 1) / e->nw - t0;
-  const size_t k = q < tw ? t0 + q : e->ntc + (q - tw) * e->nw + w;
+  const int sums = summing == e;
+  const size_t k = take(e, sums && w > 0 ? e->nc : q < tw ? t0 + q : e->ntc + (q - tw) * e->nw + w);
   if (k >= e->nc)
     return;
-  const int sums = summing == e;
   if (k < e->ntc) {
     const size_t b0 = k * TB, b1 = b0 + TB < e->j->ntb ? b0 + TB : e->j->ntb;
     if (sums)
@@ -395,7 +425,7 @@ static void energy_chunk(void *ctx, size_t i) {
     else
       hinge_chunk(e->cl, e->kb, e->x, e->eh, h0, h1);
   }
-  atomic_store_explicit(&e->ready[k], 1, memory_order_release);
+  atomic_store_explicit(&e->ready[k], READY, memory_order_release);
 }
 
 static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, const real *x,
@@ -409,6 +439,7 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
                     .ready = cl->energy_ready,
                     .ntri = cl->nt,
                     .nh = kb > 0 ? cl->nh : 0};
+  atomic_init(&e.free_hint, 0);
   e.ntc = (j->ntb + TB - 1) / TB;
   const size_t nhc = (e.nh + HCHUNK - 1) / HCHUNK;
   e.nc = e.ntc + nhc;
@@ -422,7 +453,7 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
   summing = NULL;
   e.s = add_values(&e, e.s, e.p, e.ntri + e.nh); // every chunk is done and visible
   for (size_t k = 0; k < e.nc; ++k)              // cleared for the next call
-    atomic_store_explicit(&e.ready[k], 0, memory_order_relaxed);
+    atomic_store_explicit(&e.ready[k], FREE, memory_order_relaxed);
   return e.s;
 }
 #else
