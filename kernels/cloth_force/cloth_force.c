@@ -10,8 +10,8 @@
 // writing its corners, then every vertex sums its corners in element order.
 // No vertex is written by two threads and no sum depends on the partition:
 // the same bits at any thread count. The Hessian products, the diagonal
-// blocks, the fields and the f32 energy (one job) run on the team too; the
-// f64 energy's ordered sum keeps its OpenMP region (energy_sum).
+// blocks, the fields and both energies (one job each) run on the team too:
+// no OpenMP region here (omp.h for omp_get_wtime, the phase timers).
 #include <math.h>
 #include <omp.h>
 #include <stdatomic.h>
@@ -85,14 +85,6 @@ static void gather(const ek_cloth *cl, const real *tc, const real *hc, real *f, 
     f[3 * v] = s[0], f[3 * v + 1] = s[1], f[3 * v + 2] = s[2];
   }
 }
-
-#if defined(EK_REAL_F64)
-// Static partition of [0, n) for thread t of nt (the f64 energy's region).
-static void part(size_t n, int t, int nt, size_t *a, size_t *b) {
-  *a = n * (size_t)t / (size_t)nt;
-  *b = n * (size_t)(t + 1) / (size_t)nt;
-}
-#endif
 
 // The arguments the cloth kernels share (each reads what it needs): the
 // cloth's arrays in this precision, the parameters, the positions and the
@@ -239,128 +231,230 @@ static double add_tris(double sum, const real *te, size_t t0, size_t t1) {
 }
 
 #if defined(EK_REAL_F64)
-#define CHUNK 4                      // triangle blocks thread 0 computes before adding them
-#define RATE 4                       // adds per hinge energy that thread 0 can hide (~3 ns of ~4)
-#define HCHUNK EK_CLOTH_ENERGY_CHUNK // hinges per chunk of the hinge phase
+#define TB (EK_CLOTH_ENERGY_TRIS / L) // triangle blocks per chunk
+#define HCHUNK EK_CLOTH_ENERGY_CHUNK  // hinges per chunk
+#define SUB 4                         // triangle blocks per kernel call, each followed by adds
+#define RATE 6                        // adds per element computed that the caller can hide
+_Static_assert(EK_CLOTH_ENERGY_TRIS % L == 0, "whole blocks per triangle chunk");
 
-// Thread 0's part of the hinge phase: chunks claimed from *next as the
-// others claim theirs; each hinge computed into eh while up to RATE values
-// are added from those ready (the others' triangles [*c, ntri), then
-// hinges [*g, *lim)), or, once the sum has caught up, added as computed.
-// After each chunk *lim grows over the chunks flagged ready (release /
-// acquire); thread 0 never waits for one.
-static double hinge_chunks0(const ek_cloth *cl, double kb, const double *xd, double *eh,
-                            const real *te, size_t ntri, size_t nh, atomic_size_t *next, double s,
-                            size_t *c, size_t *g, size_t *lim) {
-  atomic_uchar *ready = cl->energy_ready;
-  for (;;) {
-    size_t k = atomic_fetch_add_explicit(next, 1, memory_order_relaxed);
-    if (k * HCHUNK >= nh)
-      break;
-    size_t h = k * HCHUNK, h1 = h + HCHUNK < nh ? h + HCHUNK : nh;
-    for (; h < h1 && *c + RATE <= ntri; ++h, *c += RATE) {
-      eh[h] = hinge_energy(cl, kb, xd, h);
-      for (int r = 0; r < RATE; ++r)
-        s += (double)te[*c + r];
-    }
-    if (*c < ntri && h < h1) { // the last few triangles
-      s = add_tris(s, te, *c, ntri);
-      *c = ntri;
-    }
-    for (; h < h1 && *g + RATE <= *lim; ++h, *g += RATE) {
-      eh[h] = hinge_energy(cl, kb, xd, h);
-      for (int r = 0; r < RATE; ++r)
-        s += eh[*g + r];
-    }
-    if (*c == ntri && *g == *lim && *lim == h) { // caught up: add as computed
-      for (; h < h1; ++h)
-        s += eh[h] = hinge_energy(cl, kb, xd, h);
-      *g = *lim = h1;
-    }
-    for (; h < h1; ++h)
-      eh[h] = hinge_energy(cl, kb, xd, h);
-    atomic_store_explicit(&ready[k], 1, memory_order_relaxed); // its own
-    while (*lim < nh && atomic_load_explicit(&ready[*lim / HCHUNK], memory_order_acquire))
-      *lim = *lim + HCHUNK < nh ? *lim + HCHUNK : nh;
-  }
+// E = the triangles' energies summed in double in triangle order, then the
+// hinges' in hinge order: one dependent chain of nt + nh adds (an add's
+// latency each, 0.8 ns on Zen 4, against ~4 ns per hinge energy), the same
+// bits at any thread count. One team job: each chunk takes one element
+// chunk k (take) and computes EK_CLOTH_ENERGY_TRIS triangles' energies into
+// te ([0, ntc)) or HCHUNK hinges' into eh ([ntc, nc)), then flags it ready
+// (release). The sum is the calling thread's alone, made as its own chunks
+// run: with each element it computes it adds up to RATE of the values ready
+// before its chunk, and once caught up its chunk's own as computed (at 1
+// thread every chunk, as before: one loop adding each as computed). It
+// never waits for a chunk: what is left when the job ends (about a chunk
+// per helper) it adds then. Worker w's range of the job (team.h:
+// ek_team_run_static splits as OpenMP's static schedule) holds the w-th
+// contiguous share of the triangle chunks, then hinge chunks w, w + nw, ...:
+// the caller's triangles come first in the order, so it adds them as
+// computed, and at 2 threads it adds the helper's triangles and hinges
+// while it computes its hinges in step with the helper's; the same chunks
+// on the same core call after call. A chunk the caller takes from a late
+// helper's range (the team hands it the back of that range) computes the
+// first element chunk still free instead, so the caller keeps adding as it
+// goes: with the helper off its core for the whole call, the fixed mapping
+// had left ~16 000 adds (~13 us on 64 x 64 cells) to after the job.
+// Against c129528's OpenMP region (thread 0 the first share of the
+// triangles, adding them, then the hinges from a shared counter) on a
+// shared 2-core Zen 4, ek-bench cloth/membrane_energy/(stvk|arap)/
+// (default|avx512)/f64, least samples in ns per triangle: 1 thread level
+// (StVK 10.32 / 10.45), 2 threads level (StVK 5.78 / 5.78, ARAP 9.44 /
+// 9.38), medians 5-10% better beside another session's load. Measured and
+// dropped: the triangle chunks interleaved as the hinges' (the caller
+// adding two values per triangle it computes) ~4% slower at 2 threads; all
+// chunks claimed in order from one counter (ek_team_run: a chunk on another
+// core each call) 7-10%; the triangles and the hinges as two jobs ~5%.
+// docs/perf.md, eighteenth round.
+typedef struct {
+  const ek_cloth *cl;
+  const energy_job *j;
+  double kb;
+  const double *x, *te;
+  double *eh;
+  atomic_uchar *ready;
+  size_t ntri, nh, ntc, nc;
+  size_t nw, per; // workers the job is split for; chunks per worker
+  // ready[k]: FREE, TAKEN (by the thread computing it), READY (its values
+  // written); below free_hint none is FREE.
+  _Alignas(64) atomic_size_t free_hint;
+  _Alignas(64) double s; // the caller's sum of values [0, p)
+  size_t p, lc, lim;     // lc: the first chunk not seen ready; lim = its first value
+} energy64_job;
+enum { FREE, TAKEN, READY };
+
+// The job whose chunks this thread sums (the calling thread's own job).
+static _Thread_local const energy64_job *summing;
+
+// First value (in the sum's order) of chunk k; the end for k = nc.
+static size_t chunk_start(const energy64_job *e, size_t k) {
+  if (k < e->ntc)
+    return k * EK_CLOTH_ENERGY_TRIS;
+  size_t h = (k - e->ntc) * HCHUNK;
+  return e->ntri + (h < e->nh ? h : e->nh);
+}
+
+// The first chunk from lc not flagged ready (acquire: the values of those
+// before it are visible).
+static size_t first_unready(const energy64_job *e, size_t lc) {
+  while (lc < e->nc && atomic_load_explicit(&e->ready[lc], memory_order_acquire) == READY)
+    lc++;
+  return lc;
+}
+
+// s + values [p, end) in the sum's order.
+static double add_values(const energy64_job *e, double s, size_t p, size_t end) {
+  for (; p < end && p < e->ntri; ++p)
+    s += e->te[p];
+  for (; p < end; ++p)
+    s += e->eh[p - e->ntri];
   return s;
 }
 
-// E = the triangles' energies summed in double in triangle order, then the
-// hinges' in hinge order: the same bits at any thread count. The sum is
-// one dependent chain of nt + nh adds (one add's latency each, 0.8 ns on
-// Zen 4 against ~4 ns per hinge energy), so thread 0 runs it and adds
-// values while it computes others: (1) thread 0 the first 1/n of the
-// triangle blocks, adding them chunk by chunk; the others the rest, and
-// f32 positions to double (the hinges read them 12 times); (2) the hinges
-// in chunks claimed in order by whichever thread is free, thread 0 adding
-// the others' triangles and the ready hinges as it goes (hinge_chunks0);
-// (3) after the barrier, thread 0 adds the rest (about a chunk per thread).
-static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, const real *x,
-                         int par) {
-  double *eh = ((ek_cloth *)cl)->energy_buf, sum = 0;
-#if defined(EK_REAL_F32)
-  double *xd = eh + cl->nh;
-#else
-  const double *xd = x;
-#endif
-  const size_t nh = kb > 0 ? cl->nh : 0, ntb = j->ntb, ntri = cl->nt;
-  const real *te = j->te;
-  atomic_uchar *ready = cl->energy_ready;
-  atomic_size_t next;
-  atomic_init(&next, 0);
-#pragma omp parallel if (par)
-  {
-    const int t = omp_get_thread_num(), n = omp_get_num_threads();
-    const size_t a = ntb / (size_t)n, ta = a * L < ntri ? a * L : ntri;
-    double s = 0;
-    size_t b0, b1;
-    if (t == 0) {
-      for (size_t b = 0; b < a; b += CHUNK) {
-        size_t e = b + CHUNK < a ? b + CHUNK : a;
-        j->blocks(j->ctx, b, e);
-        s = add_tris(s, te, b * L, e * L < ntri ? e * L : ntri);
-      }
+// Triangle chunk k (blocks [b0, b1)) on the calling thread: after each
+// kernel call up to RATE values per triangle of those ready before the
+// chunk (all triangles), and once caught up the chunk's own. The sum's
+// state stays in locals (through e, every store to eh or te would reload
+// it: a store-to-load latency in the chain).
+static void tri_chunk_sum(energy64_job *e, size_t k, size_t b0, size_t b1) {
+  const energy_job *j = e->j;
+  const size_t o = chunk_start(e, k);
+  double s = e->s;
+  size_t p = e->p, lc = e->lc, lim = e->lim;
+  for (size_t b = b0; b < b1; b += SUB) {
+    const size_t be = b + SUB < b1 ? b + SUB : b1, t1 = be * L < e->ntri ? be * L : e->ntri;
+    j->blocks(j->ctx, b, be);
+    if (p < o) {
+      size_t end = p + RATE * (t1 - b * L);
+      if (end > lim)
+        lc = first_unready(e, lc), lim = chunk_start(e, lc);
+      end = end < lim ? end : lim;
+      for (; p < end; ++p)
+        s += e->te[p];
     }
-#if defined(EK_REAL_F32)
-    part(3 * cl->nv, t > 0 ? t - 1 : 0, n > 1 ? n - 1 : 1, &b0, &b1);
-    if (t > 0 || n == 1)
-      for (size_t i = b0; i < b1; ++i)
-        xd[i] = (double)x[i];
-#endif
-    if (t > 0) {
-      part(ntb - a, t - 1, n - 1, &b0, &b1);
-      if (b1 > b0)
-        j->blocks(j->ctx, a + b0, a + b1);
-    }
-#pragma omp barrier
-    size_t c = ta, g = 0, lim = 0; // thread 0: the next triangle, hinge to add; hinges ready
-    if (t == 0) {
-      s = hinge_chunks0(cl, kb, xd, eh, te, ntri, nh, &next, s, &c, &g, &lim);
-      s = add_tris(s, te, c, ntri);
-      for (; g < lim; ++g)
-        s += eh[g];
-    } else {
-      for (;;) {
-        size_t k = atomic_fetch_add_explicit(&next, 1, memory_order_relaxed);
-        if (k * HCHUNK >= nh)
-          break;
-        size_t h1 = (k + 1) * HCHUNK < nh ? (k + 1) * HCHUNK : nh;
-        for (size_t h = k * HCHUNK; h < h1; ++h)
-          eh[h] = hinge_energy(cl, kb, xd, h);
-        atomic_store_explicit(&ready[k], 1, memory_order_release);
-      }
-    }
-#pragma omp barrier
-    if (t == 0) {
-      for (; g < nh; ++g)
-        s += eh[g];
-      sum = s;
-      for (size_t k = 0; k * HCHUNK < nh; ++k) // cleared for the next call
-        atomic_store_explicit(&ready[k], 0, memory_order_relaxed);
+    if (p >= o)
+      s = add_tris(s, e->te, p, t1), p = t1;
+  }
+  e->s = s, e->p = p, e->lc = lc, e->lim = lim;
+}
+
+// Hinge chunk [h, h1) on the calling thread: with each hinge energy up to
+// RATE values of those ready before the chunk, and once caught up the
+// chunk's own as computed.
+static void hinge_chunk_sum(energy64_job *e, size_t h, size_t h1) {
+  const ek_cloth *cl = e->cl;
+  const double kb = e->kb, *x = e->x, *te = e->te;
+  const size_t ntri = e->ntri, o = ntri + h;
+  double s = e->s, *eh = e->eh;
+  size_t p = e->p, lc = e->lc, lim = e->lim;
+  for (; h < h1 && p < o; ++h) {
+    eh[h] = hinge_energy(cl, kb, x, h);
+    if (p + RATE > lim)
+      lc = first_unready(e, lc), lim = chunk_start(e, lc);
+    const size_t end = p + RATE < lim ? p + RATE : lim;
+    if (end <= ntri)
+      for (; p < end; ++p)
+        s += te[p];
+    else
+      s = add_values(e, s, p, end), p = end;
+  }
+  if (p >= o) { // caught up: this chunk's values so far, then each as computed
+    for (; p < ntri + h; ++p)
+      s += eh[p - ntri];
+    for (; h < h1; ++h)
+      s += hinge_energy(cl, kb, x, h);
+    p = ntri + h1;
+  }
+  e->s = s, e->p = p, e->lc = lc, e->lim = lim;
+}
+
+static void hinge_chunk(const ek_cloth *cl, double kb, const double *x, double *eh, size_t h0,
+                        size_t h1) {
+  for (size_t h = h0; h < h1; ++h)
+    eh[h] = hinge_energy(cl, kb, x, h);
+}
+
+// Takes chunk k if FREE, else the first FREE one; nc where none is left
+// (every team chunk takes one at most, and there are at least nc of them).
+static size_t take(energy64_job *e, size_t k) {
+  unsigned char f = FREE;
+  if (k < e->nc && atomic_compare_exchange_strong_explicit(
+                       &e->ready[k], &f, TAKEN, memory_order_relaxed, memory_order_relaxed))
+    return k;
+  for (k = atomic_load_explicit(&e->free_hint, memory_order_relaxed); k < e->nc; ++k) {
+    f = FREE;
+    if (atomic_load_explicit(&e->ready[k], memory_order_relaxed) == FREE &&
+        atomic_compare_exchange_strong_explicit(&e->ready[k], &f, TAKEN, memory_order_relaxed,
+                                                memory_order_relaxed)) {
+      atomic_store_explicit(&e->free_hint, k + 1, memory_order_relaxed);
+      return k;
     }
   }
-  return sum;
+  return e->nc;
+}
+
+// Chunk i of the job: worker w = i / per's (i % per)-th, which is its
+// share's triangle chunk or, after those, hinge chunk w + nw (i % per -
+// share); none past the last (the shares differ by up to one of each).
+// Where that one is taken (its worker ran ahead), the first one free; and
+// the caller's chunks from another worker's range (taken from its back:
+// that worker is late, or off its core) take the first one free, so it
+// computes them in order and adds them as it goes.
+static void energy_chunk(void *ctx, size_t i) {
+  energy64_job *e = ctx;
+  const size_t w = i / e->per, q = i % e->per, t0 = e->ntc * w / e->nw,
+               tw = e->ntc * (w + 1) / e->nw - t0;
+  const int sums = summing == e;
+  const size_t k = take(e, sums && w > 0 ? e->nc : q < tw ? t0 + q : e->ntc + (q - tw) * e->nw + w);
+  if (k >= e->nc)
+    return;
+  if (k < e->ntc) {
+    const size_t b0 = k * TB, b1 = b0 + TB < e->j->ntb ? b0 + TB : e->j->ntb;
+    if (sums)
+      tri_chunk_sum(e, k, b0, b1);
+    else
+      e->j->blocks(e->j->ctx, b0, b1);
+  } else {
+    const size_t h0 = (k - e->ntc) * HCHUNK, h1 = h0 + HCHUNK < e->nh ? h0 + HCHUNK : e->nh;
+    if (sums)
+      hinge_chunk_sum(e, h0, h1);
+    else
+      hinge_chunk(e->cl, e->kb, e->x, e->eh, h0, h1);
+  }
+  atomic_store_explicit(&e->ready[k], READY, memory_order_release);
+}
+
+static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, const real *x,
+                         int par) {
+  energy64_job e = {.cl = cl,
+                    .j = j,
+                    .kb = kb,
+                    .x = x,
+                    .te = j->te,
+                    .eh = cl->energy_buf,
+                    .ready = cl->energy_ready,
+                    .ntri = cl->nt,
+                    .nh = kb > 0 ? cl->nh : 0};
+  atomic_init(&e.free_hint, 0);
+  e.ntc = (j->ntb + TB - 1) / TB;
+  const size_t nhc = (e.nh + HCHUNK - 1) / HCHUNK;
+  e.nc = e.ntc + nhc;
+  // Split for the team's workers (another count, as where the team runs the
+  // job on this thread alone, gives the same bits, only a longer sum after
+  // the job); each share padded to the largest.
+  e.nw = par ? (size_t)ek_team_threads() : 1;
+  e.per = (e.ntc + e.nw - 1) / e.nw + (nhc + e.nw - 1) / e.nw;
+  summing = &e;
+  ek_team_run_static_if(par, e.per * e.nw, energy_chunk, &e);
+  summing = NULL;
+  e.s = add_values(&e, e.s, e.p, e.ntri + e.nh); // every chunk is done and visible
+  for (size_t k = 0; k < e.nc; ++k)              // cleared for the next call
+    atomic_store_explicit(&e.ready[k], FREE, memory_order_relaxed);
+  return e.s;
 }
 #else
 #define EB EK_CLOTH_ENERGY_BLOCK_F32 // triangles / hinges per partial sum
@@ -372,7 +466,7 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
 // the triangles' then the hinges', by the calling thread. The order is
 // fixed by EB alone, so any thread count gives the same bits, and no
 // thread runs a chain longer than one block's (the f64 paths' single
-// chain of nt + nh adds, thread 0's, held f32 at ~1.5x at 2 threads).
+// chain of nt + nh adds, the caller's, held f32 at ~1.5x at 2 threads).
 // One team job: first the positions to double (the hinges read each 12
 // times; f32 reads measured ~1 ns more per hinge) in chunks of
 // 3 GATHER_VERTS, then chunk i: triangle block i and the i-th of ntp

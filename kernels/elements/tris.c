@@ -331,7 +331,8 @@ ek_cloth *ek_cloth_create(size_t nverts, const double *X, size_t ntris, const in
       ek_alloc((cl->nhb_f64 ? cl->nhb_f64 : 1) * 12 * EK_LANES_F64 * sizeof(double));
   size_t neb = (ntris + cl->nh) / EK_CLOTH_ENERGY_BLOCK_F32 + 2; // f32 block sums
   cl->energy_buf = ek_alloc((cl->nh + 3 * nverts + neb) * sizeof(double));
-  cl->energy_ready = calloc(cl->nh / EK_CLOTH_ENERGY_CHUNK + 1, sizeof(atomic_uchar));
+  cl->energy_ready = calloc(ntris / EK_CLOTH_ENERGY_TRIS + cl->nh / EK_CLOTH_ENERGY_CHUNK + 2,
+                            sizeof(atomic_uchar));
   if (!cl->tri_corner_f32 || !cl->tri_corner_f64 || !cl->hinge_corner_f32 ||
       !cl->hinge_corner_f64 || !cl->energy_buf || !cl->energy_ready)
     goto oom;

@@ -37,8 +37,9 @@ struct ek_cloth {
   // The energy call's scratch: f64, the hinge energies (nh); f32, the
   // positions in double (3 nv) then the block sums (one per
   // EK_CLOTH_ENERGY_BLOCK_F32 triangles, then hinges); the triangle
-  // energies go in tri_corner_*. f64's flag per chunk of
-  // EK_CLOTH_ENERGY_CHUNK hinges once they are written.
+  // energies go in tri_corner_*. f64's flag per chunk (of
+  // EK_CLOTH_ENERGY_TRIS triangles, then of EK_CLOTH_ENERGY_CHUNK hinges)
+  // once its energies are written.
   double *energy_buf;
   atomic_uchar *energy_ready;
 };
@@ -47,6 +48,7 @@ struct ek_cloth {
 // EK_FVM_PARALLEL_MIN_TETS for tets: a second thread gains too little).
 #define EK_CLOTH_PARALLEL_MIN_TRIS 4096
 #define EK_CLOTH_ENERGY_CHUNK 256
+#define EK_CLOTH_ENERGY_TRIS 256
 // The f32 energy's partial sums (cloth_force.h): triangles and hinges in
 // blocks of this many (a multiple of EK_LANES_F32). Part of that energy's
 // definition: changing it changes its bits.
