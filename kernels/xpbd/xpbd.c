@@ -38,11 +38,14 @@ typedef struct ek_xpbd_args_f64 xpbd_args;
 #define XPBD_PARALLEL_MIN 4096
 // Jacobi and the one-pass operations split the blocks into fixed ranges.
 #define XPBD_RANGE 32
-// The flow's thread gate (flow_gain): a handoff's cost in blocks, the
-// sweeps per call it looks at, the least simulated gain worth the threads.
-#define XPBD_FLOW_HANDOFF 32
-#define XPBD_FLOW_SWEEPS 10
-#define XPBD_FLOW_MIN_GAIN 1.25
+// The flow on a busy core: a thread that waits for a chunk whose thread is
+// off its core waits a scheduler slice (the flow has a wait per chunk of
+// ~20-40 us), so a 2-thread cantilever_xpbd ran at 0.7x its 1-thread speed
+// beside 2 busy loops, where a quiet machine gives it 1.45x (docs/perf.md,
+// eighteenth round). A flow whose wait outlasted XPBD_STALL_S runs the
+// phased sweep on the calling thread for XPBD_SOLO_S, then flows again.
+#define XPBD_STALL_S 0.5e-3
+#define XPBD_SOLO_S 0.05
 
 static int parallel_for(const ek_xpbd *xp) {
   return xp->ncons >= XPBD_PARALLEL_MIN && omp_get_max_threads() > 1;
@@ -165,7 +168,12 @@ static void phase_chunk(void *ctx, size_t i) {
 // sleepers and done are sequentially consistent: either the waiter sees
 // the new count or the finisher sees the sleeper, whose wait has begun by
 // the time the finisher holds the mutex.
+// A wait longer than XPBD_STALL_S (every one that sleeps after 2^20
+// spins) flags the flow as stalled (sweeps).
 static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
+  if (atomic_load_explicit(done, memory_order_acquire) >= need)
+    return;
+  const double t0 = omp_get_wtime();
   for (int spins = 0; spins < spin; spins++)
     if (atomic_load_explicit(done, memory_order_acquire) >= need)
       return;
@@ -176,6 +184,8 @@ static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
     pthread_cond_wait(&w->flow_cond, &w->flow_mutex);
   atomic_fetch_sub(&w->flow_sleepers, 1);
   pthread_mutex_unlock(&w->flow_mutex);
+  if (omp_get_wtime() - t0 > XPBD_STALL_S)
+    atomic_store_explicit(&w->flow_stalled, 1, memory_order_relaxed);
 }
 
 static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
@@ -200,9 +210,7 @@ static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
 // chunk that a running thread has claimed (never for one no thread has
 // started), and the least unfinished chunk can always run: no wait is for
 // ever, at any thread count (one thread runs them in order, waiting for
-// none). A flow that would not gain at the thread count (flow_gain: many
-// chunks waiting on the other thread's, e.g. cantilever_xpbd's 12) runs
-// as the phased sweep on the calling thread instead (sweeps).
+// none).
 static void flow_chunk(void *ctx, size_t c) {
   const sweep_job *j = ctx;
   const ek_xpbd *xp = j->xp;
@@ -216,86 +224,6 @@ static void flow_chunk(void *ctx, size_t c) {
   mark_done(xp, &xp->task_done[t], it + 1);
 }
 
-// The flow's thread gate. A flow whose chunks keep waiting on the other
-// thread's gains nothing from it and loses to a busy core: a thread that
-// waits for a descheduled one waits a time slice. cantilever_xpbd (6 000
-// tets, 12 chunks of 36-39 blocks, each sharing vertices with 5-11 of the
-// other 11) lost at 2 threads on a quiet machine (step medians 15.6-16.0
-// ms against 14.9-15.2 at 1 thread) and 2-3x under load (77-83 against
-// 29-30; docs/perf.md, sixteenth round), while the bench's box (101 400
-// tets, 65 chunks of ~110 blocks) gains 1.7-1.8x. This simulates
-// XPBD_FLOW_SWEEPS sweeps of the job as the team runs it: chunks claimed
-// in the job's order (task_order, sweep after sweep) by whichever of n
-// threads comes free first, each starting once its neighbours' earlier
-// turns are done (flow_chunk's waits), a task's cost its block count, and
-// a wait for a chunk that another thread ran paying XPBD_FLOW_HANDOFF
-// blocks more (the handoff: the flag, and the written vertices and the
-// chunk's planes fetched from the other core's cache). gain[s - 1] is the
-// one-thread time of s sweeps over their simulated makespan (the
-// simulation is causal: its first s sweeps are an s-sweep job's). Without
-// the handoff the cantilever's 2-thread gain is 1.66 with 59 of its 120
-// chunks waiting, the box's 1.99 with 10 of 650; 32 blocks (~5 us on the
-// Zen 4 VM, ~170 ns per f32 block) puts the cantilever's at 0.93 (the
-// measured quiet ratio 0.93-0.97) and leaves the box's at 1.95 (f64 1.97: its
-// chunks hold twice the blocks: a handoff weighs less); 16 or 64 blocks
-// decide the same (cantilever 1.21 / 0.63, box 1.91-1.98). test_xpbd e.'s
-// 12^3 box (21 chunks) runs alone in f32 (1.10) and flows in f64 (1.34):
-// both paths are checked against 1 thread. Returns 0, gains unset, on
-// allocation failure.
-static int flow_gain(const ek_xpbd *xp, int n, double gain[XPBD_FLOW_SWEEPS]) {
-  const size_t nt = xp->ntasks;
-  double *fin = malloc(2 * nt * sizeof(double)), *free_at = malloc((size_t)n * sizeof(double));
-  int *ran = malloc(2 * nt * sizeof(int));
-  int ok = fin && free_at && ran && nt > 0;
-  if (!ok)
-    goto done;
-  // prev / cur: sweep it - 1's and it's finish times and threads.
-  double *prev = fin, *cur = fin + nt, total = 0, span = 0;
-  int *ran_prev = ran, *ran_cur = ran + nt;
-  for (size_t t = 0; t < nt; t++) {
-    prev[t] = 0;
-    ran_prev[t] = -1;
-  }
-  for (int w = 0; w < n; w++)
-    free_at[w] = 0;
-  for (int it = 0; it < XPBD_FLOW_SWEEPS; it++) {
-    for (size_t k = 0; k < nt; k++) {
-      const size_t t = (size_t)xp->task_order[k];
-      int w = 0;
-      for (int v = 1; v < n; v++)
-        if (free_at[v] < free_at[w])
-          w = v;
-      double start = free_at[w];
-      for (size_t e = xp->task_dep_start[t]; e < xp->task_dep_start[t + 1]; e++) {
-        const size_t u = (size_t)xp->task_dep[e];
-        const int by = u < t ? ran_cur[u] : ran_prev[u];
-        const double ready =
-            (u < t ? cur[u] : prev[u]) + (by >= 0 && by != w ? XPBD_FLOW_HANDOFF : 0);
-        if (ready > start)
-          start = ready;
-      }
-      const double cost = (double)(xp->task_block[t + 1] - xp->task_block[t]);
-      cur[t] = free_at[w] = start + cost;
-      ran_cur[t] = w;
-      total += cost;
-      if (cur[t] > span)
-        span = cur[t];
-    }
-    gain[it] = span > 0 ? total / span : 1;
-    double *swap = prev;
-    prev = cur;
-    cur = swap;
-    int *swap_ran = ran_prev;
-    ran_prev = ran_cur;
-    ran_cur = swap_ran;
-  }
-done:
-  free(fin);
-  free(free_at);
-  free(ran);
-  return ok;
-}
-
 // The order the team claims a sweep's tasks in, for n threads: any order
 // that puts each task after its neighbours of smaller index is correct (the
 // waits of flow_chunk are then for claimed chunks); this one is a list
@@ -305,9 +233,7 @@ done:
 // it. Task index order, the
 // phased sweep's, left a thread waiting at the phase ends (the last phases
 // hold 1 or 2 chunks; docs/perf.md, sixteenth round). On allocation
-// failure the index order. Then the gate: flow_alone bit s - 1 set when s
-// sweeps per call (XPBD_FLOW_SWEEPS or more: the last bit) gain less than
-// XPBD_FLOW_MIN_GAIN at n threads (flow_gain); none set if it cannot tell.
+// failure the index order.
 static void plan_order(ek_xpbd *xp, int n) {
   const size_t nt = xp->ntasks;
   double *prio = malloc(nt * sizeof(double)), *finish = malloc(nt * sizeof(double));
@@ -364,12 +290,6 @@ done:
   free(prio);
   free(finish);
   free(free_at);
-  double gain[XPBD_FLOW_SWEEPS] = {0};
-  xp->flow_alone = 0;
-  if (n > 1 && flow_gain(xp, n, gain))
-    for (int s = 0; s < XPBD_FLOW_SWEEPS; s++)
-      if (gain[s] < XPBD_FLOW_MIN_GAIN)
-        xp->flow_alone |= 1u << s;
 }
 
 // `iterations` sweeps.
@@ -380,18 +300,16 @@ static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
   if (jacobi)
     a.corr = xp->corr;
   sweep_job j = {.xp = xp, .a = &a, .x = x, .nt = xp->ntasks};
-  const int flow = !jacobi && xp->flow_ready && par && xp->ntasks > 0 && iterations > 0;
-  if (flow && xp->order_threads != omp_get_max_threads())
-    plan_order((ek_xpbd *)xp, omp_get_max_threads());
-  // A flow that would not gain runs the phased sweep on this thread: the
-  // same bits (the flow's are the phased sweep's).
-  const int s = iterations < XPBD_FLOW_SWEEPS ? iterations : XPBD_FLOW_SWEEPS;
-  if (flow && (xp->flow_alone >> (s - 1) & 1u))
+  // A flow that stalled in the last XPBD_SOLO_S: the phased sweep on this
+  // thread (the same bits).
+  if (!jacobi && xp->flow_ready && par && omp_get_wtime() < xp->solo_until)
     par = 0;
-  else if (flow) {
+  if (!jacobi && xp->flow_ready && par && xp->ntasks > 0) {
     for (size_t t = 0; t < xp->ntasks; t++)
       atomic_store_explicit(&xp->task_done[t], 0, memory_order_relaxed);
     j.spin = ek_wait_spins(omp_get_max_threads());
+    if (xp->order_threads != omp_get_max_threads())
+      plan_order((ek_xpbd *)xp, omp_get_max_threads());
     // Whole sweeps per job, at most EK_TEAM_MAX_CHUNKS chunks.
     const size_t per_job = EK_TEAM_MAX_CHUNKS / xp->ntasks;
     for (int it = 0; it < iterations;) {
@@ -400,6 +318,8 @@ static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
       ek_team_run(k * xp->ntasks, flow_chunk, &j);
       it += (int)k;
     }
+    if (atomic_exchange_explicit(&((ek_xpbd *)xp)->flow_stalled, 0, memory_order_relaxed))
+      ((ek_xpbd *)xp)->solo_until = omp_get_wtime() + XPBD_SOLO_S;
     return;
   }
   // Clusters: a task is one block, and a phase holds ~1-60 of them (1 198
@@ -689,6 +609,7 @@ static int build_task_deps(ek_xpbd *xp) {
   for (size_t t = 0; t < nt; t++)
     atomic_init(&xp->task_done[t], 0);
   atomic_init(&xp->flow_sleepers, 0);
+  atomic_init(&xp->flow_stalled, 0);
   if (pthread_mutex_init(&xp->flow_mutex, NULL) != 0)
     goto done;
   if (pthread_cond_init(&xp->flow_cond, NULL) != 0) {

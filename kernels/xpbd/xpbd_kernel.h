@@ -98,9 +98,6 @@ struct ek_xpbd {
   size_t *task_dep_start;
   int32_t *task_dep, *task_order;
   int order_threads;
-  // Bit s - 1: s sweeps per call (the last bit: that many or more) run on
-  // the calling thread at order_threads threads (xpbd.c, flow_gain).
-  unsigned flow_alone;
   atomic_int *task_done;
   // Where a thread sleeps once its wait outlasts the spin (sleepers: how
   // many do).
@@ -108,6 +105,11 @@ struct ek_xpbd {
   pthread_cond_t flow_cond;
   atomic_int flow_sleepers;
   int flow_ready; // mutex and cond initialised
+  // A flow wait that outlasted XPBD_STALL_S (the thread it waited for was
+  // off its core) sets flow_stalled; the flow's calls until solo_until then
+  // run the phased sweep on the calling thread (xpbd.c, sweeps).
+  atomic_int flow_stalled;
+  double solo_until;
   // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
