@@ -53,6 +53,9 @@ static struct {
   size_t n;        // chunks of this job (ranges)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
+  // A stalled job (stall_check): jobs started before solo_until run on the
+  // caller alone (under run).
+  double solo_until;
   // ek_team_run_ranges: worker w's range of chunks, a line each: FRONT,
   // the next chunk its owner takes; BACK, one past the last (other workers
   // take from there); TAG, the job's epoch (low bits).
@@ -96,7 +99,7 @@ static void chunk(size_t i, int id) {
     T.fn(T.ctx, i);
 }
 
-static void work_ranges(int id, uint64_t epoch) {
+static size_t work_ranges(int id, uint64_t epoch) {
   const int nr = atomic_load_explicit(&T.want, memory_order_relaxed);
   size_t count = 0;
   for (;;) {
@@ -119,19 +122,18 @@ static void work_ranges(int id, uint64_t epoch) {
   }
   if (count)
     done_by(count, T.n);
+  return count;
 }
 
 // Claims and runs chunks of the current job until none is left; id: the
-// worker index (0: the caller, else the helper's).
-static void work(int id, uint64_t epoch) {
-  if (atomic_load_explicit(&T.ranged, memory_order_relaxed)) {
-    work_ranges(id, epoch);
-    return;
-  }
-  for (;;) {
+// worker index (0: the caller, else the helper's). Returns how many it ran.
+static size_t work(int id, uint64_t epoch) {
+  if (atomic_load_explicit(&T.ranged, memory_order_relaxed))
+    return work_ranges(id, epoch);
+  for (size_t count = 0;; count++) {
     uint64_t w = atomic_fetch_add_explicit(&T.claim, 1, memory_order_acq_rel);
     if (NEXT_OF(w) >= N_OF(w))
-      return;
+      return count;
     T.fn(T.ctx, T.base + NEXT_OF(w));
     done_by(1, N_OF(w));
   }
@@ -261,6 +263,26 @@ int ek_team_threads(void) {
   return omp_in_parallel() || threads < 2 ? 1 : threads > MAX_HELPERS ? MAX_HELPERS + 1 : threads;
 }
 
+// A late helper: one that claimed a chunk and was then descheduled (another
+// process wanted its core) holds the caller, waiting for that chunk, for a
+// scheduler slice: milliseconds, where a chunk takes microseconds. A wait
+// longer than STALL_CHUNKS of the caller's own chunks and STALL_MIN_S is
+// taken for that, and the jobs that start in the next STALL_SOLO_S run on
+// the caller alone (the same chunks: the same bits), then the helpers
+// join again. The matrix-free cantilever_implicit's CG at 2 threads beside
+// two processes busy 2 ms / idle 3 ms: step medians 588-619 ms without,
+// 509-535 with (1 thread 479-487); a window of 4-64x the stall did less
+// (docs/perf.md, eighteenth round). The relative bound keeps a long chunk's
+// ordinary wait (a part of a large mesh's product) from counting. Under run.
+#define STALL_CHUNKS 8
+#define STALL_MIN_S 100e-6
+#define STALL_SOLO_S 0.05
+static void stall_check(double chunk_s, double wait_from) {
+  const double end = omp_get_wtime(), waited = end - wait_from;
+  if (waited > STALL_CHUNKS * chunk_s && waited > STALL_MIN_S)
+    T.solo_until = end + STALL_SOLO_S;
+}
+
 // One job of n <= EK_TEAM_MAX_CHUNKS chunks, base + [0, n), under run.
 static void job(size_t base, size_t n, int threads, int spin) {
   T.base = base;
@@ -285,17 +307,24 @@ static void job(size_t base, size_t n, int threads, int spin) {
     pthread_cond_broadcast(&T.wake);
     pthread_mutex_unlock(&T.m);
   }
-  work(0, epoch);
+  const double start = omp_get_wtime();
+  const size_t mine = work(0, epoch);
   // Only chunks a helper claimed are left: wait for them.
-  for (int spins = 0; spins < spin; spins++)
-    if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
-      return;
-  pthread_mutex_lock(&T.m);
-  atomic_store(&T.caller_sleeps, 1);
-  while (atomic_load(&T.done) != n)
-    pthread_cond_wait(&T.idle, &T.m);
-  atomic_store(&T.caller_sleeps, 0);
-  pthread_mutex_unlock(&T.m);
+  if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
+    return;
+  const double wait_from = omp_get_wtime();
+  int spins = 0;
+  while (spins < spin && atomic_load_explicit(&T.done, memory_order_acquire) != n)
+    spins++;
+  if (spins == spin) {
+    pthread_mutex_lock(&T.m);
+    atomic_store(&T.caller_sleeps, 1);
+    while (atomic_load(&T.done) != n)
+      pthread_cond_wait(&T.idle, &T.m);
+    atomic_store(&T.caller_sleeps, 0);
+    pthread_mutex_unlock(&T.m);
+  }
+  stall_check((wait_from - start) / (double)(mine ? mine : 1), wait_from);
 }
 
 static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, int ranged, void *ctx) {
@@ -304,6 +333,12 @@ static void run(size_t n, ek_team_fn *fn, ek_team_worker_fn *wfn, int ranged, vo
     serial(n, fn, wfn, ctx);
     return;
   }
+  if (T.solo_until > 0 && omp_get_wtime() < T.solo_until) { // a helper was late (stall_check)
+    pthread_mutex_unlock(&T.run);
+    serial(n, fn, wfn, ctx);
+    return;
+  }
+  T.solo_until = 0;
   const int helpers = start_helpers(threads - 1);
   if (helpers == 0) {
     pthread_mutex_unlock(&T.run);
