@@ -40,10 +40,11 @@ typedef struct ek_xpbd_args_f64 xpbd_args;
 #define XPBD_RANGE 32
 // The flow on a busy core: a thread that waits for a chunk whose thread is
 // off its core waits a scheduler slice (the flow has a wait per chunk of
-// ~20-40 us), so a 2-thread cantilever_xpbd ran at 0.7x its 1-thread speed
-// beside 2 busy loops, where a quiet machine gives it 1.45x (docs/perf.md,
-// eighteenth round). A flow whose wait outlasted XPBD_STALL_S runs the
-// phased sweep on the calling thread for XPBD_SOLO_S, then flows again.
+// ~20-40 us). A flow whose wait outlasted XPBD_STALL_S runs the phased
+// sweep on the calling thread for XPBD_SOLO_S, then flows again. Zen 4,
+// cantilever_xpbd at 2 threads beside two processes busy 2 ms / idle 3
+// ms: step median 23.7 ms without, 16.0 with (1 thread 14.7; quiet, 2
+// threads 10.1 either way: docs/perf.md, eighteenth round).
 #define XPBD_STALL_S 0.5e-3
 #define XPBD_SOLO_S 0.05
 
