@@ -249,7 +249,7 @@ _Static_assert(EK_CLOTH_ENERGY_TRIS % L == 0, "whole blocks per triangle chunk")
 // thread every chunk, as before: one loop adding each as computed). It
 // never waits for a chunk: what is left when the job ends (about a chunk
 // per helper) it adds then. Worker w's range of the job (team.h:
-// ek_team_run_static splits as OpenMP's static schedule) holds the w-th
+// ek_team_run_ranges splits as OpenMP's static schedule) holds the w-th
 // contiguous share of the triangle chunks, then hinge chunks w, w + nw, ...:
 // the caller's triangles come first in the order, so it adds them as
 // computed, and at 2 threads it adds the helper's triangles and hinges
@@ -286,9 +286,6 @@ typedef struct {
   size_t p, lc, lim;     // lc: the first chunk not seen ready; lim = its first value
 } energy64_job;
 enum { FREE, TAKEN, READY };
-
-// The job whose chunks this thread sums (the calling thread's own job).
-static _Thread_local const energy64_job *summing;
 
 // First value (in the sum's order) of chunk k; the end for k = nc.
 static size_t chunk_start(const energy64_job *e, size_t k) {
@@ -397,18 +394,17 @@ static size_t take(energy64_job *e, size_t k) {
   return e->nc;
 }
 
-// Chunk i of the job: worker w = i / per's (i % per)-th, which is its
-// share's triangle chunk or, after those, hinge chunk w + nw (i % per -
-// share); none past the last (the shares differ by up to one of each).
-// Where that one is taken (its worker ran ahead), the first one free; and
-// the caller's chunks from another worker's range (taken from its back:
-// that worker is late, or off its core) take the first one free, so it
-// computes them in order and adds them as it goes.
-static void energy_chunk(void *ctx, size_t i) {
+// Chunk i of the job (worker 0, the calling thread, sums): worker w = i / per's (i % per)-th, which
+// is its share's triangle chunk or, after those, hinge chunk w + nw (i % per - share); none past
+// the last (the shares differ by up to one of each). Where that one is taken (its worker ran
+// ahead), the first one free; and the caller's chunks from another worker's range (taken from its
+// back: that worker is late, or off its core) take the first one free, so it computes them in order
+// and adds them as it goes.
+static void energy_chunk(void *ctx, size_t i, int worker) {
   energy64_job *e = ctx;
   const size_t w = i / e->per, q = i % e->per, t0 = e->ntc * w / e->nw,
                tw = e->ntc * (w + 1) / e->nw - t0;
-  const int sums = summing == e;
+  const int sums = worker == 0;
   const size_t k = take(e, sums && w > 0 ? e->nc : q < tw ? t0 + q : e->ntc + (q - tw) * e->nw + w);
   if (k >= e->nc)
     return;
@@ -448,9 +444,7 @@ static double energy_sum(const ek_cloth *cl, const energy_job *j, double kb, con
   // the job); each share padded to the largest.
   e.nw = par ? (size_t)ek_team_threads() : 1;
   e.per = (e.ntc + e.nw - 1) / e.nw + (nhc + e.nw - 1) / e.nw;
-  summing = &e;
-  ek_team_run_static_if(par, e.per * e.nw, energy_chunk, &e);
-  summing = NULL;
+  ek_team_run_ranges_if(par, e.per * e.nw, energy_chunk, &e);
   e.s = add_values(&e, e.s, e.p, e.ntri + e.nh); // every chunk is done and visible
   for (size_t k = 0; k < e.nc; ++k)              // cleared for the next call
     atomic_store_explicit(&e.ready[k], FREE, memory_order_relaxed);
