@@ -53,9 +53,11 @@ static struct {
   size_t n;        // chunks of this job (ranges)
   int helpers;     // started (under run)
   atomic_int spin; // checks before a helper's wait for a job sleeps (ek_wait_spins)
-  // A stalled job (stall_check): jobs started before solo_until run on the
-  // caller alone (under run).
+  // A stalled job (stall_check, or ek_team_note_stall's flag from a wait
+  // inside a chunk): jobs started before solo_until run on the caller alone
+  // (solo_until under run).
   double solo_until;
+  atomic_int stalled;
   // ek_team_run_ranges: worker w's range of chunks, a line each: FRONT,
   // the next chunk its owner takes; BACK, one past the last (other workers
   // take from there); TAG, the job's epoch (low bits).
@@ -277,11 +279,15 @@ int ek_team_threads(void) {
 #define STALL_CHUNKS 8
 #define STALL_MIN_S 100e-6
 #define STALL_SOLO_S 0.05
+// wait_from 0: no wait, only the flag.
 static void stall_check(double chunk_s, double wait_from) {
-  const double end = omp_get_wtime(), waited = end - wait_from;
-  if (waited > STALL_CHUNKS * chunk_s && waited > STALL_MIN_S)
+  const double end = omp_get_wtime(), waited = wait_from > 0 ? end - wait_from : 0;
+  const int flagged = atomic_exchange_explicit(&T.stalled, 0, memory_order_relaxed);
+  if (flagged || (waited > STALL_CHUNKS * chunk_s && waited > STALL_MIN_S))
     T.solo_until = end + STALL_SOLO_S;
 }
+
+void ek_team_note_stall(void) { atomic_store_explicit(&T.stalled, 1, memory_order_relaxed); }
 
 // One job of n <= EK_TEAM_MAX_CHUNKS chunks, base + [0, n), under run.
 static void job(size_t base, size_t n, int threads, int spin) {
@@ -310,8 +316,11 @@ static void job(size_t base, size_t n, int threads, int spin) {
   const double start = omp_get_wtime();
   const size_t mine = work(0, epoch);
   // Only chunks a helper claimed are left: wait for them.
-  if (atomic_load_explicit(&T.done, memory_order_acquire) == n)
+  if (atomic_load_explicit(&T.done, memory_order_acquire) == n) {
+    if (atomic_load_explicit(&T.stalled, memory_order_relaxed))
+      stall_check(0, 0);
     return;
+  }
   const double wait_from = omp_get_wtime();
   int spins = 0;
   while (spins < spin && atomic_load_explicit(&T.done, memory_order_acquire) != n)

@@ -66,6 +66,13 @@ void ek_team_run_static(size_t n, ek_team_fn *fn, void *ctx);
 // sleeps almost at once too. The team's waits and xpbd.c's sweeps_flow.
 int ek_wait_spins(int threads);
 
+// For a chunk whose wait for another chunk outlasted a scheduler slice (the
+// thread it waited for was off its core: xpbd.c's flow): the jobs that
+// start in the next 50 ms then run on the calling thread alone, as after
+// the caller's own wait for a late helper (team.c, stall_check). Any
+// thread may call it during a job.
+void ek_team_note_stall(void);
+
 // ek_team_run where parallel, else the chunks in order on this thread.
 static inline void ek_team_run_if(int parallel, size_t n, ek_team_fn *fn, void *ctx) {
   if (parallel)

@@ -40,13 +40,13 @@ typedef struct ek_xpbd_args_f64 xpbd_args;
 #define XPBD_RANGE 32
 // The flow on a busy core: a thread that waits for a chunk whose thread is
 // off its core waits a scheduler slice (the flow has a wait per chunk of
-// ~20-40 us). A flow whose wait outlasted XPBD_STALL_S runs the phased
-// sweep on the calling thread for XPBD_SOLO_S, then flows again. Zen 4,
-// cantilever_xpbd at 2 threads beside two processes busy 2 ms / idle 3
-// ms: step median 23.7 ms without, 16.0 with (1 thread 14.7; quiet, 2
-// threads 10.1 either way: docs/perf.md, eighteenth round).
+// ~20-40 us). A wait that outlasts XPBD_STALL_S tells the team
+// (ek_team_note_stall), which then runs the next 50 ms of jobs on the
+// calling thread alone: the flow's chunks in order, the phased sweep's
+// bits. Zen 4, cantilever_xpbd at 2 threads beside two processes busy 2 ms
+// / idle 3 ms: step median 23.7 ms without, 16.0 with (1 thread 14.7;
+// quiet, 2 threads 10.1 either way: docs/perf.md, eighteenth round).
 #define XPBD_STALL_S 0.5e-3
-#define XPBD_SOLO_S 0.05
 
 static int parallel_for(const ek_xpbd *xp) {
   return xp->ncons >= XPBD_PARALLEL_MIN && omp_get_max_threads() > 1;
@@ -170,7 +170,7 @@ static void phase_chunk(void *ctx, size_t i) {
 // the new count or the finisher sees the sleeper, whose wait has begun by
 // the time the finisher holds the mutex.
 // A wait longer than XPBD_STALL_S (every one that sleeps after 2^20
-// spins) flags the flow as stalled (sweeps).
+// spins) is a stall (ek_team_note_stall).
 static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
   if (atomic_load_explicit(done, memory_order_acquire) >= need)
     return;
@@ -186,7 +186,7 @@ static void wait_done(const ek_xpbd *xp, atomic_int *done, int need, int spin) {
   atomic_fetch_sub(&w->flow_sleepers, 1);
   pthread_mutex_unlock(&w->flow_mutex);
   if (omp_get_wtime() - t0 > XPBD_STALL_S)
-    atomic_store_explicit(&w->flow_stalled, 1, memory_order_relaxed);
+    ek_team_note_stall();
 }
 
 static void mark_done(const ek_xpbd *xp, atomic_int *done, int value) {
@@ -295,16 +295,11 @@ done:
 
 // `iterations` sweeps.
 static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
-  const int jacobi = xp->solver == EK_XPBD_JACOBI;
-  int par = parallel_for(xp);
+  const int jacobi = xp->solver == EK_XPBD_JACOBI, par = parallel_for(xp);
   xpbd_args a = args_for(xp, jacobi ? XPBD_JACOBI : XPBD_GS, xb, x);
   if (jacobi)
     a.corr = xp->corr;
   sweep_job j = {.xp = xp, .a = &a, .x = x, .nt = xp->ntasks};
-  // A flow that stalled in the last XPBD_SOLO_S: the phased sweep on this
-  // thread (the same bits).
-  if (!jacobi && xp->flow_ready && par && omp_get_wtime() < xp->solo_until)
-    par = 0;
   if (!jacobi && xp->flow_ready && par && xp->ntasks > 0) {
     for (size_t t = 0; t < xp->ntasks; t++)
       atomic_store_explicit(&xp->task_done[t], 0, memory_order_relaxed);
@@ -319,8 +314,6 @@ static void sweeps(const ek_xpbd *xp, const real *xb, real *x, int iterations) {
       ek_team_run(k * xp->ntasks, flow_chunk, &j);
       it += (int)k;
     }
-    if (atomic_exchange_explicit(&((ek_xpbd *)xp)->flow_stalled, 0, memory_order_relaxed))
-      ((ek_xpbd *)xp)->solo_until = omp_get_wtime() + XPBD_SOLO_S;
     return;
   }
   // Clusters: a task is one block, and a phase holds ~1-60 of them (1 198
@@ -610,7 +603,6 @@ static int build_task_deps(ek_xpbd *xp) {
   for (size_t t = 0; t < nt; t++)
     atomic_init(&xp->task_done[t], 0);
   atomic_init(&xp->flow_sleepers, 0);
-  atomic_init(&xp->flow_stalled, 0);
   if (pthread_mutex_init(&xp->flow_mutex, NULL) != 0)
     goto done;
   if (pthread_cond_init(&xp->flow_cond, NULL) != 0) {

@@ -105,11 +105,6 @@ struct ek_xpbd {
   pthread_cond_t flow_cond;
   atomic_int flow_sleepers;
   int flow_ready; // mutex and cond initialised
-  // A flow wait that outlasted XPBD_STALL_S (the thread it waited for was
-  // off its core) sets flow_stalled; the flow's calls until solo_until then
-  // run the phased sweep on the calling thread (xpbd.c, sweeps).
-  atomic_int flow_stalled;
-  double solo_until;
   // Jacobi: vertex v's corrections are corr entries
   // vert_entries[vert_start[v] .. vert_start[v+1]) (plane offsets
   // (moff + k) * 3 * L + l, component d at + d * L), ascending; n_i =
