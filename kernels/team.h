@@ -70,7 +70,10 @@ int ek_wait_spins(int threads);
 // thread it waited for was off its core: xpbd.c's flow): the jobs that
 // start in the next 50 ms then run on the calling thread alone, as after
 // the caller's own wait for a late helper (team.c, stall_check). Any
-// thread may call it during a job.
+// thread may call it during a job; called between jobs, it opens the window
+// at the end of the next job handed to the helpers. tests/test_team.c
+// checks that the jobs started inside the window ran on the caller alone,
+// and kernels' bits with the window open.
 void ek_team_note_stall(void);
 
 // ek_team_run where parallel, else the chunks in order on this thread.

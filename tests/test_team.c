@@ -1,0 +1,715 @@
+// The helper team (kernels/team.h, team.c) and its solo paths:
+//   a. every chunk of a job runs exactly once, at 2 and 3 threads, for
+//      several chunk counts (0, 1, a few, more than one claim word's
+//      EK_TEAM_MAX_CHUNKS), through ek_team_run, ek_team_run_static and
+//      ek_team_run_ranges; a ranges worker id is 0 exactly where the chunk
+//      ran on the calling thread, and below ek_team_threads();
+//   b. the stall window: a job during which ek_team_note_stall() was
+//      called (from a chunk, as xpbd.c's flow calls it, or before the job:
+//      the flag is read at the end of the next job the team runs, team.c's
+//      stall_check) opens STALL_SOLO_S (50 ms) from that job's end, and
+//      every job that starts inside it runs on the calling thread alone
+//      (worker 0). Judged only for the jobs that returned within 45 ms of
+//      the noted job's start (so they started inside the window whatever
+//      the machine did); no judged job in 20 tries fails. After the window
+//      the helpers run chunks again: reported, not asserted (a helper on a
+//      busy machine may be late for every try);
+//   c. the kernels that run on the team give the same bits at 1 thread and
+//      at 2 and 3 threads, normally, with ek_team_note_stall() right before
+//      the call (its first team job with helpers, the later ones alone),
+//      and with the window opened before the call (every job alone; a probe
+//      job after the call shows the window was still open when the call
+//      returned within 45 ms): FVM forces (default, coloured, thread
+//      buffers and gather scatters; f32, f64), the Hessian's gradient,
+//      energy, products (f64, f32) and assembly, the cloth forces and
+//      energies (f32, f64), XPBD tets (Gauss-Seidel: the flow, whose chunks
+//      run in order on the caller while the window is open; Jacobi; f32,
+//      f64) and the batch SVD (f32, f64);
+//   d. XPBD's flow beside a thread of this process that spins on a core
+//      (the flow's waits for a descheduled thread pass XPBD_STALL_S and
+//      open the window themselves, xpbd.c's wait_done; so may the team's
+//      own stall_check): the same bits in every call. Whether a stall
+//      happened is reported, not asserted: a probe job right after the call
+//      that ran alone shows a window or a helper that did not get a core,
+//      and either depends on the scheduler.
+// The kernels' outputs go to buffers filled with NaN first (a chunk that
+// did not run shows), and the 1-thread call is the reference.
+#define _GNU_SOURCE
+#include <ek/cloth_force.h>
+#include <ek/elements.h>
+#include <ek/hessian.h>
+#include <ek/sim/trimesh.h>
+#include <ek/svd3.h>
+#include <ek/xpbd.h>
+#include <omp.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <time.h>
+
+#include "../kernels/team.h"
+#include "cli.h"
+#include "test_fvm_common.h"
+#include "test_xpbd_scene.h"
+
+static int failures = 0;
+
+static void verdict(int ok, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void verdict(int ok, const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  vprintf(fmt, ap);
+  va_end(ap);
+  printf(": %s\n", ok ? "PASS" : "FAIL");
+  failures += !ok;
+}
+
+// The team's window (team.c STALL_SOLO_S) and the margin inside it within
+// which a job is judged to have started in it.
+#define SOLO_S 0.05
+#define JUDGE_S 0.045
+
+static void sleep_s(double s) {
+  struct timespec ts = {(time_t)s, (long)((s - (double)(time_t)s) * 1e9)};
+  while (nanosleep(&ts, &ts) != 0)
+    ;
+}
+
+// Past any window a previous job opened.
+static void close_window(void) { sleep_s(SOLO_S + 0.01); }
+
+// ---- A recording job ----
+typedef struct {
+  size_t n;
+  _Atomic int *runs;     // per chunk: times run
+  int *worker;           // per chunk: ek_team_run_ranges' worker (-1: other entry points)
+  unsigned char *caller; // per chunk: ran on the calling thread
+  pthread_t self;        // the calling thread
+  int threads;           // ek_team_threads() at the call
+  size_t note_chunk;     // the chunk that calls ek_team_note_stall (n: none)
+  int work;              // loop iterations per chunk (~1 ns each)
+  atomic_int bad_worker; // a worker id out of range
+} rec;
+
+static void rec_do(rec *r, size_t i, int worker) {
+  atomic_fetch_add_explicit(&r->runs[i], 1, memory_order_relaxed);
+  r->worker[i] = worker;
+  r->caller[i] = pthread_equal(pthread_self(), r->self) != 0;
+  if (worker < -1 || worker >= r->threads)
+    atomic_store(&r->bad_worker, 1);
+  if (i == r->note_chunk)
+    ek_team_note_stall();
+  volatile double s = 0;
+  for (int k = 0; k < r->work; k++)
+    s += k;
+}
+static void rec_ranges(void *ctx, size_t i, int worker) { rec_do(ctx, i, worker); }
+static void rec_plain(void *ctx, size_t i) { rec_do(ctx, i, -1); }
+
+static rec rec_alloc(size_t n) {
+  rec r = {.n = n};
+  r.runs = calloc(n ? n : 1, sizeof *r.runs);
+  r.worker = calloc(n ? n : 1, sizeof *r.worker);
+  r.caller = calloc(n ? n : 1, 1);
+  return r;
+}
+static void rec_free(rec *r) {
+  free((void *)r->runs);
+  free(r->worker);
+  free(r->caller);
+}
+
+enum { API_RUN, API_STATIC, API_RANGES, API_COUNT };
+static const char *api_name[API_COUNT] = {"ek_team_run", "ek_team_run_static",
+                                          "ek_team_run_ranges"};
+
+// One job of r->n chunks through `api`; note: the chunk that notes a stall.
+static void rec_run(rec *r, int api, size_t note, int work) {
+  for (size_t i = 0; i < r->n; i++) {
+    atomic_store_explicit(&r->runs[i], 0, memory_order_relaxed);
+    r->worker[i] = -2;
+    r->caller[i] = 0;
+  }
+  r->self = pthread_self();
+  r->threads = ek_team_threads();
+  r->note_chunk = note;
+  r->work = work;
+  atomic_store(&r->bad_worker, 0);
+  if (api == API_RUN)
+    ek_team_run(r->n, rec_plain, r);
+  else if (api == API_STATIC)
+    ek_team_run_static(r->n, rec_plain, r);
+  else
+    ek_team_run_ranges(r->n, rec_ranges, r);
+}
+
+// 1 if every chunk ran once, with a worker id in range that is 0 exactly
+// on the calling thread (ranges); *helper: chunks that ran off the caller.
+static int rec_once(const rec *r, int api, size_t *helper) {
+  int ok = !atomic_load(&r->bad_worker);
+  *helper = 0;
+  for (size_t i = 0; i < r->n; i++) {
+    ok &= atomic_load_explicit(&r->runs[i], memory_order_relaxed) == 1;
+    ok &= api == API_RANGES ? (r->worker[i] == 0) == (r->caller[i] != 0) : r->worker[i] == -1;
+    *helper += !r->caller[i];
+  }
+  return ok;
+}
+
+// ---- a ----
+static void check_once(void) {
+  static const size_t counts[] = {0, 1, 2, 3, 5, 64, 1000, EK_TEAM_MAX_CHUNKS + 5};
+  const int ncounts = (int)(sizeof counts / sizeof counts[0]);
+  for (int threads = 2; threads <= 3; threads++) {
+    omp_set_num_threads(threads);
+    for (int api = 0; api < API_COUNT; api++) {
+      int ok = 1;
+      size_t helped = 0, jobs = 0;
+      for (int c = 0; c < ncounts; c++) {
+        rec r = rec_alloc(counts[c]);
+        // Small jobs often: a helper wakes during some; the big one once.
+        const int reps = counts[c] > 100000 ? 1 : 20;
+        for (int rep = 0; rep < reps; rep++) {
+          size_t h;
+          rec_run(&r, api, r.n, counts[c] > 100000 ? 0 : 2000);
+          ok &= rec_once(&r, api, &h);
+          helped += h;
+          jobs++;
+        }
+        rec_free(&r);
+      }
+      verdict(ok,
+              "a. %d threads, %-18s: every chunk once, worker ids right (%zu jobs of 0 .. %zu "
+              "chunks; %zu chunks ran on helpers)",
+              threads, api_name[api], jobs, (size_t)(EK_TEAM_MAX_CHUNKS + 5), helped);
+    }
+  }
+  omp_set_num_threads(2);
+}
+
+// ---- b ----
+// A job whose chunk 5 notes a stall (inside = 1), or a note and then a job
+// (inside = 0), then 5 jobs at once: those that return within JUDGE_S of
+// the first job's start must have run on the caller alone (they started
+// before that job's end + SOLO_S). Returns the jobs judged; *bad: those
+// that used a helper or ran a chunk other than once.
+static int window_try(int api, int inside, size_t *bad) {
+  rec r = rec_alloc(64);
+  close_window();
+  const double t0 = omp_get_wtime();
+  if (!inside)
+    ek_team_note_stall();
+  rec_run(&r, api, inside ? 5 : r.n, 2000);
+  size_t h;
+  int judged = 0;
+  *bad += !rec_once(&r, api, &h);
+  for (int k = 0; k < 5; k++) {
+    rec_run(&r, api, r.n, 2000);
+    const double t1 = omp_get_wtime();
+    int ok = rec_once(&r, api, &h);
+    if (t1 - t0 < JUDGE_S) {
+      judged++;
+      *bad += !ok || h != 0;
+    } else {
+      *bad += !ok;
+    }
+  }
+  rec_free(&r);
+  return judged;
+}
+
+static void check_window(void) {
+  for (int threads = 2; threads <= 3; threads++) {
+    omp_set_num_threads(threads);
+    for (int api = 0; api < API_COUNT; api++)
+      for (int inside = 1; inside >= 0; inside--) {
+        size_t bad = 0;
+        int judged = 0, tries = 0;
+        while (judged == 0 && tries < 20) {
+          judged += window_try(api, inside, &bad);
+          tries++;
+        }
+        verdict(judged > 0 && bad == 0,
+                "b. %d threads, %-18s, note %s: jobs in the window ran on the caller alone (%d "
+                "judged in %d tries, %zu bad)",
+                threads, api_name[api], inside ? "in a chunk " : "before jobs", judged, tries, bad);
+      }
+    // After the window the helpers take chunks again: jobs of 64 chunks of
+    // ~2 us, each after the window closed, for up to 2 s.
+    rec r = rec_alloc(64);
+    const double t0 = omp_get_wtime();
+    size_t helped = 0;
+    int jobs = 0, ok = 1;
+    while (helped == 0 && omp_get_wtime() - t0 < 2.0) {
+      close_window();
+      size_t h;
+      rec_run(&r, API_RANGES, r.n, 2000);
+      ok &= rec_once(&r, API_RANGES, &h);
+      helped += h;
+      jobs++;
+    }
+    rec_free(&r);
+    if (helped)
+      verdict(ok, "b. %d threads: after the window a helper ran chunks again (job %d)", threads,
+              jobs);
+    else {
+      printf("b. %d threads: skipped: no helper ran a chunk in %d jobs over 2 s (busy machine); "
+             "every chunk once: %s\n",
+             threads, jobs, ok ? "PASS" : "FAIL");
+      failures += !ok;
+    }
+  }
+  omp_set_num_threads(2);
+}
+
+// ---- c, d: kernels on the team ----
+typedef struct {
+  const char *name;
+  void (*run)(const void *env, unsigned char *out);
+  const void *env;
+  size_t bytes;
+} kcase;
+
+static unsigned char *put(unsigned char *out, const void *p, size_t bytes) {
+  memcpy(out, p, bytes);
+  return out + bytes;
+}
+
+// An output buffer filled with a pattern (NaN in either precision), so a
+// chunk that did not run shows: a plain malloc may hand back the previous
+// call's buffer, holding its results.
+static void *garbage(size_t bytes) {
+  void *p = malloc(bytes ? bytes : 1);
+  if (p)
+    memset(p, 0xFF, bytes);
+  return p;
+}
+
+// FVM forces on an element layer.
+typedef struct {
+  const ek_tets *el;
+  ek_material mat;
+  ek_scatter scatter;
+  const double *x;
+  const float *xf;
+  size_t n3;
+} fvm_env;
+
+static void run_fvm(const void *e_, unsigned char *out) {
+  const fvm_env *e = e_;
+  ek_fvm_opts o = {.scatter = e->scatter};
+  double *f = garbage(e->n3 * sizeof(double));
+  float *ff = garbage(e->n3 * sizeof(float));
+  int rc = ek_fvm_tet_forces_ex_f64(e->el, &e->mat, e->x, f, &o) |
+           ek_fvm_tet_forces_ex_f32(e->el, &e->mat, e->xf, ff, &o);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, f, e->n3 * sizeof(double));
+  put(out, ff, e->n3 * sizeof(float));
+  free(f);
+  free(ff);
+}
+
+// The Hessian: gradient and energy, K p (f64 and f32 caches), the
+// assembled K.
+typedef struct {
+  const ek_tets *el;
+  ek_material mat;
+  ek_scatter scatter;
+  const double *x, *p;
+  const float *pf;
+  size_t n3, nnz;
+} hess_env;
+
+static void run_hess(const void *e_, unsigned char *out) {
+  const hess_env *e = e_;
+  double *g = garbage(e->n3 * sizeof(double)), *y = garbage(e->n3 * sizeof(double));
+  double *v = garbage(e->nnz * sizeof(double));
+  float *yf = garbage(e->n3 * sizeof(float));
+  double E = 0;
+  ek_fvm_hessian_opts o = {.scatter = e->scatter};
+  ek_fvm_hessian *h = ek_fvm_hessian_create(e->el, &e->mat, &o);
+  ek_csr_pattern pat;
+  int rc = !h;
+  rc |= h ? ek_fvm_hessian_gradient_f64(h, e->x, NULL, g, &E, 1) : 0;
+  rc |= h ? ek_fvm_hessian_apply_f64(h, e->p, y) : 0;
+  rc |= h ? ek_fvm_hessian_pattern(h, &pat) : 0;
+  rc |= h && pat.nnz == e->nnz ? ek_fvm_hessian_assemble(h, v) : 1;
+  ek_fvm_hessian_destroy(h);
+  o.precision = 32;
+  h = ek_fvm_hessian_create(e->el, &e->mat, &o);
+  rc |= !h;
+  rc |= h ? ek_fvm_hessian_gradient_f64(h, e->x, NULL, g, NULL, 1) : 0;
+  rc |= h ? ek_fvm_hessian_apply_f32(h, e->pf, yf) : 0;
+  ek_fvm_hessian_destroy(h);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, &E, sizeof E);
+  out = put(out, g, e->n3 * sizeof(double));
+  out = put(out, y, e->n3 * sizeof(double));
+  out = put(out, yf, e->n3 * sizeof(float));
+  put(out, v, e->nnz * sizeof(double));
+  free(g);
+  free(y);
+  free(v);
+  free(yf);
+}
+
+// Cloth forces and energies.
+typedef struct {
+  const ek_cloth *cl;
+  ek_cloth_params p;
+  const double *x;
+  const float *xf;
+  size_t n3;
+} cloth_env;
+
+static void run_cloth(const void *e_, unsigned char *out) {
+  const cloth_env *e = e_;
+  double *f = garbage(e->n3 * sizeof(double)), E[3] = {0, 0, 0};
+  float *ff = garbage(e->n3 * sizeof(float));
+  int rc = ek_cloth_forces_f64(e->cl, &e->p, e->x, f, NULL) |
+           ek_cloth_forces_f32(e->cl, &e->p, e->xf, ff, NULL) |
+           ek_cloth_energy_ex_f64(e->cl, &e->p, e->x, &E[0], NULL) |
+           ek_cloth_energy_ex_f32(e->cl, &e->p, e->xf, &E[1], NULL);
+  E[2] = ek_cloth_energy_f64(e->cl, &e->p, e->x);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, E, sizeof E);
+  out = put(out, f, e->n3 * sizeof(double));
+  put(out, ff, e->n3 * sizeof(float));
+  free(f);
+  free(ff);
+}
+
+// An XPBD substep: positions, multipliers, residual.
+typedef struct {
+  const scene *sc;
+  ek_xpbd_opts o;
+  const double *xs;
+  size_t n3, ncons;
+} xpbd_env;
+
+#define XPBD_YOUNG 1e7
+#define XPBD_NU 0.3
+
+static void run_xpbd(const void *e_, unsigned char *out) {
+  const xpbd_env *e = e_;
+  const ek_material mat = {EK_MODEL_STVK, XPBD_YOUNG / (2 * (1 + XPBD_NU)),
+                           XPBD_YOUNG * XPBD_NU / ((1 + XPBD_NU) * (1 - 2 * XPBD_NU)), 0};
+  double *x = garbage(e->n3 * sizeof(double)), *lam = garbage(e->ncons * sizeof(double));
+  double res[2] = {0, 0};
+  memcpy(x, e->xs, e->n3 * sizeof(double));
+  round_to(e->o.precision, e->n3, x);
+  ek_xpbd *xp = ek_xpbd_create(e->sc->el, &mat, XPBD_YOUNG, e->sc->mass, &e->o);
+  int rc = xp ? ek_xpbd_set_weights(xp, e->sc->w) : EK_EINVAL;
+  rc = rc ? rc : ek_xpbd_begin(xp, 1e-3);
+  rc = rc ? rc : lib_iterate(xp, e->o.precision, e->n3, x, 4);
+  rc = rc ? rc : ek_xpbd_lambda(xp, lam);
+  rc = rc ? rc : lib_residual(xp, e->o.precision, e->n3, x, &res[0], &res[1]);
+  ek_xpbd_destroy(xp);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, res, sizeof res);
+  out = put(out, x, e->n3 * sizeof(double));
+  put(out, lam, e->ncons * sizeof(double));
+  free(x);
+  free(lam);
+}
+
+// A batch SVD.
+typedef struct {
+  size_t n;
+  const double *A;
+  const float *Af;
+} svd_env;
+
+static void run_svd(const void *e_, unsigned char *out) {
+  const svd_env *e = e_;
+  double *U = garbage(9 * e->n * sizeof(double)), *S = garbage(3 * e->n * sizeof(double)),
+         *V = garbage(9 * e->n * sizeof(double));
+  float *Uf = garbage(9 * e->n * sizeof(float)), *Sf = garbage(3 * e->n * sizeof(float)),
+        *Vf = garbage(9 * e->n * sizeof(float));
+  int rc = ek_svd3_f64(e->n, e->A, U, S, V, NULL) | ek_svd3_f32(e->n, e->Af, Uf, Sf, Vf, NULL);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, U, 9 * e->n * sizeof(double));
+  out = put(out, S, 3 * e->n * sizeof(double));
+  out = put(out, V, 9 * e->n * sizeof(double));
+  out = put(out, Uf, 9 * e->n * sizeof(float));
+  out = put(out, Sf, 3 * e->n * sizeof(float));
+  put(out, Vf, 9 * e->n * sizeof(float));
+  free(U), free(S), free(V), free(Uf), free(Sf), free(Vf);
+}
+
+// A probe job of 64 chunks through ranges: 1 if it ran on the caller alone.
+static int probe_alone(void) {
+  rec r = rec_alloc(64);
+  size_t h;
+  rec_run(&r, API_RANGES, r.n, 2000);
+  int alone = rec_once(&r, API_RANGES, &h) && h == 0;
+  rec_free(&r);
+  return alone;
+}
+
+enum { MODE_NORMAL, MODE_NOTED, MODE_WINDOW, MODE_COUNT };
+static const char *mode_name[MODE_COUNT] = {"normal", "noted", "window"};
+
+// A call of the checks below: parts [0, n) in order, their outputs one
+// after the other (a case a part; a few per call keep the sleeps between
+// the calls few).
+typedef struct {
+  const char *name;
+  const kcase *part;
+  int n;
+} kcall;
+
+static size_t call_bytes(const kcall *k) {
+  size_t b = 0;
+  for (int i = 0; i < k->n; i++)
+    b += k->part[i].bytes;
+  return b;
+}
+
+static void call_run(const kcall *k, unsigned char *out) {
+  for (int i = 0; i < k->n; i++) {
+    k->part[i].run(k->part[i].env, out);
+    out += k->part[i].bytes;
+  }
+}
+
+// c: one call at 1 thread, then at 2 and 3 in each mode: the same bits.
+// *in_window: window calls that returned within JUDGE_S of the window's
+// opening (their jobs all started inside it), *probe_bad: those after
+// which the probe job did not run alone.
+static void check_case(const kcall *k, int *in_window, int *probe_bad) {
+  const size_t bytes = call_bytes(k);
+  unsigned char *ref = malloc(bytes), *out = malloc(bytes);
+  omp_set_num_threads(1);
+  call_run(k, ref);
+  int ok = 1, rc0 = 0;
+  size_t off = 0; // each part's output starts with its rc
+  for (int i = 0; i < k->n; off += k->part[i].bytes, i++) {
+    int rc;
+    memcpy(&rc, ref + off, sizeof rc);
+    rc0 |= rc;
+  }
+  char what[160] = "";
+  for (int threads = 2; threads <= 3; threads++) {
+    omp_set_num_threads(threads);
+    for (int mode = 0; mode < MODE_COUNT; mode++) {
+      close_window();
+      memset(out, 0xA5, bytes);
+      double t0 = omp_get_wtime();
+      if (mode != MODE_NORMAL)
+        ek_team_note_stall();
+      if (mode == MODE_WINDOW) { // a job of 2 chunks reads the flag: the window opens at its end
+        rec r = rec_alloc(2);
+        rec_run(&r, API_RUN, r.n, 0);
+        rec_free(&r);
+      }
+      call_run(k, out);
+      if (mode == MODE_WINDOW) {
+        const int alone = probe_alone();
+        if (omp_get_wtime() - t0 < JUDGE_S) {
+          (*in_window)++;
+          *probe_bad += !alone;
+        }
+      }
+      if (memcmp(ref, out, bytes) != 0 && ok) {
+        ok = 0;
+        snprintf(what, sizeof what, " (first: %d threads, %s)", threads, mode_name[mode]);
+      }
+    }
+  }
+  omp_set_num_threads(2);
+  verdict(ok && rc0 == 0, "c. %-26s 1 thread vs 2, 3 threads normal, noted, window: same bits%s",
+          k->name, what);
+  for (int i = 0; i < k->n; i++)
+    printf("     %s\n", k->part[i].name);
+  free(ref);
+  free(out);
+}
+
+// d: a thread that spins until *stop (at most 5 s).
+static void *spinner(void *arg) {
+  atomic_int *stop = arg;
+  const double t0 = omp_get_wtime();
+  while (!atomic_load_explicit(stop, memory_order_relaxed) && omp_get_wtime() - t0 < 5)
+    ;
+  return NULL;
+}
+
+static void check_flow_busy(const kcase *k) {
+  unsigned char *ref = malloc(k->bytes), *out = malloc(k->bytes);
+  omp_set_num_threads(1);
+  k->run(k->env, ref);
+  atomic_int stop = 0;
+  pthread_t th;
+  const int started = pthread_create(&th, NULL, spinner, &stop) == 0;
+  int ok = 1, calls = 0, alone = 0;
+  for (int threads = 2; threads <= 3; threads++) {
+    omp_set_num_threads(threads);
+    for (int rep = 0; rep < 8; rep++) {
+      memset(out, 0xA5, k->bytes);
+      k->run(k->env, out);
+      alone += probe_alone();
+      ok &= memcmp(ref, out, k->bytes) == 0;
+      calls++;
+    }
+  }
+  atomic_store(&stop, 1);
+  if (started)
+    pthread_join(th, NULL);
+  omp_set_num_threads(2);
+  verdict(
+      ok,
+      "d. %s beside a spinning thread: same bits as 1 thread in %d calls at 2 and 3 "
+      "threads (a probe job after the call ran on the caller alone after %d: a stall's window or "
+      "a late helper; not asserted)",
+      k->name, calls, alone);
+  free(ref);
+  free(out);
+}
+
+int main(int argc, char **argv) {
+  uint64_t seed = ek_cli_test_args(argc, argv, 2026, NULL);
+  printf("test_team: seed %llu\n", (unsigned long long)seed);
+  ek_rng rng;
+  ek_rng_seed(&rng, seed);
+  const double t_start = omp_get_wtime();
+  check_once();
+  check_window();
+
+  // 12^3 cells: 10368 tets, above EK_FVM_PARALLEL_MIN_TETS and XPBD's 4096
+  // constraints (the flow at 2 and 3 threads).
+  scene sc;
+  scene_init(&sc, &rng, 12, 12, 12, 0.05, 1000.0);
+  const size_t n3 = 3 * sc.t.nverts;
+  double *x = malloc(n3 * sizeof(double)), *p = malloc(n3 * sizeof(double));
+  float *xf = malloc(n3 * sizeof(float)), *pf = malloc(n3 * sizeof(float));
+  test_deform(&rng, &sc.t, 0.2, 0.1, x);
+  for (size_t i = 0; i < n3; i++) {
+    p[i] = 2 * ek_rng_uniform(&rng) - 1;
+    xf[i] = (float)x[i];
+    pf[i] = (float)p[i];
+  }
+  kcase cases[32];
+  int nc = 0;
+  static const ek_scatter scatters[] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED,
+                                        EK_SCATTER_THREAD_BUFFERS, EK_SCATTER_GATHER};
+  const ek_material mats[2] = {{EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0},
+                               {EK_MODEL_FIXED_COROTATED, 1, 2, 0}};
+  fvm_env fe[8];
+  char names[32][64];
+  for (int mi = 0; mi < 2; mi++)
+    for (int si = 0; si < 4; si++) {
+      fvm_env *e = &fe[4 * mi + si];
+      *e = (fvm_env){sc.el, mats[mi], scatters[si], x, xf, n3};
+      snprintf(names[nc], sizeof names[nc], "fvm %s %s f32+f64", mi ? "fixed_corot" : "snh",
+               ek_scatter_name(scatters[si]));
+      cases[nc] = (kcase){names[nc], run_fvm, e, sizeof(int) + n3 * 12};
+      nc++;
+    }
+  hess_env he[2];
+  for (int si = 0; si < 2; si++) {
+    he[si] = (hess_env){sc.el, mats[0], scatters[si], x, p, pf, n3, 0};
+    ek_fvm_hessian_opts o = {.scatter = scatters[si]};
+    ek_fvm_hessian *h = ek_fvm_hessian_create(sc.el, &mats[0], &o);
+    ek_csr_pattern pat;
+    if (h && ek_fvm_hessian_pattern(h, &pat) == 0)
+      he[si].nnz = pat.nnz;
+    ek_fvm_hessian_destroy(h);
+    snprintf(names[nc], sizeof names[nc], "hessian snh %s (g, E, Kp f64 f32, K)",
+             ek_scatter_name(scatters[si]));
+    cases[nc] = (kcase){names[nc], run_hess, &he[si],
+                        sizeof(int) + sizeof(double) + n3 * 20 + he[si].nnz * sizeof(double)};
+    nc++;
+  }
+  // 48 x 48 cells: 4608 triangles, above EK_CLOTH_PARALLEL_MIN_TRIS.
+  ek_trimesh *tm = ek_trimesh_grid(48, 48, 4.8, 4.8, "xy");
+  const size_t cn3 = tm ? 3 * ek_trimesh_nverts(tm) : 0;
+  double *cx = malloc((cn3 ? cn3 : 1) * sizeof(double));
+  float *cxf = malloc((cn3 ? cn3 : 1) * sizeof(float));
+  const double *CX = tm ? ek_trimesh_rest_positions(tm) : NULL;
+  for (size_t i = 0; i < cn3; i++) {
+    cx[i] = 1.05 * CX[i] + 0.01 * (2 * ek_rng_uniform(&rng) - 1);
+    cxf[i] = (float)cx[i];
+  }
+  cloth_env ce[2];
+  if (!tm) {
+    printf("ek_trimesh_grid: %s\nFAIL\n", ek_last_error());
+    return 1;
+  }
+  for (int m = 0; m < EK_MEMBRANE_COUNT; m++) {
+    ce[m] = (cloth_env){ek_trimesh_cloth(tm), {(ek_membrane_model)m, 1e3, 2e3, 1e-3}, cx, cxf, cn3};
+    snprintf(names[nc], sizeof names[nc], "cloth %s forces, energies f32+f64", m ? "arap" : "stvk");
+    cases[nc] = (kcase){names[nc], run_cloth, &ce[m], sizeof(int) + 3 * sizeof(double) + cn3 * 12};
+    nc++;
+  }
+  double *xs = malloc(n3 * sizeof(double));
+  test_deform(&rng, &sc.t, 0.1, 0.1, xs);
+  xpbd_env xe[4];
+  int flow_case = -1;
+  for (int solver = 0; solver < 2; solver++)
+    for (int prec = 32; prec <= 64; prec += 32) {
+      xpbd_env *e = &xe[2 * solver + prec / 64];
+      *e = (xpbd_env){
+          &sc,
+          {.elements = EK_XPBD_TETS, .solver = (ek_xpbd_solver)solver, .precision = prec},
+          xs,
+          n3,
+          sc.set[EK_XPBD_TETS].n};
+      snprintf(names[nc], sizeof names[nc], "xpbd tets %s f%d%s",
+               ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, solver ? "" : " (the flow)");
+      if (solver == 0 && prec == 64)
+        flow_case = nc;
+      cases[nc] =
+          (kcase){names[nc], run_xpbd, e, sizeof(int) + 2 * sizeof(double) + (n3 + e->ncons) * 8};
+      nc++;
+    }
+  svd_env se = {6000, NULL, NULL};
+  double *A = malloc(9 * se.n * sizeof(double));
+  float *Af = malloc(9 * se.n * sizeof(float));
+  for (size_t i = 0; i < se.n; i++)
+    ek_rng_gauss_matrix(&rng, A + 9 * i);
+  for (size_t i = 0; i < 9 * se.n; i++)
+    Af[i] = (float)A[i];
+  se.A = A;
+  se.Af = Af;
+  snprintf(names[nc], sizeof names[nc], "svd3 batch of %zu f32+f64", se.n);
+  cases[nc] = (kcase){names[nc], run_svd, &se, sizeof(int) + se.n * 21 * 12};
+  nc++;
+
+  if (nc != 17) { // the calls below name these parts
+    printf("%d parts, expected 17\nFAIL\n", nc);
+    return 1;
+  }
+  // The calls: parts of one kernel family together.
+  const kcall calls[] = {{"fvm snh", &cases[0], 4},
+                         {"fvm fixed_corot", &cases[4], 4},
+                         {"hessian snh", &cases[8], 2},
+                         {"cloth", &cases[10], 2},
+                         {"xpbd tets gauss_seidel", &cases[12], 2},
+                         {"xpbd tets jacobi", &cases[14], 2},
+                         {"svd3", &cases[16], 1}};
+  const int ncalls = (int)(sizeof calls / sizeof calls[0]);
+  const double t_kernels = omp_get_wtime();
+  int in_window = 0, probe_bad = 0;
+  for (int c = 0; c < ncalls; c++)
+    check_case(&calls[c], &in_window, &probe_bad);
+  verdict(in_window > 0 && probe_bad == 0,
+          "c. window calls returned inside the window: %d of %d; a probe job after them ran alone",
+          in_window, 2 * ncalls);
+  check_flow_busy(&cases[flow_case]);
+  printf("times: a+b %.2f s, c+d %.2f s\n", t_kernels - t_start, omp_get_wtime() - t_kernels);
+
+  free(A);
+  free(Af);
+  free(xs);
+  free(cx);
+  free(cxf);
+  ek_trimesh_destroy(tm);
+  free(x);
+  free(p);
+  free(xf);
+  free(pf);
+  scene_free(&sc);
+  printf("%s (%d failures)\n", failures ? "FAIL" : "PASS", failures);
+  return failures != 0;
+}
