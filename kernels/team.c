@@ -57,6 +57,7 @@ static struct {
   // inside a chunk): jobs started before solo_until run on the caller alone
   // (solo_until under run).
   double solo_until;
+  double last_stall; // when the last stall was seen (under run)
   atomic_int stalled;
   // ek_team_run_ranges: worker w's range of chunks, a line each: FRONT,
   // the next chunk its owner takes; BACK, one past the last (other workers
@@ -276,15 +277,34 @@ int ek_team_threads(void) {
 // 509-535 with (1 thread 479-487); a window of 4-64x the stall did less
 // (docs/perf.md, eighteenth round). The relative bound keeps a long chunk's
 // ordinary wait (a part of a large mesh's product) from counting. Under run.
+//
+// Only a stall within STALL_REPEAT_S of the one before opens the window: a
+// busy core stalls the helpers again and again, but the host of a virtual
+// machine also takes a core away now and then for 0.1-2.5 ms, and a window
+// after each of those sent 50 ms of 2-thread work to one thread for a
+// stall that was over. Quiet Zen 4 VM, a 2-thread SVD batch timed in 4 ms
+// windows, 11 rounds of 250: 6-20% of the windows at the 1-thread speed
+// with every stall opening one, 0.4-5% with this rule (no windows: 0-2%);
+// ns per matrix, median of the rounds' means 10.62, 10.11 (10.07); ek-bench
+// 2-thread rows (SVD, FVM, Hessian, cloth energy, XPBD), 4 interleaved
+// rounds: medians 0.86-1.00x, minima equal. Beside two processes busy 2 ms
+// / idle 3 ms the windows still open (cantilever_xpbd 2 threads 20.8-21.3
+// ms against 21.4-23.2 with every stall, 22.8-27.0 without windows;
+// cantilever_implicit 536-669 against 568-665, without 755-1301; docs/perf.md,
+// nineteenth round).
 #define STALL_CHUNKS 8
 #define STALL_MIN_S 100e-6
 #define STALL_SOLO_S 0.05
+#define STALL_REPEAT_S 0.1
 // wait_from 0: no wait, only the flag.
 static void stall_check(double chunk_s, double wait_from) {
   const double end = omp_get_wtime(), waited = wait_from > 0 ? end - wait_from : 0;
   const int flagged = atomic_exchange_explicit(&T.stalled, 0, memory_order_relaxed);
-  if (flagged || (waited > STALL_CHUNKS * chunk_s && waited > STALL_MIN_S))
-    T.solo_until = end + STALL_SOLO_S;
+  if (flagged || (waited > STALL_CHUNKS * chunk_s && waited > STALL_MIN_S)) {
+    if (T.last_stall > 0 && end - T.last_stall < STALL_REPEAT_S)
+      T.solo_until = end + STALL_SOLO_S;
+    T.last_stall = end;
+  }
 }
 
 void ek_team_note_stall(void) { atomic_store_explicit(&T.stalled, 1, memory_order_relaxed); }

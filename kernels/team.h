@@ -67,13 +67,14 @@ void ek_team_run_static(size_t n, ek_team_fn *fn, void *ctx);
 int ek_wait_spins(int threads);
 
 // For a chunk whose wait for another chunk outlasted a scheduler slice (the
-// thread it waited for was off its core: xpbd.c's flow): the jobs that
-// start in the next 50 ms then run on the calling thread alone, as after
-// the caller's own wait for a late helper (team.c, stall_check). Any
-// thread may call it during a job; called between jobs, it opens the window
-// at the end of the next job handed to the helpers. tests/test_team.c
-// checks that the jobs started inside the window ran on the caller alone,
-// and kernels' bits with the window open.
+// thread it waited for was off its core: xpbd.c's flow): counted as a
+// stall, as the caller's own wait for a late helper is (team.c,
+// stall_check); a stall within 0.1 s of the one before makes the jobs that
+// start in the next 50 ms run on the calling thread alone. Any thread may
+// call it during a job; called between jobs, it counts at the end of the
+// next job handed to the helpers. tests/test_team.c checks that the jobs
+// started inside the window ran on the caller alone, and kernels' bits
+// with the window open.
 void ek_team_note_stall(void);
 
 // ek_team_run where parallel, else the chunks in order on this thread.

@@ -41,11 +41,12 @@ typedef struct ek_xpbd_args_f64 xpbd_args;
 // The flow on a busy core: a thread that waits for a chunk whose thread is
 // off its core waits a scheduler slice (the flow has a wait per chunk of
 // ~20-40 us). A wait that outlasts XPBD_STALL_S tells the team
-// (ek_team_note_stall), which then runs the next 50 ms of jobs on the
-// calling thread alone: the flow's chunks in order, the phased sweep's
-// bits. Zen 4, cantilever_xpbd at 2 threads beside two processes busy 2 ms
-// / idle 3 ms: step median 23.7 ms without, 16.0 with (1 thread 14.7;
-// quiet, 2 threads 10.1 either way: docs/perf.md, eighteenth round).
+// (ek_team_note_stall), which after a second stall within 0.1 s runs the
+// next 50 ms of jobs on the calling thread alone: the flow's chunks in
+// order, the phased sweep's bits. Zen 4, cantilever_xpbd at 2 threads
+// beside two processes busy 2 ms / idle 3 ms: step median 23.7 ms without,
+// 16.0 with (1 thread 14.7; quiet, 2 threads 10.1 either way: docs/perf.md,
+// eighteenth round).
 #define XPBD_STALL_S 0.5e-3
 
 static int parallel_for(const ek_xpbd *xp) {
