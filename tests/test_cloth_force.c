@@ -514,6 +514,11 @@ int main(int argc, char **argv) {
           continue;
         ek_cloth_params p = {(ek_membrane_model)model, MU, LAMBDA, BENDING};
         ek_cloth_force_opts o = {.isa = (ek_isa)isa};
+        // Every output poisoned before its call (all are overwritten,
+        // cloth_force.h): the buffers hold the previous model's or ISA's
+        // results, which a chunk that did not run would leave.
+        ek_check_poison(fa, nb3 * sizeof(double)), ek_check_poison(fa32, nb3 * sizeof(float));
+        ek_check_poison(fb, nb3 * sizeof(double)), ek_check_poison(fb32, nb3 * sizeof(float));
         omp_set_num_threads(1);
         ek_cloth_forces_f64(cb, &p, xb, fa, &o);
         ek_cloth_forces_f32(cb, &p, xbf, fa32, &o);
@@ -534,6 +539,7 @@ int main(int argc, char **argv) {
         int same = 1;
         for (int c = 0; c < 4; ++c) {
           omp_set_num_threads(counts[c]);
+          ek_check_poison(E[c], sizeof E[c]);
           ek_cloth_energy_ex_f64(cb, &p, xb, &E[c][0], &o);
           ek_cloth_energy_ex_f32(cb, &p, xbf, &E[c][1], &o);
           E[c][2] = ek_cloth_energy_f64(cb, &p, xb);
@@ -575,7 +581,8 @@ int main(int argc, char **argv) {
                  model_name(model), ek_isa_name((ek_isa)isa), B);
         check(what, E32 == blocks && E32 == E[0][1] && big.nt > 2 * B && nhb > 2 * B);
         if (isa == EK_ISA_SCALAR) { // the fields (no ISA): per triangle, any partition
-          double *fl = malloc(4 * 2 * big.nt * sizeof(double));
+          double *fl = ek_check_poison(malloc(4 * 2 * big.nt * sizeof(double)),
+                                       4 * 2 * big.nt * sizeof(double));
           for (int nt = 1; nt <= 2 && fl; ++nt) {
             double *o4 = fl + 4 * (size_t)(nt - 1) * big.nt;
             omp_set_num_threads(nt);
@@ -586,7 +593,8 @@ int main(int argc, char **argv) {
           check(what, fl && memcmp(fl, fl + 4 * big.nt, 4 * big.nt * sizeof(double)) == 0);
           free(fl);
           // The diagonal blocks: per vertex, its corners in element order.
-          double *db = malloc(2 * 9 * big.nv * sizeof(double));
+          double *db = ek_check_poison(malloc(2 * 9 * big.nv * sizeof(double)),
+                                       2 * 9 * big.nv * sizeof(double));
           for (int nt = 1; nt <= 2 && db; ++nt) {
             omp_set_num_threads(nt);
             ek_cloth_hessian_diagonal_f64(cb, &p, xb, db + 9 * (size_t)(nt - 1) * big.nv);
@@ -627,6 +635,8 @@ int main(int argc, char **argv) {
           int hsame = qa && qb && qf[0] && qf[1];
           for (int nt = 1; nt <= 3 && hsame; ++nt) {
             omp_set_num_threads(nt);
+            ek_check_poison(nt == 1 ? qa : qb, nb3 * sizeof(double));
+            ek_check_poison(qf[nt > 1], nb3 * sizeof(float));
             ek_cloth_hessian_apply_f64(cb, &p, xb, 1, dxb, nt == 1 ? qa : qb);
             ek_cloth_hessian_apply_ex_f32(cb, &p, xbf, 1, dxf, qf[nt > 1], &o);
             if (nt > 1)

@@ -96,7 +96,11 @@ static void check_threads(const char *model, const ek_mesh *mesh, const ek_mater
     ek_fvm_opts o = {.scatter = s, .R = R};
     float *a32 = malloc(n3 * sizeof(float)), *b32 = malloc(n3 * sizeof(float));
     double *a64 = malloc(n3 * sizeof(double)), *b64 = malloc(n3 * sizeof(double));
+    // Every output poisoned before its call (f is overwritten, fvm.h): a
+    // chunk that did not run cannot keep the previous call's right values.
     omp_set_num_threads(1);
+    ek_check_poison(a32, n3 * sizeof(float));
+    ek_check_poison(a64, n3 * sizeof(double));
     int rc = ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, a32, &o) |
              ek_mesh_fvm_forces_ex_f64(mesh, mat, x, a64, &o);
     int same32 = 1, same64 = 1;
@@ -104,6 +108,8 @@ static void check_threads(const char *model, const ek_mesh *mesh, const ek_mater
     // the helper team's oversubscribed waits).
     for (int nt = 2; nt <= 3; nt++) {
       omp_set_num_threads(nt);
+      ek_check_poison(b32, n3 * sizeof(float));
+      ek_check_poison(b64, n3 * sizeof(double));
       rc |= ek_mesh_fvm_forces_ex_f32(mesh, mat, xf, b32, &o) |
             ek_mesh_fvm_forces_ex_f64(mesh, mat, x, b64, &o);
       same32 &= memcmp(a32, b32, n3 * sizeof(float)) == 0;

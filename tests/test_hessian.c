@@ -491,6 +491,13 @@ static void check_threads(ek_rng *rng) {
       double E[3];
       for (int r = 0; r < 3; r++) {
         omp_set_num_threads(r + 1);
+        // Outputs poisoned (all overwritten, hessian.h): the buffers hold
+        // the previous case's results, which a chunk that did not run
+        // would leave.
+        for (int k = 0; k < 4; k++)
+          ek_check_poison(out[r][k], t.nverts * 6 * sizeof(double));
+        ek_check_poison(o32[r], n3 * sizeof(float));
+        ek_check_poison(&E[r], sizeof E[r]);
         ek_fvm_hessian_opts o = {.scatter = strategies[si]};
         ek_fvm_hessian *h = ek_fvm_hessian_create(el, &mats[mi], &o);
         ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], &E[r], 1);
@@ -531,13 +538,13 @@ static void check_threads(ek_rng *rng) {
         ek_fvm_hessian_gradient_f64(h, x, NULL, out[r][0], NULL, 1);
         if (ek_fvm_hessian_pattern(h, &pat) == 0) {
           nnz = pat.nnz;
-          v[r] = malloc(nnz * sizeof(double));
+          v[r] = ek_check_poison(malloc(nnz * sizeof(double)), nnz * sizeof(double));
           if (ek_fvm_hessian_assemble(h, v[r]) != 0)
             asame = 0;
         }
         if (ek_fvm_hessian_pattern_upper(h, &up) == 0) {
           ub = 9 * up.nblocks * (prec == 32 ? 4 : 8);
-          u[r] = malloc(ub);
+          u[r] = ek_check_poison(malloc(ub), ub);
           if ((prec == 32 ? ek_fvm_hessian_assemble_upper_f32(h, u[r])
                           : ek_fvm_hessian_assemble_upper_f64(h, u[r])) != 0)
             usame = 0;

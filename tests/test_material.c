@@ -470,7 +470,12 @@ int main(int argc, char **argv) {
       // Without a clamp, neo-Hookean counts the inverted elements (the
       // integer reduction): the same count at every thread count too.
       ek_material m = {(ek_model)model, 1.3, 2.1, model == EK_MODEL_NEO_HOOKEAN ? 0 : 0.3};
+      // Every output poisoned before its call (dP is overwritten,
+      // material.h): the buffers hold the previous call's results, which
+      // a chunk that did not run would leave.
       omp_set_num_threads(1);
+      ek_check_poison(P1, big * 9 * sizeof *P1);
+      ek_check_poison(Ps1, nb * EK_LANES_F64 * 9 * sizeof *Ps1);
       const int rc1 = ek_pk1_diff_f64(&m, big, F, NULL, dF, P1, 1);
       const int rcs1 = ek_pk1_diff_aosoa_f64(&m, nb, Fs, NULL, dFs, Ps1, 1);
       // Chunks go to whichever thread claims them first (kernels/team.h):
@@ -478,6 +483,8 @@ int main(int argc, char **argv) {
       for (int t = 2; t <= 3; t++)
         for (int rep = 0; rep < 3; rep++) {
           omp_set_num_threads(t);
+          ek_check_poison(P2, big * 9 * sizeof *P2);
+          ek_check_poison(Ps, nb * EK_LANES_F64 * 9 * sizeof *Ps);
           same_threads &= ek_pk1_diff_f64(&m, big, F, NULL, dF, P2, 1) == rc1 &&
                           memcmp(P1, P2, big * 9 * sizeof *P1) == 0;
           same_threads &= ek_pk1_diff_aosoa_f64(&m, nb, Fs, NULL, dFs, Ps, 1) == rcs1 &&

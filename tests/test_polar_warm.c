@@ -285,6 +285,9 @@ static void layouts_and_threads(int bits, uint64_t seed) {
   check(label, memcmp(R1, R2, N_TAIL * 9 * sizeof(double)) == 0, "");
   int threads = omp_get_max_threads();
   for (int aosoa = 0; aosoa < 2; aosoa++) {
+    // R is in and out (the guesses, then the rotations: polar.h), so not
+    // poisoned: the same guesses G before every call, which a chunk that
+    // did not run would leave (G is 0 to 30 degrees off the result).
     omp_set_num_threads(1);
     memcpy(R1, G, n * 9 * sizeof(double));
     ek_check_run_polar_warm(bits, aosoa, n, A, R1, EK_ISA_AUTO, 0);

@@ -184,6 +184,9 @@ static int run_aosoa(int bits, size_t n, const double *A, double *U, double *S, 
     double *a = ek_aosoa_alloc_f64(n, 9), *u = ek_aosoa_alloc_f64(n, 9);
     double *s = ek_aosoa_alloc_f64(n, 3), *v = ek_aosoa_alloc_f64(n, 9);
     ek_aosoa_pack_f64(n, 9, A, a);
+    // The outputs poisoned, padding lanes too (threads() compares calls).
+    ek_check_poison(u, 9 * lanes * sizeof *u), ek_check_poison(s, 3 * lanes * sizeof *s);
+    ek_check_poison(v, 9 * lanes * sizeof *v);
     rc = ek_svd3_aosoa_f64(nb, a, u, s, v, o);
     if (rc == 0) {
       ek_aosoa_unpack_f64(n, 9, u, U), ek_aosoa_unpack_f64(n, 3, s, S);
@@ -205,6 +208,8 @@ static int run_aosoa(int bits, size_t n, const double *A, double *U, double *S, 
     float *S32 = ek_check_malloc(3 * n * sizeof(float) + 1);
     float *V32 = ek_check_malloc(9 * n * sizeof(float) + 1);
     ek_aosoa_pack_f32(n, 9, a32, a);
+    ek_check_poison(u, 9 * lanes * sizeof *u), ek_check_poison(s, 3 * lanes * sizeof *s);
+    ek_check_poison(v, 9 * lanes * sizeof *v);
     rc = ek_svd3_aosoa_f32(nb, a, u, s, v, o);
     if (rc == 0) {
       ek_aosoa_unpack_f32(n, 9, u, U32), ek_aosoa_unpack_f32(n, 3, s, S32);
@@ -622,7 +627,13 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
   double pad;
   int saved = omp_get_max_threads(), ok = 1;
   for (int api = 0; api < 2; api++) {
+    // Every output poisoned before its call (all overwritten, svd3.h), here
+    // and inside run_aosoa and ek_check_run_svd3 (their staging): U2, S2,
+    // V2 hold the previous call's results, which a chunk that did not run
+    // would leave.
     omp_set_num_threads(1);
+    ek_check_poison(U1, 9 * n * sizeof *U1), ek_check_poison(S1, 3 * n * sizeof *S1);
+    ek_check_poison(V1, 9 * n * sizeof *V1);
     int rc1 = api ? run_aosoa(bits, n, s->A, U1, S1, V1, &o, &pad)
                   : ek_check_run_svd3(bits, 0, n, s->A, U1, S1, V1, &o);
     ok &= rc1 == 0;
@@ -631,6 +642,8 @@ static void threads(int bits, ek_isa isa, const ek_svd3_set *s) {
     for (int t = 2; t <= 3; t++)
       for (int rep = 0; rep < 3; rep++) {
         omp_set_num_threads(t);
+        ek_check_poison(U2, 9 * n * sizeof *U2), ek_check_poison(S2, 3 * n * sizeof *S2);
+        ek_check_poison(V2, 9 * n * sizeof *V2);
         int rc2 = api ? run_aosoa(bits, n, s->A, U2, S2, V2, &o, &pad)
                       : ek_check_run_svd3(bits, 0, n, s->A, U2, S2, V2, &o);
         ok &= rc2 == 0 && same_bits(U1, U2, 9 * n) && same_bits(S1, S2, 3 * n) &&

@@ -26,7 +26,11 @@
 //      energy, products (f64, f32) and assembly, the cloth forces and
 //      energies (f32, f64), XPBD tets (Gauss-Seidel: the flow, whose chunks
 //      run in order on the caller while the window is open; Jacobi; f32,
-//      f64) and the batch SVD (f32, f64);
+//      f64), the batch SVD (f32, f64), XPBD clusters (Gauss-Seidel phases,
+//      Jacobi; f32, f64), cloth XPBD (StVK, ARAP), material_eval (AoS and
+//      AoSoA, f32 and f64), the warm polar batch (AoS and AoSoA, f32 and
+//      f64) and the AoSoA staging (the tets' velocity gradient, Kabsch;
+//      f32 and f64). A call that differs names the parts that did;
 //   d. XPBD's flow beside a thread of this process that spins on a core
 //      (the flow's waits for a descheduled thread pass XPBD_STALL_S and
 //      open the window themselves, xpbd.c's wait_done; so may the team's
@@ -35,14 +39,23 @@
 //      that ran alone shows a window or a helper that did not get a core,
 //      and either depends on the scheduler.
 // The kernels' outputs go to buffers filled with NaN first (a chunk that
-// did not run shows), and the 1-thread call is the reference.
+// did not run shows; outputs updated in place, XPBD's positions and the
+// warm polar's R, start from the same values every call), and the 1-thread
+// call is the reference. With a team that dropped each job's last chunk at
+// 2 threads and more (a temporary change to team.c, round 19), every part
+// of c differed.
 #define _GNU_SOURCE
+#include <ek/batch.h>
+#include <ek/cloth.h>
 #include <ek/cloth_force.h>
 #include <ek/elements.h>
 #include <ek/hessian.h>
+#include <ek/material.h>
+#include <ek/polar.h>
 #include <ek/sim/trimesh.h>
 #include <ek/svd3.h>
 #include <ek/xpbd.h>
+#include <math.h>
 #include <omp.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -50,6 +63,7 @@
 #include <time.h>
 
 #include "../kernels/team.h"
+#include "check_cloth.h"
 #include "cli.h"
 #include "test_fvm_common.h"
 #include "test_xpbd_scene.h"
@@ -446,6 +460,159 @@ static void run_svd(const void *e_, unsigned char *out) {
   free(U), free(S), free(V), free(Uf), free(Sf), free(Vf);
 }
 
+// Cloth XPBD (cloth_force.h): a substep's sweeps on positions updated in
+// place (the same start every call), the residual (it reads the
+// multipliers).
+typedef struct {
+  const ek_cloth *cl;
+  ek_cloth_params p;
+  const double *xs, *w;
+  size_t n3;
+} cxpbd_env;
+
+static void run_cxpbd(const void *e_, unsigned char *out) {
+  const cxpbd_env *e = e_;
+  double *x = garbage(e->n3 * sizeof(double)), res[2] = {NAN, NAN};
+  memcpy(x, e->xs, e->n3 * sizeof(double));
+  ek_cloth_xpbd *cx = ek_cloth_xpbd_create(e->cl, &e->p, 2.5e3);
+  int rc = cx ? ek_cloth_xpbd_begin(cx, e->w, 1e-3) : EK_EINVAL;
+  rc = rc ? rc : ek_cloth_xpbd_iterate(cx, x, 4);
+  rc = rc ? rc : ek_cloth_xpbd_residual(cx, x, &res[0], &res[1]);
+  ek_cloth_xpbd_destroy(cx);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, res, sizeof res);
+  put(out, x, e->n3 * sizeof(double));
+  free(x);
+}
+
+// An AoSoA output batch of n items of `planes` reals (64-byte aligned),
+// every lane (padding too) filled with the pattern.
+static void *garbage_aosoa(int f32, size_t n, int planes) {
+  const size_t bytes = f32 ? ek_aosoa_size_f32(n, planes) * sizeof(float)
+                           : ek_aosoa_size_f64(n, planes) * sizeof(double);
+  void *p = f32 ? (void *)ek_aosoa_alloc_f32(n, planes) : (void *)ek_aosoa_alloc_f64(n, planes);
+  if (p)
+    memset(p, 0xFF, bytes);
+  return p;
+}
+static size_t aosoa_bytes(int f32, size_t n, int planes) {
+  return f32 ? ek_aosoa_size_f32(n, planes) * sizeof(float)
+             : ek_aosoa_size_f64(n, planes) * sizeof(double);
+}
+
+// The material batch (material.h): dP (projected) of n elements through
+// ek_material_eval, AoS or AoSoA, f32 or f64; the count it returns.
+typedef struct {
+  ek_material m;
+  int aosoa, f32;
+  size_t n;
+  const void *F, *dF; // AoS n x 9, or AoSoA batches, in the precision
+} mat_env;
+
+static size_t mat_bytes(const mat_env *e) {
+  return sizeof(int) + (e->aosoa ? aosoa_bytes(e->f32, e->n, 9)
+                                 : 9 * e->n * (e->f32 ? sizeof(float) : sizeof(double)));
+}
+
+static void run_mat(const void *e_, unsigned char *out) {
+  const mat_env *e = e_;
+  const size_t bytes = mat_bytes(e) - sizeof(int);
+  void *o = e->aosoa ? garbage_aosoa(e->f32, e->n, 9) : garbage(bytes);
+  int rc;
+  if (e->aosoa && e->f32)
+    rc = ek_material_eval_aosoa_f32(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, ek_aosoa_blocks_f32(e->n),
+                                    e->F, NULL, e->dF, o, 1);
+  else if (e->aosoa)
+    rc = ek_material_eval_aosoa_f64(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, ek_aosoa_blocks_f64(e->n),
+                                    e->F, NULL, e->dF, o, 1);
+  else if (e->f32)
+    rc = ek_material_eval_f32(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, e->n, e->F, NULL, e->dF, o, 1);
+  else
+    rc = ek_material_eval_f64(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, e->n, e->F, NULL, e->dF, o, 1);
+  out = put(out, &rc, sizeof rc);
+  put(out, o, bytes);
+  if (e->aosoa)
+    ek_free(o);
+  else
+    free(o);
+}
+
+// The warm polar batch (polar.h): R is in and out (the guesses, then the
+// rotations), so it starts from the same guesses G every call (not
+// poisoned: a chunk that did not run leaves G, degrees off the result).
+typedef struct {
+  int aosoa, f32;
+  size_t n;
+  const void *A, *G; // AoS n x 9, or AoSoA batches, in the precision
+} warm_env;
+
+static size_t warm_bytes(const warm_env *e) {
+  return sizeof(int) + (e->aosoa ? aosoa_bytes(e->f32, e->n, 9)
+                                 : 9 * e->n * (e->f32 ? sizeof(float) : sizeof(double)));
+}
+
+static void run_warm(const void *e_, unsigned char *out) {
+  const warm_env *e = e_;
+  const size_t bytes = warm_bytes(e) - sizeof(int);
+  void *R = e->aosoa ? garbage_aosoa(e->f32, e->n, 9) : garbage(bytes);
+  memcpy(R, e->G, bytes);
+  int rc;
+  if (e->aosoa && e->f32)
+    rc = ek_polar3_warm_aosoa_f32(ek_aosoa_blocks_f32(e->n), e->A, R, NULL);
+  else if (e->aosoa)
+    rc = ek_polar3_warm_aosoa_f64(ek_aosoa_blocks_f64(e->n), e->A, R, NULL);
+  else if (e->f32)
+    rc = ek_polar3_warm_f32(e->n, e->A, R, NULL);
+  else
+    rc = ek_polar3_warm_f64(e->n, e->A, R, NULL);
+  out = put(out, &rc, sizeof rc);
+  put(out, R, bytes);
+  if (e->aosoa)
+    ek_free(R);
+  else
+    free(R);
+}
+
+// The AoSoA staging (batch/aosoa.c's staged chunks, per-worker buffers):
+// the tets' velocity gradient L, D, W (f32, f64) and Kabsch's rotations
+// (f32, f64).
+typedef struct {
+  const ek_tets *el;
+  const double *x, *v;
+  const float *xf, *vf;
+  size_t ntets, nsets;
+  const size_t *offsets;
+  const double *P, *Q;
+  const float *Pf, *Qf;
+} stage_env;
+
+static size_t stage_bytes(const stage_env *e) {
+  return sizeof(int) + e->ntets * 27 * 12 + e->nsets * 9 * 12;
+}
+
+static void run_stage(const void *e_, unsigned char *out) {
+  const stage_env *e = e_;
+  const size_t m = 9 * e->ntets;
+  double *L = garbage(m * sizeof(double)), *D = garbage(m * sizeof(double)),
+         *W = garbage(m * sizeof(double)), *R = garbage(9 * e->nsets * sizeof(double));
+  float *Lf = garbage(m * sizeof(float)), *Df = garbage(m * sizeof(float)),
+        *Wf = garbage(m * sizeof(float)), *Rf = garbage(9 * e->nsets * sizeof(float));
+  int rc = ek_tet_velocity_gradient_f64(e->el, e->x, e->v, L, D, W, NULL) |
+           ek_tet_velocity_gradient_f32(e->el, e->xf, e->vf, Lf, Df, Wf, NULL) |
+           ek_kabsch_f64(e->nsets, e->offsets, e->P, e->Q, NULL, R) |
+           ek_kabsch_f32(e->nsets, e->offsets, e->Pf, e->Qf, NULL, Rf);
+  out = put(out, &rc, sizeof rc);
+  out = put(out, L, m * sizeof(double));
+  out = put(out, D, m * sizeof(double));
+  out = put(out, W, m * sizeof(double));
+  out = put(out, Lf, m * sizeof(float));
+  out = put(out, Df, m * sizeof(float));
+  out = put(out, Wf, m * sizeof(float));
+  out = put(out, R, 9 * e->nsets * sizeof(double));
+  put(out, Rf, 9 * e->nsets * sizeof(float));
+  free(L), free(D), free(W), free(R), free(Lf), free(Df), free(Wf), free(Rf);
+}
+
 // A probe job of 64 chunks through ranges: 1 if it ran on the caller alone.
 static int probe_alone(void) {
   rec r = rec_alloc(64);
@@ -507,6 +674,7 @@ static void check_case(const kcall *k, int *in_window, int *probe_bad) {
     rc0 |= rc;
   }
   char what[160] = "";
+  unsigned long long differ = 0; // the parts whose bytes differed in some call
   for (int threads = 2; threads <= 3; threads++) {
     omp_set_num_threads(threads);
     for (int mode = 0; mode < MODE_COUNT; mode++) {
@@ -529,9 +697,14 @@ static void check_case(const kcall *k, int *in_window, int *probe_bad) {
           *probe_bad += !alone;
         }
       }
-      if (memcmp(ref, out, bytes) != 0 && ok) {
+      if (memcmp(ref, out, bytes) != 0) {
+        if (ok)
+          snprintf(what, sizeof what, " (first: %d threads, %s)", threads, mode_name[mode]);
         ok = 0;
-        snprintf(what, sizeof what, " (first: %d threads, %s)", threads, mode_name[mode]);
+        size_t at = 0;
+        for (int i = 0; i < k->n; at += k->part[i].bytes, i++)
+          if (memcmp(ref + at, out + at, k->part[i].bytes) != 0)
+            differ |= 1ull << i;
       }
     }
   }
@@ -539,7 +712,7 @@ static void check_case(const kcall *k, int *in_window, int *probe_bad) {
   verdict(ok && rc0 == 0, "c. %-26s 1 thread vs 2, 3 threads normal, noted, window: same bits%s",
           k->name, what);
   for (int i = 0; i < k->n; i++)
-    printf("     %s\n", k->part[i].name);
+    printf("     %s%s\n", k->part[i].name, differ >> i & 1 ? ": DIFFERS" : "");
   free(ref);
   free(out);
 }
@@ -607,14 +780,14 @@ int main(int argc, char **argv) {
     xf[i] = (float)x[i];
     pf[i] = (float)p[i];
   }
-  kcase cases[32];
+  kcase cases[40];
   int nc = 0;
   static const ek_scatter scatters[] = {EK_SCATTER_AUTO, EK_SCATTER_COLORED,
                                         EK_SCATTER_THREAD_BUFFERS, EK_SCATTER_GATHER};
   const ek_material mats[2] = {{EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0},
                                {EK_MODEL_FIXED_COROTATED, 1, 2, 0}};
   fvm_env fe[8];
-  char names[32][64];
+  char names[40][64];
   for (int mi = 0; mi < 2; mi++)
     for (int si = 0; si < 4; si++) {
       fvm_env *e = &fe[4 * mi + si];
@@ -694,8 +867,130 @@ int main(int argc, char **argv) {
   cases[nc] = (kcase){names[nc], run_svd, &se, sizeof(int) + se.n * 21 * 12};
   nc++;
 
-  if (nc != 17) { // the calls below name these parts
-    printf("%d parts, expected 17\nFAIL\n", nc);
+  // XPBD clusters, one per vertex: 16^3 cells, 4913 vertices, above the
+  // sweeps' 4096 constraints (kernels/xpbd/xpbd.c XPBD_PARALLEL_MIN).
+  scene sc2;
+  scene_init(&sc2, &rng, 16, 16, 16, 0.05, 1000.0);
+  const size_t n3c = 3 * sc2.t.nverts;
+  double *xs2 = malloc(n3c * sizeof(double));
+  test_deform(&rng, &sc2.t, 0.1, 0.1, xs2);
+  xpbd_env xc[4];
+  for (int solver = 0; solver < 2; solver++)
+    for (int prec = 32; prec <= 64; prec += 32) {
+      xpbd_env *e = &xc[2 * solver + prec / 64];
+      *e = (xpbd_env){
+          &sc2,
+          {.elements = EK_XPBD_CLUSTERS, .solver = (ek_xpbd_solver)solver, .precision = prec},
+          xs2,
+          n3c,
+          sc2.set[EK_XPBD_CLUSTERS].n};
+      snprintf(names[nc], sizeof names[nc], "xpbd clusters %s f%d (%zu)",
+               ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, e->ncons);
+      cases[nc] =
+          (kcase){names[nc], run_xpbd, e, sizeof(int) + 2 * sizeof(double) + (n3c + e->ncons) * 8};
+      nc++;
+    }
+  // Cloth XPBD on the 48 x 48 grid (4608 triangles: the colours' jobs on
+  // the team from EK_CLOTH_PARALLEL_MIN_TRIS).
+  double *cw = malloc((cn3 ? cn3 / 3 : 1) * sizeof(double));
+  for (size_t v = 0; v < cn3 / 3; v++)
+    cw[v] = 1 / (0.1 * ek_cloth_lumped_area(ek_trimesh_cloth(tm))[v]);
+  cxpbd_env cxe[2];
+  for (int m = 0; m < EK_MEMBRANE_COUNT; m++) {
+    cxe[m] = (cxpbd_env){ek_trimesh_cloth(tm), {(ek_membrane_model)m, 1e3, 2e3, 1e-3}, cx, cw, cn3};
+    snprintf(names[nc], sizeof names[nc], "cloth xpbd %s (4 sweeps, residual)",
+             m ? "arap" : "stvk");
+    cases[nc] = (kcase){names[nc], run_cxpbd, &cxe[m], sizeof(int) + 2 * sizeof(double) + cn3 * 8};
+    nc++;
+  }
+  // The material batch: 2 EK_MATERIAL_PARALLEL_MIN + 17 elements (a tail
+  // block), dP projected, stable neo-Hookean.
+  const size_t nm = 2 * EK_MATERIAL_PARALLEL_MIN + 17;
+  double *mF = malloc(9 * nm * sizeof(double)), *mdF = malloc(9 * nm * sizeof(double));
+  float *mFf = malloc(9 * nm * sizeof(float)), *mdFf = malloc(9 * nm * sizeof(float));
+  for (size_t i = 0; i < nm; i++)
+    ek_rng_deformation(&rng, 0.3, mF + 9 * i);
+  for (size_t i = 0; i < 9 * nm; i++) {
+    mdF[i] = 2 * ek_rng_uniform(&rng) - 1;
+    mFf[i] = (float)mF[i];
+    mdFf[i] = (float)mdF[i];
+  }
+  double *mFs = ek_aosoa_alloc_f64(nm, 9), *mdFs = ek_aosoa_alloc_f64(nm, 9);
+  float *mFsf = ek_aosoa_alloc_f32(nm, 9), *mdFsf = ek_aosoa_alloc_f32(nm, 9);
+  ek_aosoa_pack_f64(nm, 9, mF, mFs), ek_aosoa_pack_f64(nm, 9, mdF, mdFs);
+  ek_aosoa_pack_f32(nm, 9, mFf, mFsf), ek_aosoa_pack_f32(nm, 9, mdFf, mdFsf);
+  mat_env me[4];
+  for (int k = 0; k < 4; k++) {
+    const int aosoa = k / 2, f32 = k % 2;
+    me[k] =
+        (mat_env){mats[0],
+                  aosoa,
+                  f32,
+                  nm,
+                  aosoa ? (f32 ? (const void *)mFsf : mFs) : (f32 ? (const void *)mFf : mF),
+                  aosoa ? (f32 ? (const void *)mdFsf : mdFs) : (f32 ? (const void *)mdFf : mdF)};
+    snprintf(names[nc], sizeof names[nc], "material_eval %s f%d dP (%zu)", aosoa ? "aosoa" : "aos",
+             f32 ? 32 : 64, nm);
+    cases[nc] = (kcase){names[nc], run_mat, &me[k], mat_bytes(&me[k])};
+    nc++;
+  }
+  // The warm polar batch: A = R* (I + 0.1 sym N), guesses G = polar(R* (I +
+  // 0.15 N')) (ek_polar3_f64), some degrees off R*; 6000 matrices, 24
+  // chunks in f64.
+  const size_t nw = 6000;
+  double *wA = malloc(9 * nw * sizeof(double)), *wG = malloc(9 * nw * sizeof(double));
+  double *wT = malloc(9 * nw * sizeof(double)), *wS = malloc(9 * nw * sizeof(double));
+  float *wAf = malloc(9 * nw * sizeof(float)), *wGf = malloc(9 * nw * sizeof(float));
+  for (size_t i = 0; i < nw; i++) {
+    double Rs[9], N[9], S[9], T[9];
+    ek_rng_rotation(&rng, Rs);
+    ek_rng_gauss_matrix(&rng, N);
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b < 3; b++)
+        S[3 * a + b] = (a == b) + 0.05 * (N[3 * a + b] + N[3 * b + a]);
+    ek_mul3(Rs, S, wA + 9 * i);
+    ek_rng_gauss_matrix(&rng, N);
+    for (int k = 0; k < 9; k++)
+      T[k] = (k % 4 == 0) + 0.15 * N[k];
+    ek_mul3(Rs, T, wT + 9 * i);
+  }
+  int wrc = ek_polar3_f64(nw, wT, wG, wS, NULL);
+  for (size_t i = 0; i < 9 * nw; i++) {
+    wAf[i] = (float)wA[i];
+    wGf[i] = (float)wG[i];
+  }
+  double *wAs = ek_aosoa_alloc_f64(nw, 9), *wGs = ek_aosoa_alloc_f64(nw, 9);
+  float *wAsf = ek_aosoa_alloc_f32(nw, 9), *wGsf = ek_aosoa_alloc_f32(nw, 9);
+  ek_aosoa_pack_f64(nw, 9, wA, wAs), ek_aosoa_pack_f64(nw, 9, wG, wGs);
+  ek_aosoa_pack_f32(nw, 9, wAf, wAsf), ek_aosoa_pack_f32(nw, 9, wGf, wGsf);
+  warm_env we[4];
+  for (int k = 0; k < 4; k++) {
+    const int aosoa = k / 2, f32 = k % 2;
+    we[k] = (warm_env){aosoa, f32, nw,
+                       aosoa ? (f32 ? (const void *)wAsf : wAs) : (f32 ? (const void *)wAf : wA),
+                       aosoa ? (f32 ? (const void *)wGsf : wGs) : (f32 ? (const void *)wGf : wG)};
+    snprintf(names[nc], sizeof names[nc], "polar3_warm %s f%d (%zu)", aosoa ? "aosoa" : "aos",
+             f32 ? 32 : 64, nw);
+    cases[nc] = (kcase){names[nc], run_warm, &we[k], warm_bytes(&we[k])};
+    nc++;
+  }
+  // The AoSoA staging: the velocity gradient of the 12^3 box's tets (41
+  // chunks in f64) and Kabsch on 3000 sets (12 chunks in f64).
+  ek_kabsch_set ks;
+  ek_kabsch_set_init(&ks, "random", seed, 3000, 64);
+  float *kPf = malloc(3 * ks.npoints * sizeof(float)),
+        *kQf = malloc(3 * ks.npoints * sizeof(float));
+  for (size_t i = 0; i < 3 * ks.npoints; i++) {
+    kPf[i] = (float)ks.P[i];
+    kQf[i] = (float)ks.Q[i];
+  }
+  stage_env ste = {sc.el, x, p, xf, pf, sc.t.ntets, ks.nsets, ks.offsets, ks.P, ks.Q, kPf, kQf};
+  snprintf(names[nc], sizeof names[nc], "staged: tet L D W, kabsch f32+f64");
+  cases[nc] = (kcase){names[nc], run_stage, &ste, stage_bytes(&ste)};
+  nc++;
+
+  if (nc != 32 || wrc != 0) { // the calls below name these parts
+    printf("%d parts, expected 32; polar guesses rc %d\nFAIL\n", nc, wrc);
     return 1;
   }
   // The calls: parts of one kernel family together.
@@ -705,7 +1000,10 @@ int main(int argc, char **argv) {
                          {"cloth", &cases[10], 2},
                          {"xpbd tets gauss_seidel", &cases[12], 2},
                          {"xpbd tets jacobi", &cases[14], 2},
-                         {"svd3", &cases[16], 1}};
+                         {"svd3", &cases[16], 1},
+                         {"xpbd clusters", &cases[17], 4},
+                         {"cloth xpbd", &cases[21], 2},
+                         {"material, polar warm, staged", &cases[23], 9}};
   const int ncalls = (int)(sizeof calls / sizeof calls[0]);
   const double t_kernels = omp_get_wtime();
   int in_window = 0, probe_bad = 0;
@@ -720,6 +1018,15 @@ int main(int argc, char **argv) {
   free(A);
   free(Af);
   free(xs);
+  free(xs2);
+  scene_free(&sc2);
+  free(cw);
+  free(mF), free(mdF), free(mFf), free(mdFf);
+  ek_free(mFs), ek_free(mdFs), ek_free(mFsf), ek_free(mdFsf);
+  free(wA), free(wG), free(wT), free(wS), free(wAf), free(wGf);
+  ek_free(wAs), ek_free(wGs), ek_free(wAsf), ek_free(wGsf);
+  ek_kabsch_set_free(&ks);
+  free(kPf), free(kQf);
   free(cx);
   free(cxf);
   ek_trimesh_destroy(tm);

@@ -164,8 +164,14 @@ static inline int lib_same_bits_1_2_3_threads(const scene *sc, const ek_material
     ek_xpbd *xp = ek_xpbd_create(sc->el, mat, young, sc->mass, &o);
     if (!xp)
       printf("ek_xpbd_create: %s\n", ek_last_error());
+    // x is updated in place (xpbd.h): the same start xs every call; the
+    // multipliers and the residual are written: poisoned first, so one a
+    // chunk did not write cannot match (lam[r] may be a freed buffer of the
+    // previous call holding its right values).
     memcpy(x[r], xs, n3 * sizeof(double));
     round_to(o.precision, n3, x[r]);
+    ek_check_poison(lam[r], nlam * n * sizeof(double));
+    ek_check_poison(res[r], sizeof res[r]);
     int rc = xp ? ek_xpbd_set_weights(xp, sc->w) : EK_EINVAL;
     rc = rc ? rc : ek_xpbd_begin(xp, h);
     rc = rc ? rc : lib_iterate(xp, o.precision, n3, x[r], sweeps);

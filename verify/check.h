@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include <ek/material.h>
 #include <ek/svd3.h>
@@ -129,6 +130,18 @@ int ek_check_run_svd3(int bits, int polar, size_t n, const double *A, double *U,
                       double *V, const ek_svd3_opts *o);
 // malloc that exits with a message when memory runs out.
 void *ek_check_malloc(size_t bytes);
+// Fills an output buffer with 0xFF bytes (a NaN in float and in double, -1
+// in integers) right before a call writes it, so that an element the call
+// did not write (a chunk that never ran) cannot match the reference: the
+// same-bits checks across thread counts compare against it, and a buffer
+// reused from the previous call (or a malloc handing back freed memory)
+// would still hold right values. Not for an output the call adds into or
+// reads (those get the same starting values before every call). Returns p.
+static inline void *ek_check_poison(void *p, size_t bytes) {
+  if (p && bytes)
+    memset(p, 0xFF, bytes);
+  return p;
+}
 
 // ---- Material input set ----
 // ek-verify's material set (verify/check_material.c): n elements' F, R and

@@ -54,6 +54,10 @@ int ek_check_run_svd3(int bits, int polar, size_t n, const double *A, double *U,
   float *a = ek_check_malloc(9 * n * sizeof(float)), *u = ek_check_malloc(9 * n * sizeof(float));
   float *s = ek_check_malloc(3 * n * sizeof(float)), *v = ek_check_malloc(9 * n * sizeof(float));
   ek_check_to_f32(9 * n, A, a);
+  // The outputs poisoned (tests/test_svd3.c compares calls at 1, 2 and 3
+  // threads: a freed buffer of the previous call may come back here).
+  ek_check_poison(u, 9 * n * sizeof *u), ek_check_poison(s, 3 * n * sizeof *s);
+  ek_check_poison(v, 9 * n * sizeof *v);
   int rc = polar ? ek_polar3_f32(n, a, u, v, o) : ek_svd3_f32(n, a, u, s, v, o);
   if (rc == 0) {
     ek_check_from_f32(9 * n, u, U), ek_check_from_f32(9 * n, v, V);
