@@ -298,15 +298,10 @@ static unsigned char *put(unsigned char *out, const void *p, size_t bytes) {
   return out + bytes;
 }
 
-// An output buffer filled with a pattern (NaN in either precision), so a
-// chunk that did not run shows: a plain malloc may hand back the previous
-// call's buffer, holding its results.
-static void *garbage(size_t bytes) {
-  void *p = malloc(bytes ? bytes : 1);
-  if (p)
-    memset(p, 0xFF, bytes);
-  return p;
-}
+// An output buffer poisoned (ek_check_poison: NaN in either precision), so
+// a chunk that did not run shows: a plain malloc may hand back the
+// previous call's buffer, holding its results.
+static void *garbage(size_t bytes) { return ek_check_poison(malloc(bytes ? bytes : 1), bytes); }
 
 // FVM forces on an element layer.
 typedef struct {
@@ -485,19 +480,17 @@ static void run_cxpbd(const void *e_, unsigned char *out) {
   free(x);
 }
 
-// An AoSoA output batch of n items of `planes` reals (64-byte aligned),
-// every lane (padding too) filled with the pattern.
-static void *garbage_aosoa(int f32, size_t n, int planes) {
-  const size_t bytes = f32 ? ek_aosoa_size_f32(n, planes) * sizeof(float)
-                           : ek_aosoa_size_f64(n, planes) * sizeof(double);
-  void *p = f32 ? (void *)ek_aosoa_alloc_f32(n, planes) : (void *)ek_aosoa_alloc_f64(n, planes);
-  if (p)
-    memset(p, 0xFF, bytes);
-  return p;
-}
+// The bytes of an AoSoA batch of n items of `planes` reals.
 static size_t aosoa_bytes(int f32, size_t n, int planes) {
   return f32 ? ek_aosoa_size_f32(n, planes) * sizeof(float)
              : ek_aosoa_size_f64(n, planes) * sizeof(double);
+}
+// An AoSoA output batch (64-byte aligned), every lane (padding too)
+// poisoned.
+static void *garbage_aosoa(int f32, size_t n, int planes) {
+  return ek_check_poison(f32 ? (void *)ek_aosoa_alloc_f32(n, planes)
+                             : (void *)ek_aosoa_alloc_f64(n, planes),
+                         aosoa_bytes(f32, n, planes));
 }
 
 // The material batch (material.h): dP (projected) of n elements through
