@@ -287,7 +287,7 @@ int ek_team_threads(void) {
 // with every stall opening one, 0.4-5% with this rule (no windows: 0-2%);
 // ns per matrix, median of the rounds' means 10.62, 10.11 (10.07); ek-bench
 // 2-thread rows (SVD, FVM, Hessian, cloth energy, XPBD), 4 interleaved
-// rounds: medians 0.86-1.00x, minima equal. Beside two processes busy 2 ms
+// rounds: medians 0.86-1.00x, least samples 0.94-1.02x. Beside two processes busy 2 ms
 // / idle 3 ms the windows still open (cantilever_xpbd 2 threads 20.8-21.3
 // ms against 21.4-23.2 with every stall, 22.8-27.0 without windows;
 // cantilever_implicit 536-669 against 568-665, without 755-1301; docs/perf.md,
