@@ -279,19 +279,12 @@ int ek_team_threads(void) {
 // ordinary wait (a part of a large mesh's product) from counting. Under run.
 //
 // Only a stall within STALL_REPEAT_S of the one before opens the window: a
-// busy core stalls the helpers again and again, but the host of a virtual
-// machine also takes a core away now and then for 0.1-2.5 ms, and a window
-// after each of those sent 50 ms of 2-thread work to one thread for a
-// stall that was over. Quiet Zen 4 VM, a 2-thread SVD batch timed in 4 ms
-// windows, 11 rounds of 250: 6-20% of the windows at the 1-thread speed
-// with every stall opening one, 0.4-5% with this rule (no windows: 0-2%);
-// ns per matrix, median of the rounds' means 10.62, 10.11 (10.07); ek-bench
-// 2-thread rows (SVD, FVM, Hessian, cloth energy, XPBD), 4 interleaved
-// rounds: medians 0.86-1.00x, least samples 0.94-1.02x. Beside two processes busy 2 ms
-// / idle 3 ms the windows still open (cantilever_xpbd 2 threads 20.8-21.3
-// ms against 21.4-23.2 with every stall, 22.8-27.0 without windows;
-// cantilever_implicit 536-669 against 568-665, without 755-1301; docs/perf.md,
-// nineteenth round).
+// busy core stalls the helpers again and again, while a VM's host also
+// takes a core away now and then for 0.1-2.5 ms, and a window after each
+// of those sent 50 ms of 2-thread work to one thread for a stall that was
+// over (quiet Zen 4 VM: 6-20% of a 2-thread SVD batch's time at the
+// 1-thread speed, 0.4-5% with this rule; beside run/sleep load the
+// windows still open: docs/perf.md, nineteenth round).
 #define STALL_CHUNKS 8
 #define STALL_MIN_S 100e-6
 #define STALL_SOLO_S 0.05

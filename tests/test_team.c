@@ -431,6 +431,30 @@ static void run_xpbd(const void *e_, unsigned char *out) {
   free(lam);
 }
 
+// The 4 XPBD cases of one element kind (Gauss-Seidel, Jacobi x f32, f64)
+// on scene sc from positions xs, into e[4], cases[nc ..] and names[nc ..];
+// returns the new count (the Gauss-Seidel f64 case is at nc + 1).
+static int add_xpbd(kcase *cases, char (*names)[64], int nc, xpbd_env e[4], const scene *sc,
+                    ek_xpbd_elements elements, const double *xs) {
+  const size_t n3 = 3 * sc->t.nverts;
+  for (int solver = 0; solver < 2; solver++)
+    for (int prec = 32; prec <= 64; prec += 32) {
+      xpbd_env *x = &e[2 * solver + prec / 64];
+      *x = (xpbd_env){sc,
+                      {.elements = elements, .solver = (ek_xpbd_solver)solver, .precision = prec},
+                      xs,
+                      n3,
+                      sc->set[elements].n};
+      snprintf(names[nc], 64, "xpbd %s %s f%d (%zu)%s", ek_xpbd_elements_name(elements),
+               ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, x->ncons,
+               elements == EK_XPBD_TETS && solver == 0 ? " (the flow)" : "");
+      cases[nc] =
+          (kcase){names[nc], run_xpbd, x, sizeof(int) + 2 * sizeof(double) + (n3 + x->ncons) * 8};
+      nc++;
+    }
+  return nc;
+}
+
 // A batch SVD.
 typedef struct {
   size_t n;
@@ -480,17 +504,49 @@ static void run_cxpbd(const void *e_, unsigned char *out) {
   free(x);
 }
 
-// The bytes of an AoSoA batch of n items of `planes` reals.
-static size_t aosoa_bytes(int f32, size_t n, int planes) {
-  return f32 ? ek_aosoa_size_f32(n, planes) * sizeof(float)
-             : ek_aosoa_size_f64(n, planes) * sizeof(double);
+// A batch of n 3x3 matrices, AoS (n x 9) or AoSoA (64-byte aligned, tail
+// padded), f32 or f64: its bytes; an output batch poisoned (padding too);
+// its free.
+static size_t batch9_bytes(int aosoa, int f32, size_t n) {
+  if (aosoa)
+    return f32 ? ek_aosoa_size_f32(n, 9) * sizeof(float) : ek_aosoa_size_f64(n, 9) * sizeof(double);
+  return 9 * n * (f32 ? sizeof(float) : sizeof(double));
 }
-// An AoSoA output batch (64-byte aligned), every lane (padding too)
-// poisoned.
-static void *garbage_aosoa(int f32, size_t n, int planes) {
-  return ek_check_poison(f32 ? (void *)ek_aosoa_alloc_f32(n, planes)
-                             : (void *)ek_aosoa_alloc_f64(n, planes),
-                         aosoa_bytes(f32, n, planes));
+static void *batch9_garbage(int aosoa, int f32, size_t n) {
+  void *p = !aosoa ? malloc(batch9_bytes(0, f32, n))
+            : f32  ? (void *)ek_aosoa_alloc_f32(n, 9)
+                   : (void *)ek_aosoa_alloc_f64(n, 9);
+  return ek_check_poison(p, batch9_bytes(aosoa, f32, n));
+}
+static void batch9_free(int aosoa, void *p) {
+  if (aosoa)
+    ek_free(p);
+  else
+    free(p);
+}
+
+// An input batch in the four layouts: AoS and AoSoA, f64 and its f32
+// rounding ([aosoa][f32]).
+typedef struct {
+  void *b[2][2];
+} batch9_in;
+static batch9_in batch9_in_make(size_t n, const double *A) {
+  batch9_in in;
+  double *d = malloc(9 * n * sizeof(double));
+  float *f = malloc(9 * n * sizeof(float));
+  memcpy(d, A, 9 * n * sizeof(double));
+  for (size_t i = 0; i < 9 * n; i++)
+    f[i] = (float)A[i];
+  in.b[0][0] = d, in.b[0][1] = f;
+  in.b[1][0] = ek_aosoa_alloc_f64(n, 9), in.b[1][1] = ek_aosoa_alloc_f32(n, 9);
+  ek_aosoa_pack_f64(n, 9, d, in.b[1][0]);
+  ek_aosoa_pack_f32(n, 9, f, in.b[1][1]);
+  return in;
+}
+static void batch9_in_free(batch9_in *in) {
+  for (int a = 0; a < 2; a++)
+    for (int f = 0; f < 2; f++)
+      batch9_free(a, in->b[a][f]);
 }
 
 // The material batch (material.h): dP (projected) of n elements through
@@ -502,15 +558,10 @@ typedef struct {
   const void *F, *dF; // AoS n x 9, or AoSoA batches, in the precision
 } mat_env;
 
-static size_t mat_bytes(const mat_env *e) {
-  return sizeof(int) + (e->aosoa ? aosoa_bytes(e->f32, e->n, 9)
-                                 : 9 * e->n * (e->f32 ? sizeof(float) : sizeof(double)));
-}
-
 static void run_mat(const void *e_, unsigned char *out) {
   const mat_env *e = e_;
-  const size_t bytes = mat_bytes(e) - sizeof(int);
-  void *o = e->aosoa ? garbage_aosoa(e->f32, e->n, 9) : garbage(bytes);
+  const size_t bytes = batch9_bytes(e->aosoa, e->f32, e->n);
+  void *o = batch9_garbage(e->aosoa, e->f32, e->n);
   int rc;
   if (e->aosoa && e->f32)
     rc = ek_material_eval_aosoa_f32(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, ek_aosoa_blocks_f32(e->n),
@@ -524,10 +575,7 @@ static void run_mat(const void *e_, unsigned char *out) {
     rc = ek_material_eval_f64(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, e->n, e->F, NULL, e->dF, o, 1);
   out = put(out, &rc, sizeof rc);
   put(out, o, bytes);
-  if (e->aosoa)
-    ek_free(o);
-  else
-    free(o);
+  batch9_free(e->aosoa, o);
 }
 
 // The warm polar batch (polar.h): R is in and out (the guesses, then the
@@ -539,15 +587,10 @@ typedef struct {
   const void *A, *G; // AoS n x 9, or AoSoA batches, in the precision
 } warm_env;
 
-static size_t warm_bytes(const warm_env *e) {
-  return sizeof(int) + (e->aosoa ? aosoa_bytes(e->f32, e->n, 9)
-                                 : 9 * e->n * (e->f32 ? sizeof(float) : sizeof(double)));
-}
-
 static void run_warm(const void *e_, unsigned char *out) {
   const warm_env *e = e_;
-  const size_t bytes = warm_bytes(e) - sizeof(int);
-  void *R = e->aosoa ? garbage_aosoa(e->f32, e->n, 9) : garbage(bytes);
+  const size_t bytes = batch9_bytes(e->aosoa, e->f32, e->n);
+  void *R = batch9_garbage(e->aosoa, e->f32, e->n);
   memcpy(R, e->G, bytes);
   int rc;
   if (e->aosoa && e->f32)
@@ -560,10 +603,7 @@ static void run_warm(const void *e_, unsigned char *out) {
     rc = ek_polar3_warm_f64(e->n, e->A, R, NULL);
   out = put(out, &rc, sizeof rc);
   put(out, R, bytes);
-  if (e->aosoa)
-    ek_free(R);
-  else
-    free(R);
+  batch9_free(e->aosoa, R);
 }
 
 // The AoSoA staging (batch/aosoa.c's staged chunks, per-worker buffers):
@@ -829,24 +869,8 @@ int main(int argc, char **argv) {
   double *xs = malloc(n3 * sizeof(double));
   test_deform(&rng, &sc.t, 0.1, 0.1, xs);
   xpbd_env xe[4];
-  int flow_case = -1;
-  for (int solver = 0; solver < 2; solver++)
-    for (int prec = 32; prec <= 64; prec += 32) {
-      xpbd_env *e = &xe[2 * solver + prec / 64];
-      *e = (xpbd_env){
-          &sc,
-          {.elements = EK_XPBD_TETS, .solver = (ek_xpbd_solver)solver, .precision = prec},
-          xs,
-          n3,
-          sc.set[EK_XPBD_TETS].n};
-      snprintf(names[nc], sizeof names[nc], "xpbd tets %s f%d%s",
-               ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, solver ? "" : " (the flow)");
-      if (solver == 0 && prec == 64)
-        flow_case = nc;
-      cases[nc] =
-          (kcase){names[nc], run_xpbd, e, sizeof(int) + 2 * sizeof(double) + (n3 + e->ncons) * 8};
-      nc++;
-    }
+  const int flow_case = nc + 1;
+  nc = add_xpbd(cases, names, nc, xe, &sc, EK_XPBD_TETS, xs);
   svd_env se = {6000, NULL, NULL};
   double *A = malloc(9 * se.n * sizeof(double));
   float *Af = malloc(9 * se.n * sizeof(float));
@@ -864,25 +888,10 @@ int main(int argc, char **argv) {
   // sweeps' 4096 constraints (kernels/xpbd/xpbd.c XPBD_PARALLEL_MIN).
   scene sc2;
   scene_init(&sc2, &rng, 16, 16, 16, 0.05, 1000.0);
-  const size_t n3c = 3 * sc2.t.nverts;
-  double *xs2 = malloc(n3c * sizeof(double));
+  double *xs2 = malloc(3 * sc2.t.nverts * sizeof(double));
   test_deform(&rng, &sc2.t, 0.1, 0.1, xs2);
   xpbd_env xc[4];
-  for (int solver = 0; solver < 2; solver++)
-    for (int prec = 32; prec <= 64; prec += 32) {
-      xpbd_env *e = &xc[2 * solver + prec / 64];
-      *e = (xpbd_env){
-          &sc2,
-          {.elements = EK_XPBD_CLUSTERS, .solver = (ek_xpbd_solver)solver, .precision = prec},
-          xs2,
-          n3c,
-          sc2.set[EK_XPBD_CLUSTERS].n};
-      snprintf(names[nc], sizeof names[nc], "xpbd clusters %s f%d (%zu)",
-               ek_xpbd_solver_name((ek_xpbd_solver)solver), prec, e->ncons);
-      cases[nc] =
-          (kcase){names[nc], run_xpbd, e, sizeof(int) + 2 * sizeof(double) + (n3c + e->ncons) * 8};
-      nc++;
-    }
+  nc = add_xpbd(cases, names, nc, xc, &sc2, EK_XPBD_CLUSTERS, xs2);
   // Cloth XPBD on the 48 x 48 grid (4608 triangles: the colours' jobs on
   // the team from EK_CLOTH_PARALLEL_MIN_TRIS).
   double *cw = malloc((cn3 ? cn3 / 3 : 1) * sizeof(double));
@@ -900,31 +909,18 @@ int main(int argc, char **argv) {
   // block), dP projected, stable neo-Hookean.
   const size_t nm = 2 * EK_MATERIAL_PARALLEL_MIN + 17;
   double *mF = malloc(9 * nm * sizeof(double)), *mdF = malloc(9 * nm * sizeof(double));
-  float *mFf = malloc(9 * nm * sizeof(float)), *mdFf = malloc(9 * nm * sizeof(float));
   for (size_t i = 0; i < nm; i++)
     ek_rng_deformation(&rng, 0.3, mF + 9 * i);
-  for (size_t i = 0; i < 9 * nm; i++) {
+  for (size_t i = 0; i < 9 * nm; i++)
     mdF[i] = 2 * ek_rng_uniform(&rng) - 1;
-    mFf[i] = (float)mF[i];
-    mdFf[i] = (float)mdF[i];
-  }
-  double *mFs = ek_aosoa_alloc_f64(nm, 9), *mdFs = ek_aosoa_alloc_f64(nm, 9);
-  float *mFsf = ek_aosoa_alloc_f32(nm, 9), *mdFsf = ek_aosoa_alloc_f32(nm, 9);
-  ek_aosoa_pack_f64(nm, 9, mF, mFs), ek_aosoa_pack_f64(nm, 9, mdF, mdFs);
-  ek_aosoa_pack_f32(nm, 9, mFf, mFsf), ek_aosoa_pack_f32(nm, 9, mdFf, mdFsf);
+  batch9_in mFb = batch9_in_make(nm, mF), mdFb = batch9_in_make(nm, mdF);
   mat_env me[4];
   for (int k = 0; k < 4; k++) {
     const int aosoa = k / 2, f32 = k % 2;
-    me[k] =
-        (mat_env){mats[0],
-                  aosoa,
-                  f32,
-                  nm,
-                  aosoa ? (f32 ? (const void *)mFsf : mFs) : (f32 ? (const void *)mFf : mF),
-                  aosoa ? (f32 ? (const void *)mdFsf : mdFs) : (f32 ? (const void *)mdFf : mdF)};
+    me[k] = (mat_env){mats[0], aosoa, f32, nm, mFb.b[aosoa][f32], mdFb.b[aosoa][f32]};
     snprintf(names[nc], sizeof names[nc], "material_eval %s f%d dP (%zu)", aosoa ? "aosoa" : "aos",
              f32 ? 32 : 64, nm);
-    cases[nc] = (kcase){names[nc], run_mat, &me[k], mat_bytes(&me[k])};
+    cases[nc] = (kcase){names[nc], run_mat, &me[k], sizeof(int) + batch9_bytes(aosoa, f32, nm)};
     nc++;
   }
   // The warm polar batch: A = R* (I + 0.1 sym N), guesses G = polar(R* (I +
@@ -933,7 +929,6 @@ int main(int argc, char **argv) {
   const size_t nw = 6000;
   double *wA = malloc(9 * nw * sizeof(double)), *wG = malloc(9 * nw * sizeof(double));
   double *wT = malloc(9 * nw * sizeof(double)), *wS = malloc(9 * nw * sizeof(double));
-  float *wAf = malloc(9 * nw * sizeof(float)), *wGf = malloc(9 * nw * sizeof(float));
   for (size_t i = 0; i < nw; i++) {
     double Rs[9], N[9], S[9], T[9];
     ek_rng_rotation(&rng, Rs);
@@ -948,23 +943,14 @@ int main(int argc, char **argv) {
     ek_mul3(Rs, T, wT + 9 * i);
   }
   int wrc = ek_polar3_f64(nw, wT, wG, wS, NULL);
-  for (size_t i = 0; i < 9 * nw; i++) {
-    wAf[i] = (float)wA[i];
-    wGf[i] = (float)wG[i];
-  }
-  double *wAs = ek_aosoa_alloc_f64(nw, 9), *wGs = ek_aosoa_alloc_f64(nw, 9);
-  float *wAsf = ek_aosoa_alloc_f32(nw, 9), *wGsf = ek_aosoa_alloc_f32(nw, 9);
-  ek_aosoa_pack_f64(nw, 9, wA, wAs), ek_aosoa_pack_f64(nw, 9, wG, wGs);
-  ek_aosoa_pack_f32(nw, 9, wAf, wAsf), ek_aosoa_pack_f32(nw, 9, wGf, wGsf);
+  batch9_in wAb = batch9_in_make(nw, wA), wGb = batch9_in_make(nw, wG);
   warm_env we[4];
   for (int k = 0; k < 4; k++) {
     const int aosoa = k / 2, f32 = k % 2;
-    we[k] = (warm_env){aosoa, f32, nw,
-                       aosoa ? (f32 ? (const void *)wAsf : wAs) : (f32 ? (const void *)wAf : wA),
-                       aosoa ? (f32 ? (const void *)wGsf : wGs) : (f32 ? (const void *)wGf : wG)};
+    we[k] = (warm_env){aosoa, f32, nw, wAb.b[aosoa][f32], wGb.b[aosoa][f32]};
     snprintf(names[nc], sizeof names[nc], "polar3_warm %s f%d (%zu)", aosoa ? "aosoa" : "aos",
              f32 ? 32 : 64, nw);
-    cases[nc] = (kcase){names[nc], run_warm, &we[k], warm_bytes(&we[k])};
+    cases[nc] = (kcase){names[nc], run_warm, &we[k], sizeof(int) + batch9_bytes(aosoa, f32, nw)};
     nc++;
   }
   // The AoSoA staging: the velocity gradient of the 12^3 box's tets (41
@@ -1014,10 +1000,8 @@ int main(int argc, char **argv) {
   free(xs2);
   scene_free(&sc2);
   free(cw);
-  free(mF), free(mdF), free(mFf), free(mdFf);
-  ek_free(mFs), ek_free(mdFs), ek_free(mFsf), ek_free(mdFsf);
-  free(wA), free(wG), free(wT), free(wS), free(wAf), free(wGf);
-  ek_free(wAs), ek_free(wGs), ek_free(wAsf), ek_free(wGsf);
+  free(mF), free(mdF), free(wA), free(wG), free(wT), free(wS);
+  batch9_in_free(&mFb), batch9_in_free(&mdFb), batch9_in_free(&wAb), batch9_in_free(&wGb);
   ek_kabsch_set_free(&ks);
   free(kPf), free(kQf);
   free(cx);
