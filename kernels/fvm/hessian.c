@@ -239,7 +239,7 @@ static void assemble_part(void *ctx, size_t t) {
   const ek_fvm_hessian *h = j->h;
   // The part's element Hessian buffer of the plan (on the heap, not on a
   // thread's stack, which may be small): one part runs on one thread.
-  real *buf = (real *)((char *)h->abuf + t * HESS_ABUF_BYTES);
+  real *buf = (real *)((char *)h->abuf + t * HESS_ABUF_STRIDE);
   hess_args la = j->a;
   for (int32_t g = h->tgrp[t]; g < h->tgrp[t + 1]; g++) {
     const int32_t k0 = h->tptr[t] + (g - h->tgrp[t]) * HESS_GROUP;

@@ -516,10 +516,11 @@ static int build_plan(ek_fvm_hessian *h, int nt) {
   h->tgrp[0] = 0;
   for (int t = 0; t < nt; t++)
     h->tgrp[t + 1] = h->tgrp[t] + (h->tptr[t + 1] - h->tptr[t] + HESS_GROUP - 1) / HESS_GROUP;
-  // Page-aligned (HESS_ABUF_BYTES is a multiple of 4096): no thread's
-  // buffer shares a page with another's, and its placement is the same
-  // from run to run.
-  h->abuf = aligned_alloc(4096, (size_t)nt * HESS_ABUF_BYTES);
+  // Page-aligned (HESS_ABUF_BYTES is a multiple of 4096), a buffer's
+  // length apart (HESS_ABUF_STRIDE; the gaps are never touched, so never
+  // backed by memory): no thread's buffer shares or adjoins a page of
+  // another's, and its placement is the same from run to run.
+  h->abuf = aligned_alloc(4096, (size_t)nt * HESS_ABUF_STRIDE);
   if (!h->abuf || build_cross(h, nt) < 0 || build_runs(h, nt, lanes) < 0) {
     plan_free(h);
     ek_set_error("ek_fvm_hessian_assemble: out of memory for the threads' plan");

@@ -91,6 +91,13 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 // 144 planes, 16 lanes of float or 8 of double, the same bytes.
 #define HESS_ABUF_BYTES ((size_t)HESS_GROUP * 144 * 64)
 _Static_assert(HESS_ABUF_BYTES % 4096 == 0, "the element Hessian buffers: whole pages");
+// Part t's buffer starts at t * HESS_ABUF_STRIDE: an untouched buffer's
+// length between two parts' buffers. Back to back, a part's buffer ran up
+// to the next part's first page, and two parts run together took 28-32
+// ns per tet where each runs in 2.2-2.4 ms alone (~23): likely the
+// hardware prefetcher reading ahead of one core's strided reads into the
+// lines the other core writes (docs/perf.md, twentieth round).
+#define HESS_ABUF_STRIDE (2 * HESS_ABUF_BYTES)
 
 // One run of the assembly's plan: the element blocks of one group of slot
 // blocks that add into the 3x3 block of K at values + p (rows rs apart), n of
@@ -158,7 +165,7 @@ struct ek_fvm_hessian {
   int32_t *xptr, *xlow;
   // The groups' element Hessians, HESS_GROUP * 144 * LANES values of the
   // cache's precision per part (144 KB in both precisions; a part runs on
-  // one thread), part t's at t * HESS_ABUF_BYTES: allocated with the plan, kept across calls (no
+  // one thread), part t's at t * HESS_ABUF_STRIDE: allocated with the plan, kept across calls (no
   // allocation, page faults or heap trims in the timed call).
   void *abuf;
   // Per group g: the runs runs[krun[g] .. krun[g + 1]) and their element
