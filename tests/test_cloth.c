@@ -54,6 +54,33 @@ static void check(int ok, const char *what) {
 
 static double *dalloc(size_t n) { return ek_check_malloc((n ? n : 1) * sizeof(double)); }
 
+// Every output is poisoned (ek_check_poison: NaN) right before its call:
+// each ISA's call gets the buffers the previous ISA's call used (reused,
+// or freed and handed back by malloc), holding right values, so an element
+// a path did not write would pass. ek_check_tri_F_err and
+// ek_check_velgrad_err take their maxima with fmax, which drops a NaN: an
+// output not finite where the reference is fails here.
+static void poison(size_t n, double *a) { ek_check_poison(a, n * sizeof(double)); }
+
+static int nan_where_finite(size_t n, const double *out, const double *ref) {
+  int bad = 0;
+  for (size_t i = 0; i < n; i++)
+    bad |= !isfinite(out[i]) && isfinite(ref[i]);
+  return bad;
+}
+
+// The poison as it reads back: 0xFF bytes (f64), or a float's converted
+// (the f32 runners): where a NaN is the right result (a non-finite
+// input's lane), the poison is not.
+static int is_poison(double d) {
+  float pf;
+  double pd, one;
+  memset(&pf, 0xFF, sizeof pf);
+  memset(&pd, 0xFF, sizeof pd);
+  one = (double)pf;
+  return !memcmp(&d, &pd, sizeof d) || !memcmp(&d, &one, sizeof d);
+}
+
 // Round to float and back where bits == 32 (the input both sides see).
 static void to_prec(int bits, size_t n, double *a) {
   if (bits == 32)
@@ -62,10 +89,13 @@ static void to_prec(int bits, size_t n, double *a) {
 }
 
 // ---- Runners on double data (converting for f32) --------------------------
+// n floats: a converted (input) or, a NULL, poisoned (an output).
 static float *to_f(size_t n, const double *a) {
   float *f = ek_check_malloc((n ? n : 1) * sizeof(float));
   if (a)
     ek_check_to_f32(n, a, f);
+  else
+    ek_check_poison(f, n * sizeof(float));
   return f;
 }
 
@@ -173,12 +203,15 @@ static void tri_F(uint64_t seed, ek_isa isa, int bits) {
     }
   }
   to_prec(bits, 9 * n, x), to_prec(bits, 4 * n, Dm);
+  poison(6 * n, F);
   int rc = run_tri_F(bits, isa, n, x, Dm, F);
   double worst = rc ? INFINITY : 0;
   for (size_t t = 0; t < n && !rc; t++) {
     double Fr[6];
     ek_tri_F_ref(x + 9 * t, Dm + 4 * t, Fr);
     worst = fmax(worst, ek_check_tri_F_err(x + 9 * t, Dm + 4 * t, F + 6 * t, Fr));
+    if (nan_where_finite(6, F + 6 * t, Fr))
+      worst = INFINITY;
   }
   char label[96];
   snprintf(label, sizeof label, "tri_F %-6s f%d random/collapsed/collinear/flipped",
@@ -199,6 +232,7 @@ static void polar32(uint64_t seed, ek_isa isa, int bits) {
     ek_rng_seed(&rng, ek_check_stream_seed(seed, f < 0 ? "polar32_random" : fam->name));
     fam->generate(&rng, n, F);
     to_prec(bits, 6 * n, F);
+    poison(6 * n, R), poison(4 * n, Uc);
     int rc = ek_check_run_polar32(bits, isa, n, F, R, Uc);
     double worst = rc ? INFINITY : 0;
     int shown = 0, nan_ok = 1;
@@ -209,9 +243,9 @@ static void polar32(uint64_t seed, ek_isa isa, int bits) {
         finite &= isfinite(Fk[i]) != 0;
       if (!finite) {
         for (int i = 0; i < 6; i++)
-          nan_ok &= isnan(R[6 * k + i]) != 0;
+          nan_ok &= isnan(R[6 * k + i]) && !is_poison(R[6 * k + i]);
         for (int i = 0; i < 4; i++)
-          nan_ok &= isnan(Uc[4 * k + i]) != 0;
+          nan_ok &= isnan(Uc[4 * k + i]) && !is_poison(Uc[4 * k + i]);
         continue;
       }
       double Rr[6], Ur[4], s[2];
@@ -247,6 +281,7 @@ static void kabsch(uint64_t seed, ek_isa isa, int bits) {
     ek_kabsch_set s;
     ek_kabsch_set_init(&s, ek_kabsch_families[f], seed, N_SETS, bits);
     double *R = dalloc(9 * s.nsets);
+    poison(9 * s.nsets, R); // a non-finite R: ek_kabsch_metrics_worst is INFINITY
     int rc = ek_check_run_kabsch(bits, isa, &s, R);
     double worst = rc ? INFINITY : 0, truth = 0;
     int exact = strcmp(s.name, "exact") == 0, coincident = strcmp(s.name, "coincident") == 0;
@@ -313,6 +348,7 @@ static void tri_velgrad(uint64_t seed, ek_isa isa, int bits) {
            *W = dalloc(9 * n);
     ek_velgrad_generate(fam, seed, 3, n, x, v);
     to_prec(bits, 9 * n, x), to_prec(bits, 9 * n, v);
+    poison(9 * n, L), poison(9 * n, D), poison(9 * n, W);
     int rc = ek_check_run_tri_velgrad(bits, isa, n, x, v, L, D, W);
     double worst = rc ? INFINITY : 0;
     for (size_t e = 0; e < n && !rc; e++) {
@@ -322,6 +358,9 @@ static void tri_velgrad(uint64_t seed, ek_isa isa, int bits) {
       worst = fmax(worst, ek_check_velgrad_err(3, bits, x + 9 * e, v + 9 * e, L + 9 * e, Lr));
       worst = fmax(worst, ek_check_velgrad_err(3, bits, x + 9 * e, v + 9 * e, D + 9 * e, Dr));
       worst = fmax(worst, ek_check_velgrad_err(3, bits, x + 9 * e, v + 9 * e, W + 9 * e, Wr));
+      if (nan_where_finite(9, L + 9 * e, Lr) || nan_where_finite(9, D + 9 * e, Dr) ||
+          nan_where_finite(9, W + 9 * e, Wr))
+        worst = INFINITY;
     }
     char label[96];
     snprintf(label, sizeof label, "tri L,D,W %-6s f%d %-11s", ek_isa_name(isa), bits, fam);
@@ -366,6 +405,7 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
           q[k] = r[k] * p[k];
     }
     to_prec(bits, 3 * nv, x), to_prec(bits, 3 * nv, v);
+    poison(9 * nt, L), poison(9 * nt, D), poison(9 * nt, W); // they hold the previous family's
     ek_cloth_opts o = {.isa = isa};
     int rc;
     if (bits == 64) {
@@ -394,6 +434,9 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
       worst = fmax(worst, ek_check_velgrad_err(4, bits, xe, ve, L + 9 * t, Lr));
       worst = fmax(worst, ek_check_velgrad_err(4, bits, xe, ve, D + 9 * t, Dr));
       worst = fmax(worst, ek_check_velgrad_err(4, bits, xe, ve, W + 9 * t, Wr));
+      if (nan_where_finite(9, L + 9 * t, Lr) || nan_where_finite(9, D + 9 * t, Dr) ||
+          nan_where_finite(9, W + 9 * t, Wr))
+        worst = INFINITY;
     }
     char label[96];
     snprintf(label, sizeof label, "tet L,D,W %-6s f%d %-11s", ek_isa_name(isa), bits, fams[f]);
@@ -458,12 +501,16 @@ static void same_bits(uint64_t seed) {
          *W0 = dalloc(9 * n);
   double *R1 = dalloc(6 * n), *U1 = dalloc(4 * n), *L1 = dalloc(9 * n), *D1 = dalloc(9 * n),
          *W1 = dalloc(9 * n);
+  // Outputs poisoned before every call: R1..W1 hold the previous ISA's
+  // results, R0..W0 the other precision's.
   for (int bits = 32; bits <= 64; bits += 32) {
+    poison(6 * n, R0), poison(4 * n, U0), poison(9 * n, L0), poison(9 * n, D0), poison(9 * n, W0);
     ek_check_run_polar32(bits, EK_ISA_SCALAR, n, F, R0, U0);
     ek_check_run_tri_velgrad(bits, EK_ISA_SCALAR, n, x, v, L0, D0, W0);
     for (int isa = EK_ISA_AVX2; isa < EK_ISA_COUNT; isa++) {
       if (!ek_isa_available((ek_isa)isa))
         continue;
+      poison(6 * n, R1), poison(4 * n, U1), poison(9 * n, L1), poison(9 * n, D1), poison(9 * n, W1);
       ek_check_run_polar32(bits, (ek_isa)isa, n, F, R1, U1);
       ek_check_run_tri_velgrad(bits, (ek_isa)isa, n, x, v, L1, D1, W1);
       int same = !memcmp(R0, R1, 6 * n * sizeof(double)) &&
@@ -481,7 +528,9 @@ static void same_bits(uint64_t seed) {
     float *f = to_f(6 * n, F), *r = to_f(6 * n, NULL), *u = to_f(4 * n, NULL);
     float *fs = ek_aosoa_alloc_f32(n, 6), *rs = ek_aosoa_alloc_f32(n, 6),
           *us = ek_aosoa_alloc_f32(n, 4);
-    float *r2 = to_f(6 * n, NULL), *u2 = to_f(4 * n, NULL);
+    float *r2 = to_f(6 * n, NULL), *u2 = to_f(4 * n, NULL); // poisoned, as r and u
+    ek_check_poison(rs, ek_aosoa_size_f32(n, 6) * sizeof(float));
+    ek_check_poison(us, ek_aosoa_size_f32(n, 4) * sizeof(float));
     ek_polar32_f32(n, f, r, u);
     ek_aosoa_pack_f32(n, 6, f, fs);
     ek_polar32_aosoa_f32(ek_aosoa_blocks_f32(n), fs, rs, us, NULL);
@@ -497,6 +546,10 @@ static void same_bits(uint64_t seed) {
     double *dms = ek_aosoa_alloc_f64(n, 4), *fs = ek_aosoa_alloc_f64(n, 6);
     for (size_t i = 0; i < 4 * n; i++)
       Dm[i] = ek_rng_gauss(&rng);
+    // L0 and L1 both hold the ISA loop's last f64 L: poisoned, as the rest.
+    poison(9 * n, L0), poison(9 * n, L1), poison(6 * n, Fa), poison(6 * n, Fb);
+    ek_check_poison(ls, ek_aosoa_size_f64(n, 9) * sizeof(double));
+    ek_check_poison(fs, ek_aosoa_size_f64(n, 6) * sizeof(double));
     ek_tri_velocity_gradient_f64(n, x, v, L0, NULL, NULL, NULL);
     ek_aosoa_pack_f64(n, 9, x, xs), ek_aosoa_pack_f64(n, 9, v, vs);
     ek_tri_velocity_gradient_aosoa_f64(ek_aosoa_blocks_f64(n), xs, vs, ls, NULL, NULL, NULL);

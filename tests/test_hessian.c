@@ -13,7 +13,8 @@
 //      with unit vectors;
 //   5. gradient, energy, products and diagonal blocks have the same bits
 //      at 1, 2 and 3 threads (every strategy but ATOMIC), on a mesh above the
-//      one-thread grains;
+//      one-thread grains; the gradient of an f32-cache Hessian has the bits
+//      of an f64-cache one's;
 //   7. the assembled K (check_assembly): entries = the plain assembly of
 //      the double reference, CSR K p = the product, symmetric to the bit,
 //      projected PSD (LAPACK eigenvalues); same bits at 1, 2 and 3 threads;
@@ -481,7 +482,7 @@ static void check_threads(ek_rng *rng) {
   float *p32 = malloc(n3 * sizeof(float));
   for (size_t i = 0; i < n3; i++)
     p32[i] = (float)p[i];
-  int same = 1, cases = 0;
+  int same = 1, grad32 = 1, cases = 0;
   ek_material mats[2] = {{EK_MODEL_STABLE_NEO_HOOKEAN, 1, 2, 0},
                          {EK_MODEL_FIXED_COROTATED, 1, 2, 0}};
   for (int mi = 0; mi < 2; mi++)
@@ -516,7 +517,14 @@ static void check_threads(ek_rng *rng) {
         same &= memcmp(out[0][1], out[r][1], n3 * sizeof(double)) == 0;
         same &= memcmp(out[0][2], out[r][2], t.nverts * 6 * sizeof(double)) == 0;
         same &= memcmp(o32[0], o32[r], n3 * sizeof(float)) == 0;
+        same &= memcmp(out[0][3], out[r][3], n3 * sizeof(double)) == 0;
       }
+      // The f32 cache's context gives the f64 one's gradient bits at every
+      // thread count: the gradient pass is the same double kernel for
+      // both precisions (hessian.h: "computed in double either way";
+      // hessian.c), only the cache it writes differs.
+      for (int r = 0; r < 3; r++)
+        grad32 &= memcmp(out[r][0], out[r][3], n3 * sizeof(double)) == 0;
       cases++;
     }
   // The assembled matrix (f64 and f32 element kernels, both slot orders)
@@ -567,10 +575,14 @@ static void check_threads(ek_rng *rng) {
          asame ? "PASS" : "FAIL");
   failures += !asame;
   omp_set_num_threads(2);
-  printf("1, 2 and 3 threads: same bits for gradient, energy, K p (f64, f32), diagonal blocks, "
-         "%zu tets, %d cases: %s\n",
+  printf("1, 2 and 3 threads: same bits for gradient (f64 and f32 caches), energy, K p (f64, f32), "
+         "diagonal blocks, %zu tets, %d cases: %s\n",
          t.ntets, cases, same ? "PASS" : "FAIL");
   failures += !same;
+  printf("gradient with the f32 cache = with the f64 cache, same bits (1, 2 and 3 threads, %d "
+         "cases): %s\n",
+         cases, grad32 ? "PASS" : "FAIL");
+  failures += !grad32;
   for (int r = 0; r < 3; r++) {
     for (int k = 0; k < 4; k++)
       free(out[r][k]);
