@@ -92,11 +92,11 @@ EK_HESS_ARGS(double, ek_hess_args_f64);
 #define HESS_ABUF_BYTES ((size_t)HESS_GROUP * 144 * 64)
 _Static_assert(HESS_ABUF_BYTES % 4096 == 0, "the element Hessian buffers: whole pages");
 // Part t's buffer starts at t * HESS_ABUF_STRIDE: an untouched buffer's
-// length between two parts' buffers. Back to back, a part's buffer ran up
-// to the next part's first page, and two parts run together took 28-32
-// ns per tet where each runs in 2.2-2.4 ms alone (~23): likely the
-// hardware prefetcher reading ahead of one core's strided reads into the
-// lines the other core writes (docs/perf.md, twentieth round).
+// length between two parts' buffers. Back to back (in either order), two
+// parts run together took 27-37 ns per tet against 22-24 a buffer apart
+// (Zen 4, StVK f32 upper, 101 400 tets): likely a prefetcher running past
+// one core's buffer into the lines the other core writes (docs/perf.md,
+// "Twentieth round: a gap between the parts' element Hessian buffers").
 #define HESS_ABUF_STRIDE (2 * HESS_ABUF_BYTES)
 
 // One run of the assembly's plan: the element blocks of one group of slot
