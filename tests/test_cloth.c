@@ -89,22 +89,14 @@ static void to_prec(int bits, size_t n, double *a) {
 }
 
 // ---- Runners on double data (converting for f32) --------------------------
-// n floats: a converted (input) or, a NULL, poisoned (an output).
-static float *to_f(size_t n, const double *a) {
-  float *f = ek_check_malloc((n ? n : 1) * sizeof(float));
-  if (a)
-    ek_check_to_f32(n, a, f);
-  else
-    ek_check_poison(f, n * sizeof(float));
-  return f;
-}
 
 static int run_tri_F(int bits, ek_isa isa, size_t n, const double *x, const double *Dm_inv,
                      double *F) {
   ek_cloth_opts o = {.isa = isa};
   if (bits == 64)
     return ek_tri_deformation_ex_f64(n, x, Dm_inv, F, &o);
-  float *a = to_f(9 * n, x), *b = to_f(4 * n, Dm_inv), *f = to_f(6 * n, NULL);
+  float *a = ek_check_f32_copy(9 * n, x), *b = ek_check_f32_copy(4 * n, Dm_inv),
+        *f = ek_check_f32_copy(6 * n, NULL);
   int rc = ek_tri_deformation_ex_f32(n, a, b, f, &o);
   ek_check_from_f32(6 * n, f, F);
   free(a), free(b), free(f);
@@ -411,8 +403,9 @@ static void tet_velgrad(uint64_t seed, ek_isa isa, int bits) {
     if (bits == 64) {
       rc = ek_tet_velocity_gradient_f64(el, x, v, L, D, W, &o);
     } else {
-      float *a = to_f(3 * nv, x), *b = to_f(3 * nv, v);
-      float *l = to_f(9 * nt, NULL), *d = to_f(9 * nt, NULL), *ww = to_f(9 * nt, NULL);
+      float *a = ek_check_f32_copy(3 * nv, x), *b = ek_check_f32_copy(3 * nv, v);
+      float *l = ek_check_f32_copy(9 * nt, NULL), *d = ek_check_f32_copy(9 * nt, NULL),
+            *ww = ek_check_f32_copy(9 * nt, NULL);
       rc = ek_tet_velocity_gradient_f32(el, a, b, l, d, ww, &o);
       ek_check_from_f32(9 * nt, l, L), ek_check_from_f32(9 * nt, d, D);
       ek_check_from_f32(9 * nt, ww, W);
@@ -525,10 +518,12 @@ static void same_bits(uint64_t seed) {
   }
   // AoSoA vs AoS (f32 and f64, default ISA) and 1 vs 2 threads.
   {
-    float *f = to_f(6 * n, F), *r = to_f(6 * n, NULL), *u = to_f(4 * n, NULL);
+    float *f = ek_check_f32_copy(6 * n, F), *r = ek_check_f32_copy(6 * n, NULL),
+          *u = ek_check_f32_copy(4 * n, NULL);
     float *fs = ek_aosoa_alloc_f32(n, 6), *rs = ek_aosoa_alloc_f32(n, 6),
           *us = ek_aosoa_alloc_f32(n, 4);
-    float *r2 = to_f(6 * n, NULL), *u2 = to_f(4 * n, NULL); // poisoned, as r and u
+    float *r2 = ek_check_f32_copy(6 * n, NULL),
+          *u2 = ek_check_f32_copy(4 * n, NULL); // poisoned, as r and u
     ek_check_poison(rs, ek_aosoa_size_f32(n, 6) * sizeof(float));
     ek_check_poison(us, ek_aosoa_size_f32(n, 4) * sizeof(float));
     ek_polar32_f32(n, f, r, u);

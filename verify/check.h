@@ -71,6 +71,11 @@ int ek_check_finite9(const double A[9]);
 // double reference see the same input.
 void ek_check_to_f32(size_t count, const double *in, float *out);
 void ek_check_from_f32(size_t count, const float *in, double *out);
+// A new buffer of count floats (ek_check_malloc; free it): in converted,
+// or, in NULL, poisoned (ek_check_poison, below): an f32 call's output,
+// which a freed buffer of the previous call holding right values could
+// otherwise be.
+float *ek_check_f32_copy(size_t count, const double *in);
 
 // ---- Error metrics ----
 // All relative to s1 = S_ref[0], the largest singular value of the input

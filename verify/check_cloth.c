@@ -399,23 +399,13 @@ double ek_check_tri_F_err(const double x[9], const double Dm_inv[4], const doubl
 }
 
 // ---- Runners on double data (converting for f32) --------------------------
-// n floats: a converted (input) or, a NULL, poisoned (an output: tests/
-// test_cloth.c compares the ISAs' calls, and the previous call's freed
-// output, holding right values, may come back here).
-static float *to_f(size_t n, const double *a) {
-  float *f = ek_check_malloc((n ? n : 1) * sizeof(float));
-  if (a)
-    ek_check_to_f32(n, a, f);
-  else
-    ek_check_poison(f, n * sizeof(float));
-  return f;
-}
 
 int ek_check_run_polar32(int bits, ek_isa isa, size_t n, const double *F, double *R, double *Uc) {
   ek_cloth_opts o = {.isa = isa};
   if (bits == 64)
     return ek_polar32_ex_f64(n, F, R, Uc, &o);
-  float *f = to_f(6 * n, F), *r = to_f(6 * n, NULL), *u = to_f(4 * n, NULL);
+  float *f = ek_check_f32_copy(6 * n, F), *r = ek_check_f32_copy(6 * n, NULL),
+        *u = ek_check_f32_copy(4 * n, NULL);
   int rc = ek_polar32_ex_f32(n, f, r, u, &o);
   ek_check_from_f32(6 * n, r, R), ek_check_from_f32(4 * n, u, Uc);
   free(f), free(r), free(u);
@@ -427,8 +417,9 @@ int ek_check_run_kabsch(int bits, ek_isa isa, const ek_kabsch_set *s, double *R)
   if (bits == 64)
     return ek_kabsch_ex_f64(s->nsets, s->offsets, s->P, s->Q, s->w, R, &o);
   size_t np = s->npoints;
-  float *p = to_f(3 * np, s->P), *q = to_f(3 * np, s->Q), *w = s->w ? to_f(np, s->w) : NULL;
-  float *r = to_f(9 * s->nsets, NULL);
+  float *p = ek_check_f32_copy(3 * np, s->P), *q = ek_check_f32_copy(3 * np, s->Q),
+        *w = s->w ? ek_check_f32_copy(np, s->w) : NULL;
+  float *r = ek_check_f32_copy(9 * s->nsets, NULL);
   int rc = ek_kabsch_ex_f32(s->nsets, s->offsets, p, q, w, r, &o);
   ek_check_from_f32(9 * s->nsets, r, R);
   free(p), free(q), free(w), free(r);
@@ -440,8 +431,9 @@ int ek_check_run_tri_velgrad(int bits, ek_isa isa, size_t n, const double *x, co
   ek_cloth_opts o = {.isa = isa};
   if (bits == 64)
     return ek_tri_velocity_gradient_f64(n, x, v, L, D, W, &o);
-  float *a = to_f(9 * n, x), *b = to_f(9 * n, v);
-  float *l = to_f(9 * n, NULL), *d = to_f(9 * n, NULL), *w = to_f(9 * n, NULL);
+  float *a = ek_check_f32_copy(9 * n, x), *b = ek_check_f32_copy(9 * n, v);
+  float *l = ek_check_f32_copy(9 * n, NULL), *d = ek_check_f32_copy(9 * n, NULL),
+        *w = ek_check_f32_copy(9 * n, NULL);
   int rc = ek_tri_velocity_gradient_f32(n, a, b, l, d, w, &o);
   ek_check_from_f32(9 * n, l, L), ek_check_from_f32(9 * n, d, D), ek_check_from_f32(9 * n, w, W);
   free(a), free(b), free(l), free(d), free(w);

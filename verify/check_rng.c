@@ -134,6 +134,15 @@ void ek_check_to_f32(size_t count, const double *in, float *out) {
     out[i] = (float)in[i];
 }
 
+float *ek_check_f32_copy(size_t count, const double *in) {
+  float *f = ek_check_malloc((count ? count : 1) * sizeof(float));
+  if (in)
+    ek_check_to_f32(count, in, f);
+  else
+    ek_check_poison(f, count * sizeof(float));
+  return f;
+}
+
 void ek_check_from_f32(size_t count, const float *in, double *out) {
   for (size_t i = 0; i < count; i++)
     out[i] = in[i];
