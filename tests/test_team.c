@@ -506,7 +506,7 @@ static void run_cxpbd(const void *e_, unsigned char *out) {
 
 // A batch of n 3x3 matrices, AoS (n x 9) or AoSoA (64-byte aligned, tail
 // padded), f32 or f64: its bytes; an output batch poisoned (padding too);
-// its free.
+// its free; a call's record of it.
 static size_t batch9_bytes(int aosoa, int f32, size_t n) {
   if (aosoa)
     return f32 ? ek_aosoa_size_f32(n, 9) * sizeof(float) : ek_aosoa_size_f64(n, 9) * sizeof(double);
@@ -523,6 +523,11 @@ static void batch9_free(int aosoa, void *p) {
     ek_free(p);
   else
     free(p);
+}
+// A call's return code, then its output batch (freed).
+static void batch9_put(unsigned char *out, int rc, int aosoa, void *o, size_t bytes) {
+  put(put(out, &rc, sizeof rc), o, bytes);
+  batch9_free(aosoa, o);
 }
 
 // An input batch in the four layouts: AoS and AoSoA, f64 and its f32
@@ -573,9 +578,7 @@ static void run_mat(const void *e_, unsigned char *out) {
     rc = ek_material_eval_f32(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, e->n, e->F, NULL, e->dF, o, 1);
   else
     rc = ek_material_eval_f64(&e->m, EK_MAT_PK1_DIFF, EK_ISA_AUTO, e->n, e->F, NULL, e->dF, o, 1);
-  out = put(out, &rc, sizeof rc);
-  put(out, o, bytes);
-  batch9_free(e->aosoa, o);
+  batch9_put(out, rc, e->aosoa, o, bytes);
 }
 
 // The warm polar batch (polar.h): R is in and out (the guesses, then the
@@ -601,9 +604,7 @@ static void run_warm(const void *e_, unsigned char *out) {
     rc = ek_polar3_warm_f32(e->n, e->A, R, NULL);
   else
     rc = ek_polar3_warm_f64(e->n, e->A, R, NULL);
-  out = put(out, &rc, sizeof rc);
-  put(out, R, bytes);
-  batch9_free(e->aosoa, R);
+  batch9_put(out, rc, e->aosoa, R, bytes);
 }
 
 // The AoSoA staging (batch/aosoa.c's staged chunks, per-worker buffers):
